@@ -1,0 +1,21 @@
+#!/usr/bin/env bash
+# Install everything rcmplan needs (system libraries for headless rendering, every pip extra)
+# and run the whole check: ruff lint, ruff format check, mypy, pytest.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
+  if ! ldconfig -p | grep -q 'libEGL.so.1' || ! ldconfig -p | grep -q 'libOSMesa'; then
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
+      libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libosmesa6 >/dev/null
+  fi
+fi
+
+python -m pip install -q --disable-pip-version-check -e ".[all,dev]"
+
+export MUJOCO_GL="${MUJOCO_GL:-egl}"
+python -m ruff check src tests benchmarks
+python -m ruff format --check src tests benchmarks
+python -m mypy
+python -m pytest -q

@@ -1,0 +1,66 @@
+"""`rcmplan robot`: print the robot model as readable tables."""
+
+from __future__ import annotations
+
+import argparse
+import math
+
+import numpy as np
+
+from rcmplan.robot.iramis import JOINT_NAMES, SLIDER_NAMES, Iramis
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the `robot` subcommand."""
+    p = sub.add_parser("robot", help="print the iRAM!S model: DH table, assumptions, home pose")
+    p.set_defaults(run=run)
+
+
+def table(header: list[str], rows: list[list[str]]) -> str:
+    """A plain-text table with aligned columns."""
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    line = "  ".join("-" * w for w in widths)
+    fmt = "  ".join("{:<" + str(w) + "}" for w in widths)
+    return "\n".join([fmt.format(*header), line, *(fmt.format(*r) for r in rows)])
+
+
+def describe(robot: Iramis) -> str:
+    """The model as text: DH table, assumptions, home pose, tip and needle axis, slider ranges."""
+    out = ["iRAM!S robot (thesis Table 2.1, standard DH: T = Rz(theta) Tz(d) Tx(a) Rx(alpha))", ""]
+    rows = []
+    for i, lk in enumerate(robot.dh_links()):
+        var = JOINT_NAMES[i]
+        theta = f"{lk.theta:+.4f}" + (f" + {var}" if lk.joint == "revolute" else "")
+        d = f"{1e3 * lk.d:+.1f} mm" + (f" + {var}" if lk.joint == "prismatic" else "")
+        rows.append([str(i + 1), lk.joint, theta, d, f"{1e3 * lk.a:.1f} mm", f"{lk.alpha:+.4f}"])
+    out += [table(["link", "joint", "theta [rad]", "d", "a", "alpha [rad]"], rows), ""]
+    out += [
+        table(
+            ["parameter", "value", "unit", "source"],
+            [[a.name, a.value, a.unit, a.source] for a in robot.assumptions()],
+        ),
+        "",
+    ]
+    q = robot.home
+    tip, axis = robot.tip(q), robot.needle_axis(q)
+    out.append("home pose: q = (" + ", ".join(f"{v:g}" for v in q) + "), s = 0")
+    out.append("tip at home [mm]: (" + ", ".join(f"{1e3 * v:.3f}" for v in tip) + ")")
+    out.append("needle axis at home: (" + ", ".join(f"{v:+.4f}" for v in axis) + ")")
+    out.append(f"singularity measure at home: {robot.singularity_measure(q):.3f}")
+    out.append("")
+    rows = []
+    for i, name in enumerate(SLIDER_NAMES):
+        unit, k = ("rad", 1.0) if name == "q5" else ("mm", 1e3)
+        lo, hi, v = robot.lower[i] * k, robot.upper[i] * k, robot.speed[i] * k
+        rows.append([name, f"{lo:g}", f"{hi:g}", f"{v:g}", unit])
+    out.append(table(["slider", "lower", "upper", "speed /s", "unit"], rows))
+    qmax = math.degrees(math.atan((robot.upper[1] - robot.lower[0]) / robot.params.pcjm_spacing))
+    out.append(f"largest PCJM angle within travel: {qmax:.1f} deg")
+    return "\n".join(out)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the model."""
+    np.set_printoptions(suppress=True)
+    print(describe(Iramis()))
+    return 0

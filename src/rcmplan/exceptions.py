@@ -1,0 +1,160 @@
+"""One package base error and specific subclasses that keep their data as attributes.
+
+Every message names the offending value and, where one exists, the valid range or choices.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+
+class RcmplanError(Exception):
+    """Base class of every error raised by rcmplan."""
+
+
+class InvalidInputError(RcmplanError, ValueError):
+    """A value is non-finite, of the wrong shape, or outside its valid range.
+
+    Attributes:
+        name: What the value is (argument or key name).
+        value: The offending value.
+        valid: A human-readable statement of the valid range or choices.
+    """
+
+    def __init__(self, name: str, value: Any, valid: str) -> None:
+        self.name = name
+        self.value = value
+        self.valid = valid
+        super().__init__(f"{name} = {_short(value)} is invalid; valid: {valid}")
+
+
+class UnknownJointTypeError(InvalidInputError):
+    """A DH link names a joint type other than 'revolute' or 'prismatic'."""
+
+
+class PcjmAngleError(InvalidInputError):
+    """A PCJM angle has no slider difference (|q| >= pi/2), or a slider pair has no angle."""
+
+
+class SliderLimitError(RcmplanError):
+    """A slider command or configuration lies outside its travel.
+
+    Attributes:
+        index: Slider index in s = (L1, L2, L3, L4, L5, q5).
+        value: Commanded value in m (rad for q5).
+        lower, upper: The travel limits.
+    """
+
+    def __init__(self, index: int, name: str, value: float, lower: float, upper: float) -> None:
+        self.index = index
+        self.slider = name
+        self.value = value
+        self.lower = lower
+        self.upper = upper
+        super().__init__(
+            f"slider {name} = {value:.9g} is beyond its travel [{lower:.9g}, {upper:.9g}]"
+        )
+
+
+class SingularPoseError(RcmplanError):
+    """A configuration is at or near the singular set cos(q1) = 0 or cos(q3) = 0.
+
+    Attributes:
+        q: The joint vector.
+        measure: min(|cos q1|, |cos q3|).
+        threshold: The smallest accepted measure.
+    """
+
+    def __init__(self, q: Any, measure: float, threshold: float) -> None:
+        self.q = q
+        self.measure = measure
+        self.threshold = threshold
+        super().__init__(
+            f"pose is singular: min(|cos q1|, |cos q3|) = {measure:.3g} is below the "
+            f"threshold {threshold:.3g} (q = {_short(q)})"
+        )
+
+
+class UnreachableTargetError(RcmplanError):
+    """A target cannot be reached: lambda outside [0, 1], needle angle or slider travel exceeded.
+
+    Attributes:
+        reason: Which condition failed, with the numbers.
+        target: The target as stated by the user.
+    """
+
+    def __init__(self, reason: str, target: Any = None) -> None:
+        self.reason = reason
+        self.target = target
+        suffix = "" if target is None else f" (target {_short(target)})"
+        super().__init__(f"target unreachable: {reason}{suffix}")
+
+
+class ConvergenceError(RcmplanError):
+    """A control loop hit its iteration cap before every task component met its tolerance.
+
+    Attributes:
+        iterations: Iterations spent on the failing step.
+        error: The task error at the last iteration.
+        tolerance: The tolerance per component.
+        log: The run log up to the failure (a RunLog), or None.
+    """
+
+    def __init__(
+        self, iterations: int, error: Any, tolerance: Any, log: Any = None, where: str = ""
+    ) -> None:
+        self.iterations = iterations
+        self.error = error
+        self.tolerance = tolerance
+        self.log = log
+        at = f" in {where}" if where else ""
+        super().__init__(
+            f"no convergence{at} after {iterations} iterations: |error| = {_short(error)} "
+            f"exceeds tolerance {_short(tolerance)}"
+        )
+
+
+class ScenarioError(InvalidInputError):
+    """A scenario file is malformed: the message names the key and the allowed values."""
+
+
+class QPError(RcmplanError):
+    """A QP solve failed or was infeasible.
+
+    Attributes:
+        problem: The QP that was solved (an rcmplan.control.qp.QPProblem).
+        result: The solver's raw result, if any.
+    """
+
+    def __init__(self, message: str, problem: Any = None, result: Any = None) -> None:
+        self.problem = problem
+        self.result = result
+        super().__init__(message)
+
+
+class SimulationError(RcmplanError):
+    """A simulation became unstable (NaN, loop-closure gap or RCM deviation past a bound)."""
+
+
+class MissingExtraError(RcmplanError, ImportError):
+    """An optional dependency is missing; the message names the extra to install."""
+
+    def __init__(self, package: str, extra: str) -> None:
+        self.package = package
+        self.extra = extra
+        super().__init__(f"{package} is required for this feature: pip install 'rcmplan[{extra}]'")
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 200 else text[:197] + "..."
+
+
+def require_extra(module: str, extra: str) -> Any:
+    """Import an optional module, or raise MissingExtraError naming the extra."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise MissingExtraError(module.split(".")[0], extra) from exc

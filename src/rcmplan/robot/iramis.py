@@ -1,0 +1,294 @@
+"""The iRAM!S eye-surgery robot of the reference thesis: Table 2.1 in SI units.
+
+Joint vector q = (q0..q5): q0, q2, q4 prismatic [m], q1, q3, q5 revolute [rad].
+Slider vector s = (L1, L2, L3, L4, L5, q5): PCJM 1 drives (q0, q1), PCJM 2 drives (q2, q3),
+L5 is q4 and q5 is driven directly.
+
+The needle runs from p_base (frame 5 origin with l6 = 0) to p_tip (frame 6 origin); its axis
+is a(q) = (-cos q1 cos q3, -sin q3, sin q1 cos q3) and p_tip - p_base = l6 a(q).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, vector
+from rcmplan.exceptions import SingularPoseError, SliderLimitError
+from rcmplan.robot.dh import DHChain, DHLink
+from rcmplan.robot.pcjm import Pcjm
+
+SLIDER_NAMES = ("L1", "L2", "L3", "L4", "L5", "q5")
+JOINT_NAMES = ("q0", "q1", "q2", "q3", "q4", "q5")
+MM = 1e-3
+
+
+@dataclass(frozen=True)
+class Assumption:
+    """A model parameter with its value, unit and where it comes from."""
+
+    name: str
+    value: str
+    unit: str
+    source: str
+
+
+@dataclass(frozen=True)
+class IramisParameters:
+    """Geometry and limits of the iRAM!S robot, SI units.
+
+    Attributes:
+        l1..l6: Link lengths of Table 2.1 in [m].
+        pcjm_spacing: Slider spacing d of both PCJMs in [m] (assumed).
+        slider_lower, slider_upper: Travel of (L1, L2, L3, L4, L5, q5) in [m] and [rad] (assumed).
+        slider_speed: Maximum speed of each slider in [m/s] and [rad/s] (assumed).
+        slider_resolution: Smallest slider step in [m] (assumed).
+        singular_threshold: Smallest accepted min(|cos q1|, |cos q3|).
+    """
+
+    l1: float = 71.0 * MM
+    l2: float = 33.5 * MM
+    l3: float = -23.0 * MM
+    l4: float = 71.0 * MM
+    l5: float = 28.0 * MM
+    l6: float = 97.0 * MM
+    pcjm_spacing: float = 30.0 * MM
+    slider_lower: tuple[float, ...] = (-25 * MM, -25 * MM, -25 * MM, -25 * MM, -10 * MM, -math.pi)
+    slider_upper: tuple[float, ...] = (25 * MM, 25 * MM, 25 * MM, 25 * MM, 40 * MM, math.pi)
+    slider_speed: tuple[float, ...] = (10 * MM, 10 * MM, 10 * MM, 10 * MM, 10 * MM, 1.0)
+    slider_resolution: float = 1e-9
+    singular_threshold: float = 0.1
+    sources: dict[str, str] = field(
+        default_factory=lambda: {
+            "l1..l6": "thesis Table 2.1 (CAD model)",
+            "pcjm_spacing": "assumed",
+            "slider travel": "assumed",
+            "slider speed": "assumed (piezo stick-slip stages, 1-20 mm/s typical)",
+            "slider resolution": "assumed (stick-slip stages resolve nm in scanning mode)",
+            "singular_threshold": "assumed (cos 84.3 deg)",
+        },
+        compare=False,
+    )
+
+
+class Iramis:
+    """The iRAM!S robot: kinematics in closed form (eq. 2.7, 2.12) and as a DH chain.
+
+    Args:
+        params: Geometry and limits; the thesis values and stated assumptions by default.
+    """
+
+    def __init__(self, params: IramisParameters | None = None) -> None:
+        self.params = params or IramisParameters()
+        p = self.params
+        self.pcjm = Pcjm(p.pcjm_spacing)
+        self.lower = np.array(p.slider_lower, dtype=float)
+        self.upper = np.array(p.slider_upper, dtype=float)
+        self.speed = np.array(p.slider_speed, dtype=float)
+        self.home_sliders = np.zeros(6)
+        self.home = np.zeros(6)
+
+    # --- DH tables -------------------------------------------------------------------------
+    def dh_links(self, l6: float | None = None) -> list[DHLink]:
+        """Table 2.1 as standard-DH links (theta, d offsets, a, alpha)."""
+        p = self.params
+        l6 = p.l6 if l6 is None else l6
+        h = 0.5 * math.pi
+        return [
+            DHLink("prismatic", 0.0, p.l1, 0.0, -h),
+            DHLink("revolute", -h, p.l3, p.l2, 0.0),
+            DHLink("prismatic", h, p.l4, 0.0, h),
+            DHLink("revolute", h, 0.0, p.l5, -h),
+            DHLink("prismatic", 0.0, l6, 0.0, 0.0),
+            DHLink("revolute", 0.0, 0.0, 0.0, 0.0),
+        ]
+
+    @property
+    def chain(self) -> DHChain:
+        """The robot as a generic standard-DH chain (tip frame = frame 6)."""
+        return DHChain(self.dh_links())
+
+    # --- forward kinematics (closed form) -----------------------------------------------------
+    def forward_kinematics(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """T_0^6, the (4, 4) pose of the needle tip frame in the base frame (eq. 2.7)."""
+        q = vector("q", q, 6)
+        c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+        c5, s5 = math.cos(q[5]), math.sin(q[5])
+        T = np.eye(4)
+        T[:3, :3] = [
+            [-s1 * s5 - c1 * c5 * s3, c1 * s3 * s5 - c5 * s1, -c1 * c3],
+            [c3 * c5, -c3 * s5, -s3],
+            [c5 * s1 * s3 - c1 * s5, -c1 * c5 - s1 * s3 * s5, c3 * s1],
+        ]
+        T[:3, 3] = self.needle_point(q, 1.0)
+        return T
+
+    def needle_axis(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """Unit needle axis a(q) from base to tip, base frame."""
+        c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+        return np.array([-c1 * c3, -s3, s1 * c3])
+
+    def needle_point(self, q: Sequence[float] | FloatArray, lam: float) -> FloatArray:
+        """p(lambda) = p_base + lambda (p_tip - p_base) in [m], base frame (eqs. 2.7, 3.7)."""
+        p = self.params
+        c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+        w = q[4] + lam * p.l6
+        return np.array(
+            [
+                p.l2 * s1 - c1 * c3 * w - p.l5 * c1 * s3,
+                p.l3 + p.l4 + q[2] - s3 * w + p.l5 * c3,
+                p.l1 + q[0] + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3,
+            ]
+        )
+
+    def tip(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """Needle tip position O_6(q) in [m]."""
+        return self.needle_point(q, 1.0)
+
+    def needle_base(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """Needle base position (lambda = 0) in [m]."""
+        return self.needle_point(q, 0.0)
+
+    # --- Jacobians ------------------------------------------------------------------------
+    def needle_point_jacobian(self, q: Sequence[float] | FloatArray, lam: float) -> FloatArray:
+        """d p(lambda) / d(q0, q1, q2, q3, q4, lambda), a (3, 6) array (eq. 3.10 with J_0^5)."""
+        p = self.params
+        c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+        w = q[4] + lam * p.l6
+        k = s3 * w - p.l5 * c3
+        return np.array(
+            [
+                [
+                    0.0,
+                    p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3,
+                    0.0,
+                    c1 * k,
+                    -c1 * c3,
+                    -p.l6 * c1 * c3,
+                ],
+                [0.0, 0.0, 1.0, -c3 * w - p.l5 * s3, -s3, -p.l6 * s3],
+                [
+                    1.0,
+                    c1 * c3 * w - p.l2 * s1 + p.l5 * c1 * s3,
+                    0.0,
+                    -s1 * k,
+                    s1 * c3,
+                    p.l6 * s1 * c3,
+                ],
+            ]
+        )
+
+    def jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """Geometric Jacobian J_0^6 (6, 6) at the tip, base frame (eq. 2.12)."""
+        q = vector("q", q, 6)
+        J = np.zeros((6, 6))
+        J[:3, :5] = self.needle_point_jacobian(q, 1.0)[:, :5]
+        J[3:, 1] = (0.0, 1.0, 0.0)  # z_1 of frame 1
+        J[3:, 3] = (math.sin(q[1]), 0.0, math.cos(q[1]))  # z_3
+        J[3:, 5] = self.needle_axis(q)  # z_5: the needle axis
+        return J
+
+    def jacobian_05(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """J_0^5 (6, 5): the tip Jacobian without the needle roll q5 (eq. 2.13)."""
+        return self.jacobian(q)[:, :5]
+
+    def slider_jacobian(self, s: Sequence[float] | FloatArray) -> FloatArray:
+        """Geometric tip Jacobian w.r.t. the sliders s, (6, 6): J_0^6(q(s)) dq/ds."""
+        s = vector("s", s, 6)
+        return self.jacobian(self.joints_from_sliders(s)) @ self.joints_from_sliders_jacobian(s)
+
+    # --- sliders <-> joints -------------------------------------------------------------------
+    def joints_from_sliders(self, s: Sequence[float] | FloatArray) -> FloatArray:
+        """q = (q0..q5) from s = (L1, L2, L3, L4, L5, q5) (eqs. 2.1, 2.2 for each PCJM)."""
+        s = vector("s", s, 6)
+        q0, q1 = self.pcjm.joints(s[0], s[1])
+        q2, q3 = self.pcjm.joints(s[2], s[3])
+        return np.array([q0, q1, q2, q3, s[4], s[5]])
+
+    def sliders_from_joints(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """s = (L1, L2, L3, L4, L5, q5) from q (inverse of eqs. 2.1, 2.2; see pcjm.py)."""
+        q = vector("q", q, 6)
+        L1, L2 = self.pcjm.sliders(q[0], q[1])
+        L3, L4 = self.pcjm.sliders(q[2], q[3])
+        return np.array([L1, L2, L3, L4, q[4], q[5]])
+
+    def joints_from_sliders_jacobian(self, s: Sequence[float] | FloatArray) -> FloatArray:
+        """dq/ds, a (6, 6) array."""
+        D = np.eye(6)
+        D[0:2, 0:2] = self.pcjm.joints_jacobian(s[0], s[1])
+        D[2:4, 2:4] = self.pcjm.joints_jacobian(s[2], s[3])
+        return D
+
+    def sliders_from_joints_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """ds/dq, a (6, 6) array."""
+        D = np.eye(6)
+        D[0:2, 0:2] = self.pcjm.sliders_jacobian(q[1])
+        D[2:4, 2:4] = self.pcjm.sliders_jacobian(q[3])
+        return D
+
+    # --- limits and singularities --------------------------------------------------------
+    def check_sliders(self, s: Sequence[float] | FloatArray) -> FloatArray:
+        """Return s if every slider is within its travel, else raise SliderLimitError."""
+        s = vector("s", s, 6)
+        for i in np.flatnonzero((s < self.lower) | (s > self.upper)):
+            raise SliderLimitError(
+                int(i), SLIDER_NAMES[i], float(s[i]), self.lower[i], self.upper[i]
+            )
+        return s
+
+    def slider_margin(self, s: Sequence[float] | FloatArray) -> FloatArray:
+        """Distance of each slider to its nearer travel limit (negative when beyond)."""
+        s = np.asarray(s, dtype=float)
+        return np.minimum(s - self.lower, self.upper - s)
+
+    @staticmethod
+    def singularity_measure(q: Sequence[float] | FloatArray) -> float:
+        """min(|cos q1|, |cos q3|): zero exactly on the singular set of J_a and J_0^5 (NOTES.md)."""
+        return min(abs(math.cos(q[1])), abs(math.cos(q[3])))
+
+    def check_singularity(
+        self, q: Sequence[float] | FloatArray, threshold: float | None = None
+    ) -> None:
+        """Raise SingularPoseError if the singularity measure is below the threshold."""
+        thr = self.params.singular_threshold if threshold is None else threshold
+        m = self.singularity_measure(q)
+        if m < thr:
+            raise SingularPoseError(np.asarray(q), m, thr)
+
+    def assumptions(self) -> list[Assumption]:
+        """Every model parameter with its source, thesis or assumed."""
+        p = self.params
+        mm = [f"{1e3 * v:g}" for v in (p.l1, p.l2, p.l3, p.l4, p.l5, p.l6)]
+        lo, hi = self.lower, self.upper
+        travel = ", ".join(
+            f"{SLIDER_NAMES[i]} [{1e3 * lo[i]:g}, {1e3 * hi[i]:g}]" for i in range(5)
+        )
+        return [
+            Assumption("l1..l6", ", ".join(mm), "mm", p.sources["l1..l6"]),
+            Assumption(
+                "PCJM spacing d", f"{1e3 * p.pcjm_spacing:g}", "mm", p.sources["pcjm_spacing"]
+            ),
+            Assumption("slider travel", travel, "mm", p.sources["slider travel"]),
+            Assumption(
+                "q5 travel", f"[{lo[5]:.4g}, {hi[5]:.4g}]", "rad", p.sources["slider travel"]
+            ),
+            Assumption(
+                "slider speed", f"{1e3 * self.speed[0]:g}", "mm/s", p.sources["slider speed"]
+            ),
+            Assumption("q5 speed", f"{self.speed[5]:g}", "rad/s", p.sources["slider speed"]),
+            Assumption(
+                "slider resolution",
+                f"{1e9 * p.slider_resolution:g}",
+                "nm",
+                p.sources["slider resolution"],
+            ),
+            Assumption(
+                "singular threshold",
+                f"{p.singular_threshold:g}",
+                "",
+                p.sources["singular_threshold"],
+            ),
+        ]
