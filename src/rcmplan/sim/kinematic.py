@@ -1,0 +1,45 @@
+"""The kinematic plant: sliders go exactly where they are commanded (V-REP's FK mode)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.robot.iramis import Iramis
+
+
+class KinematicPlant:
+    """Exact forward kinematics, no dynamics: a command is reached within one period.
+
+    Args:
+        robot: The robot model (default: thesis iRAM!S).
+        dt: Control period in [s] (default 1 ms).
+    """
+
+    name = "kinematic"
+
+    def __init__(self, robot: Iramis | None = None, dt: float = 1e-3) -> None:
+        self.robot = robot or Iramis()
+        self.dt = scalar("dt", dt, 0.0, np.inf, low_open=True)
+        self.time = 0.0
+        self._s = self.robot.home_sliders.copy()
+        self._cmd = self._s.copy()
+
+    def reset(self, s: FloatArray) -> None:
+        """Place the sliders at s (checked against travel) and zero the time."""
+        self._s = self.robot.check_sliders(vector("s", s, 6)).copy()
+        self._cmd = self._s.copy()
+        self.time = 0.0
+
+    def read_sliders(self) -> FloatArray:
+        """The slider positions (6,)."""
+        return self._s.copy()
+
+    def command_sliders(self, s: FloatArray) -> None:
+        """Command sliders; raises SliderLimitError beyond travel, InvalidInputError if not finite."""
+        self._cmd = self.robot.check_sliders(vector("s", s, 6)).copy()
+
+    def advance(self) -> None:
+        """The sliders reach the command; time moves on by dt."""
+        self._s = self._cmd.copy()
+        self.time += self.dt

@@ -1,0 +1,46 @@
+"""The plant interface: what a controller may do with a robot, simulated or real.
+
+A plant reads and commands slider positions s = (L1, L2, L3, L4, L5, q5) and advances time by
+one control period, the way the thesis's MATLAB loop read and set V-REP joints. Controllers only
+see this interface, so the same loop drives the kinematic plant and the MuJoCo plant.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol, runtime_checkable
+
+from rcmplan._validate import FloatArray
+from rcmplan.robot.iramis import Iramis
+
+
+@runtime_checkable
+class Plant(Protocol):
+    """A robot that takes slider commands.
+
+    Attributes:
+        robot: The kinematic model the plant realises.
+        dt: Control period in [s]: the time one `advance` call moves the plant on.
+        time: Plant time in [s] since the last reset.
+        name: Short name for logs and reports ("kinematic", "mujoco-dynamic", ...).
+    """
+
+    robot: Iramis
+    dt: float
+    time: float
+    name: str
+
+    def reset(self, s: FloatArray) -> None:
+        """Place the sliders at s and set the time to zero."""
+        ...
+
+    def read_sliders(self) -> FloatArray:
+        """The current slider positions (6,) in [m] and [rad]."""
+        ...
+
+    def command_sliders(self, s: FloatArray) -> None:
+        """Command slider positions (6,); raises SliderLimitError beyond travel."""
+        ...
+
+    def advance(self) -> None:
+        """Move the plant on by one control period dt."""
+        ...
