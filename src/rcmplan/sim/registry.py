@@ -1,0 +1,30 @@
+"""Plants by name, so commands and scenario files can say `--plant mujoco`.
+
+Optional plants are imported on first use; a missing extra raises MissingExtraError.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.iramis import Iramis
+from rcmplan.sim.plant import Plant
+
+# name -> (module, factory attribute, keyword arguments)
+PLANTS: dict[str, tuple[str, str, dict[str, Any]]] = {
+    "kinematic": ("rcmplan.sim.kinematic", "KinematicPlant", {}),
+    "mujoco": ("rcmplan.sim.mujoco.plant", "MujocoPlant", {"mode": "dynamic"}),
+    "mujoco-kinematic": ("rcmplan.sim.mujoco.plant", "MujocoPlant", {"mode": "kinematic"}),
+}
+
+
+def make_plant(name: str, robot: Iramis | None = None, **kwargs: Any) -> Plant:
+    """Build the plant registered under `name` for `robot`."""
+    if name not in PLANTS:
+        raise InvalidInputError("plant", name, f"one of {sorted(PLANTS)}")
+    module, attr, defaults = PLANTS[name]
+    factory = getattr(importlib.import_module(module), attr)
+    plant: Plant = factory(robot=robot or Iramis(), **{**defaults, **kwargs})
+    return plant
