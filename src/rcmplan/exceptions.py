@@ -9,7 +9,13 @@ from typing import Any
 
 
 class RcmplanError(Exception):
-    """Base class of every error raised by rcmplan."""
+    """Base class of every error raised by rcmplan.
+
+    Attributes:
+        log: The run log up to the failure when the error stopped a run (a RunLog), else None.
+    """
+
+    log: Any = None
 
 
 class InvalidInputError(RcmplanError, ValueError):
@@ -106,7 +112,8 @@ class ConvergenceError(RcmplanError):
         self.iterations = iterations
         self.error = error
         self.tolerance = tolerance
-        self.log = log
+        if log is not None:
+            self.log = log
         at = f" in {where}" if where else ""
         super().__init__(
             f"no convergence{at} after {iterations} iterations: |error| = {_short(error)} "

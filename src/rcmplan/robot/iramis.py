@@ -56,8 +56,8 @@ class IramisParameters:
     l5: float = 28.0 * MM
     l6: float = 97.0 * MM
     pcjm_spacing: float = 30.0 * MM
-    slider_lower: tuple[float, ...] = (-25 * MM, -25 * MM, -25 * MM, -25 * MM, -10 * MM, -math.pi)
-    slider_upper: tuple[float, ...] = (25 * MM, 25 * MM, 25 * MM, 25 * MM, 40 * MM, math.pi)
+    slider_lower: tuple[float, ...] = (-40 * MM, -40 * MM, -40 * MM, -40 * MM, -10 * MM, -math.pi)
+    slider_upper: tuple[float, ...] = (40 * MM, 40 * MM, 40 * MM, 40 * MM, 50 * MM, math.pi)
     slider_speed: tuple[float, ...] = (10 * MM, 10 * MM, 10 * MM, 10 * MM, 10 * MM, 1.0)
     slider_resolution: float = 1e-9
     singular_threshold: float = 0.1

@@ -1,0 +1,163 @@
+"""The run log: one record per control iteration, as plain arrays.
+
+Metrics and plots read only the log. A record is the state reached after one slider command:
+time [s], sliders (6,), joints (6,), lambda, tip (3,) [m], RCM point p(lambda) (3,) [m], trocar
+(3,) [m] (NaN in free space), needle base (3,) [m], the tip point the current target asks for
+(3,) [m], task error (6,) (NaN-padded for 3-component tasks), step index,
+iteration index within the step, solver id, phase id.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray
+
+FIELDS_3 = ("tip", "rcm", "trocar", "base", "target_tip")
+
+
+@dataclass(frozen=True)
+class RunLog:
+    """Plain arrays, one row per control iteration; see the module docstring for units."""
+
+    time: FloatArray
+    sliders: FloatArray
+    joints: FloatArray
+    lam: FloatArray
+    tip: FloatArray
+    rcm: FloatArray
+    trocar: FloatArray
+    base: FloatArray
+    target_tip: FloatArray
+    error: FloatArray
+    step: NDArray[np.int64]
+    iteration: NDArray[np.int64]
+    solver: NDArray[np.int64]
+    phase: NDArray[np.int64]
+    phase_names: tuple[str, ...] = ()
+    solver_names: tuple[str, ...] = ()
+
+    def __len__(self) -> int:
+        return int(self.time.shape[0])
+
+    def rcm_deviation(self) -> FloatArray:
+        """p_rcm - trocar per record (N, 3) in [m]; NaN where no RCM is held."""
+        return self.rcm - self.trocar
+
+    def line_distance(self) -> FloatArray:
+        """Distance from the trocar to the needle line per record (N,) in [m]; NaN in free space."""
+        axis = self.tip - self.base
+        u = axis / np.linalg.norm(axis, axis=1, keepdims=True)
+        d = self.trocar - self.base
+        perp = d - np.sum(d * u, axis=1, keepdims=True) * u
+        return np.asarray(np.linalg.norm(perp, axis=1))
+
+    def select(self, mask: NDArray[np.bool_]) -> RunLog:
+        """The records where mask is true."""
+        arrays = {k: getattr(self, k)[mask] for k in ARRAY_FIELDS}
+        return RunLog(**arrays, phase_names=self.phase_names, solver_names=self.solver_names)
+
+    def save_npz(self, path: str | Path) -> None:
+        """Write every array and the names to an NPZ file."""
+        arrays = {k: getattr(self, k) for k in ARRAY_FIELDS}
+        np.savez_compressed(
+            path,
+            **arrays,
+            phase_names=np.array(self.phase_names, dtype=str),
+            solver_names=np.array(self.solver_names, dtype=str),
+        )
+
+    @staticmethod
+    def load_npz(path: str | Path) -> RunLog:
+        """Read a log written by save_npz."""
+        with np.load(path) as z:
+            arrays = {k: z[k] for k in ARRAY_FIELDS}
+            return RunLog(
+                **arrays,
+                phase_names=tuple(str(s) for s in z["phase_names"]),
+                solver_names=tuple(str(s) for s in z["solver_names"]),
+            )
+
+    def save_csv(self, path: str | Path) -> None:
+        """Write one CSV row per record, SI units in the column names."""
+        header = ["time_s", "phase", "solver", "step", "iteration", "lambda"]
+        header += [
+            f"s{i}_{n}" for i, n in enumerate(("L1_m", "L2_m", "L3_m", "L4_m", "L5_m", "q5_rad"))
+        ]
+        header += [f"q{i}" for i in range(6)]
+        for name in FIELDS_3:
+            header += [f"{name}_{a}_m" for a in "xyz"]
+        header += [f"error_{i}" for i in range(6)]
+        with open(path, "w", newline="") as fh:
+            w = csv.writer(fh)
+            w.writerow(header)
+            for i in range(len(self)):
+                row: list[object] = [
+                    repr(float(self.time[i])),
+                    self.phase_names[self.phase[i]] if self.phase_names else int(self.phase[i]),
+                    self.solver_names[self.solver[i]] if self.solver_names else int(self.solver[i]),
+                    int(self.step[i]),
+                    int(self.iteration[i]),
+                    repr(float(self.lam[i])),
+                ]
+                arrays = (self.sliders, self.joints, self.tip, self.rcm, self.trocar, self.base)
+                for arr in (*arrays, self.target_tip, self.error):
+                    row += [repr(float(v)) for v in arr[i]]
+                w.writerow(row)
+
+
+ARRAY_FIELDS = (
+    "time", "sliders", "joints", "lam", "tip", "rcm", "trocar", "base", "target_tip", "error",
+    "step", "iteration", "solver", "phase",
+)  # fmt: skip
+
+
+@dataclass
+class LogBuilder:
+    """Collects records during a run; `finish` returns the RunLog (also after a failure)."""
+
+    phase_names: list[str] = field(default_factory=list)
+    solver_names: list[str] = field(default_factory=list)
+    _rows: dict[str, list] = field(default_factory=lambda: {k: [] for k in ARRAY_FIELDS})
+
+    def phase_id(self, name: str) -> int:
+        """Register a phase name (in order of first use) and return its id."""
+        if name not in self.phase_names:
+            self.phase_names.append(name)
+        return self.phase_names.index(name)
+
+    def solver_id(self, name: str) -> int:
+        """Register a solver name and return its id."""
+        if name not in self.solver_names:
+            self.solver_names.append(name)
+        return self.solver_names.index(name)
+
+    def append(self, **record: object) -> None:
+        """Add one record; keys are the RunLog array fields."""
+        for k in ARRAY_FIELDS:
+            self._rows[k].append(record[k])
+
+    def __len__(self) -> int:
+        return len(self._rows["time"])
+
+    def finish(self) -> RunLog:
+        """The records so far as a RunLog."""
+        n = len(self)
+        shapes = {"sliders": 6, "joints": 6, "tip": 3, "rcm": 3, "trocar": 3, "base": 3,
+                  "target_tip": 3, "error": 6}  # fmt: skip
+        arrays: dict[str, np.ndarray] = {}
+        for k in ARRAY_FIELDS:
+            if k in ("step", "iteration", "solver", "phase"):
+                arrays[k] = np.array(self._rows[k], dtype=np.int64).reshape(n)
+            elif k in shapes:
+                arrays[k] = np.array(self._rows[k], dtype=float).reshape(n, shapes[k])
+            else:
+                arrays[k] = np.array(self._rows[k], dtype=float).reshape(n)
+        return RunLog(
+            **arrays, phase_names=tuple(self.phase_names), solver_names=tuple(self.solver_names)
+        )

@@ -1,0 +1,233 @@
+"""The control loops of the thesis: Algorithm 1 (converge on one target) and Algorithm 2 (walk a
+far target in equal steps), run against any plant.
+
+Departures from the thesis, each measured in the benchmarks:
+- Tolerances are per unit (metres and radians apart); Algorithm 1's single 0.0002 mixed them.
+- Algorithm 2 splits a move into N equal steps with N set by the largest component relative to
+  its step size (metres and radians apart); the thesis added sign(distance) * step_size to every
+  component, which moves components by the same number whatever their unit.
+- Drift correction (thesis chapter 5): before each iteration the RCM is re-declared as the needle
+  point closest to the trocar (lambda updated). Switchable.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.control.log import LogBuilder, RunLog
+from rcmplan.control.solvers import Solver, TipSolver
+from rcmplan.control.targets import solve_pose, tip_of_target
+from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmplanError
+from rcmplan.robot.needle import closest_lambda
+from rcmplan.sim.plant import Plant
+
+NAN3 = np.full(3, np.nan)
+
+
+TargetPlanner = Callable[[FloatArray], FloatArray]
+
+
+class Phase(NamedTuple):
+    """A named sequence of targets run with Algorithm 1 one after another.
+
+    Attributes:
+        name: Phase name for the log ("approach", "insert", ...).
+        targets: (N, 6) X_ext targets for an RCM phase, (N, 3) tip points for free space; or a
+            planner called with the joints at the start of the phase that returns them (for
+            phases whose start depends on where the previous one ended, such as a pivot).
+        kind: "rcm" or "free".
+    """
+
+    name: str
+    targets: FloatArray | TargetPlanner
+    kind: str = "rcm"
+
+    def plan(self, q: FloatArray) -> FloatArray:
+        """The targets as an array, planned from joints q if the phase has a planner."""
+        t = self.targets(q) if callable(self.targets) else self.targets
+        return np.atleast_2d(np.asarray(t, dtype=float))
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """Loop settings.
+
+    Attributes:
+        max_iterations: Iteration cap of Algorithm 1 per target.
+        drift_correction: Re-declare the RCM as the needle point closest to the trocar.
+        singular_threshold: Smallest accepted min(|cos q1|, |cos q3|); None: the robot's.
+    """
+
+    max_iterations: int = 100
+    drift_correction: bool = True
+    singular_threshold: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
+            raise InvalidInputError("max_iterations", self.max_iterations, "an integer >= 1")
+        if self.singular_threshold is not None:
+            scalar("singular_threshold", self.singular_threshold, 0.0, 1.0, high_open=True)
+
+
+def interpolate(start: FloatArray, goal: FloatArray, n: int) -> FloatArray:
+    """n equal steps from start to goal: rows start + k/n (goal - start), k = 1..n."""
+    k = np.arange(1, n + 1)[:, None] / n
+    return start[None, :] + k * (goal - start)[None, :]
+
+
+def split_steps(
+    start: FloatArray, goal: FloatArray, step_position: float, step_angle: float = math.inf
+) -> FloatArray:
+    """Algorithm 2's split: equal steps no larger than the step sizes (m and rad apart).
+
+    For X_ext (6,) components 1 and 2 are angles; for tip points (3,) all are positions.
+    Raises if the step is larger than the distance to go.
+    """
+    start = vector("start", start)
+    goal = vector("goal", goal, start.shape[0])
+    sp = scalar("step_position", step_position, 0.0, np.inf, low_open=True)
+    sa = scalar("step_angle", step_angle, 0.0, np.inf, low_open=True)
+    delta = np.abs(goal - start)
+    scale = np.full(start.shape[0], sp)
+    if start.shape[0] == 6:
+        scale[1:3] = sa
+    ratio = float(np.max(delta / scale))
+    if ratio < 1.0:
+        raise InvalidInputError(
+            "step size",
+            (step_position, step_angle),
+            f"at most the distance to go (|delta| = {delta.tolist()})",
+        )
+    return interpolate(start, goal, math.ceil(ratio))
+
+
+class Controller:
+    """Runs phases of targets on a plant with an RCM solver and a free-space solver.
+
+    Args:
+        plant: Any Plant.
+        solver: Step solver for RCM phases.
+        free_solver: Step solver for free-space phases (default: tip pseudoinverse).
+        settings: Loop settings.
+    """
+
+    def __init__(
+        self,
+        plant: Plant,
+        solver: Solver,
+        free_solver: Solver | None = None,
+        settings: LoopSettings | None = None,
+    ) -> None:
+        self.plant = plant
+        self.robot = plant.robot
+        self.solver = solver
+        self.free_solver = free_solver or TipSolver()
+        self.settings = settings or LoopSettings()
+        self.lam = 1.0
+        self.log = LogBuilder()
+        self.phase_times: dict[str, float] = {}
+
+    def check_targets(self, targets: FloatArray) -> None:
+        """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose)."""
+        for target in targets:
+            solve_pose(self.robot, target)
+
+    def run(self, phases: list[Phase]) -> RunLog:
+        """Run every phase; on any error the partial log is attached to the exception.
+
+        Phases with target arrays are all checked before any motion; a planned phase is checked
+        when it is planned, before its own motion.
+        """
+        try:
+            for ph in phases:
+                if ph.kind == "rcm" and not callable(ph.targets):
+                    self.check_targets(ph.plan(self.robot.home))
+            for ph in phases:
+                self.run_phase(ph)
+        except RcmplanError as exc:
+            exc.log = self.log.finish()
+            raise
+        return self.log.finish()
+
+    def run_phase(self, phase: Phase) -> None:
+        """Algorithm 2: Algorithm 1 on each target of the phase in turn."""
+        if phase.kind not in ("rcm", "free"):
+            raise InvalidInputError("phase.kind", phase.kind, "'rcm' or 'free'")
+        solver = self.solver if phase.kind == "rcm" else self.free_solver
+        pid = self.log.phase_id(phase.name)
+        sid = self.log.solver_id(solver.name)
+        start = time.perf_counter()
+        q = self.robot.joints_from_sliders(self.plant.read_sliders())
+        targets = phase.plan(q)
+        width = 6 if phase.kind == "rcm" else 3
+        if targets.shape[1] != width:
+            raise InvalidInputError(
+                f"targets of phase {phase.name!r}", targets.shape, f"(N, {width})"
+            )
+        if phase.kind == "rcm":
+            if callable(phase.targets):
+                self.check_targets(targets)
+            self.lam = self._closest_lambda(q, targets[0][3:])
+        for k, target in enumerate(targets):
+            self.converge(solver, target, pid, sid, k)
+        self.phase_times[phase.name] = (
+            self.phase_times.get(phase.name, 0.0) + time.perf_counter() - start
+        )
+
+    def _closest_lambda(self, q: FloatArray, trocar: FloatArray) -> float:
+        return closest_lambda(
+            self.robot.needle_point(q, 0.0), self.robot.needle_point(q, 1.0), trocar
+        )
+
+    def converge(self, solver: Solver, target: FloatArray, pid: int, sid: int, step: int) -> int:
+        """Algorithm 1: iterate until every error component is within its tolerance."""
+        robot, plant, cfg = self.robot, self.plant, self.settings
+        tol = solver.tolerance()
+        rcm = solver.kind == "rcm"
+        trocar = target[3:] if rcm else NAN3
+        target_tip = tip_of_target(target) if rcm else target
+        for it in range(cfg.max_iterations + 1):
+            s = plant.read_sliders()
+            q = robot.joints_from_sliders(s)
+            if rcm and cfg.drift_correction:
+                self.lam = self._closest_lambda(q, trocar)
+            e = solver.error(robot, q, self.lam, target)
+            if it > 0:
+                self._record(s, q, trocar, target_tip, e, step, it, sid, pid)
+            if np.all(np.abs(e) <= tol):
+                return it
+            if it == cfg.max_iterations:
+                break
+            robot.check_singularity(q, cfg.singular_threshold)
+            dq, dlam = solver.step(robot, q, self.lam, target, e)
+            q_new = q.copy()
+            q_new[:5] += dq
+            self.lam += dlam
+            plant.command_sliders(robot.sliders_from_joints(q_new))
+            plant.advance()
+        raise ConvergenceError(
+            cfg.max_iterations,
+            np.abs(e),
+            tol,
+            where=f"phase {self.log.phase_names[pid]!r} step {step}",
+        )
+
+    def _record(
+        self, s: FloatArray, q: FloatArray, trocar: FloatArray, target_tip: FloatArray,
+        e: FloatArray,
+        step: int, it: int, sid: int, pid: int,
+    ) -> None:  # fmt: skip
+        err = np.full(6, np.nan)
+        err[: e.shape[0]] = e
+        self.log.append(
+            time=self.plant.time, sliders=s, joints=q, lam=self.lam,
+            tip=self.robot.needle_point(q, 1.0), rcm=self.robot.needle_point(q, self.lam),
+            trocar=trocar, base=self.robot.needle_point(q, 0.0), target_tip=target_tip, error=err, step=step, iteration=it, solver=sid, phase=pid,
+        )  # fmt: skip

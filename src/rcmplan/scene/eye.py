@@ -1,0 +1,143 @@
+"""The eye: a sphere with a trocar on its wall, and the named points of the thesis's fig. 3.2.
+
+Geometry queries only; procedures live in `procedures.py`. All points in the robot base frame
+in [m].
+
+Default placement (documented, not from the thesis, which gives no eye pose): the trocar lies
+8 mm in front of the needle tip at home (the needle points along -x at home); the insertion axis
+is the needle axis with needle angles (phi, psi) = (0.05, 0.12) rad, so that aligning the needle
+with the trocar changes both angles; the eye
+centre lies on the insertion axis one radius inside the trocar.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.control.tasks import axis_from_angles
+from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
+from rcmplan.robot.iramis import Iramis
+
+POINT_NAMES = ("p1", "p2", "p3", "p4", "p5", "p6", "p7")
+
+
+@dataclass(frozen=True)
+class Eye:
+    """A spherical eye with one trocar.
+
+    Attributes:
+        center: Eye centre (3,) in [m].
+        radius: Outer (scleral) radius in [m]; about 12 mm for an adult eye.
+        wall: Wall thickness in [m]; the retina is the inner sphere of radius `radius - wall`.
+        trocar: Trocar point (3,) on the outer sphere in [m].
+        trocar_radius: Radius of the trocar port in [m] (0.45 mm in the thesis).
+    """
+
+    center: FloatArray
+    radius: float = 12e-3
+    wall: float = 1e-3
+    trocar: FloatArray | None = None
+    trocar_radius: float = 0.45e-3
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "center", vector("eye.center", self.center, 3))
+        scalar("eye.radius", self.radius, 0.0, 0.05, low_open=True)
+        scalar("eye.wall", self.wall, 0.0, self.radius, high_open=True)
+        scalar("eye.trocar_radius", self.trocar_radius, 0.0, 5e-3, low_open=True)
+        if self.trocar is None:
+            raise InvalidInputError("eye.trocar", None, "a point (3,) on the eye's outer sphere")
+        trocar = vector("eye.trocar", self.trocar, 3)
+        off = abs(float(np.linalg.norm(trocar - self.center)) - self.radius)
+        if off > 1e-6:
+            raise InvalidInputError(
+                "eye.trocar",
+                trocar.tolist(),
+                f"a point on the outer sphere (it is {off:.3g} m off)",
+            )
+        object.__setattr__(self, "trocar", trocar)
+
+    @property
+    def retina_radius(self) -> float:
+        """Radius of the inner (retinal) surface in [m]."""
+        return self.radius - self.wall
+
+    @property
+    def port(self) -> FloatArray:
+        """The trocar point (3,)."""
+        assert self.trocar is not None  # set in __post_init__
+        return self.trocar
+
+    @property
+    def axis(self) -> FloatArray:
+        """Insertion axis: unit vector from the trocar to the eye centre."""
+        d = self.center - self.port
+        return d / np.linalg.norm(d)
+
+    def distance_to_retina(self, p: FloatArray) -> float:
+        """Signed distance in [m] from p to the retina: positive inside the vitreous."""
+        return self.retina_radius - float(np.linalg.norm(np.asarray(p) - self.center))
+
+    def retina_point(self, direction: FloatArray) -> FloatArray:
+        """Where the ray from the trocar along `direction` meets the retina."""
+        d = vector("direction", direction, 3)
+        d = d / np.linalg.norm(d)
+        m = self.port - self.center
+        b = float(np.dot(m, d))
+        c = float(np.dot(m, m)) - self.retina_radius**2
+        disc = b * b - c
+        if disc < 0:
+            raise UnreachableTargetError(f"the ray along {d.tolist()} misses the retina")
+        return self.port + (-b + math.sqrt(disc)) * d
+
+
+def default_eye(robot: Iramis | None = None, radius: float = 12e-3) -> Eye:
+    """The default eye for a robot (see module docstring)."""
+    robot = robot or Iramis()
+    home_tip = robot.tip(robot.home)
+    trocar = home_tip + np.array([-8e-3, 0.0, 0.0])
+    axis = axis_from_angles(0.05, 0.12)
+    return Eye(center=trocar + radius * axis, radius=radius, trocar=trocar)
+
+
+@dataclass(frozen=True)
+class EyePoints:
+    """The seven points of fig. 3.2, each (3,) in [m].
+
+    p1 on the trocar axis outside the eye, p2 the trocar, p3 in the vitreous on the axis,
+    p4..p7 on the retina.
+    """
+
+    p1: FloatArray
+    p2: FloatArray
+    p3: FloatArray
+    p4: FloatArray
+    p5: FloatArray
+    p6: FloatArray
+    p7: FloatArray
+
+    def as_dict(self) -> dict[str, FloatArray]:
+        """Name -> point."""
+        return {n: getattr(self, n) for n in POINT_NAMES}
+
+
+def default_points(
+    eye: Eye, outside: float = 5e-3, depth: float = 8e-3, spread: float = 0.12
+) -> EyePoints:
+    """Points of fig. 3.2 for an eye.
+
+    Args:
+        outside: Distance of p1 outside the trocar along the axis in [m].
+        depth: Depth of p3 inside the trocar along the axis in [m].
+        spread: Angle in [rad] between the axis and the rays from the trocar to p4..p7; p4/p5
+            tilt phi by +-spread and p6/p7 tilt psi by +-spread, so both needle angles change.
+    """
+    from rcmplan.control.tasks import angles_from_axis
+
+    phi, psi = angles_from_axis(eye.axis)
+    rays = [(phi + spread, psi), (phi - spread, psi), (phi, psi + spread), (phi, psi - spread)]
+    retina = [eye.retina_point(axis_from_angles(a, b)) for a, b in rays]
+    return EyePoints(eye.port - outside * eye.axis, eye.port, eye.port + depth * eye.axis, *retina)

@@ -1,0 +1,224 @@
+"""Procedures as phases of targets: the injection of thesis section 3.4 and the spiral of fig. 4.6.
+
+Every tip path inside the eye is a straight line in Cartesian space (or the spiral's curve),
+sampled in equal steps no longer than `step_position`; each sample becomes an X_ext target with
+the RCM at the trocar. The pivot that aligns the needle with the trocar is sampled in needle
+angle, steps no larger than `step_angle`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar
+from rcmplan.control.loop import Phase, interpolate
+from rcmplan.control.targets import pivot_target, rcm_target, solve_pose
+from rcmplan.control.tasks import angles_from_axis
+from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
+from rcmplan.robot.iramis import Iramis
+from rcmplan.scene.eye import Eye, EyePoints
+
+DEFAULT_VISITS = ("p4", "p5", "p6", "p7")
+
+
+@dataclass(frozen=True)
+class Steps:
+    """Step sizes of Algorithm 2: position in [m], angle in [rad]."""
+
+    position: float = 0.2e-3
+    angle: float = 2e-3
+
+    def __post_init__(self) -> None:
+        scalar("steps.position", self.position, 0.0, 5e-3, low_open=True)
+        scalar("steps.angle", self.angle, 0.0, 0.1, low_open=True)
+
+    def count(self, distance: float, angle: float = 0.0) -> int:
+        """Number of equal steps that keeps each step within both sizes (at least 1)."""
+        return max(1, math.ceil(max(distance / self.position, angle / self.angle)))
+
+
+def _angle_between(a: FloatArray, b: FloatArray) -> float:
+    """Angle in [rad] between two vectors; 0 if either is (near) zero."""
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    if na < 1e-12 or nb < 1e-12:
+        return 0.0
+    return math.acos(min(1.0, max(-1.0, float(np.dot(a, b)) / (na * nb))))
+
+
+def densify(path: FloatArray, trocar: FloatArray, steps: Steps) -> FloatArray:
+    """Resample a tip path (N, 3) so that each step moves the tip at most `steps.position` and
+    turns the needle about the trocar at most `steps.angle`; the first point is left out."""
+    out = []
+    for a, b in zip(path[:-1], path[1:], strict=True):
+        n = steps.count(float(np.linalg.norm(b - a)), _angle_between(a - trocar, b - trocar))
+        out.append(interpolate(a, b, n))
+    return np.concatenate(out)
+
+
+def path_targets(path: FloatArray, trocar: FloatArray, steps: Steps) -> FloatArray:
+    """X_ext targets moving the tip along a polyline (N, 3), RCM at the trocar.
+
+    A sample on the trocar itself (tip at the port, lambda = 1) keeps the needle direction of
+    the path point farthest from the trocar.
+    """
+    pts = densify(path, trocar, steps)
+    far = path[int(np.argmax(np.linalg.norm(path - trocar, axis=1)))]
+    phi, psi = angles_from_axis((far - trocar) / np.linalg.norm(far - trocar))
+    return np.array(
+        [
+            pivot_target(p[0], phi, psi, trocar)
+            if np.linalg.norm(p - trocar) < 1e-12
+            else rcm_target(p, trocar)
+            for p in pts
+        ]
+    )
+
+
+def line_targets(
+    start: FloatArray, end: FloatArray, trocar: FloatArray, steps: Steps
+) -> FloatArray:
+    """X_ext targets moving the tip straight from start to end, RCM at the trocar."""
+    return path_targets(np.array([start, end]), trocar, steps)
+
+
+def approach_phase(
+    robot: Iramis, target: FloatArray, steps: Steps, name: str = "approach"
+) -> Phase:
+    """Free-space tip motion in a straight line from wherever the tip is to `target`."""
+
+    def plan(q: FloatArray) -> FloatArray:
+        start = robot.tip(q)
+        return interpolate(start, target, steps.count(float(np.linalg.norm(target - start))))
+
+    return Phase(name, plan, "free")
+
+
+def align_phase(robot: Iramis, eye: Eye, steps: Steps) -> Phase:
+    """Pivot about the tip at the trocar (lambda = 1) until the needle lies on the trocar axis."""
+    phi1, psi1 = angles_from_axis(eye.axis)
+
+    def plan(q: FloatArray) -> FloatArray:
+        x0 = np.array([robot.tip(q)[0], q[1], q[3], *eye.port])
+        x1 = pivot_target(eye.port[0], phi1, psi1, eye.port)
+        return interpolate(x0, x1, steps.count(0.0, float(np.max(np.abs(x1[1:3] - x0[1:3])))))
+
+    return Phase("align", plan, "rcm")
+
+
+def check_inside(eye: Eye, name: str, p: FloatArray) -> None:
+    """Raise if p is not inside the eye (on or within the retina) or lies behind the trocar."""
+    if eye.distance_to_retina(p) < -1e-9:
+        raise UnreachableTargetError(
+            f"{name} lies {1e3 * -eye.distance_to_retina(p):.3f} mm outside the retina", p
+        )
+    if float(np.dot(p - eye.port, eye.axis)) <= 0.0:
+        raise UnreachableTargetError(f"{name} lies behind the trocar (outside the eye)", p)
+
+
+def injection(
+    robot: Iramis,
+    eye: Eye,
+    points: EyePoints,
+    steps: Steps | None = None,
+    visits: tuple[str, ...] = DEFAULT_VISITS,
+) -> list[Phase]:
+    """The injection of section 3.4: approach, align, insert, visit 3 -> 4 -> 3 -> ..., retract.
+
+    Every point inside the eye is checked before any motion: inside the eye, in front of the
+    trocar, within the needle's reach and the sliders' travel.
+    """
+    steps = steps or Steps()
+    pts = points.as_dict()
+    for name in visits:
+        if name not in pts or name in ("p1", "p2"):
+            raise InvalidInputError("visits", visits, "names among p3..p7")
+    for name in ("p3", *visits):
+        check_inside(eye, name, pts[name])
+        solve_pose(robot, rcm_target(pts[name], eye.port))
+    c = eye.port
+    phases = [approach_phase(robot, points.p2, steps), align_phase(robot, eye, steps)]
+    phases.append(Phase("insert", line_targets(points.p2, points.p3, c, steps)))
+    for name in visits:
+        phases.append(Phase(f"p3-{name}", line_targets(points.p3, pts[name], c, steps)))
+        phases.append(Phase(f"{name}-p3", line_targets(pts[name], points.p3, c, steps)))
+    phases.append(Phase("retract", line_targets(points.p3, points.p2, c, steps)))
+    phases.append(approach_phase(robot, points.p1, steps, name="withdraw"))
+    return phases
+
+
+@dataclass(frozen=True)
+class Spiral:
+    """An off-axis spiral traced by the tip (fig. 4.6).
+
+    Attributes:
+        offset: Centre of the spiral relative to p3, in the plane normal to the trocar axis,
+            as (along e1, along e2) in [m].
+        radius: Final radius in [m]; the radius grows linearly from 0 over the turns.
+        turns: Number of turns.
+        pitch: Advance along the trocar axis per turn in [m] (0: a flat spiral).
+        points_per_turn: Samples per turn.
+    """
+
+    offset: tuple[float, float] = (1.0e-3, 0.5e-3)
+    radius: float = 2.5e-3
+    turns: float = 3.0
+    pitch: float = 0.5e-3
+    points_per_turn: int = 120
+
+    def __post_init__(self) -> None:
+        scalar("spiral.radius", self.radius, 0.0, 10e-3, low_open=True)
+        scalar("spiral.turns", self.turns, 0.0, 50.0, low_open=True)
+        scalar("spiral.pitch", self.pitch, -5e-3, 5e-3)
+        if not isinstance(self.points_per_turn, int) or self.points_per_turn < 8:
+            raise InvalidInputError(
+                "spiral.points_per_turn", self.points_per_turn, "an integer >= 8"
+            )
+
+    def path(self, eye: Eye, p3: FloatArray) -> FloatArray:
+        """The tip path (N, 3) in [m]."""
+        n_axis = eye.axis
+        e1 = np.cross(n_axis, [0.0, 0.0, 1.0])
+        e1 /= np.linalg.norm(e1)
+        e2 = np.cross(n_axis, e1)
+        centre = p3 + self.offset[0] * e1 + self.offset[1] * e2
+        t = np.linspace(0.0, 1.0, int(self.turns * self.points_per_turn) + 1)
+        theta = 2 * math.pi * self.turns * t
+        r = self.radius * t
+        return (
+            centre
+            + (r * np.cos(theta))[:, None] * e1
+            + (r * np.sin(theta))[:, None] * e2
+            + (self.pitch * self.turns * t)[:, None] * n_axis
+        )
+
+
+def spiral(
+    robot: Iramis,
+    eye: Eye,
+    points: EyePoints,
+    shape: Spiral | None = None,
+    steps: Steps | None = None,
+) -> list[Phase]:
+    """Approach, align, insert to p3, move to the spiral start, trace it, return, retract."""
+    steps = steps or Steps()
+    shape = shape or Spiral()
+    path = shape.path(eye, points.p3)
+    c = eye.port
+    for i, p in enumerate(path):
+        check_inside(eye, f"spiral point {i}", p)
+    targets = path_targets(path, c, steps)
+    for t in targets[:: max(1, len(targets) // 24)]:
+        solve_pose(robot, t)
+    return [
+        approach_phase(robot, points.p2, steps),
+        align_phase(robot, eye, steps),
+        Phase("insert", line_targets(points.p2, points.p3, c, steps)),
+        Phase("to-spiral", line_targets(points.p3, path[0], c, steps)),
+        Phase("spiral", targets),
+        Phase("from-spiral", line_targets(path[-1], points.p3, c, steps)),
+        Phase("retract", line_targets(points.p3, points.p2, c, steps)),
+        approach_phase(robot, points.p1, steps, name="withdraw"),
+    ]

@@ -1,0 +1,98 @@
+"""Piezo stick-slip slider actuators: every actuator parameter in one frozen dataclass.
+
+A stick-slip positioner in closed-loop (scanning) mode is modelled as a stiff position servo
+that tracks a reference; the reference moves towards the quantised command no faster than the
+slider's maximum speed. In MuJoCo each slider has two actuators: an integrator whose state is
+the reference (force kp (ref - x) - kv x_dot, state clamped to the travel) and a velocity
+feed-forward (force kv v_ref), so a constant-speed ramp is tracked without lag.
+Travel, speed and resolution come from `IramisParameters`; the servo values are assumed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.robot.iramis import Iramis
+
+ROTARY = 5  # index of q5 in s = (L1, L2, L3, L4, L5, q5)
+
+
+@dataclass(frozen=True)
+class PiezoParameters:
+    """Slider actuator model (assumed values marked).
+
+    Attributes:
+        lower, upper: Travel of the six sliders in [m] ([rad] for q5); from the robot.
+        speed: Maximum speed of each slider in [m/s] ([rad/s] for q5); from the robot.
+        resolution: Linear step resolution in [m]; from the robot (assumed there).
+        rotary_resolution: Resolution of q5 in [rad] (assumed: 1 urad).
+        bandwidth: Servo natural frequency in [Hz] (assumed: 100 Hz).
+        damping_ratio: Servo damping ratio (assumed: 1, critical).
+        linear_mass: Effective mass seen by a linear slider servo in [kg] (assumed: 0.1 kg).
+        rotary_inertia: Effective inertia seen by the q5 servo in [kg m^2] (assumed: 1e-6).
+    """
+
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    speed: tuple[float, ...]
+    resolution: float
+    rotary_resolution: float = 1e-6
+    bandwidth: float = 100.0
+    damping_ratio: float = 1.0
+    linear_mass: float = 0.1
+    rotary_inertia: float = 1e-6
+
+    def __post_init__(self) -> None:
+        for name in ("resolution", "rotary_resolution", "bandwidth"):
+            scalar(name, getattr(self, name), 0.0, np.inf, low_open=True)
+        for name in ("damping_ratio", "linear_mass", "rotary_inertia"):
+            scalar(name, getattr(self, name), 0.0, np.inf, low_open=True)
+        vector("lower", self.lower, 6)
+        vector("upper", self.upper, 6)
+        vector("speed", self.speed, 6)
+
+    @classmethod
+    def from_robot(cls, robot: Iramis, **overrides: float) -> PiezoParameters:
+        """Travel, speed and resolution from the robot; servo values default or overridden."""
+        p = robot.params
+        return cls(
+            tuple(p.slider_lower), tuple(p.slider_upper), tuple(p.slider_speed),
+            p.slider_resolution, **overrides,
+        )  # fmt: skip
+
+    def inertia(self) -> FloatArray:
+        """Effective mass [kg] or inertia [kg m^2] per slider servo, (6,)."""
+        out = np.full(6, self.linear_mass)
+        out[ROTARY] = self.rotary_inertia
+        return out
+
+    def kp(self) -> FloatArray:
+        """Servo stiffness per slider in [N/m] ([N m/rad] for q5), (6,)."""
+        w = 2.0 * math.pi * self.bandwidth
+        return self.inertia() * w * w
+
+    def kv(self) -> FloatArray:
+        """Servo damping per slider in [N s/m] ([N m s/rad] for q5), (6,)."""
+        w = 2.0 * math.pi * self.bandwidth
+        return 2.0 * self.damping_ratio * self.inertia() * w
+
+    def steps(self) -> FloatArray:
+        """Resolution per slider, (6,)."""
+        out = np.full(6, self.resolution)
+        out[ROTARY] = self.rotary_resolution
+        return out
+
+    def quantise(self, s: FloatArray) -> FloatArray:
+        """The command rounded to the slider resolution."""
+        steps = self.steps()
+        return np.asarray(np.round(s / steps) * steps, dtype=float)
+
+    def reference_velocity(self, s_ref: FloatArray, s_cmd: FloatArray, dt: float) -> FloatArray:
+        """Velocity that moves the reference towards the command within dt, speed-limited."""
+        speed = np.asarray(self.speed)
+        v = (self.quantise(s_cmd) - s_ref) / dt
+        return np.asarray(np.clip(v, -speed, speed), dtype=float)
