@@ -128,7 +128,7 @@ class Controller:
         self.plant = plant
         self.robot = plant.robot
         self.solver = solver
-        self.free_solver = free_solver or TipSolver()
+        self.free_solver: Solver = free_solver or TipSolver()
         self.settings = settings or LoopSettings()
         self.lam = 1.0
         self.log = LogBuilder()
@@ -226,8 +226,10 @@ class Controller:
     ) -> None:  # fmt: skip
         err = np.full(6, np.nan)
         err[: e.shape[0]] = e
+        robot = self.robot
         self.log.append(
             time=self.plant.time, sliders=s, joints=q, lam=self.lam,
-            tip=self.robot.needle_point(q, 1.0), rcm=self.robot.needle_point(q, self.lam),
-            trocar=trocar, base=self.robot.needle_point(q, 0.0), target_tip=target_tip, error=err, step=step, iteration=it, solver=sid, phase=pid,
+            tip=robot.needle_point(q, 1.0), rcm=robot.needle_point(q, self.lam), trocar=trocar,
+            base=robot.needle_point(q, 0.0), target_tip=target_tip, error=err,
+            step=step, iteration=it, solver=sid, phase=pid,
         )  # fmt: skip

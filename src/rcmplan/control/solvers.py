@@ -38,8 +38,15 @@ class Tolerance(NamedTuple):
 class Solver(Protocol):
     """One step of a differential IK method."""
 
-    name: str
-    kind: SolverKind
+    @property
+    def name(self) -> str:
+        """Short method name for logs."""
+        ...
+
+    @property
+    def kind(self) -> SolverKind:
+        """"rcm" (X_ext targets) or "free" (tip points)."""
+        ...
 
     def error(self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """The task error the loop drives to zero."""
@@ -80,7 +87,7 @@ def check_damping(D: float) -> float:
 
 @dataclass(frozen=True)
 class PinvSolver:
-    """Augmented-Jacobian step d theta_ext = J_a^-1 K e (eq. 3.17); J_a is square, so J_a^+ = J_a^-1.
+    """Augmented-Jacobian step d theta_ext = J_a^+ K e (eq. 3.17); J_a is square: J_a^+ = J_a^-1.
 
     Attributes:
         K: Diagonal gains (6,), each in (0, 2).
@@ -123,7 +130,8 @@ def dls_solve(J: FloatArray, e: FloatArray, D: float) -> FloatArray:
     """J^T f with (J J^T + D^2 I) f = e (eqs. 2.19, 2.20), without forming an inverse."""
     A = J @ J.T
     A[np.diag_indices_from(A)] += D * D
-    return J.T @ np.linalg.solve(A, e)
+    d: FloatArray = J.T @ np.linalg.solve(A, e)
+    return d
 
 
 @dataclass(frozen=True)
@@ -140,7 +148,7 @@ class DlsSolver:
         tol: Loop tolerance (positions only).
     """
 
-    damping: float = 1e-3
+    damping: float = 1e-4
     tol: Tolerance = field(default_factory=Tolerance)
     name: ClassVar[str] = "dls"
     kind: ClassVar[SolverKind] = "rcm"
@@ -202,7 +210,7 @@ class TipSolver:
         self.tol.checked()
 
     @property
-    def name(self) -> str:  # type: ignore[override]
+    def name(self) -> str:
         """ "tip-pinv" or "tip-dls"."""
         return "tip-dls" if self.damping > 0 else "tip-pinv"
 

@@ -8,6 +8,7 @@ angle, steps no larger than `step_angle`.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -52,7 +53,7 @@ def densify(path: FloatArray, trocar: FloatArray, steps: Steps) -> FloatArray:
     """Resample a tip path (N, 3) so that each step moves the tip at most `steps.position` and
     turns the needle about the trocar at most `steps.angle`; the first point is left out."""
     out = []
-    for a, b in zip(path[:-1], path[1:], strict=True):
+    for a, b in itertools.pairwise(path):
         n = steps.count(float(np.linalg.norm(b - a)), _angle_between(a - trocar, b - trocar))
         out.append(interpolate(a, b, n))
     return np.concatenate(out)

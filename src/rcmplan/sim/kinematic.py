@@ -36,7 +36,7 @@ class KinematicPlant:
         return self._s.copy()
 
     def command_sliders(self, s: FloatArray) -> None:
-        """Command sliders; raises SliderLimitError beyond travel, InvalidInputError if not finite."""
+        """Command sliders; SliderLimitError beyond travel, InvalidInputError if not finite."""
         self._cmd = self.robot.check_sliders(vector("s", s, 6)).copy()
 
     def advance(self) -> None:
