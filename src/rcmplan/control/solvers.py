@@ -120,9 +120,8 @@ class PinvSolver:
         self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """Solve J_a d = K e."""
-        d = np.linalg.solve(
-            augmented_jacobian(robot, q, lam, self.variant), np.multiply(self.K, error)
-        )
+        J = augmented_jacobian(robot, q, lam, self.variant)
+        d: FloatArray = np.linalg.solve(J, np.asarray(self.K) * error)
         return d[:5], float(d[5])
 
 
