@@ -121,7 +121,7 @@ class PinvSolver:
     ) -> tuple[FloatArray, float]:
         """Solve J_a d = K e."""
         J = augmented_jacobian(robot, q, lam, self.variant)
-        d: FloatArray = np.linalg.solve(J, np.asarray(self.K) * error)
+        d = np.asarray(np.linalg.solve(J, np.asarray(self.K) * error), dtype=np.float64)
         return d[:5], float(d[5])
 
 
