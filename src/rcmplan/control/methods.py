@@ -1,0 +1,60 @@
+"""Control methods by name, so commands and scenario files can say `--method dls`.
+
+A method is an RCM step solver built from settings; the free-space solver is always the tip
+pseudoinverse. Optional methods (the QP controller) are imported on first use.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass, field
+from typing import Any
+
+from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, Tolerance
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.iramis import Iramis
+
+METHODS = ("pinv", "pinv-thesis", "dls", "qp")
+DEFAULT_METHOD = "pinv"
+
+
+@dataclass(frozen=True)
+class MethodSettings:
+    """Settings shared by the methods; each method reads the ones it uses.
+
+    Attributes:
+        K: Diagonal gains of the pseudoinverse methods, each in (0, 2).
+        damping: Damping D of DLS (and of the QP's regularisation) in [m].
+        tolerance: Loop tolerance (m and rad apart).
+        extra: Method-specific keyword arguments (for example the QP's limits).
+    """
+
+    K: tuple[float, ...] = (1.0,) * 6
+    damping: float = 1e-4
+    tolerance: Tolerance = field(default_factory=Tolerance)
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def make_solver(
+    name: str, settings: MethodSettings | None = None, robot: Iramis | None = None, **context: Any
+) -> Solver:
+    """The RCM step solver called `name`.
+
+    Args:
+        name: One of METHODS.
+        settings: Gains, damping, tolerance and method-specific options.
+        robot: The robot (methods that hold limits need it).
+        context: Scene context for constrained methods (eye, control period dt, ...).
+    """
+    cfg = settings or MethodSettings()
+    if name == "pinv":
+        return PinvSolver(K=cfg.K, tol=cfg.tolerance)
+    if name == "pinv-thesis":
+        return PinvSolver(K=cfg.K, variant="thesis", tol=cfg.tolerance)
+    if name == "dls":
+        return DlsSolver(damping=cfg.damping, tol=cfg.tolerance)
+    if name == "qp":
+        qp = importlib.import_module("rcmplan.control.qp")
+        solver: Solver = qp.QpSolver.from_settings(cfg, robot or Iramis(), **context)
+        return solver
+    raise InvalidInputError("method", name, f"one of {METHODS}")
