@@ -88,11 +88,22 @@ class PiezoParameters:
 
     def quantise(self, s: FloatArray) -> FloatArray:
         """The command rounded to the slider resolution."""
-        steps = self.steps()
-        return np.asarray(np.round(s / steps) * steps, dtype=float)
+        return quantise(s, self.steps())
 
     def reference_velocity(self, s_ref: FloatArray, s_cmd: FloatArray, dt: float) -> FloatArray:
         """Velocity that moves the reference towards the command within dt, speed-limited."""
-        speed = np.asarray(self.speed)
-        v = (self.quantise(s_cmd) - s_ref) / dt
-        return np.asarray(np.clip(v, -speed, speed), dtype=float)
+        return reference_velocity(s_ref, s_cmd, dt, self.steps(), np.asarray(self.speed))
+
+
+def quantise(s: FloatArray, steps: FloatArray) -> FloatArray:
+    """s rounded to a whole number of `steps` per slider."""
+    return np.asarray(np.round(s / steps) * steps, dtype=float)
+
+
+def reference_velocity(
+    s_ref: FloatArray, s_cmd: FloatArray, dt: float, steps: FloatArray, speed: FloatArray
+) -> FloatArray:
+    """Velocity [m/s, rad/s] taking the reference s_ref to the quantised command in dt [s],
+    clipped to +-speed: the stick-slip stage moves at most at its maximum speed."""
+    v = (quantise(s_cmd, steps) - s_ref) / dt
+    return np.asarray(np.clip(v, -speed, speed), dtype=float)

@@ -8,10 +8,12 @@ and Jacobians, so the closed loop is solved by the model, not by the planner's f
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.exceptions import SimulationError
@@ -38,6 +40,13 @@ class LoopIndex:
     slider_dof: tuple[int, ...]
     passive_dof: tuple[int, ...]
 
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "slot_array", np.array(self.slot_sites, dtype=np.intp))
+        object.__setattr__(self, "pin_array", np.array(self.pin_sites, dtype=np.intp))
+
+    slot_array: NDArray[np.intp] = field(init=False, repr=False, compare=False)
+    pin_array: NDArray[np.intp] = field(init=False, repr=False, compare=False)
+
     @classmethod
     def of(cls, mj: Any, model: Any) -> LoopIndex:
         """Look the names up in `model` (mj is the mujoco module)."""
@@ -60,14 +69,14 @@ class LoopIndex:
 
 def loop_residual(data: Any, index: LoopIndex) -> FloatArray:
     """Gap vectors slot pin - slider pin, (4, 3) in [m], from the current site positions."""
-    slot = data.site_xpos[list(index.slot_sites)]
-    pin = data.site_xpos[list(index.pin_sites)]
-    return np.asarray(slot - pin, dtype=float)
+    xpos = data.site_xpos
+    return np.asarray(xpos[index.slot_array] - xpos[index.pin_array], dtype=float)
 
 
 def loop_gap(data: Any, index: LoopIndex) -> float:
     """Largest loop-closure gap in [m] at the current site positions."""
-    return float(np.linalg.norm(loop_residual(data, index), axis=1).max())
+    r = loop_residual(data, index)
+    return math.sqrt(float((r * r).sum(axis=1).max()))
 
 
 def _jacobian(mj: Any, model: Any, data: Any, index: LoopIndex) -> FloatArray:
@@ -102,3 +111,21 @@ def assemble(
         f"PCJM loops did not close: gap {gap:.3g} m after {max_iter} Newton steps "
         f"(tolerance {tol:.3g} m); sliders = {data.qpos[list(index.slider_qpos)]}"
     )
+
+
+def assemble_at(
+    mj: Any, model: Any, data: Any, index: LoopIndex, s: FloatArray, max_move: float = 2e-3
+) -> float:
+    """Move the sliders to s in steps of at most `max_move` [m], closing the loops after each.
+
+    Small steps keep Newton on the assembly branch of the current pose (the loops also close
+    with a stage turned by pi). Returns the final gap in [m].
+    """
+    sliders = list(index.slider_qpos)
+    start = data.qpos[sliders].copy()
+    n = max(1, int(np.ceil(np.abs(s[:4] - start[:4]).max() / max_move)))
+    gap = 0.0
+    for k in range(1, n + 1):
+        data.qpos[sliders] = start + (s - start) * (k / n)
+        gap = assemble(mj, model, data, index)
+    return gap

@@ -85,6 +85,15 @@ def add_pcjm_visuals(
     _capsule(stage, "visual", h_s, np.zeros(3), 2 * MM, STAGE)
 
 
+def add_base_visuals(base: ET.Element, l1: float) -> None:
+    """A column carrying the PCJM 1 rails, from the floor to below the rails."""
+    height = l1 - 30 * MM
+    pos = np.array([0.0, -2 * SLIDER_OFFSET, 0.5 * height])
+    half = np.array([25 * MM, 4 * MM, 0.5 * height])
+    _box(base, "visual", pos, np.eye(3), half, METAL)
+    _box(base, "collision", pos, np.eye(3), half)
+
+
 def add_tool_visuals(holder: ET.Element, needle: ET.Element, l6: float) -> None:
     """The insertion stage block, the roll hub and the needle shaft (sites at base and tip)."""
     base = np.array([0.0, 0.0, -l6])

@@ -28,7 +28,12 @@ from rcmplan.sim.mujoco.frames import (
     joint_in_child,
     pose_attrs,
 )
-from rcmplan.sim.mujoco.geometry import add_inertial, add_pcjm_visuals, add_tool_visuals
+from rcmplan.sim.mujoco.geometry import (
+    add_base_visuals,
+    add_inertial,
+    add_pcjm_visuals,
+    add_tool_visuals,
+)
 
 PCJM_SLIDERS = (("L1", "L2"), ("L3", "L4"))
 CONNECTS = ("L1", "L2", "L3", "L4")
@@ -71,7 +76,9 @@ def robot_xml(
     opt = ET.SubElement(
         root, "option", timestep=f"{options.physics_dt:.17g}", integrator="implicitfast"
     )
-    ET.SubElement(opt, "flag", autoreset="disable")
+    # Contacts off: the pins ride inside the stage slots by design and the needle must pass
+    # through the trocar; the collision geoms are there for contact studies (enable the flag).
+    ET.SubElement(opt, "flag", autoreset="disable", contact="disable")
     _defaults(root, options)
     world = ET.SubElement(root, "worldbody")
     base = ET.SubElement(world, "body", name="base", childclass="iramis")
@@ -95,7 +102,7 @@ def _defaults(root: ET.Element, options: ModelOptions) -> None:
 
 
 def _body(parent: ET.Element, name: str, T: FloatArray, gravcomp: str) -> ET.Element:
-    return ET.SubElement(parent, "body", name=name, gravcomp=gravcomp, **pose_attrs(T))
+    return ET.SubElement(parent, "body", {"name": name, "gravcomp": gravcomp, **pose_attrs(T)})
 
 
 def _dh_joint(body: ET.Element, name: str, kind: str, T: FloatArray, rng: FloatArray) -> None:
@@ -115,6 +122,7 @@ def _chain(base: ET.Element, robot: Iramis, gc: str) -> None:
     `gc` is the MuJoCo `gravcomp` value of every moving body ("1" on, "0" off).
     """
     T = dh_home_transforms(robot)
+    add_base_visuals(base, robot.params.l1)
     lo, hi = robot.lower, robot.upper
     travel = max(hi[:4].max(), -lo[:4].min())
     parent, frames = base, []

@@ -1,0 +1,182 @@
+"""The MuJoCo plant: the closed-loop iRAM!S model behind the `Plant` interface.
+
+Modes:
+    kinematic: a command places the sliders exactly; the PCJM loops are closed by Newton steps
+        on MuJoCo's kinematics (no dynamics, no actuators).
+    dynamic: each `advance` runs dt / physics_dt physics steps; the piezo servo reference moves
+        towards the quantised command at most at slider speed (see actuators.py).
+After every period the plant checks for NaN, MuJoCo warnings and the loop-closure gap and
+raises SimulationError when the simulation has become unstable.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.exceptions import InvalidInputError, SimulationError
+from rcmplan.robot.iramis import Iramis
+from rcmplan.sim.mujoco.actuators import PiezoParameters, reference_velocity
+from rcmplan.sim.mujoco.assembly import LoopIndex, assemble_at, loop_gap
+from rcmplan.sim.mujoco.files import load_model, mujoco_module
+from rcmplan.sim.mujoco.model import ModelOptions
+from rcmplan.sim.mujoco.scene import EyePhantom, default_eye
+
+MODES = ("dynamic", "kinematic")
+JOINT_QPOS = ("q0", "q1", "q2", "q3", "L5", "q5")
+
+
+class MujocoPlant:
+    """iRAM!S in MuJoCo, read and commanded through slider positions.
+
+    Args:
+        robot: Kinematic model the MJCF is generated from (default: thesis iRAM!S).
+        mode: "dynamic" (servo actuators, physics) or "kinematic" (sliders set directly).
+        dt: Control period in [s] (default 1 ms, a 1 kHz controller).
+        physics_dt: Physics timestep in [s]; dt must be a whole multiple of it.
+        gravity_compensation: Cancel gravity on the robot bodies (default on).
+        eye: Eye phantom in the scene (default: `default_eye(robot)`).
+        piezo: Actuator parameters (default: from the robot, assumed servo values).
+        gap_limit: Loop-closure gap in [m] above which the simulation is declared unstable.
+    """
+
+    def __init__(
+        self,
+        robot: Iramis | None = None,
+        mode: str = "dynamic",
+        dt: float = 1e-3,
+        physics_dt: float = 1e-4,
+        gravity_compensation: bool = True,
+        eye: EyePhantom | None = None,
+        piezo: PiezoParameters | None = None,
+        gap_limit: float = 50e-6,
+    ) -> None:
+        if mode not in MODES:
+            raise InvalidInputError("mode", mode, f"one of {MODES}")
+        self.mj = mujoco_module()
+        self.robot = robot or Iramis()
+        self.mode = mode
+        self.name = f"mujoco-{mode}"
+        self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
+        physics_dt = scalar("physics_dt", physics_dt, 0.0, dt, low_open=True)
+        self.substeps = round(dt / physics_dt)
+        if abs(self.substeps * physics_dt - dt) > 1e-9 * dt:
+            raise InvalidInputError("physics_dt", physics_dt, f"a whole fraction of dt = {dt:g} s")
+        self.gap_limit = scalar("gap_limit", gap_limit, 0.0, 1e-2, low_open=True)
+        self.eye = eye or default_eye(self.robot)
+        self.piezo = piezo or PiezoParameters.from_robot(self.robot)
+        options = ModelOptions(physics_dt=physics_dt, gravity_compensation=gravity_compensation)
+        self.model = load_model(self.robot, self.eye, self.piezo, options)
+        self.data = self.mj.MjData(self.model)
+        self.index = LoopIndex.of(self.mj, self.model)
+        self._ids = _Ids(self.mj, self.model)
+        self._steps, self._speed = self.piezo.steps(), np.asarray(self.piezo.speed)
+        self.time = 0.0
+        self._cmd = self.robot.home_sliders.copy()
+        self.reset(self.robot.home_sliders)
+
+    # --- Plant interface ---------------------------------------------------------------------
+    def reset(self, s: FloatArray) -> None:
+        """Place the sliders at s (closing the loops), at rest, and set the time to zero."""
+        s = self.robot.check_sliders(vector("s", s, 6)).copy()
+        self.mj.mj_resetData(self.model, self.data)
+        assemble_at(self.mj, self.model, self.data, self.index, s)
+        self.data.act[self._ids.act] = s
+        self.mj.mj_forward(self.model, self.data)
+        self._cmd = s
+        self.time = 0.0
+
+    def read_sliders(self) -> FloatArray:
+        """The simulated slider joint positions (6,) in [m] and [rad]."""
+        return np.array(self.data.qpos[self._ids.slider_qpos], dtype=float)
+
+    def command_sliders(self, s: FloatArray) -> None:
+        """Command sliders; SliderLimitError beyond travel, InvalidInputError if not finite."""
+        self._cmd = self.robot.check_sliders(vector("s", s, 6)).copy()
+
+    def advance(self) -> None:
+        """Move on by one control period dt; raises SimulationError if unstable."""
+        if self.mode == "kinematic":
+            assemble_at(self.mj, self.model, self.data, self.index, self._cmd)
+            self.data.time += self.dt
+        else:
+            ref = self.data.act[self._ids.act]
+            v = reference_velocity(ref, self._cmd, self.dt, self._steps, self._speed)
+            self.data.ctrl[self._ids.servo] = v
+            self.data.ctrl[self._ids.feedforward] = v
+            self.mj.mj_step(self.model, self.data, nstep=self.substeps)
+        self.mj.mj_kinematics(self.model, self.data)
+        self.time += self.dt
+        self._check()
+
+    # --- simulated measurements ------------------------------------------------------------
+    def joints(self) -> FloatArray:
+        """The simulated joint vector q = (q0..q5) read from the MuJoCo joints."""
+        return np.array(self.data.qpos[self._ids.joint_qpos], dtype=float)
+
+    def tip_position(self) -> FloatArray:
+        """Needle tip site position (3,) in [m], base frame."""
+        return np.array(self.data.site_xpos[self._ids.tip], dtype=float)
+
+    def needle_base_position(self) -> FloatArray:
+        """Needle base site position (3,) in [m], base frame."""
+        return np.array(self.data.site_xpos[self._ids.base], dtype=float)
+
+    def tip_pose(self) -> FloatArray:
+        """Needle tip site pose (4, 4) in the base frame (compare Iramis.forward_kinematics)."""
+        T = np.eye(4)
+        T[:3, :3] = self.data.site_xmat[self._ids.tip].reshape(3, 3)
+        T[:3, 3] = self.data.site_xpos[self._ids.tip]
+        return T
+
+    def loop_gap(self) -> float:
+        """Largest PCJM loop-closure gap in [m]."""
+        return loop_gap(self.data, self.index)
+
+    def warnings(self) -> dict[str, int]:
+        """MuJoCo warning counters that are non-zero, by warning name."""
+        counts = np.asarray(self.data.warning.number)
+        if not counts.any():
+            return {}
+        names = {int(w): w.name for w in self.mj.mjtWarning.__members__.values()}
+        return {names[int(i)]: int(counts[i]) for i in np.flatnonzero(counts)}
+
+    def settle(self, duration: float = 0.2) -> None:
+        """Hold the current command for `duration` [s]."""
+        for _ in range(round(duration / self.dt)):
+            self.advance()
+
+    def _check(self) -> None:
+        d = self.data
+        if not (np.isfinite(d.qpos).all() and np.isfinite(d.qvel).all()):
+            raise SimulationError(f"simulation diverged (NaN or inf) at t = {self.time:.6g} s")
+        warnings = self.warnings()
+        if warnings:
+            raise SimulationError(f"MuJoCo warnings at t = {self.time:.6g} s: {warnings}")
+        gap = self.loop_gap()
+        if gap > self.gap_limit:
+            raise SimulationError(
+                f"PCJM loop-closure gap {gap:.3g} m exceeds the limit {self.gap_limit:.3g} m "
+                f"at t = {self.time:.6g} s (sliders {self.read_sliders()})"
+            )
+
+
+class _Ids:
+    """Ids and addresses the plant reads every period."""
+
+    def __init__(self, mj: Any, model: Any) -> None:
+        from rcmplan.robot.iramis import SLIDER_NAMES
+
+        def obj(kind: Any, name: str) -> int:
+            return int(mj.mj_name2id(model, kind, name))
+
+        site, act, jnt = mj.mjtObj.mjOBJ_SITE, mj.mjtObj.mjOBJ_ACTUATOR, mj.mjtObj.mjOBJ_JOINT
+        self.tip = obj(site, "needle_tip")
+        self.base = obj(site, "needle_base")
+        self.servo = np.array([obj(act, f"servo_{n}") for n in SLIDER_NAMES])
+        self.feedforward = np.array([obj(act, f"feedforward_{n}") for n in SLIDER_NAMES])
+        self.act = np.array([int(model.actuator_actadr[i]) for i in self.servo])
+        self.joint_qpos = np.array([int(model.jnt_qposadr[obj(jnt, n)]) for n in JOINT_QPOS])
+        self.slider_qpos = np.array([int(model.jnt_qposadr[obj(jnt, n)]) for n in SLIDER_NAMES])
