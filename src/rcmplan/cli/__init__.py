@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 from rcmplan.exceptions import RcmplanError
 
-COMMANDS = ("robot",)
+COMMANDS = ("inject", "robot")
 
 
 def build_parser() -> argparse.ArgumentParser:

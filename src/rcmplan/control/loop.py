@@ -133,6 +133,7 @@ class Controller:
         self.lam = 1.0
         self.log = LogBuilder()
         self.phase_times: dict[str, float] = {}
+        self.on_phase: Callable[[Phase], None] | None = None
 
     def check_targets(self, targets: FloatArray) -> None:
         """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose)."""
@@ -151,6 +152,8 @@ class Controller:
                     self.check_targets(ph.plan(self.robot.home))
             for ph in phases:
                 self.run_phase(ph)
+                if self.on_phase is not None:
+                    self.on_phase(ph)
         except RcmplanError as exc:
             exc.log = self.log.finish()
             raise
@@ -164,22 +167,23 @@ class Controller:
         pid = self.log.phase_id(phase.name)
         sid = self.log.solver_id(solver.name)
         start = time.perf_counter()
-        q = self.robot.joints_from_sliders(self.plant.read_sliders())
-        targets = phase.plan(q)
-        width = 6 if phase.kind == "rcm" else 3
-        if targets.shape[1] != width:
-            raise InvalidInputError(
-                f"targets of phase {phase.name!r}", targets.shape, f"(N, {width})"
-            )
-        if phase.kind == "rcm":
-            if callable(phase.targets):
-                self.check_targets(targets)
-            self.lam = self._closest_lambda(q, targets[0][3:])
-        for k, target in enumerate(targets):
-            self.converge(solver, target, pid, sid, k)
-        self.phase_times[phase.name] = (
-            self.phase_times.get(phase.name, 0.0) + time.perf_counter() - start
-        )
+        try:
+            q = self.robot.joints_from_sliders(self.plant.read_sliders())
+            targets = phase.plan(q)
+            width = 6 if phase.kind == "rcm" else 3
+            if targets.ndim != 2 or targets.shape[1] != width:
+                raise InvalidInputError(
+                    f"targets of phase {phase.name!r}", targets.shape, f"shape (N, {width})"
+                )
+            if phase.kind == "rcm":
+                if callable(phase.targets):
+                    self.check_targets(targets)
+                self.lam = self._closest_lambda(q, targets[0][3:])
+            for k, target in enumerate(targets):
+                self.converge(solver, target, pid, sid, k)
+        finally:
+            spent = time.perf_counter() - start
+            self.phase_times[phase.name] = self.phase_times.get(phase.name, 0.0) + spent
 
     def _closest_lambda(self, q: FloatArray, trocar: FloatArray) -> float:
         return closest_lambda(

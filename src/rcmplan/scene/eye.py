@@ -94,13 +94,35 @@ class Eye:
         return self.port + (-b + math.sqrt(disc)) * d
 
 
-def default_eye(robot: Iramis | None = None, radius: float = 12e-3) -> Eye:
-    """The default eye for a robot (see module docstring)."""
+def default_eye(
+    robot: Iramis | None = None,
+    radius: float = 12e-3,
+    wall: float = 1e-3,
+    trocar_radius: float = 0.45e-3,
+    trocar_offset: tuple[float, float, float] = (-8e-3, 0.0, 0.0),
+    insertion_angles: tuple[float, float] = (0.05, 0.12),
+) -> Eye:
+    """An eye placed for a robot (see module docstring for the defaults).
+
+    Args:
+        radius: Outer radius in [m].
+        wall: Wall thickness in [m].
+        trocar_radius: Trocar port radius in [m].
+        trocar_offset: Trocar point relative to the needle tip at home, in [m].
+        insertion_angles: Needle angles (phi, psi) in [rad] of the insertion axis; the eye
+            centre lies on it one radius inside the trocar.
+    """
     robot = robot or Iramis()
-    home_tip = robot.tip(robot.home)
-    trocar = home_tip + np.array([-8e-3, 0.0, 0.0])
-    axis = axis_from_angles(0.05, 0.12)
-    return Eye(center=trocar + radius * axis, radius=radius, trocar=trocar)
+    trocar = robot.tip(robot.home) + vector("trocar_offset", trocar_offset, 3)
+    phi, psi = vector("insertion_angles", insertion_angles, 2)
+    axis = axis_from_angles(phi, psi)
+    return Eye(
+        center=trocar + radius * axis,
+        radius=radius,
+        wall=wall,
+        trocar=trocar,
+        trocar_radius=trocar_radius,
+    )
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,244 @@
+"""Scenarios: eye, points, procedure and controller settings, from TOML files validated on load.
+
+Keys carry their unit (`radius_mm`, `angle_mrad`); values are converted to SI on load. Every
+error names the section and key and the allowed values or range. Scenarios shipped with rcmplan
+are registered by name (`rcmplan.scene.scenario.SCENARIOS`): `default` (the injection) and
+`spiral`, plus the constrained scenarios for the QP controller.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rcmplan.control.loop import LoopSettings, Phase
+from rcmplan.control.methods import METHODS, MethodSettings
+from rcmplan.control.solvers import Tolerance
+from rcmplan.exceptions import InvalidInputError, ScenarioError
+from rcmplan.robot.iramis import Iramis
+from rcmplan.scene.eye import POINT_NAMES, Eye, EyePoints, default_eye, default_points
+from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
+from rcmplan.sim.registry import PLANTS
+
+PROCEDURES = ("injection", "spiral")
+MM = 1e-3
+
+# section -> key -> (kind, low, high); kind: "float", "int", "bool", "str", "vecN", "strlist"
+SCHEMA: dict[str, dict[str, tuple[str, float, float]]] = {
+    "": {"name": ("str", 0, 0), "procedure": ("str", 0, 0), "plant": ("str", 0, 0),
+         "description": ("str", 0, 0)},
+    "eye": {"radius_mm": ("float", 3, 20), "wall_mm": ("float", 0.1, 3),
+            "trocar_radius_mm": ("float", 0.05, 2), "trocar_offset_mm": ("vec3", -60, 60),
+            "insertion_angles_rad": ("vec2", -1.2, 1.2)},
+    "points": {"outside_mm": ("float", 0.5, 30), "depth_mm": ("float", 0.5, 24),
+               "spread_rad": ("float", 0, 0.6), "visits": ("strlist", 0, 0),
+               **{f"{n}_mm": ("vec3", -500, 500) for n in POINT_NAMES}},
+    "steps": {"position_mm": ("float", 1e-4, 5), "angle_mrad": ("float", 1e-3, 100)},
+    "controller": {"method": ("str", 0, 0), "K": ("vec6", 1e-9, 1.999999),
+                   "damping": ("float", 1e-12, 10), "tolerance_position_m": ("float", 1e-13, 1e-4),
+                   "tolerance_angle_rad": ("float", 1e-13, 1e-3),
+                   "max_iterations": ("int", 1, 100000), "drift_correction": ("bool", 0, 0),
+                   "dt_s": ("float", 1e-5, 0.1)},
+    "spiral": {"offset_mm": ("vec2", -10, 10), "radius_mm": ("float", 0.01, 10),
+               "turns": ("float", 0.1, 50), "pitch_mm": ("float", -5, 5),
+               "points_per_turn": ("int", 8, 10000)},
+    "qp": {},  # method-specific options, passed through to the QP controller as extra
+}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything a run needs besides the robot."""
+
+    name: str = "default"
+    procedure: str = "injection"
+    plant: str = "kinematic"
+    method: str = "pinv"
+    eye_options: dict[str, Any] = field(default_factory=dict)
+    point_options: dict[str, Any] = field(default_factory=dict)
+    point_overrides: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    visits: tuple[str, ...] = DEFAULT_VISITS
+    steps: Steps = field(default_factory=Steps)
+    method_settings: MethodSettings = field(default_factory=MethodSettings)
+    loop: LoopSettings = field(default_factory=LoopSettings)
+    spiral: Spiral = field(default_factory=Spiral)
+    dt: float = 1e-3
+
+    def eye(self, robot: Iramis) -> Eye:
+        """The eye placed for this robot."""
+        return default_eye(robot, **self.eye_options)
+
+    def points(self, eye: Eye) -> EyePoints:
+        """The seven named points, defaults overridden by explicit ones."""
+        pts = default_points(eye, **self.point_options).as_dict()
+        pts.update({k: np.asarray(v, dtype=float) for k, v in self.point_overrides.items()})
+        return EyePoints(**pts)
+
+    def phases(self, robot: Iramis) -> list[Phase]:
+        """The procedure's phases, every target checked before motion."""
+        eye = self.eye(robot)
+        pts = self.points(eye)
+        if self.procedure == "spiral":
+            return spiral(robot, eye, pts, self.spiral, self.steps)
+        return injection(robot, eye, pts, self.steps, self.visits)
+
+    def with_method(self, method: str) -> Scenario:
+        """The same scenario run with another method."""
+        if method not in METHODS:
+            raise InvalidInputError("method", method, f"one of {METHODS}")
+        return _replace(self, method=method)
+
+    def with_plant(self, plant: str) -> Scenario:
+        """The same scenario on another plant."""
+        if plant not in PLANTS:
+            raise InvalidInputError("plant", plant, f"one of {sorted(PLANTS)}")
+        return _replace(self, plant=plant)
+
+
+def _replace(s: Scenario, **changes: Any) -> Scenario:
+    from dataclasses import replace
+
+    return replace(s, **changes)
+
+
+def _check(section: str, key: str, value: Any) -> Any:
+    """Validate one value against the schema; return it converted."""
+    where = f"[{section}] {key}" if section else key
+    kind, lo, hi = SCHEMA[section][key]
+    if kind == "str":
+        if not isinstance(value, str):
+            raise ScenarioError(where, value, "a string")
+        return value
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise ScenarioError(where, value, "true or false")
+        return value
+    if kind == "strlist":
+        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+            raise ScenarioError(where, value, "a list of point names")
+        return tuple(value)
+    if kind == "int":
+        if not isinstance(value, int) or isinstance(value, bool) or not lo <= value <= hi:
+            raise ScenarioError(where, value, f"an integer in [{lo:g}, {hi:g}]")
+        return value
+    n = int(kind[3:]) if kind.startswith("vec") else 1
+    arr = np.atleast_1d(np.asarray(value, dtype=object))
+    ok = arr.shape == (n,) and all(
+        isinstance(v, int | float) and not isinstance(v, bool) for v in arr
+    )
+    if not ok or not np.all(np.isfinite(arr.astype(float))):
+        want = "a number" if n == 1 else f"a list of {n} numbers"
+        raise ScenarioError(where, value, f"{want} in [{lo:g}, {hi:g}]")
+    vals = arr.astype(float)
+    if np.any(vals < lo) or np.any(vals > hi):
+        raise ScenarioError(where, value, f"{'a number' if n == 1 else 'numbers'} in [{lo:g}, {hi:g}]")
+    return float(vals[0]) if n == 1 else tuple(float(v) for v in vals)
+
+
+def _sections(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
+    """Split and validate the TOML table into checked sections."""
+    out: dict[str, dict[str, Any]] = {s: {} for s in SCHEMA}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            if key not in SCHEMA or key == "":
+                raise ScenarioError("section", key, f"one of {sorted(k for k in SCHEMA if k)}")
+            for k, v in value.items():
+                if key == "qp":
+                    out["qp"][k] = v
+                    continue
+                if k not in SCHEMA[key]:
+                    raise ScenarioError(f"[{key}] key", k, f"one of {sorted(SCHEMA[key])}")
+                out[key][k] = _check(key, k, v)
+        elif key in SCHEMA[""]:
+            out[""][key] = _check("", key, value)
+        else:
+            raise ScenarioError("key", key, f"one of {sorted(SCHEMA[''])} or a section")
+    return out
+
+
+def scenario_from_dict(data: dict[str, Any]) -> Scenario:
+    """A Scenario from a parsed TOML table; raises ScenarioError naming the bad key."""
+    sec = _sections(data)
+    top, eye, pts, st, ctl, sp = (sec[k] for k in ("", "eye", "points", "steps", "controller", "spiral"))
+    procedure = top.get("procedure", "injection")
+    if procedure not in PROCEDURES:
+        raise ScenarioError("procedure", procedure, f"one of {PROCEDURES}")
+    plant = top.get("plant", "kinematic")
+    if plant not in PLANTS:
+        raise ScenarioError("plant", plant, f"one of {sorted(PLANTS)}")
+    method = ctl.get("method", "pinv")
+    if method not in METHODS:
+        raise ScenarioError("[controller] method", method, f"one of {METHODS}")
+    visits = pts.pop("visits", DEFAULT_VISITS)
+    if not visits or any(v not in POINT_NAMES[2:] for v in visits):
+        raise ScenarioError("[points] visits", list(visits), f"a non-empty list of {POINT_NAMES[2:]}")
+    eye_opts = {
+        "radius": eye.get("radius_mm", 12.0) * MM,
+        "wall": eye.get("wall_mm", 1.0) * MM,
+        "trocar_radius": eye.get("trocar_radius_mm", 0.45) * MM,
+        "trocar_offset": tuple(v * MM for v in eye.get("trocar_offset_mm", (-8.0, 0.0, 0.0))),
+        "insertion_angles": eye.get("insertion_angles_rad", (0.05, 0.12)),
+    }
+    point_opts = {
+        "outside": pts.get("outside_mm", 5.0) * MM,
+        "depth": pts.get("depth_mm", 8.0) * MM,
+        "spread": pts.get("spread_rad", 0.12),
+    }
+    overrides = {n: tuple(v * MM for v in pts[f"{n}_mm"]) for n in POINT_NAMES if f"{n}_mm" in pts}
+    tol = Tolerance(ctl.get("tolerance_position_m", 1e-8), ctl.get("tolerance_angle_rad", 1e-8))
+    settings = MethodSettings(
+        K=ctl.get("K", (1.0,) * 6), damping=ctl.get("damping", 1e-4), tolerance=tol, extra=sec["qp"]
+    )
+    sp_opts = {
+        "offset": tuple(v * MM for v in sp.get("offset_mm", (1.0, 0.5))),
+        "radius": sp.get("radius_mm", 2.5) * MM,
+        "turns": sp.get("turns", 3.0),
+        "pitch": sp.get("pitch_mm", 0.5) * MM,
+        "points_per_turn": sp.get("points_per_turn", 120),
+    }
+    return Scenario(
+        name=top.get("name", "unnamed"),
+        procedure=procedure,
+        plant=plant,
+        method=method,
+        eye_options=eye_opts,
+        point_options=point_opts,
+        point_overrides=overrides,
+        visits=visits,
+        steps=Steps(st.get("position_mm", 0.2) * MM, st.get("angle_mrad", 2.0) * 1e-3),
+        method_settings=settings,
+        loop=LoopSettings(ctl.get("max_iterations", 100), ctl.get("drift_correction", True)),
+        spiral=Spiral(**sp_opts),
+        dt=ctl.get("dt_s", 1e-3),
+    )
+
+
+def load_scenario(source: str | Path) -> Scenario:
+    """Load a scenario by registered name or from a TOML file path."""
+    text = _read(source)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError("scenario file", str(source), f"valid TOML ({exc})") from exc
+    return scenario_from_dict(data)
+
+
+def _read(source: str | Path) -> str:
+    name = str(source)
+    if name in scenario_names():
+        return resources.files("rcmplan.scenarios").joinpath(f"{name}.toml").read_text()
+    path = Path(source)
+    if not path.is_file():
+        raise ScenarioError("scenario", name, f"a TOML file or one of {scenario_names()}")
+    return path.read_text()
+
+
+def scenario_names() -> list[str]:
+    """Names of the scenarios shipped with rcmplan."""
+    files = resources.files("rcmplan.scenarios").iterdir()
+    return sorted(f.name[:-5] for f in files if f.name.endswith(".toml"))
