@@ -58,7 +58,9 @@ def phase_metrics(log: RunLog, wall_times: dict[str, float] | None = None) -> li
                 max_rcm_deviation_m=float(norm.max()) if inside else None,
                 rms_rcm_deviation_m=float(np.sqrt(np.mean(norm**2))) if inside else None,
                 max_rcm_deviation_xyz_m=_triple(np.abs(dev).max(axis=0)) if inside else None,
-                rms_rcm_deviation_xyz_m=_triple(np.sqrt(np.mean(dev**2, axis=0))) if inside else None,
+                rms_rcm_deviation_xyz_m=_triple(np.sqrt(np.mean(dev**2, axis=0)))
+                if inside
+                else None,
                 final_tip_error_m=float(tip_err[-1]),
                 max_tracking_error_m=float(tip_err.max()),
                 wall_time_s=float(wall_times.get(name, 0.0)),

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 from rcmplan.exceptions import RcmplanError
 
-COMMANDS = ("inject", "robot")
+COMMANDS = ("compare", "inject", "reproduce", "robot")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -75,8 +75,17 @@ def print_summary(result: RunResult) -> None:
         ]
         for p in s["phases"]
     ]
-    head = ["phase", "max RCM dev [um]", "RMS RCM dev [um]", "tip error [um]", "iterations", "wall [ms]"]
-    print(f"scenario {s['scenario']}  method {s['method']}  plant {s['plant']}  status {s['status']}")
+    head = [
+        "phase",
+        "max RCM dev [um]",
+        "RMS RCM dev [um]",
+        "tip error [um]",
+        "iterations",
+        "wall [ms]",
+    ]
+    print(
+        f"scenario {s['scenario']}  method {s['method']}  plant {s['plant']}  status {s['status']}"
+    )
     print(table(head, rows))
     print(
         f"inside the eye: max RCM deviation {_um(s['max_rcm_deviation_m'])} um, "

@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from rcmplan.cli.common import add_run_options, print_json, print_summary, progress, scenario_from_args
+from rcmplan.cli.common import (
+    add_run_options,
+    print_json,
+    print_summary,
+    progress,
+    scenario_from_args,
+)
 from rcmplan.exceptions import RcmplanError
 from rcmplan.job import run_scenario
 

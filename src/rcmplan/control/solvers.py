@@ -45,7 +45,7 @@ class Solver(Protocol):
 
     @property
     def kind(self) -> SolverKind:
-        """"rcm" (X_ext targets) or "free" (tip points)."""
+        """ "rcm" (X_ext targets) or "free" (tip points)."""
         ...
 
     def error(self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:

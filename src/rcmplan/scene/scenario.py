@@ -136,7 +136,9 @@ def _check(section: str, key: str, value: Any) -> Any:
         raise ScenarioError(where, value, f"{want} in [{lo:g}, {hi:g}]")
     vals = arr.astype(float)
     if np.any(vals < lo) or np.any(vals > hi):
-        raise ScenarioError(where, value, f"{'a number' if n == 1 else 'numbers'} in [{lo:g}, {hi:g}]")
+        raise ScenarioError(
+            where, value, f"{'a number' if n == 1 else 'numbers'} in [{lo:g}, {hi:g}]"
+        )
     return float(vals[0]) if n == 1 else tuple(float(v) for v in vals)
 
 
@@ -164,7 +166,9 @@ def _sections(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
 def scenario_from_dict(data: dict[str, Any]) -> Scenario:
     """A Scenario from a parsed TOML table; raises ScenarioError naming the bad key."""
     sec = _sections(data)
-    top, eye, pts, st, ctl, sp = (sec[k] for k in ("", "eye", "points", "steps", "controller", "spiral"))
+    top, eye, pts, st, ctl, sp = (
+        sec[k] for k in ("", "eye", "points", "steps", "controller", "spiral")
+    )
     procedure = top.get("procedure", "injection")
     if procedure not in PROCEDURES:
         raise ScenarioError("procedure", procedure, f"one of {PROCEDURES}")
@@ -176,7 +180,9 @@ def scenario_from_dict(data: dict[str, Any]) -> Scenario:
         raise ScenarioError("[controller] method", method, f"one of {METHODS}")
     visits = pts.pop("visits", DEFAULT_VISITS)
     if not visits or any(v not in POINT_NAMES[2:] for v in visits):
-        raise ScenarioError("[points] visits", list(visits), f"a non-empty list of {POINT_NAMES[2:]}")
+        raise ScenarioError(
+            "[points] visits", list(visits), f"a non-empty list of {POINT_NAMES[2:]}"
+        )
     eye_opts = {
         "radius": eye.get("radius_mm", 12.0) * MM,
         "wall": eye.get("wall_mm", 1.0) * MM,
