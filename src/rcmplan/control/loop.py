@@ -83,7 +83,7 @@ def interpolate(start: FloatArray, goal: FloatArray, n: int) -> FloatArray:
 
 
 def split_steps(
-    start: FloatArray, goal: FloatArray, step_position: float, step_angle: float = math.inf
+    start: FloatArray, goal: FloatArray, step_position: float, step_angle: float | None = None
 ) -> FloatArray:
     """Algorithm 2's split: equal steps no larger than the step sizes (m and rad apart).
 
@@ -93,7 +93,7 @@ def split_steps(
     start = vector("start", start)
     goal = vector("goal", goal, start.shape[0])
     sp = scalar("step_position", step_position, 0.0, np.inf, low_open=True)
-    sa = scalar("step_angle", step_angle, 0.0, np.inf, low_open=True)
+    sa = math.inf if step_angle is None else scalar("step_angle", step_angle, 0.0, low_open=True)
     delta = np.abs(goal - start)
     scale = np.full(start.shape[0], sp)
     if start.shape[0] == 6:

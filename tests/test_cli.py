@@ -1,0 +1,90 @@
+"""The command line: main job outputs, summary.json contract, errors and exit codes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rcmplan.cli import main
+from rcmplan.control.log import RunLog
+
+
+def test_robot_prints_the_model(capsys) -> None:
+    assert main(["robot"]) == 0
+    out = capsys.readouterr().out
+    for text in ("prismatic", "assumed", "tip at home [mm]: (-97.000, 76.000, 104.500)", "L5"):
+        assert text in out
+
+
+def test_inject_writes_log_summary_figures_and_report(tmp_path: Path, capsys) -> None:
+    assert main(["inject", "--out", str(tmp_path)]) == 0
+    s = json.loads((tmp_path / "summary.json").read_text())
+    for key in ("scenario", "method", "plant", "status", "phases", "max_rcm_deviation_m",
+                "max_tip_error_m", "wall_time_s"):  # fmt: skip
+        assert key in s
+    assert s["status"] == "ok" and s["method"] == "pinv" and s["plant"] == "kinematic"
+    for p in s["phases"]:
+        assert {"name", "max_rcm_deviation_m", "rms_rcm_deviation_m", "final_tip_error_m",
+                "iterations", "wall_time_s"} <= set(p)  # fmt: skip
+    assert s["max_rcm_deviation_m"] <= 1e-6 and s["max_tip_error_m"] <= 1e-6
+    log = RunLog.load_npz(tmp_path / "log.npz")
+    assert len(log) == s["iterations"]
+    header = (tmp_path / "log.csv").read_text().splitlines()[0]
+    assert header.startswith("time_s,phase,solver")
+    html = (tmp_path / "report.html").read_text()
+    assert html.count("data:image/png;base64,") == 3
+    assert "max RCM deviation" in capsys.readouterr().out
+
+
+def test_inject_json_prints_the_summary(tmp_path: Path, capsys) -> None:
+    assert main(["inject", "--out", str(tmp_path), "--json", "--no-plots", "--method", "dls"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["method"] == "dls" and s["status"] == "ok"
+
+
+def test_unreachable_scenario_sets_status_and_exits_non_zero(tmp_path: Path, capsys) -> None:
+    scenario = tmp_path / "far.toml"
+    scenario.write_text('name = "far"\n[points]\np5_mm = [-160.0, 71.5, 102.3]\n')
+    out = tmp_path / "out"
+    assert main(["inject", "--scenario", str(scenario), "--out", str(out), "--no-plots"]) == 1
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"].startswith("UnreachableTargetError")
+    assert "stopped early" in capsys.readouterr().err
+
+
+def test_run_that_stops_midway_keeps_its_partial_log(tmp_path: Path) -> None:
+    scenario = tmp_path / "cap.toml"
+    scenario.write_text(
+        'name = "cap"\n[controller]\nK = [0.01, 0.01, 0.01, 0.01, 0.01, 0.01]\nmax_iterations = 3\n'
+    )
+    out = tmp_path / "out"
+    assert main(["inject", "--scenario", str(scenario), "--out", str(out), "--no-plots"]) == 1
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"].startswith("ConvergenceError")
+    log = RunLog.load_npz(out / "log.npz")
+    assert len(log) > 0 and np.all(np.isfinite(log.tip))
+
+
+def test_unwritable_output_folder_is_a_clear_error(tmp_path: Path, capsys) -> None:
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    assert main(["inject", "--out", str(blocker / "sub")]) == 2
+    assert "output folder" in capsys.readouterr().err
+
+
+def test_compare_runs_each_method(tmp_path: Path, capsys) -> None:
+    code = main(["compare", "--out", str(tmp_path), "--methods", "pinv", "dls", "--json"])
+    rows = json.loads(capsys.readouterr().out)
+    assert code == 0
+    assert [r["method"] for r in rows] == ["pinv", "dls"]
+    assert all(r["max_rcm_deviation_m"] <= 1e-6 for r in rows)
+    assert (tmp_path / "compare.png").stat().st_size > 0
+
+
+def test_bad_method_is_refused_by_the_parser(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["inject", "--method", "nope"])
+    assert "invalid choice" in capsys.readouterr().err

@@ -1,0 +1,173 @@
+"""Algorithms 1 and 2 on the kinematic plant: accuracy, drift correction, failures keep the log."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rcmplan import Iramis
+from rcmplan.control import (
+    Controller,
+    DlsSolver,
+    LoopSettings,
+    Phase,
+    PinvSolver,
+    extended_task,
+    interpolate,
+    rcm_target,
+    solve_pose,
+    split_steps,
+)
+from rcmplan.control.tasks import angles_from_axis, axis_from_angles
+from rcmplan.exceptions import (
+    ConvergenceError,
+    InvalidInputError,
+    SingularPoseError,
+    UnreachableTargetError,
+)
+from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.scene.procedures import Steps, line_targets
+from rcmplan.sim import KinematicPlant
+
+UM = 1e-6
+
+
+def pivot_phase(robot: Iramis, n: int = 500) -> Phase:
+    x0 = extended_task(robot, robot.home, 1.0)
+    return Phase("align", interpolate(x0, x0 + [0, 0.0048, 0.212, 0, 0, 0], n))
+
+
+def controller_at(robot: Iramis, q: np.ndarray, lam: float, solver, **settings) -> Controller:
+    plant = KinematicPlant(robot)
+    plant.reset(robot.sliders_from_joints(q))
+    ctl = Controller(plant, solver, settings=LoopSettings(**settings))
+    ctl.lam = lam
+    return ctl
+
+
+def max_dev(log) -> float:
+    return float(np.nanmax(np.linalg.norm(log.rcm_deviation(), axis=1)))
+
+
+@pytest.mark.parametrize("solver", [PinvSolver(), DlsSolver()], ids=["pinv", "dls"])
+def test_pivot_alignment_holds_the_rcm_within_a_micrometre(robot: Iramis, solver) -> None:
+    log = controller_at(robot, robot.home, 1.0, solver).run([pivot_phase(robot)])
+    assert max_dev(log) <= 1 * UM
+    q_end = log.joints[-1]
+    assert (q_end[1], q_end[3]) == pytest.approx((0.0048, 0.212), abs=1e-8)
+    assert set(np.unique(log.step)) == set(range(500))
+
+
+def p3_pose(robot: Iramis):
+    eye = default_eye(robot)
+    pts = default_points(eye)
+    return eye, pts, solve_pose(robot, rcm_target(pts.p3, eye.port))
+
+
+@pytest.mark.parametrize("solver", [PinvSolver(), DlsSolver()], ids=["pinv", "dls"])
+def test_move_between_two_retina_points_holds_the_rcm(robot: Iramis, solver) -> None:
+    eye, pts, _ = p3_pose(robot)
+    pose = solve_pose(robot, rcm_target(pts.p4, eye.port))
+    log = controller_at(robot, pose.q, pose.lam, solver).run(
+        [Phase("p4-p6", line_targets(pts.p4, pts.p6, eye.port, Steps()))]
+    )
+    assert max_dev(log) <= 1 * UM
+    assert np.linalg.norm(log.tip[-1] - pts.p6) <= 1 * UM
+
+
+def test_drift_correction_keeps_p_rcm_on_the_foot_point_and_off_lets_it_slide(
+    robot: Iramis,
+) -> None:
+    eye, pts, pose = p3_pose(robot)
+    logs = {}
+    for drift in (True, False):
+        ctl = controller_at(robot, pose.q, pose.lam, PinvSolver(), drift_correction=drift)
+        logs[drift] = ctl.run([Phase("p3-p4", line_targets(pts.p3, pts.p4, eye.port, Steps()))])
+    on, off = logs[True], logs[False]
+    # On: lambda is the needle point closest to the trocar, so p_rcm - trocar is the line distance.
+    np.testing.assert_allclose(
+        np.linalg.norm(on.rcm_deviation(), axis=1), on.line_distance(), atol=1e-12
+    )
+    assert max_dev(on) <= 1 * UM
+    # Off: the needle line still passes within a micrometre, but p_rcm slides along it.
+    assert float(off.line_distance().max()) <= 1 * UM
+    assert max_dev(off) > max_dev(on)
+
+
+def test_random_reachable_targets_in_a_cone_all_converge(robot: Iramis, rng) -> None:
+    eye, pts, pose = p3_pose(robot)
+    phi0, psi0 = angles_from_axis(eye.axis)
+    worst = 0.0
+    for _ in range(200):
+        phi, psi = phi0 + rng.uniform(-0.12, 0.12), psi0 + rng.uniform(-0.12, 0.12)
+        target = eye.port + rng.uniform(3e-3, 20e-3) * axis_from_angles(phi, psi)
+        ctl = controller_at(robot, pose.q, pose.lam, PinvSolver())
+        log = ctl.run([Phase("move", line_targets(pts.p3, target, eye.port, Steps()))])
+        worst = max(worst, max_dev(log))
+        assert np.linalg.norm(log.tip[-1] - target) <= 1 * UM
+    assert worst <= 1 * UM
+
+
+@pytest.mark.parametrize(
+    "tip",
+    [
+        lambda eye: eye.port + 0.099 * eye.axis,  # beyond the needle: lambda < 0
+        lambda eye: eye.port + 0.02 * axis_from_angles(1.2, 0.1),  # sliders beyond travel
+        lambda eye: eye.port + 0.02 * axis_from_angles(0.1, 1.5),  # needle angle out of reach
+    ],
+    ids=["lambda", "travel", "angle"],
+)
+def test_unreachable_targets_raise_before_any_motion(robot: Iramis, tip) -> None:
+    eye, pts, pose = p3_pose(robot)
+    ctl = controller_at(robot, pose.q, pose.lam, PinvSolver())
+    s0 = ctl.plant.read_sliders()
+    targets = np.array([rcm_target(pts.p3, eye.port), rcm_target(tip(eye), eye.port)])
+    with pytest.raises(UnreachableTargetError) as info:
+        ctl.run([Phase("move", targets)])
+    assert len(info.value.log) == 0
+    np.testing.assert_array_equal(ctl.plant.read_sliders(), s0)
+
+
+def test_iteration_cap_raises_convergence_error_with_the_partial_log(robot: Iramis) -> None:
+    ctl = controller_at(robot, robot.home, 1.0, PinvSolver(K=(0.01,) * 6), max_iterations=5)
+    with pytest.raises(ConvergenceError, match="after 5 iterations") as info:
+        ctl.run([pivot_phase(robot, n=10)])
+    assert len(info.value.log) == 5
+    assert info.value.log.phase_names == ("align",)
+
+
+def test_singular_pose_raises_and_keeps_the_log(robot: Iramis) -> None:
+    q = np.array([0.0, 1.1, 0.0, 0.0, 0.0, 0.0])  # |cos q1| = 0.45, below the threshold 0.5
+    ctl = controller_at(robot, q, 1.0, PinvSolver(), singular_threshold=0.5)
+    x0 = extended_task(robot, q, 1.0)
+    with pytest.raises(SingularPoseError) as info:
+        ctl.run([Phase("pivot", (x0 + [0, 0.01, 0, 0, 0, 0])[None, :])])
+    assert info.value.log is not None
+
+
+def test_split_steps_makes_equal_steps_within_both_sizes() -> None:
+    start = np.zeros(6)
+    goal = np.array([1e-3, 0.01, -0.004, 0, 0, 0])
+    steps = split_steps(start, goal, 2e-4, 2e-3)
+    assert len(steps) == 5
+    np.testing.assert_allclose(steps[-1], goal)
+    assert np.all(np.abs(np.diff(steps, axis=0))[:, 1:3] <= 2e-3 + 1e-15)
+
+
+def test_split_steps_refuses_a_step_larger_than_the_distance() -> None:
+    with pytest.raises(InvalidInputError, match="distance"):
+        split_steps(np.zeros(3), np.array([1e-4, 0, 0]), 1e-3)
+
+
+def test_non_finite_targets_raise() -> None:
+    with pytest.raises(InvalidInputError, match="finite"):
+        rcm_target(np.array([np.nan, 0, 0]), np.zeros(3))
+
+
+def test_solve_pose_realises_the_target_exactly(robot: Iramis, rng) -> None:
+    eye, pts, _ = p3_pose(robot)
+    for name in ("p3", "p4", "p5", "p6", "p7"):
+        x = rcm_target(pts.as_dict()[name], eye.port)
+        pose = solve_pose(robot, x)
+        np.testing.assert_allclose(extended_task(robot, pose.q, pose.lam), x, atol=1e-14)
+        np.testing.assert_allclose(robot.tip(pose.q), pts.as_dict()[name], atol=1e-14)

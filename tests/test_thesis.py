@@ -1,0 +1,33 @@
+"""The thesis experiments as interpreted, and the reproduce command."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from rcmplan.cli import main
+from rcmplan.scene import thesis
+
+
+def test_pivot_alignment_runs_500_steps_with_both_settings() -> None:
+    for setting in ("thesis", "rcmplan"):
+        o = thesis.pivot_alignment(setting)
+        assert o.status == "ok"
+        assert o.steps == 500
+        assert o.max_rcm_deviation_m is not None and o.max_rcm_deviation_m <= 30e-6
+
+
+def test_thesis_gain_keeps_the_printed_ratios_inside_the_newton_range() -> None:
+    ratios = [k / thesis.THESIS_K[0] for k in thesis.THESIS_K]
+    assert ratios == [1, 10, 12, 1, 2, 2]
+    assert all(0 < k < 2 for k in thesis.THESIS_K)
+
+
+def test_reproduce_writes_a_row_per_experiment(tmp_path: Path, capsys) -> None:
+    assert main(["reproduce", "--out", str(tmp_path), "--json", "--no-plots"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["experiment"] for r in rows] == list(thesis.EXPERIMENTS)
+    for r in rows:
+        assert r["rcmplan_status"] == "ok"
+        assert r["rcmplan_max_rcm_deviation_m"] <= 1e-6
+    assert json.loads((tmp_path / "reproduce.json").read_text()) == rows
