@@ -6,12 +6,13 @@ import math
 
 import numpy as np
 import pytest
-from conftest import random_joints
 
 from rcmplan import Iramis
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.tasks import angles_from_axis, axis_from_angles, needle_angles
 from rcmplan.exceptions import InvalidInputError
+
+from conftest import random_joints
 
 
 def eq_6_1(q: np.ndarray, lam: float, l2=0.0335, l5=0.028, l6=0.097) -> np.ndarray:

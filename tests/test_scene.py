@@ -67,12 +67,12 @@ def test_a_target_behind_the_trocar_is_refused(robot: Iramis) -> None:
 def test_eye_rejects_a_trocar_off_its_sphere_and_bad_sizes() -> None:
     with pytest.raises(InvalidInputError, match="outer sphere"):
         Eye(center=np.zeros(3), radius=0.012, trocar=np.array([0.011, 0, 0]))
-    with pytest.raises(InvalidInputError, match="eye.radius"):
+    with pytest.raises(InvalidInputError, match=r"eye\.radius"):
         Eye(center=np.zeros(3), radius=-0.012, trocar=np.array([0.012, 0, 0]))
 
 
 def test_bad_step_sizes_raise() -> None:
-    with pytest.raises(InvalidInputError, match="steps.position"):
+    with pytest.raises(InvalidInputError, match=r"steps\.position"):
         Steps(position=0.0)
 
 
