@@ -1,0 +1,172 @@
+"""Checkpoints: finished results on disk as they arrive, so an interrupted sweep resumes.
+
+A checkpoint is a folder:
+
+    header.json            {"format": "rcmplan-sweep-checkpoint", "version": 1,
+                            "settings_hash": <sha256>, "settings": {...}, "n_targets": N}
+    chunk-<first id>.json  {"settings_hash": <sha256>, "results": [TargetResult, ...],
+                            "sha256": <sha256 of the canonical JSON of "results">}
+
+Each chunk file is written whole to a temporary name, flushed to disk and renamed into place, so
+a killed process leaves either a complete chunk or none (stray temporary files are removed on
+open). On resume every chunk is read and checked: valid JSON, the sweep's settings hash, the
+checksum, known fields, ids in range and never repeated. Any failure raises CheckpointError
+naming the file and the problem; a checkpoint is never silently reused or overwritten.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from rcmplan.sweep.errors import CheckpointError
+from rcmplan.sweep.settings import FORMAT_VERSION, SweepSettings
+from rcmplan.sweep.task import TargetResult
+
+FORMAT_NAME = "rcmplan-sweep-checkpoint"
+HEADER = "header.json"
+
+
+def _canonical(obj: Any) -> str:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), allow_nan=False)
+
+
+def _digest(results: list[dict[str, Any]]) -> str:
+    return hashlib.sha256(_canonical(results).encode()).hexdigest()
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Write text to path through a temporary file, fsync and rename (all or nothing)."""
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    try:
+        with open(tmp, "w", encoding="utf-8") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except OSError as exc:
+        raise CheckpointError(path, f"cannot be written ({exc})") from exc
+
+
+def _read_json(path: Path) -> Any:
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CheckpointError(path, f"is not readable JSON ({exc}); it is corrupt") from exc
+
+
+class Checkpoint:
+    """A checkpoint folder bound to one sweep's settings; use Checkpoint.open.
+
+    Attributes:
+        path: The folder.
+        digest: The settings hash every file must carry.
+        n_targets: Ids must lie in [0, n_targets).
+    """
+
+    def __init__(self, path: Path, settings: SweepSettings) -> None:
+        self.path = path
+        self.settings = settings
+        self.digest = settings.digest()
+        self.n_targets = settings.region.n_targets
+
+    @classmethod
+    def open(cls, path: str | Path, settings: SweepSettings, resume: bool) -> Checkpoint:
+        """Create the checkpoint, or reopen an existing one for the same settings.
+
+        Raises CheckpointError if the path is not a folder, the header is corrupt or for other
+        settings, or the checkpoint already holds results and resume is False.
+        """
+        cp = cls(Path(path), settings)
+        if cp.path.exists() and not cp.path.is_dir():
+            raise CheckpointError(cp.path, "exists and is not a checkpoint folder")
+        cp.path.mkdir(parents=True, exist_ok=True)
+        for stray in cp.path.glob("*.tmp"):
+            stray.unlink(missing_ok=True)
+        chunks = cp.chunk_files()
+        if not (cp.path / HEADER).exists():
+            if chunks:
+                raise CheckpointError(cp.path / HEADER, "is missing while chunk files exist")
+            write_atomic(cp.path / HEADER, _canonical(cp.header()))
+            return cp
+        cp.check_header()
+        if chunks and not resume:
+            raise CheckpointError(
+                cp.path,
+                f"already holds {len(chunks)} finished chunk(s); resume it (--resume) or "
+                "choose another path",
+            )
+        return cp
+
+    def header(self) -> dict[str, Any]:
+        """The header record of this checkpoint."""
+        return {
+            "format": FORMAT_NAME,
+            "version": FORMAT_VERSION,
+            "settings_hash": self.digest,
+            "settings": self.settings.as_dict(),
+            "n_targets": self.n_targets,
+        }
+
+    def check_header(self) -> None:
+        """Raise CheckpointError unless header.json is this format and these settings."""
+        path = self.path / HEADER
+        data = _read_json(path)
+        if not isinstance(data, dict) or data.get("format") != FORMAT_NAME:
+            raise CheckpointError(path, f"is not a {FORMAT_NAME} header")
+        if data.get("version") != FORMAT_VERSION:
+            raise CheckpointError(path, f"has format version {data.get('version')!r}, "
+                                  f"expected {FORMAT_VERSION}")  # fmt: skip
+        if data.get("settings_hash") != self.digest:
+            raise CheckpointError(
+                path,
+                f"was written for other sweep settings (hash {str(data.get('settings_hash'))[:12]}"
+                f", this sweep {self.digest[:12]}); choose another path or remove it",
+            )
+
+    def chunk_files(self) -> list[Path]:
+        """Finished chunk files, sorted by name."""
+        return sorted(self.path.glob("chunk-*.json"))
+
+    def write(self, results: Iterable[TargetResult]) -> Path | None:
+        """Write one finished chunk atomically; returns its path (None for an empty chunk)."""
+        rows = [r.as_dict() for r in sorted(results, key=lambda r: r.id)]
+        if not rows:
+            return None
+        path = self.path / f"chunk-{rows[0]['id']:07d}.json"
+        record = {"settings_hash": self.digest, "results": rows, "sha256": _digest(rows)}
+        write_atomic(path, _canonical(record))
+        return path
+
+    def load(self) -> dict[int, TargetResult]:
+        """Every finished result by id, each chunk checked (CheckpointError names a bad file)."""
+        out: dict[int, TargetResult] = {}
+        for path in self.chunk_files():
+            for result in self._load_chunk(path):
+                if result.id in out:
+                    raise CheckpointError(path, f"repeats target id {result.id}")
+                out[result.id] = result
+        return out
+
+    def _load_chunk(self, path: Path) -> list[TargetResult]:
+        data = _read_json(path)
+        if not isinstance(data, dict) or not isinstance(data.get("results"), list):
+            raise CheckpointError(path, "is not a chunk record (no 'results' list); corrupt")
+        if data.get("settings_hash") != self.digest:
+            raise CheckpointError(path, "was written for other sweep settings")
+        rows = data["results"]
+        if data.get("sha256") != _digest(rows):
+            raise CheckpointError(path, "fails its checksum; it is corrupt")
+        try:
+            results = [TargetResult.from_dict(row) for row in rows]
+        except (KeyError, TypeError) as exc:
+            raise CheckpointError(path, f"holds a malformed result ({exc})") from exc
+        for r in results:
+            if not (isinstance(r.id, int) and 0 <= r.id < self.n_targets):
+                bad = f"holds target id {r.id!r} outside [0, {self.n_targets})"
+                raise CheckpointError(path, bad)
+        return results

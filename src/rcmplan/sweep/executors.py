@@ -1,0 +1,179 @@
+"""Executors: run chunks of targets on local processes or on a Dask distributed cluster.
+
+Both yield each finished chunk as soon as it completes (in completion order), so the caller can
+checkpoint it at once. Chunks batch several targets per task to amortise the per-task overhead
+(pickling, scheduling). Results do not depend on the executor: each target is a pure function of
+(motion settings, target).
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import math
+import multiprocessing
+import os
+from collections.abc import Iterator, Sequence
+from types import TracebackType
+from typing import Any, Protocol
+
+from rcmplan.exceptions import InvalidInputError, require_extra
+from rcmplan.sweep.errors import SchedulerError
+from rcmplan.sweep.settings import MotionSettings
+from rcmplan.sweep.task import TargetItem, TargetResult, run_chunk
+
+Chunk = list[TargetItem]
+DEFAULT_TIMEOUT_S = 10.0
+
+
+class Executor(Protocol):
+    """Runs chunks of targets and yields each chunk's results when it finishes."""
+
+    workers: int
+    label: str
+
+    def map_chunks(self, motion: MotionSettings, chunks: Sequence[Chunk]) -> Iterator[
+        list[TargetResult]
+    ]:  # fmt: skip
+        """Results of each chunk, in completion order."""
+        ...
+
+    def close(self) -> None:
+        """Release processes or the cluster connection."""
+        ...
+
+
+def make_chunks(items: Sequence[TargetItem], workers: int, size: int | None = None) -> list[Chunk]:
+    """Split items into chunks: `size` each, or about 8 chunks per worker, 1 to 50 targets."""
+    if size is None:
+        size = min(50, max(1, math.ceil(len(items) / (8 * max(1, workers)))))
+    if size < 1:
+        raise InvalidInputError("chunk size", size, "an integer >= 1")
+    return [list(items[i : i + size]) for i in range(0, len(items), size)]
+
+
+class _ExecutorBase:
+    def __enter__(self) -> Any:
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Nothing to release by default."""
+
+
+class LocalExecutor(_ExecutorBase):
+    """Local worker processes (forkserver); one worker runs in this process, no pool.
+
+    Args:
+        workers: Number of processes (default: every core, os.cpu_count()).
+    """
+
+    def __init__(self, workers: int | None = None) -> None:
+        n = (os.cpu_count() or 1) if workers is None else workers
+        if not isinstance(n, int) or n < 1:
+            raise InvalidInputError("workers", workers, "an integer >= 1")
+        self.workers = n
+        self.label = f"local ({n} process{'es' if n > 1 else ''})"
+        self._pool: cf.ProcessPoolExecutor | None = None
+
+    def _get_pool(self) -> cf.ProcessPoolExecutor:
+        if self._pool is None:
+            ctx = multiprocessing.get_context("forkserver")
+            ctx.set_forkserver_preload(["rcmplan.sweep.task"])
+            self._pool = cf.ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
+        return self._pool
+
+    def map_chunks(self, motion: MotionSettings, chunks: Sequence[Chunk]) -> Iterator[
+        list[TargetResult]
+    ]:  # fmt: skip
+        """Each chunk's results as it finishes; pending chunks are cancelled if we stop early."""
+        if self.workers == 1:
+            for chunk in chunks:
+                yield run_chunk(motion, chunk)
+            return
+        pool = self._get_pool()
+        futures = [pool.submit(run_chunk, motion, chunk) for chunk in chunks]
+        try:
+            for fut in cf.as_completed(futures):
+                yield fut.result()
+        finally:
+            for fut in futures:
+                fut.cancel()
+
+    def close(self) -> None:
+        """Shut the pool down, cancelling chunks not yet started."""
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+
+class DaskExecutor(_ExecutorBase):
+    """A Dask distributed cluster reached through its scheduler address.
+
+    Args:
+        address: Scheduler address, e.g. "tcp://10.0.0.5:8786".
+        timeout_s: Time in [s] to connect and to see at least one worker.
+
+    Raises:
+        SchedulerError: The scheduler does not answer or has no worker within the timeout.
+        MissingExtraError: dask[distributed] is not installed (extra "dist").
+    """
+
+    def __init__(self, address: str, timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
+        distributed = require_extra("distributed", "dist")
+        self.address = address
+        self.timeout_s = float(timeout_s)
+        self._distributed = distributed
+        self.client = self._connect(distributed)
+        self.workers = len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
+        self.label = f"dask {address} ({self.workers} workers)"
+
+    def _connect(self, distributed: Any) -> Any:
+        t = self.timeout_s
+        try:
+            client = distributed.Client(self.address, timeout=t, set_as_default=False)
+        except (OSError, TimeoutError, ValueError, TypeError) as exc:
+            raise SchedulerError(self.address, t, f"did not answer within {t:g} s ({exc})") from exc
+        try:
+            client.wait_for_workers(1, timeout=t)
+        except (OSError, TimeoutError) as exc:
+            client.close()
+            raise SchedulerError(self.address, t, f"has no worker after {t:g} s") from exc
+        return client
+
+    def map_chunks(self, motion: MotionSettings, chunks: Sequence[Chunk]) -> Iterator[
+        list[TargetResult]
+    ]:  # fmt: skip
+        """Each chunk's results as it finishes; a chunk whose workers keep dying raises."""
+        futures = [self.client.submit(run_chunk, motion, c, pure=False) for c in chunks]
+        try:
+            for fut in self._distributed.as_completed(futures, loop=self.client.loop):
+                yield self._result(fut)
+                fut.release()
+        finally:
+            self.client.cancel(futures)
+
+    def _result(self, fut: Any) -> list[TargetResult]:
+        try:
+            result: list[TargetResult] = fut.result()
+        except self._distributed.KilledWorker as exc:
+            raise SchedulerError(
+                self.address, self.timeout_s, f"workers died running a chunk ({exc})"
+            ) from exc
+        return result
+
+    def close(self) -> None:
+        """Close the client (the cluster keeps running)."""
+        self.client.close()
+
+
+def make_executor(
+    workers: int | None = None, scheduler: str | None = None, timeout_s: float = DEFAULT_TIMEOUT_S
+) -> LocalExecutor | DaskExecutor:
+    """A Dask executor when a scheduler address is given, else local processes."""
+    if scheduler:
+        return DaskExecutor(scheduler, timeout_s)
+    return LocalExecutor(workers)
