@@ -85,7 +85,7 @@ def retina_move_rows() -> list[dict[str, Any]]:
         pose = solve_pose(robot, rcm_target(pa, eye.port))
         phase = Phase(f"{a}-{b}", line_targets(pa, pb, eye.port, Steps()))
         for drift in (True, False):
-            log, dev, line, wall = _run(PinvSolver(), [phase], pose.q, pose.lam, drift)
+            _, dev, line, wall = _run(PinvSolver(), [phase], pose.q, pose.lam, drift)
             tag = f"{a}->{b} pinv, drift correction {'on' if drift else 'off'}"
             rows += [
                 _row(f"{tag}: max |p_rcm - trocar|", dev * 1e6, "um", "thesis", 30.0, "<= 1 um"),
@@ -123,9 +123,8 @@ def main() -> None:
     for r in rows():
         ratio = "" if r["ratio"] is None else f"{r['ratio']:.3g}"
         peer = "" if r["peer_value"] is None else f"{r['peer']} {r['peer_value']:.4g}"
-        print(
-            f"{r['figure']:<62} {r['value']:>12.4g} {r['unit']:<3} {peer:<30} {ratio:>10} {r['target']}"
-        )
+        head = f"{r['figure']:<62} {r['value']:>12.4g} {r['unit']:<3}"
+        print(f"{head} {peer:<30} {ratio:>10} {r['target']}")
 
 
 if __name__ == "__main__":
