@@ -88,3 +88,13 @@ def test_bad_method_is_refused_by_the_parser(capsys) -> None:
     with pytest.raises(SystemExit):
         main(["inject", "--method", "nope"])
     assert "invalid choice" in capsys.readouterr().err
+
+
+def test_malformed_scenario_file_exits_non_zero_with_status(tmp_path: Path, capsys) -> None:
+    scenario = tmp_path / "bad.toml"
+    scenario.write_text("[eye]\nradius_mm = -3\n")
+    out = tmp_path / "out"
+    assert main(["inject", "--scenario", str(scenario), "--out", str(out)]) == 2
+    assert "radius_mm" in capsys.readouterr().err
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"].startswith("ScenarioError") and "[3, 20]" in s["status"]

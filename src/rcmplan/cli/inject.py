@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 
 from rcmplan.cli.common import (
@@ -32,7 +33,12 @@ def run(args: argparse.Namespace) -> int:
     from rcmplan.analysis.report import prepare_folder, write_outputs
 
     out = prepare_folder(args.out or args.out_default)
-    scenario = scenario_from_args(args)
+    try:
+        scenario = scenario_from_args(args)
+    except RcmplanError as exc:
+        status = f"{type(exc).__name__}: {exc}"
+        (out / "summary.json").write_text(json.dumps({"scenario": args.scenario, "status": status}))
+        raise
     with progress(args.command) as tick:
         result = run_scenario(scenario, on_phase=tick)
     try:

@@ -25,7 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--width", type=int, default=640, help="image width in pixels (640)")
     p.add_argument("--height", type=int, default=480, help="image height in pixels (480)")
     p.add_argument("--camera", default="closeup", help="animation camera: closeup or overview")
-    p.add_argument("--frames", type=int, default=120, help="animation frames (120)")
+    p.add_argument("--frames", type=int, default=60, help="animation frames (60)")
     p.add_argument("--fps", type=float, default=20.0, help="animation frame rate (20)")
     p.add_argument("--format", choices=("gif", "mp4"), default="gif", help="animation format")
     p.add_argument("--scenario", default="default", help="scenario to animate (default)")
