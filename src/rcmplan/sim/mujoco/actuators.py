@@ -2,9 +2,10 @@
 
 A stick-slip positioner in closed-loop (scanning) mode is modelled as a stiff position servo
 that tracks a reference; the reference moves towards the quantised command no faster than the
-slider's maximum speed. In MuJoCo each slider has two actuators: an integrator whose state is
-the reference (force kp (ref - x) - kv x_dot, state clamped to the travel) and a velocity
-feed-forward (force kv v_ref), so a constant-speed ramp is tracked without lag.
+slider's maximum speed (all six axes scaled together, so they arrive at the same time).
+In MuJoCo each slider has two actuators: an integrator whose state is the reference
+(force kp (ref - x) - kv x_dot, state clamped to the travel) and a velocity feed-forward
+(force kv v_ref), so a constant-speed ramp is tracked without lag.
 Travel, speed and resolution come from `IramisParameters`; the servo values are assumed.
 """
 
@@ -12,13 +13,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.robot.iramis import Iramis
 
-ROTARY = 5  # index of q5 in s = (L1, L2, L3, L4, L5, q5)
+INSERTION, ROTARY = 4, 5  # indices of L5 and q5 in s = (L1, L2, L3, L4, L5, q5)
 
 
 @dataclass(frozen=True)
@@ -32,8 +34,11 @@ class PiezoParameters:
         rotary_resolution: Resolution of q5 in [rad] (assumed: 1 urad).
         bandwidth: Servo natural frequency in [Hz] (assumed: 100 Hz).
         damping_ratio: Servo damping ratio (assumed: 1, critical).
-        linear_mass: Effective mass seen by a linear slider servo in [kg] (assumed: 0.1 kg).
+        linear_mass: Effective mass seen by a linear slider servo in [kg] (assumed: 0.3 kg, the
+            coupler-rotation mode of a PCJM; lighter values leave it underdamped).
         rotary_inertia: Effective inertia seen by the q5 servo in [kg m^2] (assumed: 1e-6).
+        insertion_mass: Effective mass seen by the L5 servo in [kg] (assumed: 0.03 kg, the
+            insertion stage and needle).
     """
 
     lower: tuple[float, ...]
@@ -43,13 +48,14 @@ class PiezoParameters:
     rotary_resolution: float = 1e-6
     bandwidth: float = 100.0
     damping_ratio: float = 1.0
-    linear_mass: float = 0.1
+    linear_mass: float = 0.3
     rotary_inertia: float = 1e-6
+    insertion_mass: float = 0.03
 
     def __post_init__(self) -> None:
         for name in ("resolution", "rotary_resolution", "bandwidth"):
             scalar(name, getattr(self, name), 0.0, np.inf, low_open=True)
-        for name in ("damping_ratio", "linear_mass", "rotary_inertia"):
+        for name in ("damping_ratio", "linear_mass", "rotary_inertia", "insertion_mass"):
             scalar(name, getattr(self, name), 0.0, np.inf, low_open=True)
         vector("lower", self.lower, 6)
         vector("upper", self.upper, 6)
@@ -57,16 +63,20 @@ class PiezoParameters:
 
     @classmethod
     def from_robot(cls, robot: Iramis, **overrides: float) -> PiezoParameters:
-        """Travel, speed and resolution from the robot; servo values default or overridden."""
+        """Travel, speed and resolution from the robot; any field may be overridden."""
         p = robot.params
-        return cls(
-            tuple(p.slider_lower), tuple(p.slider_upper), tuple(p.slider_speed),
-            p.slider_resolution, **overrides,
-        )  # fmt: skip
+        values: dict[str, Any] = {
+            "lower": tuple(p.slider_lower),
+            "upper": tuple(p.slider_upper),
+            "speed": tuple(p.slider_speed),
+            "resolution": p.slider_resolution,
+        }
+        return cls(**{**values, **overrides})
 
     def inertia(self) -> FloatArray:
         """Effective mass [kg] or inertia [kg m^2] per slider servo, (6,)."""
         out = np.full(6, self.linear_mass)
+        out[INSERTION] = self.insertion_mass
         out[ROTARY] = self.rotary_inertia
         return out
 
@@ -103,7 +113,12 @@ def quantise(s: FloatArray, steps: FloatArray) -> FloatArray:
 def reference_velocity(
     s_ref: FloatArray, s_cmd: FloatArray, dt: float, steps: FloatArray, speed: FloatArray
 ) -> FloatArray:
-    """Velocity [m/s, rad/s] taking the reference s_ref to the quantised command in dt [s],
-    clipped to +-speed: the stick-slip stage moves at most at its maximum speed."""
+    """Velocity [m/s, rad/s] taking the reference s_ref to the quantised command in dt [s].
+
+    When a slider would exceed its maximum speed, the whole velocity vector is scaled down
+    (synchronised axes): every slider arrives together and the slider-space path stays
+    straight, as with a coordinated motion controller; no slider exceeds its speed.
+    """
     v = (quantise(s_cmd, steps) - s_ref) / dt
-    return np.asarray(np.clip(v, -speed, speed), dtype=float)
+    excess = float(np.max(np.abs(v) / speed))
+    return np.asarray(v / excess if excess > 1.0 else v, dtype=float)

@@ -64,20 +64,32 @@ class SceneRenderer:
             self._add_polyline(np.asarray(trace, dtype=float))
         return np.asarray(self._renderer.render(), dtype=np.uint8)
 
-    def _add_polyline(self, points: FloatArray, radius: float = 1.5e-4) -> None:
+    def segment(self, data: Any, camera: str = "closeup") -> NDArray[np.int32]:
+        """Geom id seen at each pixel (height, width); -1 where no geom is seen."""
+        self._renderer.update_scene(data, camera=self.camera_id(camera))
+        self._renderer.enable_segmentation_rendering()
+        try:
+            seg = np.asarray(self._renderer.render())
+        finally:
+            self._renderer.disable_segmentation_rendering()
+        geom = int(self.mj.mjtObj.mjOBJ_GEOM)
+        return np.where(seg[..., 1] == geom, seg[..., 0], -1).astype(np.int32)
+
+    def _add_polyline(self, points: FloatArray, width: float = 3.0, segments: int = 300) -> None:
+        """Draw points as line segments `width` pixels wide, at most `segments` of them."""
         scene = self._renderer.scene
-        free = scene.maxgeom - scene.ngeom
+        free = min(segments, scene.maxgeom - scene.ngeom)
         stride = max(1, math.ceil((len(points) - 1) / max(free, 1)))
-        pts = points[::stride]
+        pts = np.vstack([points[::stride], points[-1:]])
         for a, b in itertools.pairwise(pts):
             if scene.ngeom >= scene.maxgeom or np.allclose(a, b):
                 continue
             geom = scene.geoms[scene.ngeom]
             self.mj.mjv_initGeom(
-                geom, self.mj.mjtGeom.mjGEOM_CAPSULE, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
+                geom, self.mj.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), np.eye(3).ravel(),
                 np.array(TRACE_RGBA, dtype=np.float32),
             )  # fmt: skip
-            self.mj.mjv_connector(geom, self.mj.mjtGeom.mjGEOM_CAPSULE, radius, a, b)
+            self.mj.mjv_connector(geom, self.mj.mjtGeom.mjGEOM_LINE, width, a, b)
             scene.ngeom += 1
 
     def project(self, data: Any, point: FloatArray, camera: str = "closeup") -> FloatArray:

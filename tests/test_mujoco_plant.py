@@ -1,0 +1,155 @@
+"""The MuJoCo plant: the Plant interface, piezo actuation, settling accuracy, faults."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+
+from rcmplan import Iramis
+from rcmplan.exceptions import (
+    InvalidInputError,
+    MissingExtraError,
+    SimulationError,
+    SliderLimitError,
+)
+from rcmplan.sim.mujoco.actuators import PiezoParameters
+from rcmplan.sim.mujoco.plant import MujocoPlant
+from rcmplan.sim.plant import Plant
+from rcmplan.sim.registry import make_plant
+
+UM = 1e-6
+
+
+@pytest.fixture(scope="module")
+def dynamic() -> MujocoPlant:
+    return MujocoPlant(mode="dynamic")
+
+
+def test_both_modes_implement_the_plant_interface() -> None:
+    for name, mode in (("mujoco", "dynamic"), ("mujoco-kinematic", "kinematic")):
+        plant = make_plant(name)
+        assert isinstance(plant, Plant)
+        assert isinstance(plant, MujocoPlant) and plant.mode == mode
+        assert plant.name == f"mujoco-{mode}"
+        assert plant.dt == 1e-3 and plant.substeps == 10
+
+
+def test_kinematic_mode_places_the_sliders_exactly(robot: Iramis, rng: np.random.Generator) -> None:
+    plant = MujocoPlant(robot, mode="kinematic")
+    s = rng.uniform(robot.lower, robot.upper)
+    plant.command_sliders(s)
+    plant.advance()
+    np.testing.assert_allclose(plant.read_sliders(), s, atol=1e-15)
+    assert plant.time == pytest.approx(1e-3)
+
+
+def test_reset_places_sliders_at_rest_and_zeroes_time(dynamic: MujocoPlant, robot: Iramis) -> None:
+    s = 0.5 * robot.upper
+    dynamic.reset(s)
+    np.testing.assert_allclose(dynamic.read_sliders(), s, atol=1e-15)
+    assert dynamic.time == 0.0
+    assert not dynamic.data.qvel.any()
+
+
+def test_dynamic_mode_settles_on_forward_kinematics(
+    dynamic: MujocoPlant, robot: Iramis, rng: np.random.Generator
+) -> None:
+    for _ in range(8):
+        start = rng.uniform(0.8 * robot.lower, 0.8 * robot.upper)
+        goal = start + rng.uniform(-1e-3, 1e-3, size=6)
+        dynamic.reset(start)
+        dynamic.command_sliders(goal)
+        dynamic.settle(0.3)
+        s = dynamic.read_sliders()
+        np.testing.assert_allclose(s[:5], goal[:5], atol=0.1 * UM)
+        T = robot.forward_kinematics(robot.joints_from_sliders(s))
+        assert np.linalg.norm(dynamic.tip_position() - T[:3, 3]) < UM
+        assert dynamic.loop_gap() < UM
+
+
+def test_sliders_move_together_and_no_faster_than_their_speed(
+    dynamic: MujocoPlant, robot: Iramis
+) -> None:
+    dynamic.reset(robot.home_sliders)
+    goal = robot.upper.copy()
+    dynamic.command_sliders(goal)
+    for _ in range(100):
+        dynamic.advance()
+    fraction = dynamic.read_sliders() / goal  # of the way to the goal, per slider
+    np.testing.assert_allclose(fraction, fraction[0], rtol=0.02)  # a straight slider path
+    speed_used = np.abs(dynamic.read_sliders()) / (robot.speed * 0.1)  # after 0.1 s
+    assert speed_used.max() == pytest.approx(1.0, abs=0.02)
+
+
+def test_loop_gap_stays_below_one_micrometre_at_full_speed(
+    dynamic: MujocoPlant, robot: Iramis
+) -> None:
+    dynamic.reset(robot.home_sliders)
+    dynamic.command_sliders(np.array([10e-3, -10e-3, -10e-3, 10e-3, 5e-3, 0.5]))
+    worst = 0.0
+    for _ in range(400):
+        dynamic.advance()
+        worst = max(worst, dynamic.loop_gap())
+    assert worst < UM
+
+
+def test_commands_are_quantised_to_the_slider_resolution(robot: Iramis) -> None:
+    piezo = PiezoParameters.from_robot(robot, rotary_resolution=1e-3)
+    s = np.array([1.2e-9 + 0.3e-9, 0.0, 0.0, 0.0, 0.0, 0.0104])
+    q = piezo.quantise(s)
+    np.testing.assert_allclose(q, [2e-9, 0.0, 0.0, 0.0, 0.0, 0.010], atol=1e-18)
+
+
+def test_gravity_compensation_removes_the_sag(robot: Iramis) -> None:
+    sag = {}
+    for on in (True, False):
+        plant = MujocoPlant(robot, gravity_compensation=on)
+        plant.settle(0.3)
+        sag[on] = float(np.abs(plant.read_sliders()[:5]).max())
+    assert sag[False] > 1 * UM
+    assert sag[True] < 0.01 * sag[False]
+
+
+def test_command_beyond_travel_raises_slider_limit_error(
+    dynamic: MujocoPlant, robot: Iramis
+) -> None:
+    s = robot.home_sliders.copy()
+    s[4] = robot.upper[4] + 1e-3
+    with pytest.raises(SliderLimitError, match="L5"):
+        dynamic.command_sliders(s)
+
+
+def test_non_finite_command_raises_invalid_input(dynamic: MujocoPlant) -> None:
+    with pytest.raises(InvalidInputError):
+        dynamic.command_sliders(np.array([np.nan, 0, 0, 0, 0, 0]))
+
+
+def test_a_servo_too_stiff_for_the_timestep_raises_simulation_error(robot: Iramis) -> None:
+    stiff = PiezoParameters.from_robot(robot, bandwidth=5000.0)  # omega dt = 31 at 1 ms
+    plant = MujocoPlant(robot, physics_dt=1e-3, piezo=stiff)
+    plant.command_sliders(np.array([1e-3, 0.0, 0.0, 0.0, 0.0, 0.0]))
+    with pytest.raises(SimulationError, match=r"loop-closure gap .* exceeds the limit"):
+        for _ in range(100):
+            plant.advance()
+
+
+def test_nan_state_raises_simulation_error(robot: Iramis) -> None:
+    plant = MujocoPlant(robot)
+    plant.data.qpos[0] = np.nan
+    with pytest.raises(SimulationError):
+        plant.advance()
+
+
+def test_invalid_settings_raise_with_the_valid_choices() -> None:
+    with pytest.raises(InvalidInputError, match="dynamic"):
+        MujocoPlant(mode="fast")
+    with pytest.raises(InvalidInputError, match="whole fraction"):
+        MujocoPlant(physics_dt=3e-4)
+
+
+def test_missing_mujoco_names_the_sim_extra(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setitem(sys.modules, "mujoco", None)
+    with pytest.raises(MissingExtraError, match=r"rcmplan\[sim\]"):
+        MujocoPlant()

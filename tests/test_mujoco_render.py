@@ -1,0 +1,109 @@
+"""Offscreen rendering: images are not blank, the needle tip is drawn where FK projects it."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import imageio.v2 as iio
+import numpy as np
+import pytest
+
+from rcmplan import Iramis
+from rcmplan.cli import render as render_cli
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.sim.mujoco.plant import MujocoPlant
+from rcmplan.sim.mujoco.render import SceneRenderer, animate, save_animation, save_png
+
+W, H = 320, 240
+
+
+@pytest.fixture(scope="module")
+def plant() -> MujocoPlant:
+    return MujocoPlant(mode="kinematic")
+
+
+@pytest.fixture(scope="module")
+def renderer(plant: MujocoPlant) -> SceneRenderer:
+    return SceneRenderer(plant.model, W, H)
+
+
+def needle_end_pixel(renderer: SceneRenderer, plant: MujocoPlant) -> tuple[np.ndarray, np.ndarray]:
+    """(projected FK tip, needle pixel farthest along the projected needle direction)."""
+    robot = plant.robot
+    q = robot.joints_from_sliders(plant.read_sliders())
+    tip = renderer.project(plant.data, robot.tip(q))
+    base = renderer.project(plant.data, robot.needle_base(q))
+    seg = renderer.segment(plant.data)
+    v, u = np.nonzero(seg == plant.model.geom("needle").id)
+    pixels = np.column_stack([u + 0.5, v + 0.5])  # pixel centres
+    along = (pixels - base) @ (tip - base) / np.linalg.norm(tip - base)
+    return tip, pixels[int(np.argmax(along))]
+
+
+def test_snapshot_is_not_blank(plant: MujocoPlant, renderer: SceneRenderer) -> None:
+    plant.reset(plant.robot.home_sliders)
+    for camera in ("overview", "closeup"):
+        img = renderer.render(plant.data, camera)
+        assert img.shape == (H, W, 3) and img.dtype == np.uint8
+        assert img.std() > 10.0
+        assert len(np.unique(img.reshape(-1, 3), axis=0)) > 100
+
+
+@pytest.mark.parametrize("s_mm", [(0, 0, 0, 0, 0, 0), (2, -1, 1, 2, 6, 0.3), (-3, 1, 0, -2, 4, 0)])
+def test_needle_tip_is_drawn_where_forward_kinematics_projects_it(
+    plant: MujocoPlant, renderer: SceneRenderer, s_mm: tuple[float, ...]
+) -> None:
+    s = np.array(s_mm, dtype=float)
+    s[:5] *= 1e-3
+    plant.reset(s)
+    tip, end = needle_end_pixel(renderer, plant)
+    assert 0 < tip[0] < W and 0 < tip[1] < H
+    assert np.linalg.norm(end - tip) < 1.5  # pixels
+
+
+def test_projection_rejects_points_behind_the_camera(
+    plant: MujocoPlant, renderer: SceneRenderer
+) -> None:
+    cam = plant.data.cam("closeup")
+    behind = cam.xpos + cam.xmat.reshape(3, 3)[:, 2] * 0.1  # cameras look along -z
+    with pytest.raises(InvalidInputError, match="in front of the camera"):
+        renderer.project(plant.data, behind)
+
+
+def test_unknown_camera_lists_the_cameras(plant: MujocoPlant, renderer: SceneRenderer) -> None:
+    with pytest.raises(InvalidInputError, match="closeup"):
+        renderer.render(plant.data, "top")
+
+
+def test_animation_with_tip_trace_is_written_as_gif(
+    plant: MujocoPlant, renderer: SceneRenderer, tmp_path: Path
+) -> None:
+    t = np.linspace(0.0, 1.0, 40)[:, None]
+    sliders = t * np.array([0.0, 0.0, 0.0, 0.0, 8e-3, 0.0])
+    frames = animate(plant, sliders, renderer, frames=5)
+    path = save_animation(tmp_path / "move.gif", frames, fps=10)
+    read = iio.mimread(path)
+    assert len(read) == 5
+    assert not np.array_equal(read[0], read[-1])  # the needle moved and left a trace
+    png = save_png(tmp_path / "last.png", frames[-1])
+    assert iio.imread(png).shape == (H, W, 3)
+
+
+def test_unknown_animation_format_is_rejected(tmp_path: Path) -> None:
+    frame = np.zeros((4, 4, 3), dtype=np.uint8)
+    with pytest.raises(InvalidInputError, match=r"\.gif or \.mp4"):
+        save_animation(tmp_path / "a.avi", [frame])
+
+
+def test_render_command_writes_snapshots_and_an_animation(tmp_path: Path) -> None:
+    parser = argparse.ArgumentParser()
+    render_cli.register(parser.add_subparsers())
+    args = parser.parse_args(
+        ["render", "--out", str(tmp_path), "--width", "160", "--height", "120", "--frames", "4"]
+    )
+    assert args.run(args) == 0
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert "home_closeup.png" in names and "home_overview.png" in names
+    assert any(n.endswith(".gif") for n in names)
+    assert Iramis().home_sliders.shape == (6,)
