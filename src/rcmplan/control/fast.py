@@ -1,0 +1,168 @@
+"""The fast path: compiled iRAM!S kinematics, batched evaluation and a compiled control loop.
+
+Needs numba (the `fast` extra); without it every entry point here either raises
+MissingExtraError (explicit use: `FastIramis`) or returns False so that the caller runs the
+reference Python code (`fast_converge_phase`, `fast_check_targets`). Results equal the
+reference to rounding (tests/test_fast.py checks 1e-12). When the compiled path is used is
+decided in `rcmplan.control.fast_cache` (mode "auto", "on" or "off"; see docs/performance.md).
+"""
+
+from __future__ import annotations
+
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, vector
+from rcmplan.control import fast_cache
+from rcmplan.control.augmented import VARIANTS, JacobianVariant
+from rcmplan.control.fast_phase import method_code, robot_params, run_phase_compiled
+from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
+from rcmplan.control.targets import solve_pose
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.iramis import Iramis
+from rcmplan.sim.kinematic import KinematicPlant
+
+if TYPE_CHECKING:
+    from rcmplan.control.loop import Controller
+
+__all__ = [
+    "FastIramis",
+    "compile_kernels",
+    "fast_check_targets",
+    "fast_converge_phase",
+    "method_code",
+    "robot_params",
+]
+
+
+def fast_converge_phase(
+    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+) -> bool:
+    """Run Algorithm 1 on every target of a phase in compiled code, if it applies.
+
+    Applies when the plant is a KinematicPlant, the solver a PinvSolver, DlsSolver or
+    TipSolver, and the fast path is enabled (see `fast_cache.use_fast`). Then records go to
+    controller.log, the plant and controller.lam end where the reference loop leaves them, and
+    an early stop raises the reference loop's exception. Returns False (nothing done) otherwise.
+    """
+    if type(controller.plant) is not KinematicPlant or method_code(solver) is None:
+        return False
+    if not fast_cache.use_fast(len(targets)):
+        return False
+    run_phase_compiled(controller, solver, targets, pid, sid)
+    return True
+
+
+def fast_check_targets(robot: Iramis, targets: FloatArray) -> bool:
+    """`solve_pose` on every X_ext target, screened in compiled code; False if not enabled.
+
+    The kernel flags every target that might fail (same formulas, margin 1e-12); flagged
+    targets go through `solve_pose` in order, which raises the reference exception.
+    """
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    if targets.ndim != 2 or targets.shape[1] != 6 or not fast_cache.use_fast(len(targets)):
+        return False
+    flags = np.zeros(targets.shape[0], dtype=np.bool_)
+    k = fast_cache.loop_kernels()
+    k.screen_targets(robot_params(robot), robot.params.singular_threshold, targets, flags)
+    for i in np.flatnonzero(flags):
+        solve_pose(robot, targets[i])
+    return True
+
+
+def _variant(variant: JacobianVariant) -> bool:
+    if variant not in VARIANTS:
+        raise InvalidInputError("variant", variant, f"one of {VARIANTS}")
+    return variant == "thesis"
+
+
+class FastIramis:
+    """Compiled closed-form task values, J_a and the control step of an Iramis robot.
+
+    Args:
+        robot: The robot (default: thesis iRAM!S). Raises MissingExtraError without numba.
+    """
+
+    def __init__(self, robot: Iramis | None = None) -> None:
+        self.robot = robot or Iramis()
+        self.P = robot_params(self.robot)
+        self._k: ModuleType = fast_cache.kernels()
+
+    def task(self, q: FloatArray, lam: float) -> FloatArray:
+        """X_ext = (x_tip [m], phi, psi [rad], p_rcm [m]) at (q, lambda), a (6,) array."""
+        x = np.empty(6)
+        self._k.extended_task(self.P, vector("q", q, 6), float(lam), x, np.empty(3))
+        return x
+
+    def augmented_jacobian(
+        self, q: FloatArray, lam: float, variant: JacobianVariant = "exact"
+    ) -> FloatArray:
+        """J_a (6, 6) at (q, lambda), "exact" or "thesis" angle rows."""
+        J = np.empty((6, 6))
+        self._k.augmented_jacobian(self.P, vector("q", q, 6), float(lam), _variant(variant), J)
+        return J
+
+    def step(
+        self,
+        q: FloatArray,
+        lam: float,
+        target: FloatArray,
+        K: FloatArray,
+        variant: JacobianVariant = "exact",
+        out: FloatArray | None = None,
+    ) -> FloatArray:
+        """One control step d = J_a^-1 K (target - X_ext): (dq0..dq4 [m, rad], dlambda), (6,).
+
+        No argument checks (the hot path): q (6,), target (6,) and K (6,) must be float64
+        arrays; `out` (6,) is filled and returned when given.
+        """
+        d = np.empty(6) if out is None else out
+        self._k.pinv_step(self.P, q, lam, target, K, variant == "thesis", d)
+        return d
+
+    def batch_task_jacobians(
+        self, Q: FloatArray, lam: FloatArray, variant: JacobianVariant = "exact"
+    ) -> tuple[FloatArray, FloatArray]:
+        """X_ext (N, 6) and J_a (N, 6, 6) for joints Q (N, 6) and lambdas (N,), one core."""
+        Q = np.ascontiguousarray(Q, dtype=np.float64)
+        lam = np.ascontiguousarray(lam, dtype=np.float64)
+        if Q.ndim != 2 or Q.shape[1] != 6 or lam.shape != (Q.shape[0],):
+            raise InvalidInputError("(Q, lam)", (Q.shape, lam.shape), "shapes (N, 6) and (N,)")
+        X = np.empty((Q.shape[0], 6))
+        J = np.empty((Q.shape[0], 6, 6))
+        self._k.batch_task_jacobians(self.P, Q, lam, _variant(variant), X, J)
+        return X, J
+
+
+def compile_kernels() -> None:
+    """Compile (or load from numba's cache) every kernel with the argument types used here."""
+    from rcmplan.control.loop import Controller, interpolate
+    from rcmplan.control.targets import rcm_target
+
+    robot = Iramis()
+    fast = FastIramis(robot)
+    q, K = robot.home.copy(), np.ones(6)
+    x = fast.task(q, 0.5)
+    variants: tuple[JacobianVariant, ...] = ("exact", "thesis")
+    for variant in variants:
+        fast.augmented_jacobian(q, 0.5, variant)
+        fast.step(q, 0.5, x, K, variant)
+        fast.batch_task_jacobians(q[None, :], np.array([0.5]), variant)
+    tip = robot.tip(q)
+    trocar = tip + np.array([8e-3, 0.0, 0.0])  # on the needle, 8 mm behind the tip
+    path = interpolate(tip, tip + np.array([-1e-3, 1e-4, 0.0]), 2)
+    rcm = np.array([rcm_target(t, trocar) for t in path])
+    fast_cache.loop_kernels().screen_targets(
+        robot_params(robot), 0.1, rcm, np.zeros(2, dtype=np.bool_)
+    )
+    free = interpolate(tip, tip + 1e-4, 2)
+    jobs: list[tuple[Solver, FloatArray]] = [
+        (PinvSolver(), rcm), (PinvSolver(variant="thesis"), rcm), (DlsSolver(), rcm),
+        (TipSolver(), free),
+    ]  # fmt: skip
+    for solver, targets in jobs:
+        ctl = Controller(KinematicPlant(robot), solver)
+        ctl.lam = 1.0 - 8e-3 / robot.params.l6
+        run_phase_compiled(ctl, solver, targets, ctl.log.phase_id("warm"), 0)

@@ -1,0 +1,131 @@
+"""When the compiled path runs, and where its compiled code is cached.
+
+Modes (environment variable RCMPLAN_FAST, or `set_mode`):
+- "off": never; the reference Python code runs.
+- "on": whenever numba is installed; kernels compile on first use (about 10 s once per
+  environment; numba's cache, `cache=True`, keeps them for later processes).
+- "auto" (default): compiled once it pays. Loading numba and the cached kernels costs about
+  1.2 s per process, as much as about 3,000 targets of the reference loop, so a process first
+  runs the reference code; once it has run PAYOFF_TARGETS targets (or is about to run a phase
+  that large) it switches to the compiled code if numba's cache is warm. With a cold cache it
+  keeps the reference code and starts one background process that compiles the kernels into the
+  cache (`python -m rcmplan.control.fast_cache`); a stamp file marks the cache warm when done.
+  Kernels already loaded in the process are always used. See docs/performance.md for figures.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.util
+import os
+import subprocess
+import sys
+from importlib import metadata
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+from rcmplan.exceptions import InvalidInputError, require_extra
+
+MODES = ("auto", "on", "off")
+ENV_MODE = "RCMPLAN_FAST"
+ENV_STAMPS = "RCMPLAN_CACHE_DIR"
+PAYOFF_TARGETS = 3000
+_state: dict[str, Any] = {"mode": None, "warming": None, "reference_targets": 0}
+
+
+def set_mode(mode: str | None) -> None:
+    """Choose "auto", "on" or "off"; None goes back to the environment (default "auto")."""
+    if mode is not None and mode not in MODES:
+        raise InvalidInputError("fast mode", mode, f"one of {MODES}")
+    _state["mode"] = mode
+
+
+def mode() -> str:
+    """The mode in force."""
+    chosen = _state["mode"] or os.environ.get(ENV_MODE, "auto")
+    if chosen not in MODES:
+        raise InvalidInputError(ENV_MODE, chosen, f"one of {MODES}")
+    return str(chosen)
+
+
+def numba_available() -> bool:
+    """True if numba is installed (without importing it)."""
+    return importlib.util.find_spec("numba") is not None
+
+
+def kernels() -> ModuleType:
+    """The kinematics kernels (`fast_kernels`); MissingExtraError without numba."""
+    require_extra("numba", "fast")
+    return importlib.import_module("rcmplan.control.fast_kernels")
+
+
+def loop_kernels() -> ModuleType:
+    """The compiled control loop (`fast_loop`); MissingExtraError without numba."""
+    require_extra("numba", "fast")
+    return importlib.import_module("rcmplan.control.fast_loop")
+
+
+def stamp_path() -> Path:
+    """The file that marks numba's cache as holding every kernel of this source and numba."""
+    here = Path(__file__).parent
+    key = hashlib.sha256()
+    for name in ("fast_kernels.py", "fast_loop.py"):
+        key.update((here / name).read_bytes())
+    key.update(metadata.version("numba").encode())
+    key.update(sys.version.encode())
+    key.update(os.environ.get("NUMBA_CACHE_DIR", "").encode())
+    key.update(str(here).encode())
+    base = os.environ.get(ENV_STAMPS) or os.environ.get("XDG_CACHE_HOME") or "~/.cache"
+    return Path(base).expanduser() / "rcmplan" / f"fast-{key.hexdigest()[:16]}.ok"
+
+
+def loaded() -> bool:
+    """True if the compiled loop is loaded in this process (compiled or read from the cache)."""
+    loop = sys.modules.get("rcmplan.control.fast_loop")
+    return loop is not None and bool(loop.run_targets.signatures)
+
+
+def use_fast(n_targets: int = 0) -> bool:
+    """Whether the compiled path runs now for a job of n_targets (see the module docstring)."""
+    chosen = mode()
+    if chosen == "off" or not numba_available():
+        return False
+    if chosen == "on" or loaded():
+        return True
+    _state["reference_targets"] += n_targets
+    if _state["reference_targets"] < PAYOFF_TARGETS:
+        return False
+    if stamp_path().exists():
+        return True
+    warm_in_background()
+    return False
+
+
+def warm_in_background() -> None:
+    """Start, once per process, `python -m rcmplan.control.fast_cache` to fill the cache."""
+    if _state["warming"] is not None:
+        return
+    _state["warming"] = subprocess.Popen(
+        [sys.executable, "-m", "rcmplan.control.fast_cache"],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
+
+
+def compile_all() -> Path:
+    """Compile every kernel (numba writes them to its cache), then write the stamp."""
+    from rcmplan.control.fast import compile_kernels
+
+    compile_kernels()
+    path = stamp_path()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("numba cache of rcmplan.control.fast_kernels and fast_loop is warm\n")
+    return path
+
+
+if __name__ == "__main__":
+    print(compile_all())

@@ -1,0 +1,257 @@
+"""Algorithm 1 on the kinematic plant, compiled: the loop of `Controller.converge` over a phase.
+
+Each iteration does what the reference loop does with a `KinematicPlant`, in the same order:
+read sliders, joints through the PCJMs, drift correction (lambda of the needle point closest to
+the trocar), task error, record (from the second iteration on), per-component tolerance check,
+iteration cap, singularity check, step, sliders from joints, travel check, command and advance
+(the sliders reach the command, time moves on by dt).
+
+The kernel stops with a status code instead of raising; `rcmplan.control.fast` turns the code
+into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
+`REC_COLUMNS`, `irec` (cap, 2) with (step, iteration).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.fast_kernels import (
+    augmented_jacobian,
+    axis_from_angles,
+    dls_solve,
+    extended_task,
+    first_beyond_travel,
+    joints_from_sliders,
+    needle_point,
+    njit,
+    point_jacobian,
+    sliders_from_joints,
+    solve_augmented,
+    tip_jacobian,
+    tip_of_target,
+)
+
+PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3
+DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP = range(7)
+REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
+               "tip": (14, 17), "rcm": (17, 20), "trocar": (20, 23), "base": (23, 26),
+               "target_tip": (26, 29), "error": (29, 35)}  # fmt: skip
+REC_WIDTH = 35
+
+
+@njit(cache=True)
+def put(dst: FloatArray, i: int, src: FloatArray, j: int, n: int) -> None:
+    """dst[i:i+n] = src[j:j+n] (explicit: slice assignment is slow to compile)."""
+    for k in range(n):
+        dst[i + k] = src[j + k]
+
+
+@njit(cache=True)
+def closest_lambda(P: FloatArray, q: FloatArray, point: FloatArray, w: FloatArray) -> float:
+    """lambda in [0, 1] of the needle point closest to `point`; w (6,) is scratch."""
+    needle_point(P, q, 0.0, w[:3])
+    needle_point(P, q, 1.0, w[3:])
+    num, den = 0.0, 0.0
+    for i in range(3):
+        axis = w[3 + i] - w[i]
+        num += (point[i] - w[i]) * axis
+        den += axis * axis
+    return min(1.0, max(0.0, num / den))
+
+
+@njit(cache=True)
+def is_pivot(tip: FloatArray, target: FloatArray) -> bool:
+    """True when the target's tip lies on its trocar point (within 1 nm)."""
+    acc = 0.0
+    for i in range(3):
+        acc += (tip[i] - target[3 + i]) ** 2
+    return math.sqrt(acc) < 1e-9
+
+
+@njit(cache=True)
+def task_error(
+    P: FloatArray, method: int, q: FloatArray, lam: float, target: FloatArray,
+    tip_t: FloatArray, pivot: bool, e: FloatArray, w: FloatArray,
+) -> int:  # fmt: skip
+    """The solver's task error into e; returns its length (6, or 3 for the tip solver)."""
+    if method <= PINV_THESIS:
+        extended_task(P, q, lam, e, w[:3])
+        for i in range(6):
+            e[i] = target[i] - e[i]
+        return 6
+    needle_point(P, q, 1.0, w[:3])
+    for i in range(3):
+        e[i] = (target[i] if method == TIP else tip_t[i]) - w[i]
+    if method == TIP:
+        return 3
+    if pivot:  # the needle base to its place on the target axis, l6 behind the tip
+        axis_from_angles(target[1], target[2], w[3:])
+        needle_point(P, q, 0.0, w[:3])
+        for i in range(3):
+            e[3 + i] = (tip_t[i] - P[5] * w[3 + i]) - w[i]
+    else:
+        needle_point(P, q, lam, w[:3])
+        for i in range(3):
+            e[3 + i] = target[3 + i] - w[i]
+    return 6
+
+
+@njit(cache=True)
+def solve_step(
+    P: FloatArray, method: int, K: FloatArray, damping: float, q: FloatArray, lam: float,
+    pivot: bool, e: FloatArray, J: FloatArray, A: FloatArray, f: FloatArray, d: FloatArray,
+) -> None:  # fmt: skip
+    """The solver's step (dq0..dq4, dlambda) into d; J, A, f are scratch."""
+    if method <= PINV_THESIS:
+        augmented_jacobian(P, q, lam, method == PINV_THESIS, J)
+        for i in range(6):
+            f[i] = K[i] * e[i]
+        solve_augmented(J, f, d)
+    elif method == DLS:
+        tip_jacobian(P, q, J, 0)
+        point_jacobian(P, q, 0.0 if pivot else lam, J, 3)
+        if pivot:
+            J[3, 5], J[4, 5], J[5, 5] = 0.0, 0.0, 0.0
+        dls_solve(J, e, damping, 6, 6, A, f, d)
+    else:
+        tip_jacobian(P, q, J, 0)
+        dls_solve(J, e, damping, 3, 5, A, f, d)
+        d[5] = 0.0
+
+
+@njit(cache=True)
+def record(
+    P: FloatArray, row: FloatArray, t: float, s: FloatArray, q: FloatArray, lam: float,
+    trocar: FloatArray, tip_t: FloatArray, e: FloatArray, m: int,
+) -> None:  # fmt: skip
+    """One log record (see REC_COLUMNS) into row (35,)."""
+    row[0] = t
+    put(row, 1, s, 0, 6)
+    put(row, 7, q, 0, 6)
+    row[13] = lam
+    needle_point(P, q, 1.0, row[14:17])
+    needle_point(P, q, lam, row[17:20])
+    put(row, 20, trocar, 0, 3)
+    needle_point(P, q, 0.0, row[23:26])
+    put(row, 26, tip_t, 0, 3)
+    for i in range(29 + m, 35):
+        row[i] = np.nan
+    put(row, 29, e, 0, m)
+
+
+@njit(cache=True)
+def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
+    """Every |e_i| within tol_i (False for NaN)."""
+    for i in range(m):  # noqa: SIM110 (a plain loop compiles best)
+        if not abs(e[i]) <= tol[i]:
+            return False
+    return True
+
+
+@njit(cache=True)
+def run_targets(
+    P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
+    drift: bool, thr: float, targets: FloatArray, k0: int, s: FloatArray, state: FloatArray,
+    rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
+) -> int:  # fmt: skip
+    """Algorithm 1 on targets[k0:] from sliders s; returns a status code.
+
+    state = (lambda, time [s], dt [s]) is updated in place, as is s. On return info holds
+    (records written, target index reached, slider index for SLIDER_LIMIT) and fail holds
+    (q (6), q_new (6), s_new (6), error (6)) of the last iteration. PAUSED means the record
+    buffer could not hold another target: call again from info[1].
+    """
+    rcm = method != TIP
+    q, qn, sn = fail[0:6], fail[6:12], fail[12:18]
+    e = fail[18:24]
+    w, d, f = np.empty(6), np.empty(6), np.empty(6)
+    J, A = np.empty((6, 6)), np.empty((6, 6))
+    trocar, tip_t = np.full(3, np.nan), np.empty(3)
+    n, cap = 0, rec.shape[0]
+    for k in range(k0, targets.shape[0]):
+        info[0], info[1] = n, k
+        if n + max_it > cap:
+            return PAUSED
+        target = targets[k]
+        pivot = False
+        if rcm:
+            put(trocar, 0, target, 3, 3)
+            if not tip_of_target(target, w, tip_t):
+                return NO_TIP
+            pivot = is_pivot(tip_t, target)
+        else:
+            put(tip_t, 0, target, 0, 3)
+        for it in range(max_it + 1):
+            joints_from_sliders(P, s, q)
+            if rcm and drift:
+                state[0] = closest_lambda(P, q, trocar, w)
+            m = task_error(P, method, q, state[0], target, tip_t, pivot, e, w)
+            if it > 0:
+                record(P, rec[n], state[1], s, q, state[0], trocar, tip_t, e, m)
+                irec[n, 0], irec[n, 1] = k, it
+                n += 1
+                info[0] = n
+            if converged(e, tol, m):
+                break
+            if it == max_it:
+                return NO_CONVERGENCE
+            if min(abs(math.cos(q[1])), abs(math.cos(q[3]))) < thr:
+                return SINGULAR
+            solve_step(P, method, K, damping, q, state[0], pivot, e, J, A, f, d)
+            for i in range(6):
+                qn[i] = q[i] + d[i] if i < 5 else q[i]
+            state[0] += d[5]
+            if not sliders_from_joints(P, qn, sn):
+                return BAD_JOINTS
+            info[2] = first_beyond_travel(P, sn)
+            if info[2] >= 0:
+                return SLIDER_LIMIT
+            put(s, 0, sn, 0, 6)
+            state[1] += state[2]
+    info[0], info[1] = n, targets.shape[0]
+    return DONE
+
+
+@njit(cache=True)
+def pose_clear(
+    P: FloatArray, thr: float, x: FloatArray, a: FloatArray, tip: FloatArray, q: FloatArray,
+    s: FloatArray,
+) -> bool:  # fmt: skip
+    """True if `solve_pose` surely accepts X_ext x: the same formulas, with a small margin."""
+    margin = 1e-12
+    for i in range(6):
+        if not math.isfinite(x[i]):
+            return False
+    phi, psi = x[1], x[2]
+    if min(abs(math.cos(phi)), abs(math.cos(psi))) < thr + margin:
+        return False
+    if not tip_of_target(x, a, tip) or abs(a[0]) < 2e-12:
+        return False
+    depth = 0.0
+    for i in range(3):
+        depth += (tip[i] - x[3 + i]) * a[i]
+    lam = 1.0 - depth / P[5]
+    if lam < -1e-9 + margin or lam > 1.0 + 1e-9 - margin:
+        return False
+    c1, s1, c3, s3 = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
+    w = (P[1] * s1 - P[4] * c1 * s3 - tip[0]) / (c1 * c3)  # x row of eq. 2.7
+    q[0] = tip[2] - (P[0] + P[1] * c1 + s1 * c3 * w + P[4] * s1 * s3)
+    q[1], q[3], q[4], q[5] = phi, psi, w - P[5], 0.0
+    q[2] = tip[1] - (P[2] + P[3] - s3 * w + P[4] * c3)
+    if not sliders_from_joints(P, q, s):
+        return False
+    for i in range(6):  # noqa: SIM110
+        if s[i] < P[7 + i] + margin or s[i] > P[13 + i] - margin:
+            return False
+    return True
+
+
+@njit(cache=True)
+def screen_targets(P: FloatArray, thr: float, targets: FloatArray, flags: np.ndarray) -> None:
+    """flags[k] = True where X_ext target k may fail `solve_pose` (it must be checked there)."""
+    a, tip, q, s = np.empty(3), np.empty(3), np.empty(6), np.empty(6)
+    for k in range(targets.shape[0]):
+        flags[k] = not pose_clear(P, thr, targets[k], a, tip, q, s)

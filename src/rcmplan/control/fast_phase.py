@@ -1,0 +1,124 @@
+"""One phase of Algorithm 1 through the compiled loop, with the reference loop's side effects.
+
+Records go to the controller's log, the kinematic plant ends at the last slider command with
+its time advanced, controller.lam holds the last lambda, and an early stop raises what
+`Controller.converge` raises: the failing check is repeated with the reference function, which
+raises the same exception with the same message.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray
+from rcmplan.control import fast_cache
+from rcmplan.control.log import LogBuilder
+from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
+from rcmplan.control.targets import tip_of_target
+from rcmplan.exceptions import ConvergenceError, RcmplanError
+from rcmplan.robot.iramis import Iramis
+
+if TYPE_CHECKING:
+    from rcmplan.control.loop import Controller
+
+# status codes and record layout of rcmplan.control.fast_loop (kept here to avoid importing it)
+DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP = range(7)
+REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
+               "tip": (14, 17), "rcm": (17, 20), "trocar": (20, 23), "base": (23, 26),
+               "target_tip": (26, 29), "error": (29, 35)}  # fmt: skip
+VECTORS = tuple(k for k, (a, b) in REC_COLUMNS.items() if b - a > 1)
+
+
+def robot_params(robot: Iramis) -> FloatArray:
+    """The parameter vector P of the kernels: l1..l6 [m], PCJM spacing d [m], travel (6 + 6)."""
+    p = robot.params
+    head = [p.l1, p.l2, p.l3, p.l4, p.l5, p.l6, robot.pcjm.spacing]
+    return np.array([*head, *robot.lower, *robot.upper], dtype=np.float64)
+
+
+def method_code(solver: Solver) -> int | None:
+    """The kernel's method code for a solver the compiled loop reproduces, else None."""
+    if type(solver) is PinvSolver:
+        return 0 if solver.variant == "exact" else 1
+    if type(solver) is DlsSolver:
+        return 2
+    if type(solver) is TipSolver:
+        return 3
+    return None
+
+
+def solver_arrays(solver: Solver) -> tuple[FloatArray, float, FloatArray]:
+    """(K (6,), damping [m], tolerance padded to (6,)) of a supported solver."""
+    K = np.asarray(getattr(solver, "K", (1.0,) * 6), dtype=np.float64)
+    tol = np.zeros(6)
+    t = solver.tolerance()
+    tol[: t.shape[0]] = t
+    return K, float(getattr(solver, "damping", 0.0)), tol
+
+
+def append_records(
+    log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n: int, pid: int, sid: int
+) -> None:
+    """Append the first n compiled records to a LogBuilder."""
+    cols = {k: rec[:n, REC_COLUMNS[k][0] : REC_COLUMNS[k][1]] for k in VECTORS}
+    for i in range(n):
+        log.append(
+            time=float(rec[i, 0]), lam=float(rec[i, 13]), step=int(irec[i, 0]),
+            iteration=int(irec[i, 1]), solver=sid, phase=pid,
+            **{k: c[i] for k, c in cols.items()},
+        )  # fmt: skip
+
+
+def run_phase_compiled(
+    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+) -> None:
+    """Algorithm 1 on each target in turn, compiled; see the module docstring."""
+    loop = fast_cache.loop_kernels()
+    robot, plant, cfg = controller.robot, controller.plant, controller.settings
+    code = method_code(solver)
+    K, damping, tol = solver_arrays(solver)
+    thr = robot.params.singular_threshold
+    thr = thr if cfg.singular_threshold is None else cfg.singular_threshold
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    s = plant.read_sliders()
+    state = np.array([controller.lam, plant.time, plant.dt])
+    cap = 4 * targets.shape[0] + cfg.max_iterations
+    rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
+    info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
+    args = (robot_params(robot), code, K, damping, tol, cfg.max_iterations,
+            cfg.drift_correction, float(thr), targets)  # fmt: skip
+    status, k0 = PAUSED, 0
+    while status == PAUSED:
+        status = loop.run_targets(*args, k0, s, state, rec, irec, info, fail)
+        append_records(controller.log, rec, irec, int(info[0]), pid, sid)
+        k0 = int(info[1])
+    plant.command_sliders(s)
+    plant.advance()
+    plant.time = float(state[1])
+    controller.lam = float(state[0])
+    if status != DONE:
+        where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
+        m = solver.tolerance().shape[0]
+        raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
+
+
+def raise_stop(
+    controller: Controller, status: int, k: int, targets: FloatArray, fail: FloatArray,
+    tol: FloatArray, where: str,
+) -> None:  # fmt: skip
+    """Raise the exception the reference loop raises for a compiled early stop."""
+    robot, cfg = controller.robot, controller.settings
+    q, qn, sn, e = fail[0:6].copy(), fail[6:12].copy(), fail[12:18].copy(), fail[18:24]
+    if status == NO_CONVERGENCE:
+        raise ConvergenceError(cfg.max_iterations, np.abs(e[: tol.size]), tol, where=where)
+    checks: dict[int, Any] = {
+        SINGULAR: lambda: robot.check_singularity(q, cfg.singular_threshold),
+        BAD_JOINTS: lambda: robot.sliders_from_joints(qn),
+        SLIDER_LIMIT: lambda: robot.check_sliders(sn),
+        NO_TIP: lambda: tip_of_target(targets[k]),
+    }
+    checks[status]()
+    raise RcmplanError(f"compiled loop stopped with status {status} at target {k}")
