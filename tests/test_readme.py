@@ -1,0 +1,24 @@
+"""The README's Python example runs as written."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_readme_python_example_runs(capsys) -> None:
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+    assert blocks, "the README has a Python example"
+    exec(compile(blocks[0], "README.md", "exec"), {})
+    printed = float(capsys.readouterr().out.strip().splitlines()[-1])
+    assert 0.0 <= printed <= 1e-6  # the example prints the max RCM deviation in metres
+
+
+def test_readme_opens_with_the_two_commands() -> None:
+    lines = README.read_text().splitlines()
+    i = lines.index("```bash")
+    assert lines[i + 1] == 'pip install ".[all]" && rcmplan inject'
+    assert lines[i + 2] == "bash scripts/check.sh"
+    assert lines[i + 3] == "```"
