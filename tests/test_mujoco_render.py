@@ -9,7 +9,6 @@ import imageio.v2 as iio
 import numpy as np
 import pytest
 
-from rcmplan import Iramis
 from rcmplan.cli import render as render_cli
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.sim.mujoco.plant import MujocoPlant
@@ -106,4 +105,3 @@ def test_render_command_writes_snapshots_and_an_animation(tmp_path: Path) -> Non
     names = sorted(p.name for p in tmp_path.iterdir())
     assert "home_closeup.png" in names and "home_overview.png" in names
     assert any(n.endswith(".gif") for n in names)
-    assert Iramis().home_sliders.shape == (6,)
