@@ -1,0 +1,163 @@
+"""The hard-constrained QP controller: one small QP per control step (`--method qp`).
+
+Each step minimises the weighted X_ext error plus damping over the slider increments and
+delta lambda, subject to the RCM, slider travel and speed over the control period, lambda in
+[0, 1], a retina margin and a singular margin (qp_problem.py; docs/qp.md). In the spirit of
+constrained-optimisation virtual fixtures (Li and Taylor); the thesis's pseudoinverse and DLS,
+and V-REP's IK, hold no limits.
+
+Termination at a limit. The loop (Algorithm 1) stops when every error component is within
+tolerance. The QP solver's `error` is the part of the task error that a feasible step can still
+remove: J x* / K (componentwise), with x* the QP's solution at this state. With no constraint
+active it equals the X_ext error (up to the damping, relative size D^2/sigma_min^2); at the
+closest feasible point to the target it is zero, so the loop moves on to the next target. The
+true X_ext error stays available through `task_error`, and the log's tip and target records.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar
+from rcmplan.control.augmented import extended_task
+from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
+from rcmplan.control.qp_limits import QpLimits
+from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
+from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
+from rcmplan.control.targets import solve_pose, tip_of_target
+from rcmplan.exceptions import UnreachableTargetError
+from rcmplan.robot.iramis import Iramis
+from rcmplan.scene.eye import Eye
+
+
+class QpSolver:
+    """Step solver holding RCM, slider, lambda, eye and singular limits at every step.
+
+    Args:
+        robot: The robot whose limits are held.
+        eye: The eye (retina margin); None holds no eye constraint.
+        dt: Control period in [s]: slider speed limits apply over it.
+        K: Diagonal gains (6,), each in (0, 2).
+        damping: Damping D >= 0 on the step (dimensionless, per unit slider motion).
+        tol: Loop tolerance.
+        limits: What is held (checked against robot and eye here, before any motion).
+        backend: QP solver (see qp_backends.BACKENDS).
+    """
+
+    name: ClassVar[str] = "qp"
+    kind: ClassVar[SolverKind] = "rcm"
+
+    def __init__(
+        self,
+        robot: Iramis,
+        eye: Eye | None = None,
+        dt: float = 1e-3,
+        K: tuple[float, ...] = (1.0,) * 6,
+        damping: float = 1e-4,
+        tol: Tolerance | None = None,
+        limits: QpLimits | None = None,
+        backend: str = DEFAULT_BACKEND,
+    ) -> None:
+        self.robot = robot
+        self.eye = eye
+        self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
+        self.K = check_gains(K)
+        self.damping = check_damping(damping)
+        self.tol = (tol or Tolerance()).checked()
+        self.limits = (limits or QpLimits()).check(robot, eye)
+        self.backend = check_backend(backend)
+        self.last: tuple[StepQP, QpResult] | None = None
+        self._key: bytes = b""
+        self._checked: bytes = b""
+
+    @classmethod
+    def from_settings(
+        cls, cfg: Any, robot: Iramis, eye: Eye | None = None, dt: float = 1e-3, **extra: Any
+    ) -> QpSolver:
+        """From MethodSettings (K, damping, tolerance, extra); `extra` adds or overrides keys."""
+        options: dict[str, Any] = {**dict(cfg.extra), **extra}
+        backend = str(options.pop("solver", DEFAULT_BACKEND))
+        limits = QpLimits.from_extra(options)
+        return cls(robot, eye, dt, tuple(cfg.K), cfg.damping, cfg.tolerance, limits, backend)
+
+    # --- the Solver protocol ---------------------------------------------------------------
+    def error(self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+        """The X_ext error a feasible step can still remove, J x* / K (see module docstring)."""
+        self.check_target(target)
+        step, result = self._solve(robot, q, lam, target)
+        return np.asarray(step.task @ result.x / self.K, dtype=float)
+
+    def tolerance(self) -> FloatArray:
+        """(position, angle, angle, position x3)."""
+        p, a = self.tol
+        return np.array([p, a, a, p, p, p])
+
+    def step(
+        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
+    ) -> tuple[FloatArray, float]:
+        """The QP's step: joint increments recovered exactly from the slider increments."""
+        step, result = self._solve(robot, q, lam, target)
+        s = step.sliders.copy()
+        s[:5] += result.x[:5] * SCALE
+        dq = robot.joints_from_sliders(s) - q
+        return dq[:5], float(result.x[5] * SCALE / robot.params.l6)
+
+    # --- helpers ----------------------------------------------------------------------------
+    def task_error(
+        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray
+    ) -> FloatArray:
+        """The plain X_ext error, target minus X_ext now."""
+        return np.asarray(target - extended_task(robot, q, lam), dtype=float)
+
+    def _solve(
+        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray
+    ) -> tuple[StepQP, QpResult]:
+        """Build and solve this state's QP once; `error` and `step` share the result."""
+        key = np.concatenate([q, [lam], target]).tobytes()
+        if self.last is not None and key == self._key:
+            return self.last
+        e = self.task_error(robot, q, lam, target)
+        inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.eye, self.limits)
+        step = build_step(robot, inp)
+        result = solve(step.problem, self.backend)
+        self.last, self._key = (step, result), key
+        return self.last
+
+    def check_target(self, target: FloatArray) -> None:
+        """Refuse a target no feasible motion reaches, before moving towards it.
+
+        Pose within slider travel and the singular range (solve_pose), and with an eye the
+        target tip inside the eye (on or within the retina) and in front of the trocar.
+        """
+        key = target.tobytes()
+        if key == self._checked:
+            return
+        solve_pose(self.robot, target)
+        if self.eye is not None:
+            tip = tip_of_target(target)
+            depth = self.eye.distance_to_retina(tip)
+            if depth < -self.limits.contact_tolerance and not self._in_port(tip):
+                raise UnreachableTargetError(
+                    f"the target tip lies {1e3 * -depth:.3f} mm beyond the retina; the QP "
+                    "keeps the tip inside the eye",
+                    target,
+                )
+        self._checked = key
+
+    def check_targets(self, targets: FloatArray) -> None:
+        """check_target for every row of (N, 6) targets (call before a run)."""
+        for t in np.atleast_2d(targets):
+            self.check_target(t)
+
+    def _in_port(self, tip: FloatArray) -> bool:
+        eye = self.eye
+        return eye is not None and bool(np.linalg.norm(tip - eye.port) <= self.limits.port_zone)
+
+
+def make_qp(robot: Iramis, eye: Eye | None = None, dt: float = 1e-3, **options: Any) -> QpSolver:
+    """A QpSolver with default settings and unit-suffixed options (as in a scenario's [qp])."""
+    from rcmplan.control.methods import MethodSettings
+
+    return QpSolver.from_settings(MethodSettings(), robot, eye, dt, **options)

@@ -1,0 +1,153 @@
+"""Constraint settings of the QP controller, checked before any motion.
+
+Scenario files and `MethodSettings.extra` name these options with their unit in the key
+(`travel_margin_mm`); `QpLimits.from_extra` converts them to SI.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from rcmplan._validate import scalar, vector
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.iramis import Iramis
+from rcmplan.scene.eye import Eye
+
+# extra key -> (field, factor to SI)
+EXTRA_KEYS: dict[str, tuple[str, float]] = {
+    "rcm_tolerance_um": ("rcm_tolerance", 1e-6),
+    "travel_margin_mm": ("travel_margin", 1e-3),
+    "retina_margin_mm": ("retina_margin", 1e-3),
+    "eye_gain": ("eye_gain", 1.0),
+    "port_zone_mm": ("port_zone", 1e-3),
+    "contact_tolerance_um": ("contact_tolerance", 1e-6),
+    "singular_margin": ("singular_margin", 1.0),
+    "singular_gain": ("singular_gain", 1.0),
+    "angle_weight_mm_per_rad": ("angle_weight", 1e-3),
+    "rcm_weight": ("rcm_weight", 1.0),
+}
+
+
+@dataclass(frozen=True)
+class QpLimits:
+    """What the QP holds at every step, SI units.
+
+    Attributes:
+        rcm_tolerance: Largest distance in [m] from the trocar point to the needle line (a
+            linearised box of half-width tol/sqrt(2) on the two axes normal to the needle); 0
+            makes the RCM a linearised equality. Must be below
+            the trocar radius. Default 0.5 um, about 0.1 % of the thesis's 0.45 mm port.
+        travel_margin: Distance kept from each slider's hard travel end in [m].
+        retina_margin: Distance kept from the retina by the tip in [m], except at a contact.
+        eye_gain: Velocity-damper gain in (0, 1]: the gap to a floor shrinks at most by this
+            fraction per step.
+        port_zone: Radius around the trocar point in [m] inside which the retina field is off
+            (the tip passes the wall there, at the pars plana, not over the retina).
+        contact_tolerance: A target tip within this distance [m] of the retina (or of a point in
+            `contacts`) is a contact: the margin is relaxed to the target's own depth.
+        contacts: Extra contact points (each (3,) in [m]) where the margin is relaxed.
+        singular_margin: Smallest min(|cos q1|, |cos q3|) kept; None: the robot's threshold
+            plus 0.05.
+        singular_gain: Damper gain in (0, 1] of the singular margin.
+        angle_weight: Weight of the needle-angle rows in [m/rad] (1 mrad counts as 10 um).
+        rcm_weight: Weight of the RCM rows (dimensionless).
+    """
+
+    rcm_tolerance: float = 0.5e-6
+    travel_margin: float = 0.5e-3
+    retina_margin: float = 0.25e-3
+    eye_gain: float = 0.5
+    port_zone: float = 2e-3
+    contact_tolerance: float = 1e-6
+    contacts: tuple[tuple[float, float, float], ...] = ()
+    singular_margin: float | None = None
+    singular_gain: float = 0.5
+    angle_weight: float = 10e-3
+    rcm_weight: float = 1.0
+
+    def __post_init__(self) -> None:
+        scalar("rcm_tolerance", self.rcm_tolerance, 0.0, 5e-3)
+        scalar("travel_margin", self.travel_margin, 0.0, 0.1)
+        scalar("retina_margin", self.retina_margin, 0.0, 0.02)
+        scalar("eye_gain", self.eye_gain, 0.0, 1.0, low_open=True)
+        scalar("port_zone", self.port_zone, 0.0, 0.02)
+        scalar("contact_tolerance", self.contact_tolerance, 0.0, 1e-3)
+        scalar("singular_gain", self.singular_gain, 0.0, 1.0, low_open=True)
+        scalar("angle_weight", self.angle_weight, 0.0, 1.0, low_open=True)
+        scalar("rcm_weight", self.rcm_weight, 0.0, 1e6, low_open=True)
+        if self.singular_margin is not None:
+            scalar("singular_margin", self.singular_margin, 0.0, 1.0, low_open=True, high_open=True)
+        pts = tuple(tuple(vector(f"contacts[{i}]", c, 3)) for i, c in enumerate(self.contacts))
+        object.__setattr__(self, "contacts", pts)
+
+    @classmethod
+    def from_extra(cls, extra: Mapping[str, Any]) -> QpLimits:
+        """Limits from unit-suffixed keys (see EXTRA_KEYS; `contacts_mm`: a list of points)."""
+        kwargs: dict[str, Any] = {}
+        for key, value in extra.items():
+            if key == "contacts_mm":
+                kwargs["contacts"] = tuple(tuple(1e-3 * np.asarray(c, float)) for c in value)
+            elif key in EXTRA_KEYS:
+                name, factor = EXTRA_KEYS[key]
+                kwargs[name] = scalar(key, value) * factor
+            else:
+                valid = sorted([*EXTRA_KEYS, "contacts_mm", "solver"])
+                raise InvalidInputError("qp option", key, f"one of {valid}")
+        return cls(**kwargs)
+
+    def singular_floor(self, robot: Iramis) -> float:
+        """The min(|cos q1|, |cos q3|) the QP keeps."""
+        if self.singular_margin is None:
+            return robot.params.singular_threshold + 0.05
+        return self.singular_margin
+
+    def check(self, robot: Iramis, eye: Eye | None) -> QpLimits:
+        """Raise InvalidInputError for limits inconsistent with the robot or the eye."""
+        check_robot_limits(robot, self.travel_margin)
+        if self.singular_floor(robot) <= robot.params.singular_threshold:
+            raise InvalidInputError(
+                "singular_margin",
+                self.singular_margin,
+                f"above the robot's singular threshold {robot.params.singular_threshold:g}",
+            )
+        if eye is not None:
+            check_eye_limits(self, eye)
+        return self
+
+
+def check_robot_limits(robot: Iramis, margin: float) -> None:
+    """Slider travel must be ordered with room for the margin; speeds positive and finite."""
+    lo, hi, v = robot.lower, robot.upper, robot.speed
+    bad = np.flatnonzero(~(hi - lo > 2.0 * margin))
+    if bad.size:
+        raise InvalidInputError(
+            "slider travel",
+            (lo.tolist(), hi.tolist()),
+            f"lower < upper with room for twice the travel margin {margin:g} m "
+            f"(fails for slider index {bad.tolist()})",
+        )
+    if not np.all(np.isfinite(v)) or np.any(v <= 0.0):
+        raise InvalidInputError("slider speed", v.tolist(), "positive finite speeds")
+
+
+def check_eye_limits(lim: QpLimits, eye: Eye) -> None:
+    """The RCM tolerance must fit in the port; the port zone must clear the wall and margin."""
+    if lim.rcm_tolerance >= eye.trocar_radius:
+        raise InvalidInputError(
+            "rcm_tolerance",
+            lim.rcm_tolerance,
+            f"below the trocar radius {eye.trocar_radius:g} m",
+        )
+    need = eye.wall + lim.retina_margin
+    if lim.port_zone <= need:
+        raise InvalidInputError(
+            "port_zone",
+            lim.port_zone,
+            f"above wall + retina margin = {need:g} m, or retraction through the port is blocked",
+        )
+    if lim.retina_margin >= eye.retina_radius:
+        raise InvalidInputError("retina_margin", lim.retina_margin, "below the retina radius")
