@@ -109,7 +109,13 @@ def run_sweep(
     ex: Executor = LocalExecutor() if executor is None else executor
     try:
         results, resumed = run_targets(
-            settings.motion, sample, sample.reachable_ids, ex, checkpoint, on_chunk, chunk_size
+            settings.motion,
+            sample,
+            sample.reachable_ids.tolist(),
+            ex,
+            checkpoint,
+            on_chunk,
+            chunk_size,
         )
     finally:
         if own:
