@@ -4,11 +4,15 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# Headless MuJoCo rendering through EGL and Mesa (no GPU needed).
+EGL_PACKAGES="libegl1 libegl-mesa0 libgl1-mesa-dri libgles2"
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
-  if ! ldconfig -p | grep -q 'libEGL.so.1' || ! ldconfig -p | grep -q 'libOSMesa'; then
+  # shellcheck disable=SC2086
+  if ! dpkg -s $EGL_PACKAGES >/dev/null 2>&1; then
     apt-get update -qq
+    # shellcheck disable=SC2086
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends \
-      libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libosmesa6 >/dev/null
+      $EGL_PACKAGES >/dev/null
   fi
 fi
 

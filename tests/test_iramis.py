@@ -181,10 +181,10 @@ def test_singular_pose_raises_with_measure_and_threshold(robot: Iramis) -> None:
 
 def test_sliders_beyond_travel_raise_naming_the_slider_and_range(robot: Iramis) -> None:
     s = np.zeros(6)
-    s[4] = 0.05
-    with pytest.raises(SliderLimitError, match=r"L5 = 0.05 is beyond its travel \[-0.01, 0.04\]"):
+    s[4] = 0.06
+    with pytest.raises(SliderLimitError, match=r"L5 = 0.06 is beyond its travel \[-0.01, 0.05\]"):
         robot.check_sliders(s)
-    np.testing.assert_allclose(robot.slider_margin(np.zeros(6))[:4], 0.025)
+    np.testing.assert_allclose(robot.slider_margin(np.zeros(6))[:4], 0.04)
 
 
 @pytest.mark.parametrize("bad", [np.zeros(5), np.full(6, np.nan), "abc", np.zeros((2, 6))])

@@ -97,9 +97,10 @@ def run_scenario(
     error: RcmplanError | None = None
     controller: Controller | None = None
     try:
-        plant = make_plant(scenario.plant, robot, dt=scenario.dt)
-        plant.reset(robot.home_sliders)
         eye = scenario.eye(robot)
+        scene = {"eye": eye, "points": scenario.points(eye)}
+        plant = make_plant(scenario.plant, robot, scene=scene, dt=scenario.dt)
+        plant.reset(robot.home_sliders)
         solver = make_solver(
             scenario.method, scenario.method_settings, robot, eye=eye, dt=scenario.dt
         )

@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 from rcmplan.exceptions import RcmplanError
 
-COMMANDS = ("compare", "inject", "reproduce", "robot")
+COMMANDS = ("compare", "inject", "render", "reproduce", "robot")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -15,7 +15,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.robot.iramis import Iramis
-from rcmplan.sim.mujoco.scene import EyePhantom
+from rcmplan.sim.mujoco.scene import EyePhantom, phantom_of
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -52,8 +52,7 @@ def scenario_trajectory(args: argparse.Namespace, robot: Iramis) -> tuple[FloatA
     if not result.ok:
         print(f"rcmplan render: run stopped early ({result.status}); animating the partial log")
     eye = scenario.eye(robot)
-    points = np.array(list(scenario.points(eye).as_dict().values()))
-    phantom = EyePhantom(eye.center, eye.radius, eye.port, points)
+    phantom = phantom_of(eye, scenario.points(eye))
     return np.vstack([robot.home_sliders, result.log.sliders]), phantom
 
 

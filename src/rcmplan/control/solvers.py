@@ -26,7 +26,7 @@ class Tolerance(NamedTuple):
     """Loop tolerances, kept apart by unit: position in [m], angle in [rad]."""
 
     position: float = 1e-8
-    angle: float = 1e-8
+    angle: float = 1e-7
 
     def checked(self) -> Tolerance:
         """Return self if both tolerances are positive and finite, else raise."""

@@ -196,7 +196,7 @@ def scenario_from_dict(data: dict[str, Any]) -> Scenario:
         "spread": pts.get("spread_rad", 0.12),
     }
     overrides = {n: tuple(v * MM for v in pts[f"{n}_mm"]) for n in POINT_NAMES if f"{n}_mm" in pts}
-    tol = Tolerance(ctl.get("tolerance_position_m", 1e-8), ctl.get("tolerance_angle_rad", 1e-8))
+    tol = Tolerance(ctl.get("tolerance_position_m", 1e-8), ctl.get("tolerance_angle_rad", 1e-7))
     settings = MethodSettings(
         K=ctl.get("K", (1.0,) * 6), damping=ctl.get("damping", 1e-4), tolerance=tol, extra=sec["qp"]
     )

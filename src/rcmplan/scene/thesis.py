@@ -10,7 +10,7 @@ Each experiment states how it interprets the thesis where the thesis is ambiguou
 - The V-REP DLS spiral: damping D = 0.1 and the IK precision 0.1 mm as the loop tolerance.
 
 The rcmplan setting runs the same motion with K = I, the exact J_a, per-unit tolerances of
-10 nm and 10 nrad, and drift correction on.
+10 nm and 100 nrad, and drift correction on.
 """
 
 from __future__ import annotations

@@ -6,6 +6,7 @@ Optional plants are imported on first use; a missing extra raises MissingExtraEr
 from __future__ import annotations
 
 import importlib
+import inspect
 from typing import Any
 
 from rcmplan.exceptions import InvalidInputError
@@ -20,11 +21,21 @@ PLANTS: dict[str, tuple[str, str, dict[str, Any]]] = {
 }
 
 
-def make_plant(name: str, robot: Iramis | None = None, **kwargs: Any) -> Plant:
-    """Build the plant registered under `name` for `robot`."""
+def make_plant(
+    name: str, robot: Iramis | None = None, scene: dict[str, Any] | None = None, **kwargs: Any
+) -> Plant:
+    """Build the plant registered under `name` for `robot`.
+
+    Args:
+        scene: Scene objects (for example `eye`) handed to plants that take them; a plant
+            without a scene (the kinematic one) ignores them.
+        kwargs: Plant options (for example `dt`).
+    """
     if name not in PLANTS:
         raise InvalidInputError("plant", name, f"one of {sorted(PLANTS)}")
     module, attr, defaults = PLANTS[name]
     factory = getattr(importlib.import_module(module), attr)
-    plant: Plant = factory(robot=robot or Iramis(), **{**defaults, **kwargs})
+    takes = inspect.signature(factory).parameters
+    extra = {k: v for k, v in (scene or {}).items() if k in takes}
+    plant: Plant = factory(robot=robot or Iramis(), **{**defaults, **extra, **kwargs})
     return plant

@@ -18,11 +18,12 @@ import numpy as np
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.exceptions import InvalidInputError, SimulationError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.scene.eye import Eye, EyePoints
 from rcmplan.sim.mujoco.actuators import PiezoParameters, reference_velocity
 from rcmplan.sim.mujoco.assembly import LoopIndex, assemble_at, loop_gap
 from rcmplan.sim.mujoco.files import load_model, mujoco_module
 from rcmplan.sim.mujoco.model import ModelOptions
-from rcmplan.sim.mujoco.scene import EyePhantom, default_eye
+from rcmplan.sim.mujoco.scene import EyePhantom, default_eye, phantom_of
 
 MODES = ("dynamic", "kinematic")
 JOINT_QPOS = ("q0", "q1", "q2", "q3", "L5", "q5")
@@ -37,7 +38,9 @@ class MujocoPlant:
         dt: Control period in [s] (default 1 ms, a 1 kHz controller).
         physics_dt: Physics timestep in [s]; dt must be a whole multiple of it.
         gravity_compensation: Cancel gravity on the robot bodies (default on).
-        eye: Eye phantom in the scene (default: `default_eye(robot)`).
+        eye: The eye in the scene: a phantom, or a scene Eye (with `points` as target sites);
+            default: the default scene eye and its points.
+        points: Named eye points shown as sites when `eye` is a scene Eye.
         piezo: Actuator parameters (default: from the robot, assumed servo values).
         gap_limit: Loop-closure gap in [m] above which the simulation is declared unstable.
     """
@@ -49,7 +52,8 @@ class MujocoPlant:
         dt: float = 1e-3,
         physics_dt: float = 1e-4,
         gravity_compensation: bool = True,
-        eye: EyePhantom | None = None,
+        eye: EyePhantom | Eye | None = None,
+        points: EyePoints | None = None,
         piezo: PiezoParameters | None = None,
         gap_limit: float = 50e-6,
     ) -> None:
@@ -65,7 +69,9 @@ class MujocoPlant:
         if abs(self.substeps * physics_dt - dt) > 1e-9 * dt:
             raise InvalidInputError("physics_dt", physics_dt, f"a whole fraction of dt = {dt:g} s")
         self.gap_limit = scalar("gap_limit", gap_limit, 0.0, 1e-2, low_open=True)
-        self.eye = eye or default_eye(self.robot)
+        self.eye = (
+            phantom_of(eye, points) if isinstance(eye, Eye) else eye or default_eye(self.robot)
+        )
         self.piezo = piezo or PiezoParameters.from_robot(self.robot)
         options = ModelOptions(physics_dt=physics_dt, gravity_compensation=gravity_compensation)
         self.model = load_model(self.robot, self.eye, self.piezo, options)

@@ -14,6 +14,8 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.robot.iramis import Iramis
+from rcmplan.scene.eye import Eye, EyePoints, default_points
+from rcmplan.scene.eye import default_eye as scene_default_eye
 from rcmplan.sim.mujoco.frames import fmt
 
 TROCAR_RADIUS = 0.45e-3  # thesis trocar radius
@@ -48,14 +50,20 @@ class EyePhantom:
         object.__setattr__(self, "targets", t)
 
 
-def default_eye(robot: Iramis, radius: float = 12e-3) -> EyePhantom:
-    """An eye centred 22 mm in front of the home tip along the needle (-x), trocar on its wall
-    nearest the needle, and three targets inside it."""
-    tip = robot.tip(robot.home)
-    centre = tip + np.array([-0.022, 0.0, 0.0])
-    trocar = centre + radius * np.array([1.0, 0.0, 0.0])
-    targets = centre + np.array([[-4e-3, 2e-3, 0.0], [-4e-3, -2e-3, 2e-3], [0.0, 0.0, -3e-3]])
-    return EyePhantom(centre, radius, trocar, targets)
+def phantom_of(eye: Eye, points: EyePoints | None = None) -> EyePhantom:
+    """The phantom of a scene eye, with p3..p7 as target sites when points are given."""
+    targets = (
+        np.zeros((0, 3))
+        if points is None
+        else np.array([points.p3, points.p4, points.p5, points.p6, points.p7])
+    )
+    return EyePhantom(eye.center, eye.radius, eye.port, targets)
+
+
+def default_eye(robot: Iramis) -> EyePhantom:
+    """The phantom of the default scene eye (`rcmplan.scene.eye.default_eye`) and its points."""
+    eye = scene_default_eye(robot)
+    return phantom_of(eye, default_points(eye))
 
 
 def look_at(eye: FloatArray, target: FloatArray) -> str:
