@@ -1,0 +1,203 @@
+"""`rcmplan sweep`: retina targets over the reachable workspace, maps and an optional gain search.
+
+Runs on local processes (every core by default) or, with --scheduler, on a Dask cluster. Every
+finished chunk is written to the checkpoint folder at once; --resume continues it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import math
+import sys
+from collections.abc import Iterator
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from rcmplan.control.methods import METHODS
+from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
+from rcmplan.sweep.settings import SAMPLINGS, MotionSettings, Region, SweepSettings
+
+if TYPE_CHECKING:
+    from rcmplan.sweep.checkpoint import Checkpoint
+    from rcmplan.sweep.executors import Executor
+    from rcmplan.sweep.gains import GainSearchResult
+    from rcmplan.sweep.runner import SweepResult
+    from rcmplan.sweep.sampling import Sample
+    from rcmplan.sweep.task import TargetResult
+
+OUT_DEFAULT = "rcmplan-out/sweep"
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the `sweep` subcommand."""
+    p = sub.add_parser(
+        "sweep",
+        help="accuracy and convergence maps over the retina, and a gain search",
+        description="Run the insert-and-visit motion to retina targets sampled over the region "
+        "reachable through the trocar; write maps, a summary and per-target results.",
+    )
+    p.add_argument("--scenario", default="default", help="scenario name or TOML file (default)")
+    p.add_argument("--targets", type=int, default=1000, help="rays sampled (1000)")
+    p.add_argument(
+        "--max-angle",
+        type=float,
+        default=25.0,
+        help="half-angle of the cone of rays around the insertion axis [deg] (25)",
+    )
+    p.add_argument("--sampling", choices=SAMPLINGS, default="grid", help="ray sampling (grid)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (0)")
+    p.add_argument("--method", choices=METHODS, help="control method (default: the scenario's)")
+    p.add_argument("--workers", type=int, help="local processes (default: every core)")
+    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (tcp://...)")
+    p.add_argument(
+        "--timeout",
+        type=float,
+        default=DEFAULT_TIMEOUT_S,
+        help=f"scheduler connection timeout [s] ({DEFAULT_TIMEOUT_S:g})",
+    )
+    p.add_argument("--checkpoint", metavar="PATH", help="checkpoint folder (OUT/checkpoint)")
+    p.add_argument("--resume", action="store_true", help="continue an existing checkpoint")
+    p.add_argument(
+        "--gain-search",
+        choices=("none", "grid", "optimize"),
+        default="none",
+        help="search K and the step size on a subsample (none)",
+    )
+    p.add_argument("--subsample", type=int, default=16, help="targets per gain candidate (16)")
+    p.add_argument(
+        "--max-evaluations", type=int, default=30, help="candidates the optimiser may evaluate (30)"
+    )
+    p.add_argument(
+        "--rcm-bound",
+        type=float,
+        default=10.0,
+        help="gain search: largest accepted RCM deviation [um] (10)",
+    )
+    p.add_argument("--out", default=OUT_DEFAULT, help=f"output folder ({OUT_DEFAULT})")
+    p.add_argument("--json", action="store_true", help="print summary.json instead of tables")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.set_defaults(run=run)  # fmt: skip
+
+
+def settings_from_args(args: argparse.Namespace) -> SweepSettings:
+    """Region and motion settings from the command line and the scenario."""
+    from rcmplan.scene.scenario import load_scenario
+
+    sc = load_scenario(args.scenario)
+    changes = {"method": args.method} if args.method else {}
+    region = Region(math.radians(args.max_angle), args.targets, args.sampling, args.seed)
+    return SweepSettings(region, MotionSettings.from_scenario(sc, **changes))
+
+
+@contextlib.contextmanager
+def progress_bar(label: str, unit: str) -> Iterator[Any]:
+    """A tqdm bar on stderr that appears after a second, only on a terminal."""
+    from tqdm import tqdm
+
+    bar = tqdm(desc=label, unit=unit, delay=1.0, file=sys.stderr, leave=False,
+               disable=not sys.stderr.isatty())  # fmt: skip
+    try:
+        yield bar
+    finally:
+        bar.close()
+
+
+def run_main(args: argparse.Namespace, settings: SweepSettings, checkpoint: Checkpoint,
+             executor: Executor) -> SweepResult:  # fmt: skip
+    """The sweep itself, with a progress bar over targets."""
+    from rcmplan.sweep.runner import run_sweep
+
+    with progress_bar("sweep", "target") as bar:
+
+        def on_sample(sample: Sample) -> None:
+            bar.reset(total=int(sample.reachable_ids.size))
+
+        def on_chunk(results: list[TargetResult]) -> None:
+            bar.update(len(results))
+
+        return run_sweep(settings, executor, checkpoint, on_chunk, on_sample)
+
+
+def run_gains(args: argparse.Namespace, result: SweepResult, checkpoint: Checkpoint,
+              executor: Executor) -> GainSearchResult:  # fmt: skip
+    """The gain search on a subsample, checkpointed per candidate under the checkpoint."""
+    from rcmplan.sweep.gains import Objective, Search, grid_search, optimize_search, subsample
+
+    ids = subsample(result.sample, args.subsample)
+    with progress_bar(f"gain search ({args.gain_search})", "candidate") as bar:
+        search = Search(
+            result.settings, result.sample, ids, executor,
+            Objective(rcm_bound_m=args.rcm_bound * 1e-6),
+            checkpoint_root=str(checkpoint.path / "gains"),
+            on_evaluation=lambda _e: bar.update(1),
+        )  # fmt: skip
+        if args.gain_search == "grid":
+            return grid_search(search)
+        return optimize_search(search, args.max_evaluations)
+
+
+def write_outputs(
+    args: argparse.Namespace, out: Path, result: SweepResult, gains: GainSearchResult | None
+) -> dict[str, Any]:
+    """summary.json, targets.csv, gains.json and the figures; returns the summary."""
+    from rcmplan.analysis.report import _jsonable
+    from rcmplan.sweep import report
+
+    s = report.summary(result)
+    if gains is not None:
+        s["gain_search"] = report.gain_summary(gains)
+    (out / "summary.json").write_text(json.dumps(_jsonable(s), indent=2))
+    report.write_targets_csv(result, out / "targets.csv")
+    if not args.no_plots:
+        from rcmplan.sweep import maps
+
+        figs = maps.sweep_maps(result, out / "figures")
+        if gains is not None:
+            figs["gains"] = maps.gain_tradeoff(gains, out / "figures" / "gains.png")
+        s["figures"] = {k: str(v) for k, v in figs.items()}
+    return s
+
+
+def print_tables(s: dict[str, Any], gains: GainSearchResult | None) -> None:
+    """The summary table and, after a gain search, the candidates table."""
+    from rcmplan.cli.robot import table
+    from rcmplan.sweep import report
+
+    print(table(["figure", "value", "unit"], report.summary_rows(s)))
+    if gains is not None:
+        print(f"\ngain search ({gains.mode}): {s['gain_search']['objective']} "
+              f"({1e6 * gains.objective.rcm_bound_m:g} um); {gains.message}")  # fmt: skip
+        print(table(report.GAIN_HEADER, report.gain_rows(gains)))
+        if gains.best is None:
+            print("no candidate met the constraints")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the sweep (and the gain search), write the outputs, print the tables."""
+    from rcmplan.analysis.report import prepare_folder
+    from rcmplan.sweep.checkpoint import Checkpoint
+    from rcmplan.sweep.executors import make_executor
+
+    out = prepare_folder(args.out)
+    settings = settings_from_args(args)
+    checkpoint = Checkpoint.open(args.checkpoint or out / "checkpoint", settings, args.resume)
+    try:
+        with make_executor(args.workers, args.scheduler, args.timeout) as executor:
+            result = run_main(args, settings, checkpoint, executor)
+            gains = None if args.gain_search == "none" else run_gains(args, result, checkpoint,
+                                                                        executor)  # fmt: skip
+    except KeyboardInterrupt:
+        print(f"rcmplan sweep: interrupted; finished results are kept in {checkpoint.path}; "
+              "rerun with --resume to continue", file=sys.stderr)  # fmt: skip
+        return 130
+    s = write_outputs(args, out, result, gains)
+    if args.json:
+        from rcmplan.cli.common import print_json
+
+        print_json(s)
+    else:
+        print_tables(s, gains)
+        print(f"outputs in {out}/")
+    return 0
