@@ -93,7 +93,7 @@ class FastIramis:
     def task(self, q: FloatArray, lam: float) -> FloatArray:
         """X_ext = (x_tip [m], phi, psi [rad], p_rcm [m]) at (q, lambda), a (6,) array."""
         x = np.empty(6)
-        self._k.extended_task(self.P, vector("q", q, 6), float(lam), x, np.empty(3))
+        self._k.extended_task(self.P, np.ascontiguousarray(vector("q", q, 6)), float(lam), x)
         return x
 
     def augmented_jacobian(
@@ -101,7 +101,8 @@ class FastIramis:
     ) -> FloatArray:
         """J_a (6, 6) at (q, lambda), "exact" or "thesis" angle rows."""
         J = np.empty((6, 6))
-        self._k.augmented_jacobian(self.P, vector("q", q, 6), float(lam), _variant(variant), J)
+        q = np.ascontiguousarray(vector("q", q, 6))
+        self._k.augmented_jacobian(self.P, q, float(lam), _variant(variant), J)
         return J
 
     def step(

@@ -63,9 +63,15 @@ def first_beyond_travel(P: FloatArray, s: FloatArray) -> int:
 
 
 @njit(cache=True)
-def needle_point(P: FloatArray, q: FloatArray, lam: float, out: FloatArray) -> None:
-    """p(lambda) in [m], base frame (eqs. 2.7, 3.7), written into out (3,)."""
-    c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+def trig(q: FloatArray) -> tuple[float, float, float, float]:
+    """(cos q1, sin q1, cos q3, sin q3): computed once per configuration, passed as `tr`."""
+    return math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+
+
+@njit(cache=True)
+def point(P: FloatArray, q: FloatArray, tr: tuple, lam: float, out: FloatArray) -> None:
+    """p(lambda) in [m], base frame (eqs. 2.7, 3.7), written into out (3,); tr = trig(q)."""
+    c1, s1, c3, s3 = tr
     w = q[4] + lam * P[5]
     out[0] = P[1] * s1 - c1 * c3 * w - P[4] * c1 * s3
     out[1] = P[2] + P[3] + q[2] - s3 * w + P[4] * c3
@@ -73,9 +79,17 @@ def needle_point(P: FloatArray, q: FloatArray, lam: float, out: FloatArray) -> N
 
 
 @njit(cache=True)
-def point_jacobian(P: FloatArray, q: FloatArray, lam: float, J: FloatArray, r: int) -> None:
+def needle_point(P: FloatArray, q: FloatArray, lam: float, out: FloatArray) -> None:
+    """p(lambda) in [m] into out (3,)."""
+    point(P, q, trig(q), lam, out)
+
+
+@njit(cache=True)
+def point_jacobian(
+    P: FloatArray, q: FloatArray, tr: tuple, lam: float, J: FloatArray, r: int
+) -> None:
     """d p(lambda) / d(q0..q4, lambda) (eq. 3.10) into rows r..r+2 of J (n, 6)."""
-    c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+    c1, s1, c3, s3 = tr
     l2, l5, l6 = P[1], P[4], P[5]
     w = q[4] + lam * l6
     k = s3 * w - l5 * c3
@@ -100,41 +114,52 @@ def point_jacobian(P: FloatArray, q: FloatArray, lam: float, J: FloatArray, r: i
 
 
 @njit(cache=True)
-def tip_jacobian(P: FloatArray, q: FloatArray, J: FloatArray, r: int) -> None:
+def tip_jacobian(P: FloatArray, q: FloatArray, tr: tuple, J: FloatArray, r: int) -> None:
     """d p_tip / d theta_ext with a zero lambda column into rows r..r+2 of J."""
-    point_jacobian(P, q, 1.0, J, r)
+    point_jacobian(P, q, tr, 1.0, J, r)
     J[r, 5] = 0.0
     J[r + 1, 5] = 0.0
     J[r + 2, 5] = 0.0
 
 
 @njit(cache=True)
-def extended_task(P: FloatArray, q: FloatArray, lam: float, x: FloatArray, p: FloatArray) -> None:
-    """X_ext = (x_tip [m], phi, psi [rad], p_rcm [m]) into x (6,); p (3,) is scratch."""
-    c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+def task(P: FloatArray, q: FloatArray, tr: tuple, lam: float, x: FloatArray) -> None:
+    """X_ext = (x_tip [m], phi, psi [rad], p_rcm [m]) into x (6,)."""
+    c1, s1, c3, s3 = tr
     ax, ay, az = -c1 * c3, -s3, s1 * c3
-    needle_point(P, q, 1.0, p)
-    x[0] = p[0]
+    point(P, q, tr, lam, x[3:])
+    x[0] = P[1] * s1 - c1 * c3 * (q[4] + 1.0 * P[5]) - P[4] * c1 * s3  # x of p(1)
     x[1] = math.atan2(az, -ax)
     x[2] = math.atan2(-ay, math.hypot(ax, az))
-    needle_point(P, q, lam, p)
-    x[3] = p[0]
-    x[4] = p[1]
-    x[5] = p[2]
+
+
+@njit(cache=True)
+def extended_task(P: FloatArray, q: FloatArray, lam: float, x: FloatArray) -> None:
+    """X_ext at (q, lambda) into x (6,)."""
+    task(P, q, trig(q), lam, x)
+
+
+@njit(cache=True)
+def jacobian_a(
+    P: FloatArray, q: FloatArray, tr: tuple, lam: float, thesis: bool, J: FloatArray
+) -> None:
+    """J_a (6, 6) into J: eq. 3.15 with exact angle rows, or eq. 6.1's rows if `thesis`."""
+    point_jacobian(P, q, tr, 1.0, J, 0)  # row 0 kept; rows 1, 2 overwritten with the angles
+    J[0, 5] = 0.0
+    for j in range(6):
+        J[1, j] = 0.0
+        J[2, j] = 0.0
+    J[1, 1] = 1.0
+    J[2, 3] = tr[0] if thesis else 1.0
+    point_jacobian(P, q, tr, lam, J, 3)
 
 
 @njit(cache=True)
 def augmented_jacobian(
     P: FloatArray, q: FloatArray, lam: float, thesis: bool, J: FloatArray
 ) -> None:
-    """J_a (6, 6) into J: eq. 3.15 with exact angle rows, or eq. 6.1's rows if `thesis`."""
-    tip_jacobian(P, q, J, 0)  # row 0 kept; rows 1, 2 overwritten with the angle rows
-    for j in range(6):
-        J[1, j] = 0.0
-        J[2, j] = 0.0
-    J[1, 1] = 1.0
-    J[2, 3] = math.cos(q[1]) if thesis else 1.0
-    point_jacobian(P, q, lam, J, 3)
+    """J_a (6, 6) at (q, lambda) into J."""
+    jacobian_a(P, q, trig(q), lam, thesis, J)
 
 
 @njit(cache=True)
@@ -226,10 +251,10 @@ def batch_task_jacobians(
     P: FloatArray, Q: FloatArray, lam: FloatArray, thesis: bool, X: FloatArray, J: FloatArray
 ) -> None:
     """X_ext (N, 6) and J_a (N, 6, 6) for N configurations, one core."""
-    p = np.empty(3)
     for i in range(Q.shape[0]):
-        extended_task(P, Q[i], lam[i], X[i], p)
-        augmented_jacobian(P, Q[i], lam[i], thesis, J[i])
+        tr = trig(Q[i])
+        task(P, Q[i], tr, lam[i], X[i])
+        jacobian_a(P, Q[i], tr, lam[i], thesis, J[i])
 
 
 @njit(cache=True)
@@ -239,10 +264,10 @@ def pinv_step(
 ) -> None:  # fmt: skip
     """One control step: X_ext, J_a and J_a d = K (target - X_ext), d = (dq0..dq4, dlambda)."""
     x = np.empty(6)
-    p = np.empty(3)
     J = np.empty((6, 6))
-    extended_task(P, q, lam, x, p)
+    tr = trig(q)
+    task(P, q, tr, lam, x)
     for i in range(6):
         x[i] = K[i] * (target[i] - x[i])
-    augmented_jacobian(P, q, lam, thesis, J)
+    jacobian_a(P, q, tr, lam, thesis, J)
     solve_augmented(J, x, d)

@@ -19,19 +19,20 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.fast_kernels import (
-    augmented_jacobian,
     axis_from_angles,
     dls_solve,
-    extended_task,
     first_beyond_travel,
+    jacobian_a,
     joints_from_sliders,
-    needle_point,
     njit,
+    point,
     point_jacobian,
     sliders_from_joints,
     solve_augmented,
+    task,
     tip_jacobian,
     tip_of_target,
+    trig,
 )
 
 PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3
@@ -50,14 +51,16 @@ def put(dst: FloatArray, i: int, src: FloatArray, j: int, n: int) -> None:
 
 
 @njit(cache=True)
-def closest_lambda(P: FloatArray, q: FloatArray, point: FloatArray, w: FloatArray) -> float:
-    """lambda in [0, 1] of the needle point closest to `point`; w (6,) is scratch."""
-    needle_point(P, q, 0.0, w[:3])
-    needle_point(P, q, 1.0, w[3:])
+def closest_lambda(
+    P: FloatArray, q: FloatArray, tr: tuple, trocar: FloatArray, w: FloatArray
+) -> float:
+    """lambda in [0, 1] of the needle point closest to the trocar; w (6,) is scratch."""
+    point(P, q, tr, 0.0, w[:3])
+    point(P, q, tr, 1.0, w[3:])
     num, den = 0.0, 0.0
     for i in range(3):
         axis = w[3 + i] - w[i]
-        num += (point[i] - w[i]) * axis
+        num += (trocar[i] - w[i]) * axis
         den += axis * axis
     return min(1.0, max(0.0, num / den))
 
@@ -73,27 +76,27 @@ def is_pivot(tip: FloatArray, target: FloatArray) -> bool:
 
 @njit(cache=True)
 def task_error(
-    P: FloatArray, method: int, q: FloatArray, lam: float, target: FloatArray,
+    P: FloatArray, method: int, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
     tip_t: FloatArray, pivot: bool, e: FloatArray, w: FloatArray,
 ) -> int:  # fmt: skip
     """The solver's task error into e; returns its length (6, or 3 for the tip solver)."""
     if method <= PINV_THESIS:
-        extended_task(P, q, lam, e, w[:3])
+        task(P, q, tr, lam, e)
         for i in range(6):
             e[i] = target[i] - e[i]
         return 6
-    needle_point(P, q, 1.0, w[:3])
+    point(P, q, tr, 1.0, w[:3])
     for i in range(3):
         e[i] = (target[i] if method == TIP else tip_t[i]) - w[i]
     if method == TIP:
         return 3
     if pivot:  # the needle base to its place on the target axis, l6 behind the tip
         axis_from_angles(target[1], target[2], w[3:])
-        needle_point(P, q, 0.0, w[:3])
+        point(P, q, tr, 0.0, w[:3])
         for i in range(3):
             e[3 + i] = (tip_t[i] - P[5] * w[3 + i]) - w[i]
     else:
-        needle_point(P, q, lam, w[:3])
+        point(P, q, tr, lam, w[:3])
         for i in range(3):
             e[3 + i] = target[3 + i] - w[i]
     return 6
@@ -101,30 +104,31 @@ def task_error(
 
 @njit(cache=True)
 def solve_step(
-    P: FloatArray, method: int, K: FloatArray, damping: float, q: FloatArray, lam: float,
-    pivot: bool, e: FloatArray, J: FloatArray, A: FloatArray, f: FloatArray, d: FloatArray,
+    P: FloatArray, method: int, K: FloatArray, damping: float, q: FloatArray, tr: tuple,
+    lam: float, pivot: bool, e: FloatArray, J: FloatArray, A: FloatArray, f: FloatArray,
+    d: FloatArray,
 ) -> None:  # fmt: skip
     """The solver's step (dq0..dq4, dlambda) into d; J, A, f are scratch."""
     if method <= PINV_THESIS:
-        augmented_jacobian(P, q, lam, method == PINV_THESIS, J)
+        jacobian_a(P, q, tr, lam, method == PINV_THESIS, J)
         for i in range(6):
             f[i] = K[i] * e[i]
         solve_augmented(J, f, d)
     elif method == DLS:
-        tip_jacobian(P, q, J, 0)
-        point_jacobian(P, q, 0.0 if pivot else lam, J, 3)
+        tip_jacobian(P, q, tr, J, 0)
+        point_jacobian(P, q, tr, 0.0 if pivot else lam, J, 3)
         if pivot:
             J[3, 5], J[4, 5], J[5, 5] = 0.0, 0.0, 0.0
         dls_solve(J, e, damping, 6, 6, A, f, d)
     else:
-        tip_jacobian(P, q, J, 0)
+        tip_jacobian(P, q, tr, J, 0)
         dls_solve(J, e, damping, 3, 5, A, f, d)
         d[5] = 0.0
 
 
 @njit(cache=True)
 def record(
-    P: FloatArray, row: FloatArray, t: float, s: FloatArray, q: FloatArray, lam: float,
+    P: FloatArray, row: FloatArray, t: float, s: FloatArray, q: FloatArray, tr: tuple, lam: float,
     trocar: FloatArray, tip_t: FloatArray, e: FloatArray, m: int,
 ) -> None:  # fmt: skip
     """One log record (see REC_COLUMNS) into row (35,)."""
@@ -132,10 +136,10 @@ def record(
     put(row, 1, s, 0, 6)
     put(row, 7, q, 0, 6)
     row[13] = lam
-    needle_point(P, q, 1.0, row[14:17])
-    needle_point(P, q, lam, row[17:20])
+    point(P, q, tr, 1.0, row[14:17])
+    point(P, q, tr, lam, row[17:20])
     put(row, 20, trocar, 0, 3)
-    needle_point(P, q, 0.0, row[23:26])
+    point(P, q, tr, 0.0, row[23:26])
     put(row, 26, tip_t, 0, 3)
     for i in range(29 + m, 35):
         row[i] = np.nan
@@ -186,11 +190,12 @@ def run_targets(
             put(tip_t, 0, target, 0, 3)
         for it in range(max_it + 1):
             joints_from_sliders(P, s, q)
+            tr = trig(q)
             if rcm and drift:
-                state[0] = closest_lambda(P, q, trocar, w)
-            m = task_error(P, method, q, state[0], target, tip_t, pivot, e, w)
+                state[0] = closest_lambda(P, q, tr, trocar, w)
+            m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
             if it > 0:
-                record(P, rec[n], state[1], s, q, state[0], trocar, tip_t, e, m)
+                record(P, rec[n], state[1], s, q, tr, state[0], trocar, tip_t, e, m)
                 irec[n, 0], irec[n, 1] = k, it
                 n += 1
                 info[0] = n
@@ -198,9 +203,9 @@ def run_targets(
                 break
             if it == max_it:
                 return NO_CONVERGENCE
-            if min(abs(math.cos(q[1])), abs(math.cos(q[3]))) < thr:
+            if min(abs(tr[0]), abs(tr[2])) < thr:
                 return SINGULAR
-            solve_step(P, method, K, damping, q, state[0], pivot, e, J, A, f, d)
+            solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
             for i in range(6):
                 qn[i] = q[i] + d[i] if i < 5 else q[i]
             state[0] += d[5]
