@@ -1,0 +1,77 @@
+"""`rcmplan sweep`: outputs, JSON, resume, bad input."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import socket
+from pathlib import Path
+
+import pytest
+
+from rcmplan.cli import sweep as sweep_cli
+from rcmplan.exceptions import RcmplanError
+from rcmplan.sweep.errors import CheckpointError, EmptyRegionError, SchedulerError
+
+
+def run(argv: list[str]) -> int:
+    parser = argparse.ArgumentParser()
+    sweep_cli.register(parser.add_subparsers(dest="command"))
+    args = parser.parse_args(["sweep", *argv])
+    return int(args.run(args))
+
+
+def unused_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+SMALL = ["--targets", "8", "--max-angle", "15", "--workers", "1"]
+
+
+def test_sweep_writes_summary_targets_checkpoint_and_maps(tmp_path: Path, capsys) -> None:
+    assert run([*SMALL, "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    assert "max RCM deviation" in out and "converged" in out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["targets"]["sampled"] == 8
+    assert summary["targets"]["run"] == summary["targets"]["reachable"]
+    assert len((tmp_path / "targets.csv").read_text().splitlines()) == 9
+    for name in ("reachability", "rcm_deviation", "iterations"):
+        assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 0
+    assert (tmp_path / "checkpoint" / "header.json").exists()
+
+
+def test_a_rerun_needs_resume_and_then_runs_nothing_again(tmp_path: Path, capsys) -> None:
+    args = [*SMALL, "--out", str(tmp_path), "--no-plots", "--json"]
+    assert run(args) == 0
+    with pytest.raises(CheckpointError, match="--resume"):
+        run(args)
+    capsys.readouterr()
+    assert run([*args, "--resume"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["targets"]["resumed_from_checkpoint"] == summary["targets"]["run"]
+
+
+def test_gain_search_reports_the_best_settings(tmp_path: Path, capsys) -> None:
+    args = [*SMALL, "--out", str(tmp_path), "--gain-search", "optimize", "--subsample", "2",
+            "--max-evaluations", "4"]  # fmt: skip
+    assert run(args) == 0
+    assert "gain search (optimize)" in capsys.readouterr().out
+    gains = json.loads((tmp_path / "summary.json").read_text())["gain_search"]
+    assert gains["best"]["feasible"] is True
+    assert (tmp_path / "figures" / "gains.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("argv", "error"),
+    [
+        (["--targets", "3", "--max-angle", "80"], EmptyRegionError),
+        (["--targets", "0"], RcmplanError),
+        (["--scheduler", f"tcp://127.0.0.1:{unused_port()}", "--timeout", "1"], SchedulerError),
+    ],
+)
+def test_bad_input_raises_a_clear_error(tmp_path: Path, argv: list[str], error: type) -> None:
+    with pytest.raises(error):
+        run([*argv, "--out", str(tmp_path)])

@@ -1,0 +1,64 @@
+"""One target's motion: determinism, figures, records."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from rcmplan.sweep.sampling import sample_region
+from rcmplan.sweep.settings import MotionSettings, Region, SweepSettings
+from rcmplan.sweep.task import TargetResult, run_chunk, run_target
+
+FAST = MotionSettings(step_position=1e-3, step_angle=1e-2)
+
+
+@pytest.fixture(scope="module")
+def sample():
+    return sample_region(Region(max_angle=math.radians(15), n_targets=12), FAST)
+
+
+def test_a_target_gives_the_same_result_every_time(sample) -> None:
+    i = int(sample.reachable_ids[3])
+    a = run_target(FAST, i, sample.points[i])
+    b = run_target(FAST, i, sample.points[i].tolist())
+    assert a.identity() == b.identity()
+
+
+def test_a_reachable_target_converges_with_small_errors(sample) -> None:
+    i = int(sample.reachable_ids[0])
+    r = run_target(FAST, i, sample.points[i])
+    assert r.converged and r.status == "ok" and r.message == ""
+    assert r.iterations > 0 and r.wall_time_s > 0
+    assert r.tip_error_m is not None and r.tip_error_m < 1e-7
+    assert r.max_rcm_deviation_m is not None and r.max_rcm_deviation_m < 50e-6
+
+
+def test_a_chunk_keeps_ids_and_order(sample) -> None:
+    ids = [int(i) for i in sample.reachable_ids[:3]]
+    out = run_chunk(FAST, [(i, sample.points[i].tolist()) for i in ids])
+    assert [r.id for r in out] == ids
+
+
+def test_an_iteration_cap_too_small_is_recorded_as_no_convergence(sample) -> None:
+    tight = MotionSettings(step_position=1e-3, step_angle=1e-2, max_iterations=1)
+    i = int(sample.reachable_ids[0])
+    r = run_target(tight, i, sample.points[i])
+    assert r.status == "no-convergence" and not r.converged
+    assert "ConvergenceError" in r.message
+
+
+def test_results_round_trip_through_a_dictionary(sample) -> None:
+    i = int(sample.reachable_ids[1])
+    r = run_target(FAST, i, sample.points[i])
+    assert TargetResult.from_dict(r.as_dict()) == r
+    with pytest.raises(KeyError):
+        TargetResult.from_dict({**r.as_dict(), "extra": 1})
+
+
+def test_settings_hash_changes_with_any_setting() -> None:
+    a = SweepSettings(Region(n_targets=10), FAST)
+    assert a.digest() == SweepSettings(Region(n_targets=10), FAST).digest()
+    assert a.digest() != SweepSettings(Region(n_targets=11), FAST).digest()
+    other = MotionSettings(step_position=1e-3, step_angle=1e-2, K=(0.9,) * 6)
+    assert a.digest() != SweepSettings(Region(n_targets=10), other).digest()
