@@ -1,0 +1,91 @@
+"""Sweep throughput: 10,000 reachable retina targets on local processes, and Dask scaling.
+
+    python benchmarks/bench_sweep.py                 # the full figures (minutes on 2 cores)
+    python benchmarks/bench_sweep.py --targets 1000  # a shorter local sweep
+    python benchmarks/run.py --quick --only bench_sweep   # quick: 1,000 targets, 40 per worker
+
+Figures:
+- wall time of a sweep with the default method (the default scenario's pinv, K = 1, 0.2 mm
+  steps) over the default 25 deg cone, sampled densely enough to give at least N reachable
+  targets, on every local core (sampling included, figures and outputs excluded);
+- the same fixed set of reachable targets on a Dask LocalCluster with one and with two worker
+  processes (one thread each): wall time and speed-up.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import time
+from typing import Any
+
+from _common import quick, row
+from rcmplan.sweep.executors import DaskExecutor, LocalExecutor
+from rcmplan.sweep.runner import run_sweep, run_targets
+from rcmplan.sweep.sampling import sample_region
+from rcmplan.sweep.settings import MotionSettings, Region, SweepSettings
+
+REACHABLE_FRACTION = 0.64  # of the default 25 deg cone (measured: 0.65 at 1000 rays)
+
+
+def local_sweep(n_reachable: int) -> tuple[float, int, int]:
+    """(wall time [s], reachable targets run, rays sampled) of a local sweep on every core."""
+    n_rays = math.ceil(n_reachable / REACHABLE_FRACTION)
+    settings = SweepSettings(Region(n_targets=n_rays), MotionSettings())
+    t = time.perf_counter()
+    with LocalExecutor() as ex:
+        result = run_sweep(settings, ex)
+    return time.perf_counter() - t, len(result.results), n_rays
+
+
+def dask_wall(n_workers: int, settings: SweepSettings, ids: list[int]) -> float:
+    """Wall time [s] of the given targets on a LocalCluster with n_workers processes."""
+    from distributed import LocalCluster
+
+    sample = sample_region(settings.region, settings.motion)
+    with (
+        LocalCluster(n_workers=n_workers, processes=True, threads_per_worker=1,
+                     dashboard_address=None) as cluster,
+        DaskExecutor(cluster.scheduler_address, timeout_s=60) as ex,
+    ):  # fmt: skip
+        run_targets(settings.motion, sample, ids[: 2 * n_workers], ex)  # warm the workers
+        t = time.perf_counter()
+        run_targets(settings.motion, sample, ids, ex)
+        return time.perf_counter() - t
+
+
+def scaling_rows(per_worker: int) -> list[dict[str, Any]]:
+    """LocalCluster 1 vs 2 workers on the same 2 * per_worker targets."""
+    settings = SweepSettings(Region(n_targets=4 * per_worker), MotionSettings())
+    ids = sample_region(settings.region, settings.motion).reachable_ids.tolist()[: 2 * per_worker]
+    one, two = dask_wall(1, settings, ids), dask_wall(2, settings, ids)
+    work = f"{len(ids)} targets"
+    return [
+        row(f"Dask LocalCluster, 2 workers ({work})", two, "s", "1 worker", one),
+        row(f"Dask speed-up 1 -> 2 workers ({work})", one / two, "x", target="about 2 on 2 cores"),
+    ]
+
+
+def rows(n_reachable: int | None = None, per_worker: int | None = None) -> list[dict[str, Any]]:
+    """Every sweep figure."""
+    n = n_reachable or (1000 if quick() else 10_000)
+    wall, ran, rays = local_sweep(n)
+    load = os.getloadavg()[0]
+    label = f"sweep, {ran} reachable targets of {rays} rays, local {os.cpu_count()} processes"
+    out = [
+        row(label, wall, "s", target="<= 60 s for 10,000"),
+        row("sweep throughput", ran / wall, "targets/s"),
+        row("load average (1 min) after the local sweep", load, ""),
+    ]
+    return out + scaling_rows(per_worker or (40 if quick() else 150))
+
+
+if __name__ == "__main__":
+    from run import print_table
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--targets", type=int, help="reachable targets of the local sweep (10000)")
+    ap.add_argument("--per-worker", type=int, help="targets per worker of the scaling (150)")
+    a = ap.parse_args()
+    print_table(rows(a.targets, a.per_worker))
