@@ -91,11 +91,24 @@ def settings_from_args(args: argparse.Namespace) -> SweepSettings:
     return SweepSettings(region, MotionSettings.from_scenario(sc, **changes))
 
 
+class _NoBar:
+    """Stands in for a tqdm bar when tqdm (extra "progress") is not installed."""
+
+    def reset(self, total: int | None = None) -> None:
+        """Nothing to show."""
+
+    def update(self, n: int = 1) -> None:
+        """Nothing to show."""
+
+
 @contextlib.contextmanager
 def progress_bar(label: str, unit: str) -> Iterator[Any]:
     """A tqdm bar on stderr that appears after a second, only on a terminal."""
-    from tqdm import tqdm
-
+    try:
+        from tqdm import tqdm
+    except ImportError:
+        yield _NoBar()
+        return
     bar = tqdm(desc=label, unit=unit, delay=1.0, file=sys.stderr, leave=False,
                disable=not sys.stderr.isatty())  # fmt: skip
     try:
