@@ -29,7 +29,7 @@ DAQP_EXIT = {
 }
 # Iterative solvers are run to tolerances near the active-set solvers' accuracy (x in um).
 SETTINGS: dict[str, dict[str, Any]] = {
-    "osqp": {"eps_abs": 1e-7, "eps_rel": 1e-7, "polishing": True},
+    "osqp": {"eps_abs": 1e-7, "eps_rel": 1e-7},
     "proxqp": {"eps_abs": 1e-9},
     "clarabel": {},
     "piqp": {},

@@ -125,8 +125,9 @@ class Violations(NamedTuple):
 
     travel: a slider beyond its hard travel less `travel_margin`; speed: a slider step above
     speed * dt; lam: lambda outside [0, 1]; rcm: trocar-to-needle-line distance above the
-    RCM tolerance; retina: tip closer to the retina than the margin (outside the port zone,
-    target not a contact); singular: min(|cos q1|, |cos q3|) below the singular margin.
+    RCM tolerance; retina: tip closer to the retina than the margin and getting closer (outside
+    the port zone, target not a contact); singular: min(|cos q1|, |cos q3|) below the singular
+    margin.
     """
 
     travel: int
@@ -177,12 +178,14 @@ def speed_excess(log: RunLog, robot: Iramis, dt: float) -> np.ndarray:
 
 
 def retina_excess(log: RunLog, eye: Eye, lim: QpLimits) -> np.ndarray:
-    """Per record, margin minus the tip's retina distance in [m]; -inf where exempt."""
+    """Per record, margin minus the tip's retina distance in [m]; -inf where exempt: tip in the
+    port zone, target a contact, or the tip moving away from the retina (leaving a contact)."""
     d = eye.retina_radius - np.linalg.norm(log.tip - eye.center, axis=1)
     d_target = eye.retina_radius - np.linalg.norm(log.target_tip - eye.center, axis=1)
     in_port = np.linalg.norm(log.tip - eye.port, axis=1) <= lim.port_zone
     contact = np.abs(d_target) <= lim.contact_tolerance
-    return np.where(in_port | contact, -math.inf, lim.retina_margin - d)
+    receding = np.concatenate([[False], np.diff(d) >= 0.0])
+    return np.where(in_port | contact | receding, -math.inf, lim.retina_margin - d)
 
 
 def cos_measure(q: np.ndarray) -> np.ndarray:
