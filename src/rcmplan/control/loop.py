@@ -136,9 +136,13 @@ class Controller:
         self.on_phase: Callable[[Phase], None] | None = None
 
     def check_targets(self, targets: FloatArray) -> None:
-        """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose)."""
+        """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose), and
+        those the solver's own limits refuse (a solver may define `check_targets`)."""
         for target in targets:
             solve_pose(self.robot, target)
+        solver_check = getattr(self.solver, "check_targets", None)
+        if solver_check is not None:
+            solver_check(targets)
 
     def run(self, phases: list[Phase]) -> RunLog:
         """Run every phase; on any error the partial log is attached to the exception.

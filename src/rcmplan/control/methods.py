@@ -24,7 +24,8 @@ class MethodSettings:
 
     Attributes:
         K: Diagonal gains of the pseudoinverse methods, each in (0, 2).
-        damping: Damping D of DLS (and of the QP's regularisation) in [m].
+        damping: Damping D of DLS, in units of the stacked task [m]; the QP reads it as its
+            dimensionless regularisation per unit of slider motion.
         tolerance: Loop tolerance (m and rad apart).
         extra: Method-specific keyword arguments (for example the QP's limits).
     """
