@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.control import Controller, Phase
+from rcmplan.control import Controller, Phase, RunLog, fast_cache
 from rcmplan.control.fast import fast_check_targets, fast_converge_phase
 
 THESIS_ITERATION_S = 180.0 / 1350  # V-REP loop: about 3 min for 1350 iterations (NOTES.md)
@@ -46,6 +46,14 @@ def row(
 
 class FastController(Controller):
     """A Controller that always takes the compiled path (what loop.py's dispatch does when on)."""
+
+    def run(self, phases: list[Phase]) -> RunLog:
+        previous = fast_cache.mode()
+        fast_cache.set_mode("on")
+        try:
+            return super().run(phases)
+        finally:
+            fast_cache.set_mode(previous)
 
     def check_targets(self, targets: np.ndarray) -> None:
         if not fast_check_targets(self.robot, targets):

@@ -63,13 +63,11 @@ def append_records(
     log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n: int, pid: int, sid: int
 ) -> None:
     """Append the first n compiled records to a LogBuilder."""
-    cols = {k: rec[:n, REC_COLUMNS[k][0] : REC_COLUMNS[k][1]] for k in VECTORS}
-    for i in range(n):
-        log.append(
-            time=float(rec[i, 0]), lam=float(rec[i, 13]), step=int(irec[i, 0]),
-            iteration=int(irec[i, 1]), solver=sid, phase=pid,
-            **{k: c[i] for k, c in cols.items()},
-        )  # fmt: skip
+    cols = [list(rec[:n, a:b]) for a, b in (REC_COLUMNS[k] for k in VECTORS)]
+    scalars = zip(rec[:n, 0].tolist(), rec[:n, 13].tolist(), irec[:n].tolist(), strict=True)
+    for (t, lam, (step, it)), vectors in zip(scalars, zip(*cols, strict=True), strict=True):
+        log.append(time=t, lam=lam, step=step, iteration=it, solver=sid, phase=pid,
+                   **dict(zip(VECTORS, vectors, strict=True)))  # fmt: skip
 
 
 def run_phase_compiled(
