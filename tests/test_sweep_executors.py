@@ -38,7 +38,8 @@ def test_two_local_processes_match_one(local_result) -> None:
 
 
 def test_a_dask_local_cluster_matches_the_local_run(local_result) -> None:
-    distributed = pytest.importorskip("distributed")
+    import distributed  # the `dist` extra; a missing package must fail, not skip
+
     with (
         distributed.LocalCluster(
             n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
