@@ -46,23 +46,8 @@ def fast_on() -> Iterator[None]:
     fast_cache.set_mode(None)
 
 
-class FastController(Controller):
-    """Controller.run_phase with the compiled dispatch (the lines proposed for loop.py)."""
-
-    def check_targets(self, targets: np.ndarray) -> None:
-        if not fast_check_targets(self.robot, targets):
-            super().check_targets(targets)
-
-    def run_phase(self, phase: Phase) -> None:
-        solver = self.solver if phase.kind == "rcm" else self.free_solver
-        pid, sid = self.log.phase_id(phase.name), self.log.solver_id(solver.name)
-        q = self.robot.joints_from_sliders(self.plant.read_sliders())
-        targets = phase.plan(q)
-        if phase.kind == "rcm":
-            if callable(phase.targets):
-                self.check_targets(targets)
-            self.lam = self._closest_lambda(q, targets[0][3:])
-        assert fast_converge_phase(self, solver, targets, pid, sid)
+# Controller dispatches to the compiled loop on the kinematic plant while the mode is "on".
+FastController = Controller
 
 
 def reference_run(ctl: Controller, phases: list[Phase]) -> RunLog:
@@ -143,11 +128,6 @@ SOLVERS = [PinvSolver(), PinvSolver(variant="thesis"), DlsSolver()]
 def test_compiled_loop_equals_reference_controller(robot: Iramis, procedure, solver) -> None:
     eye = default_eye(robot)
     phases = procedure(robot, eye, default_points(eye))
-    if procedure is spiral and getattr(solver, "variant", "") == "thesis":
-        # The withdraw planner splits 5 mm into ceil(distance / 0.2 mm) steps, and here the
-        # distance is 25 steps to within 1e-14: a 1e-17 m difference in the retracted tip
-        # flips the count. Every earlier phase matches.
-        phases = phases[:-1]
     ref = reference_run(Controller(KinematicPlant(robot), solver), phases)
     fast = FastController(KinematicPlant(robot), solver).run(phases)
     assert_same_log(ref, fast)
@@ -163,7 +143,10 @@ def run_both(robot: Iramis, phases: list[Phase], error: type, **kw: object) -> t
             run(phases)
         out.append((info.value, ctl))
     (a, ca), (b, cb) = out
-    assert str(a) == str(b)
+    # Same exception and message; printed error values may differ in the last bits.
+    assert type(a) is type(b) and str(a).split("|error|")[0] == str(b).split("|error|")[0]
+    if isinstance(a, ConvergenceError):
+        np.testing.assert_allclose(a.error, b.error, rtol=0, atol=TOL)
     assert_same_log(a.log, b.log)
     np.testing.assert_allclose(ca.plant.read_sliders(), cb.plant.read_sliders(), atol=TOL)
     assert ca.plant.time == cb.plant.time and abs(ca.lam - cb.lam) <= TOL

@@ -21,7 +21,7 @@ def vector(name: str, value: Any, size: int | None = None) -> FloatArray:
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         want = f"shape ({size},)" if size is not None else "a 1-D array"
         raise InvalidInputError(name, value, f"{want}, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
+    if not np.isfinite(arr).all():
         raise InvalidInputError(name, value, "finite numbers (no NaN or inf)")
     return arr
 

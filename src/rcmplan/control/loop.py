@@ -21,6 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.control.fast import fast_check_targets, fast_converge_phase
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, tip_of_target
@@ -138,8 +139,9 @@ class Controller:
     def check_targets(self, targets: FloatArray) -> None:
         """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose), and
         those the solver's own limits refuse (a solver may define `check_targets`)."""
-        for target in targets:
-            solve_pose(self.robot, target)
+        if not fast_check_targets(self.robot, targets):
+            for target in targets:
+                solve_pose(self.robot, target)
         solver_check = getattr(self.solver, "check_targets", None)
         if solver_check is not None:
             solver_check(targets)
@@ -183,8 +185,9 @@ class Controller:
                 if callable(phase.targets):
                     self.check_targets(targets)
                 self.lam = self._closest_lambda(q, targets[0][3:])
-            for k, target in enumerate(targets):
-                self.converge(solver, target, pid, sid, k)
+            if not fast_converge_phase(self, solver, targets, pid, sid):
+                for k, target in enumerate(targets):
+                    self.converge(solver, target, pid, sid, k)
         finally:
             spent = time.perf_counter() - start
             self.phase_times[phase.name] = self.phase_times.get(phase.name, 0.0) + spent
@@ -204,12 +207,13 @@ class Controller:
         for it in range(cfg.max_iterations + 1):
             s = plant.read_sliders()
             q = robot.joints_from_sliders(s)
+            base, tip = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
             if rcm and cfg.drift_correction:
-                self.lam = self._closest_lambda(q, trocar)
+                self.lam = closest_lambda(base, tip, trocar)
             e = solver.error(robot, q, self.lam, target)
             if it > 0:
-                self._record(s, q, trocar, target_tip, e, step, it, sid, pid)
-            if np.all(np.abs(e) <= tol):
+                self._record(s, q, base, tip, trocar, target_tip, e, step, it, sid, pid)
+            if (np.abs(e) <= tol).all():
                 return it
             if it == cfg.max_iterations:
                 break
@@ -228,16 +232,14 @@ class Controller:
         )
 
     def _record(
-        self, s: FloatArray, q: FloatArray, trocar: FloatArray, target_tip: FloatArray,
-        e: FloatArray,
+        self, s: FloatArray, q: FloatArray, base: FloatArray, tip: FloatArray,
+        trocar: FloatArray, target_tip: FloatArray, e: FloatArray,
         step: int, it: int, sid: int, pid: int,
     ) -> None:  # fmt: skip
         err = np.full(6, np.nan)
         err[: e.shape[0]] = e
-        robot = self.robot
         self.log.append(
-            time=self.plant.time, sliders=s, joints=q, lam=self.lam,
-            tip=robot.needle_point(q, 1.0), rcm=robot.needle_point(q, self.lam), trocar=trocar,
-            base=robot.needle_point(q, 0.0), target_tip=target_tip, error=err,
-            step=step, iteration=it, solver=sid, phase=pid,
+            time=self.plant.time, sliders=s, joints=q, lam=self.lam, tip=tip,
+            rcm=base + self.lam * (tip - base), trocar=trocar, base=base,
+            target_tip=target_tip, error=err, step=step, iteration=it, solver=sid, phase=pid,
         )  # fmt: skip

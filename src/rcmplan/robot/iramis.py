@@ -233,10 +233,10 @@ class Iramis:
     def check_sliders(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """Return s if every slider is within its travel, else raise SliderLimitError."""
         s = vector("s", s, 6)
-        for i in np.flatnonzero((s < self.lower) | (s > self.upper)):
-            raise SliderLimitError(
-                int(i), SLIDER_NAMES[i], float(s[i]), self.lower[i], self.upper[i]
-            )
+        bad = (s < self.lower) | (s > self.upper)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise SliderLimitError(i, SLIDER_NAMES[i], float(s[i]), self.lower[i], self.upper[i])
         return s
 
     def slider_margin(self, s: Sequence[float] | FloatArray) -> FloatArray:

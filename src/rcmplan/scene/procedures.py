@@ -38,7 +38,8 @@ class Steps:
 
     def count(self, distance: float, angle: float = 0.0) -> int:
         """Number of equal steps that keeps each step within both sizes (at least 1)."""
-        return max(1, math.ceil(max(distance / self.position, angle / self.angle)))
+        ratio = max(distance / self.position, angle / self.angle)
+        return max(1, math.ceil(ratio - 1e-9))  # rounding noise must not add a step
 
 
 def _angle_between(a: FloatArray, b: FloatArray) -> float:
