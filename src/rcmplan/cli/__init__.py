@@ -9,7 +9,7 @@ from collections.abc import Sequence
 
 from rcmplan.exceptions import RcmplanError
 
-COMMANDS = ("compare", "inject", "render", "reproduce", "robot")
+COMMANDS = ("compare", "inject", "render", "reproduce", "robot", "sweep")
 
 
 def build_parser() -> argparse.ArgumentParser:
