@@ -154,7 +154,7 @@ def process_rows() -> list[dict[str, Any]]:
         inject = [py, "-m", "rcmplan", "inject", "--no-plots", "--out", f"{tmp}/out"]
         first = timed_process(inject, fresh)
         later = statistics.median(timed_process(inject, fresh) for _ in range(3))
-        compile_s = timed_process([py, "-m", "rcmplan.control.fast_cache"], fresh)
+        compile_s = timed_process([py, "-m", "rcmplan.control.fast_warm"], fresh)
         load = [py, "-c", "from rcmplan.control.fast import compile_kernels; compile_kernels()"]
         load_s = statistics.median(timed_process(load, fresh) for _ in range(3))
         forced = {**fresh, "NUMBA_CACHE_DIR": f"{tmp}/numba2", "RCMPLAN_FAST": "on"}

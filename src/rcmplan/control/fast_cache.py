@@ -9,18 +9,20 @@ Modes (environment variable RCMPLAN_FAST, or `set_mode`):
   runs the reference code; once it has run PAYOFF_TARGETS targets (or is about to run a phase
   that large) it switches to the compiled code if numba's cache is warm. With a cold cache it
   keeps the reference code and starts one background process that compiles the kernels into the
-  cache (`python -m rcmplan.control.fast_cache`); a stamp file marks the cache warm when done.
+  cache (`python -m rcmplan.control.fast_warm`); a stamp file marks the cache warm when done.
   Kernels already loaded in the process are always used. See docs/performance.md for figures.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import importlib.util
 import os
 import subprocess
 import sys
+from collections.abc import Iterator
 from importlib import metadata
 from pathlib import Path
 from types import ModuleType
@@ -103,12 +105,26 @@ def use_fast(n_targets: int = 0) -> bool:
     return False
 
 
+@contextlib.contextmanager
+def pinned() -> Iterator[str]:
+    """Run a block on one path only: compiled if numba is installed and the mode is not "off",
+    else the reference code. Large jobs whose results must not depend on which process ran
+    them (sweeps) use it: the two paths agree to about 1e-14, not to the last bit."""
+    previous = _state["mode"]
+    chosen = "on" if mode() != "off" and numba_available() else "off"
+    _state["mode"] = chosen
+    try:
+        yield chosen
+    finally:
+        _state["mode"] = previous
+
+
 def warm_in_background() -> None:
-    """Start, once per process, `python -m rcmplan.control.fast_cache` to fill the cache."""
+    """Start, once per process, `python -m rcmplan.control.fast_warm` to fill the cache."""
     if _state["warming"] is not None:
         return
     _state["warming"] = subprocess.Popen(
-        [sys.executable, "-m", "rcmplan.control.fast_cache"],
+        [sys.executable, "-m", "rcmplan.control.fast_warm"],
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -125,7 +141,3 @@ def compile_all() -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("numba cache of rcmplan.control.fast_kernels and fast_loop is warm\n")
     return path
-
-
-if __name__ == "__main__":
-    print(compile_all())

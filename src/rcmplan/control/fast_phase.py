@@ -62,12 +62,12 @@ def solver_arrays(solver: Solver) -> tuple[FloatArray, float, FloatArray]:
 def append_records(
     log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n: int, pid: int, sid: int
 ) -> None:
-    """Append the first n compiled records to a LogBuilder."""
-    cols = [list(rec[:n, a:b]) for a, b in (REC_COLUMNS[k] for k in VECTORS)]
-    scalars = zip(rec[:n, 0].tolist(), rec[:n, 13].tolist(), irec[:n].tolist(), strict=True)
-    for (t, lam, (step, it)), vectors in zip(scalars, zip(*cols, strict=True), strict=True):
-        log.append(time=t, lam=lam, step=step, iteration=it, solver=sid, phase=pid,
-                   **dict(zip(VECTORS, vectors, strict=True)))  # fmt: skip
+    """Append the first n compiled records to a LogBuilder, as one block."""
+    vectors = {k: rec[:n, a:b] for k, (a, b) in ((k, REC_COLUMNS[k]) for k in VECTORS)}
+    log.extend(
+        n, time=rec[:n, 0], lam=rec[:n, 13], step=irec[:n, 0], iteration=irec[:n, 1],
+        solver=sid, phase=pid, **vectors,
+    )  # fmt: skip
 
 
 def run_phase_compiled(

@@ -117,13 +117,30 @@ ARRAY_FIELDS = (
 )  # fmt: skip
 
 
+SHAPES = {"sliders": 6, "joints": 6, "tip": 3, "rcm": 3, "trocar": 3, "base": 3,
+          "target_tip": 3, "error": 6}  # fmt: skip
+INT_FIELDS = ("step", "iteration", "solver", "phase")
+
+
+def _column(k: str, values: object, n: int) -> np.ndarray:
+    """Values of field k as an array of n records with the field's dtype and shape."""
+    dtype = np.int64 if k in INT_FIELDS else float
+    shape = (n, SHAPES[k]) if k in SHAPES else (n,)
+    return np.asarray(values, dtype=dtype).reshape(shape)
+
+
 @dataclass
 class LogBuilder:
-    """Collects records during a run; `finish` returns the RunLog (also after a failure)."""
+    """Collects records during a run; `finish` returns the RunLog (also after a failure).
+
+    Records come one at a time (`append`) or as blocks of arrays (`extend`); order is kept.
+    """
 
     phase_names: list[str] = field(default_factory=list)
     solver_names: list[str] = field(default_factory=list)
     _rows: dict[str, list] = field(default_factory=lambda: {k: [] for k in ARRAY_FIELDS})
+    _blocks: dict[str, list] = field(default_factory=lambda: {k: [] for k in ARRAY_FIELDS})
+    _n_blocks: int = 0
 
     def phase_id(self, name: str) -> int:
         """Register a phase name (in order of first use) and return its id."""
@@ -142,22 +159,33 @@ class LogBuilder:
         for k in ARRAY_FIELDS:
             self._rows[k].append(record[k])
 
+    def extend(self, n: int, **columns: object) -> None:
+        """Add n records at once; each field is an array of n values (or one broadcast value)."""
+        self._flush()
+        for k in ARRAY_FIELDS:
+            col = np.asarray(columns[k])
+            full = col if col.ndim and col.shape[0] == n else np.broadcast_to(col, (n, *col.shape))
+            self._blocks[k].append(_column(k, full, n))
+        self._n_blocks += n
+
+    def _flush(self) -> None:
+        n = len(self._rows["time"])
+        if n:
+            for k in ARRAY_FIELDS:
+                self._blocks[k].append(_column(k, self._rows[k], n))
+                self._rows[k] = []
+            self._n_blocks += n
+
     def __len__(self) -> int:
-        return len(self._rows["time"])
+        return self._n_blocks + len(self._rows["time"])
 
     def finish(self) -> RunLog:
         """The records so far as a RunLog."""
-        n = len(self)
-        shapes = {"sliders": 6, "joints": 6, "tip": 3, "rcm": 3, "trocar": 3, "base": 3,
-                  "target_tip": 3, "error": 6}  # fmt: skip
-        arrays: dict[str, np.ndarray] = {}
-        for k in ARRAY_FIELDS:
-            if k in ("step", "iteration", "solver", "phase"):
-                arrays[k] = np.array(self._rows[k], dtype=np.int64).reshape(n)
-            elif k in shapes:
-                arrays[k] = np.array(self._rows[k], dtype=float).reshape(n, shapes[k])
-            else:
-                arrays[k] = np.array(self._rows[k], dtype=float).reshape(n)
+        self._flush()
+        arrays = {
+            k: np.concatenate(self._blocks[k]) if self._blocks[k] else _column(k, [], 0)
+            for k in ARRAY_FIELDS
+        }
         return RunLog(
             **arrays, phase_names=tuple(self.phase_names), solver_names=tuple(self.solver_names)
         )

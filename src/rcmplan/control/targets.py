@@ -44,6 +44,23 @@ def rcm_target(tip: FloatArray, trocar: FloatArray) -> FloatArray:
     return out
 
 
+def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:
+    """X_ext (N, 6) for many tip points (N, 3) with the RCM at one trocar; rcm_target per row.
+
+    Rows whose tip lies on the trocar get NaN angles: callers choose the needle direction there.
+    """
+    tips = np.asarray(tips, dtype=float)
+    axis = tips - vector("trocar", trocar, 3)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = axis / np.linalg.norm(axis, axis=1, keepdims=True)
+    out = np.empty((tips.shape[0], 6))
+    out[:, 0] = tips[:, 0]
+    out[:, 1] = np.arctan2(u[:, 2], -u[:, 0])  # angles_from_axis, row by row
+    out[:, 2] = np.arctan2(-u[:, 1], np.hypot(u[:, 0], u[:, 2]))
+    out[:, 3:] = trocar
+    return out
+
+
 def pivot_target(x_tip: float, phi: float, psi: float, trocar: FloatArray) -> FloatArray:
     """X_ext for explicit needle angles (used while lambda = 1, tip at the trocar)."""
     return np.array([x_tip, phi, psi, *vector("trocar", trocar, 3)])

@@ -16,7 +16,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.loop import Phase, interpolate
-from rcmplan.control.targets import pivot_target, rcm_target, solve_pose
+from rcmplan.control.targets import pivot_target, rcm_target, rcm_targets, solve_pose
 from rcmplan.control.tasks import angles_from_axis
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.iramis import Iramis
@@ -68,15 +68,11 @@ def path_targets(path: FloatArray, trocar: FloatArray, steps: Steps) -> FloatArr
     """
     pts = densify(path, trocar, steps)
     far = path[int(np.argmax(np.linalg.norm(path - trocar, axis=1)))]
-    phi, psi = angles_from_axis((far - trocar) / np.linalg.norm(far - trocar))
-    return np.array(
-        [
-            pivot_target(p[0], phi, psi, trocar)
-            if np.linalg.norm(p - trocar) < 1e-12
-            else rcm_target(p, trocar)
-            for p in pts
-        ]
-    )
+    targets = rcm_targets(pts, trocar)
+    on_port = np.linalg.norm(pts - trocar, axis=1) < 1e-12
+    if on_port.any():
+        targets[on_port, 1:3] = angles_from_axis((far - trocar) / np.linalg.norm(far - trocar))
+    return targets
 
 
 def line_targets(

@@ -19,6 +19,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.analysis.metrics import phase_metrics
+from rcmplan.control import fast_cache
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_solver
 from rcmplan.control.targets import rcm_target, solve_pose
@@ -143,8 +144,13 @@ def run_target(motion: MotionSettings, target_id: int, point: Sequence[float]) -
 
 
 def run_chunk(motion: MotionSettings, items: Sequence[TargetItem]) -> list[TargetResult]:
-    """run_target on each (id, point) of a chunk, in order (the unit of work of an executor)."""
-    return [run_target(motion, i, p) for i, p in items]
+    """run_target on each (id, point) of a chunk, in order (the unit of work of an executor).
+
+    Every chunk runs on the same control path (compiled when numba is installed), so results
+    are identical to the last bit whichever process or executor ran them.
+    """
+    with fast_cache.pinned():
+        return [run_target(motion, i, p) for i, p in items]
 
 
 def _finite(x: float) -> float | None:
