@@ -9,7 +9,6 @@ iteration index within the step, solver id, phase id.
 
 from __future__ import annotations
 
-import csv
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -84,31 +83,27 @@ class RunLog:
             )
 
     def save_csv(self, path: str | Path) -> None:
-        """Write one CSV row per record, SI units in the column names."""
+        """Write one CSV row per record, SI units in the column names (floats to 17 digits)."""
         header = ["time_s", "phase", "solver", "step", "iteration", "lambda"]
-        header += [
-            f"s{i}_{n}" for i, n in enumerate(("L1_m", "L2_m", "L3_m", "L4_m", "L5_m", "q5_rad"))
-        ]
+        units = ("L1_m", "L2_m", "L3_m", "L4_m", "L5_m", "q5_rad")
+        header += [f"s{i}_{n}" for i, n in enumerate(units)]
         header += [f"q{i}" for i in range(6)]
         for name in FIELDS_3:
             header += [f"{name}_{a}_m" for a in "xyz"]
         header += [f"error_{i}" for i in range(6)]
+        phases = np.array([*self.phase_names, ""], dtype=object)[self.phase]
+        solvers = np.array([*self.solver_names, ""], dtype=object)[self.solver]
+        floats = np.column_stack(
+            [self.sliders, self.joints, self.tip, self.rcm, self.trocar, self.base,
+             self.target_tip, self.error]
+        )  # fmt: skip
+        t, lam = self.time.tolist(), self.lam.tolist()
+        step, it = self.step.tolist(), self.iteration.tolist()
         with open(path, "w", newline="") as fh:
-            w = csv.writer(fh)
-            w.writerow(header)
-            for i in range(len(self)):
-                row: list[object] = [
-                    repr(float(self.time[i])),
-                    self.phase_names[self.phase[i]] if self.phase_names else int(self.phase[i]),
-                    self.solver_names[self.solver[i]] if self.solver_names else int(self.solver[i]),
-                    int(self.step[i]),
-                    int(self.iteration[i]),
-                    repr(float(self.lam[i])),
-                ]
-                arrays = (self.sliders, self.joints, self.tip, self.rcm, self.trocar, self.base)
-                for arr in (*arrays, self.target_tip, self.error):
-                    row += [repr(float(v)) for v in arr[i]]
-                w.writerow(row)
+            fh.write(",".join(header) + "\n")
+            for i, row in enumerate(floats.tolist()):
+                head = f"{t[i]!r},{phases[i]},{solvers[i]},{step[i]},{it[i]},{lam[i]!r}"
+                fh.write(head + "," + ",".join(map(repr, row)) + "\n")
 
 
 ARRAY_FIELDS = (
