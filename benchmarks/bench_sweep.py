@@ -78,7 +78,7 @@ def rows(n_reachable: int | None = None, per_worker: int | None = None) -> list[
         row("sweep throughput", ran / wall, "targets/s"),
         row("load average (1 min) after the local sweep", load, ""),
     ]
-    return out + scaling_rows(per_worker or (40 if quick() else 150))
+    return out + scaling_rows(per_worker or (150 if quick() else 2500))
 
 
 if __name__ == "__main__":
@@ -86,6 +86,6 @@ if __name__ == "__main__":
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--targets", type=int, help="reachable targets of the local sweep (10000)")
-    ap.add_argument("--per-worker", type=int, help="targets per worker of the scaling (150)")
+    ap.add_argument("--per-worker", type=int, help="targets per worker of the scaling (2500)")
     a = ap.parse_args()
     print_table(rows(a.targets, a.per_worker))
