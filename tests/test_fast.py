@@ -191,3 +191,29 @@ def test_fast_path_declines_when_off(robot: Iramis) -> None:
     ctl = Controller(KinematicPlant(robot), PinvSolver())
     assert not fast_converge_phase(ctl, ctl.solver, np.zeros((1, 6)), 0, 0)
     assert not fast_check_targets(robot, np.zeros((1, 6)))
+
+
+class SteppedPlant(KinematicPlant):
+    """The kinematic plant, taken through the per-iteration path used for plants with dynamics."""
+
+
+@pytest.mark.parametrize("solver", SOLVERS, ids=["pinv", "pinv-thesis", "dls"])
+def test_per_iteration_path_equals_reference_controller(robot: Iramis, solver) -> None:
+    eye = default_eye(robot)
+    phases = injection(robot, eye, default_points(eye))
+    ref = reference_run(Controller(KinematicPlant(robot), solver), phases)
+    fast = Controller(SteppedPlant(robot), solver).run(phases)
+    assert_same_log(ref, fast)
+
+
+def test_per_iteration_path_stops_like_the_reference(robot: Iramis) -> None:
+    eye = default_eye(robot)
+    phases = injection(robot, eye, default_points(eye))
+    out = []
+    for plant, run in ((KinematicPlant(robot), reference_run), (SteppedPlant(robot), None)):
+        ctl = Controller(plant, PinvSolver(), settings=LoopSettings(max_iterations=1))
+        with pytest.raises(ConvergenceError) as info:
+            run(ctl, phases) if run else ctl.run(phases)
+        out.append(info.value)
+    assert str(out[0]).split("|error|")[0] == str(out[1]).split("|error|")[0]
+    assert_same_log(out[0].log, out[1].log)

@@ -36,7 +36,7 @@ from rcmplan.control.fast_kernels import (
 )
 
 PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3
-DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP = range(7)
+DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
 REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
                "tip": (14, 17), "rcm": (17, 20), "trocar": (20, 23), "base": (23, 26),
                "target_tip": (26, 29), "error": (29, 35)}  # fmt: skip
@@ -156,21 +156,72 @@ def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
 
 
 @njit(cache=True)
+def iterate(
+    P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
+    drift: bool, thr: float, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
+    fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray, f: FloatArray,
+    J: FloatArray, A: FloatArray,
+) -> int:  # fmt: skip
+    """One iteration of Algorithm 1 from sliders s, as `Controller.converge` does it.
+
+    Returns DONE (every error within tolerance), STEPPED (the next command is in fail[12:18])
+    or a stop code. state = (lambda, time [s], dt [s]); lambda is updated. From the second
+    iteration on the record goes to row (35,). fail holds (q, q_new, s_new, error).
+    """
+    q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:24]
+    joints_from_sliders(P, s, q)
+    tr = trig(q)
+    if method != TIP and drift:
+        state[0] = closest_lambda(P, q, tr, trocar, w)
+    m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
+    if it > 0:
+        record(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e, m)
+    if converged(e, tol, m):
+        return DONE
+    if it == max_it:
+        return NO_CONVERGENCE
+    if min(abs(tr[0]), abs(tr[2])) < thr:
+        return SINGULAR
+    solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
+    for i in range(6):
+        qn[i] = q[i] + d[i] if i < 5 else q[i]
+    state[0] += d[5]
+    if not sliders_from_joints(P, qn, sn):
+        return BAD_JOINTS
+    info[2] = first_beyond_travel(P, sn)
+    if info[2] >= 0:
+        return SLIDER_LIMIT
+    return STEPPED
+
+
+@njit(cache=True)
+def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray,
+                 trocar: FloatArray) -> int:  # fmt: skip
+    """Fill the target's tip point and trocar (NaN in free space); returns 1 for a pivot
+    target, 0 otherwise, and -1 (NO_TIP) when X_ext fixes no tip."""
+    if not rcm:
+        put(tip_t, 0, target, 0, 3)
+        return 0
+    put(trocar, 0, target, 3, 3)
+    if not tip_of_target(target, w, tip_t):
+        return -1
+    return 1 if is_pivot(tip_t, target) else 0
+
+
+@njit(cache=True)
 def run_targets(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
     drift: bool, thr: float, targets: FloatArray, k0: int, s: FloatArray, state: FloatArray,
     rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
 ) -> int:  # fmt: skip
-    """Algorithm 1 on targets[k0:] from sliders s; returns a status code.
+    """Algorithm 1 on targets[k0:] from sliders s, on the kinematic plant; returns a status.
 
     state = (lambda, time [s], dt [s]) is updated in place, as is s. On return info holds
     (records written, target index reached, slider index for SLIDER_LIMIT) and fail holds
     (q (6), q_new (6), s_new (6), error (6)) of the last iteration. PAUSED means the record
     buffer could not hold another target: call again from info[1].
     """
-    rcm = method != TIP
-    q, qn, sn = fail[0:6], fail[6:12], fail[12:18]
-    e = fail[18:24]
     w, d, f = np.empty(6), np.empty(6), np.empty(6)
     J, A = np.empty((6, 6)), np.empty((6, 6))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
@@ -179,42 +230,22 @@ def run_targets(
         info[0], info[1] = n, k
         if n + max_it > cap:
             return PAUSED
-        target = targets[k]
-        pivot = False
-        if rcm:
-            put(trocar, 0, target, 3, 3)
-            if not tip_of_target(target, w, tip_t):
-                return NO_TIP
-            pivot = is_pivot(tip_t, target)
-        else:
-            put(tip_t, 0, target, 0, 3)
+        kind = target_frame(targets[k], method != TIP, w, tip_t, trocar)
+        if kind < 0:
+            return NO_TIP
         for it in range(max_it + 1):
-            joints_from_sliders(P, s, q)
-            tr = trig(q)
-            if rcm and drift:
-                state[0] = closest_lambda(P, q, tr, trocar, w)
-            m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
+            status = iterate(P, method, K, damping, tol, max_it, drift, thr, targets[k],
+                             kind == 1, tip_t, trocar, s, state, it, rec[n], fail, info,
+                             w, d, f, J, A)  # fmt: skip
             if it > 0:
-                record(P, rec[n], state[1], s, q, tr, state[0], trocar, tip_t, e, m)
                 irec[n, 0], irec[n, 1] = k, it
                 n += 1
                 info[0] = n
-            if converged(e, tol, m):
+            if status == DONE:
                 break
-            if it == max_it:
-                return NO_CONVERGENCE
-            if min(abs(tr[0]), abs(tr[2])) < thr:
-                return SINGULAR
-            solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
-            for i in range(6):
-                qn[i] = q[i] + d[i] if i < 5 else q[i]
-            state[0] += d[5]
-            if not sliders_from_joints(P, qn, sn):
-                return BAD_JOINTS
-            info[2] = first_beyond_travel(P, sn)
-            if info[2] >= 0:
-                return SLIDER_LIMIT
-            put(s, 0, sn, 0, 6)
+            if status != STEPPED:
+                return status
+            put(s, 0, fail, 12, 6)  # the kinematic plant reaches the command
             state[1] += state[2]
     info[0], info[1] = n, targets.shape[0]
     return DONE

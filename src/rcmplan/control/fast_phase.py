@@ -25,7 +25,8 @@ if TYPE_CHECKING:
     from rcmplan.control.loop import Controller
 
 # status codes and record layout of rcmplan.control.fast_loop (kept here to avoid importing it)
-DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP = range(7)
+DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
+BLOCK = 4096  # records buffered before they go to the log
 REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
                "tip": (14, 17), "rcm": (17, 20), "trocar": (20, 23), "base": (23, 26),
                "target_tip": (26, 29), "error": (29, 35)}  # fmt: skip
@@ -59,6 +60,12 @@ def solver_arrays(solver: Solver) -> tuple[FloatArray, float, FloatArray]:
     return K, float(getattr(solver, "damping", 0.0)), tol
 
 
+def singular_threshold(controller: Controller) -> float:
+    """The loop's singular threshold: its own setting, else the robot's."""
+    own = controller.settings.singular_threshold
+    return float(controller.robot.params.singular_threshold if own is None else own)
+
+
 def append_records(
     log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n: int, pid: int, sid: int
 ) -> None:
@@ -78,8 +85,7 @@ def run_phase_compiled(
     robot, plant, cfg = controller.robot, controller.plant, controller.settings
     code = method_code(solver)
     K, damping, tol = solver_arrays(solver)
-    thr = robot.params.singular_threshold
-    thr = thr if cfg.singular_threshold is None else cfg.singular_threshold
+    thr = singular_threshold(controller)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     s = plant.read_sliders()
     state = np.array([controller.lam, plant.time, plant.dt])
@@ -101,6 +107,54 @@ def run_phase_compiled(
         where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
         m = solver.tolerance().shape[0]
         raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
+
+
+def run_phase_on_plant(
+    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+) -> None:
+    """Algorithm 1 on each target with any plant: the plant steps in Python, each iteration's
+    kinematics, error, record and step in one compiled call (`fast_loop.iterate`)."""
+    loop = fast_cache.loop_kernels()
+    robot, plant, cfg = controller.robot, controller.plant, controller.settings
+    code = method_code(solver)
+    K, damping, tol = solver_arrays(solver)
+    thr = singular_threshold(controller)
+    P, state = robot_params(robot), np.array([controller.lam, plant.time, plant.dt])
+    rec, irec = np.empty((BLOCK, 35)), np.empty((BLOCK, 2), dtype=np.int64)
+    info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
+    w, d, f, J, A = np.empty(6), np.empty(6), np.empty(6), np.empty((6, 6)), np.empty((6, 6))
+    tip_t, trocar = np.empty(3), np.full(3, np.nan)
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    n = 0
+    for k in range(targets.shape[0]):
+        kind = loop.target_frame(targets[k], code != 3, w, tip_t, trocar)
+        for it in range(cfg.max_iterations + 1):
+            status = NO_TIP if kind < 0 else STEPPED
+            if kind >= 0:
+                state[1] = plant.time
+                status = loop.iterate(P, code, K, damping, tol, cfg.max_iterations,
+                                      cfg.drift_correction, float(thr), targets[k], kind == 1,
+                                      tip_t, trocar, plant.read_sliders(), state, it, rec[n],
+                                      fail, info, w, d, f, J, A)  # fmt: skip
+            if it > 0 and kind >= 0:
+                irec[n] = k, it
+                n += 1
+                if n == BLOCK:
+                    append_records(controller.log, rec, irec, n, pid, sid)
+                    n = 0
+            if status == STEPPED:
+                plant.command_sliders(fail[12:18].copy())
+                plant.advance()
+                continue
+            controller.lam = float(state[0])
+            if status != DONE:
+                append_records(controller.log, rec, irec, n, pid, sid)
+                where = f"phase {controller.log.phase_names[pid]!r} step {k}"
+                m = solver.tolerance().shape[0]
+                raise_stop(controller, status, k, targets, fail, tol[:m], where)
+            break
+    append_records(controller.log, rec, irec, n, pid, sid)
+    controller.lam = float(state[0])
 
 
 def raise_stop(
