@@ -91,8 +91,7 @@ class QpSolver:
 
     def tolerance(self) -> FloatArray:
         """(position, angle, angle, position x3)."""
-        p, a = self.tol
-        return np.array([p, a, a, p, p, p])
+        return self.tol.x_ext()
 
     def step(
         self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray

@@ -28,6 +28,11 @@ class Tolerance(NamedTuple):
     position: float = 1e-8
     angle: float = 1e-7
 
+    def x_ext(self) -> FloatArray:
+        """Per-component tolerance of an X_ext error: (position, angle, angle, position x3)."""
+        p, a = self
+        return np.array([p, a, a, p, p, p])
+
     def checked(self) -> Tolerance:
         """Return self if both tolerances are positive and finite, else raise."""
         scalar("tolerance.position", self.position, 0.0, np.inf, low_open=True, high_open=True)
@@ -113,8 +118,7 @@ class PinvSolver:
 
     def tolerance(self) -> FloatArray:
         """(position, angle, angle, position x3)."""
-        p, a = self.tol
-        return np.array([p, a, a, p, p, p])
+        return self.tol.x_ext()
 
     def step(
         self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
