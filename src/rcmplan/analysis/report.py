@@ -33,15 +33,16 @@ def write_summary(result: RunResult, out: Path) -> Path:
     result.log.save_npz(out / "log.npz")
     result.log.save_csv(out / "log.csv")
     path = out / "summary.json"
-    path.write_text(json.dumps(_jsonable(result.summary()), indent=2))
+    path.write_text(json.dumps(jsonable(result.summary()), indent=2))
     return path
 
 
-def _jsonable(obj: Any) -> Any:
+def jsonable(obj: Any) -> Any:
+    """obj with tuples as lists and non-finite floats as None, ready for strict JSON."""
     if isinstance(obj, dict):
-        return {k: _jsonable(v) for k, v in obj.items()}
+        return {k: jsonable(v) for k, v in obj.items()}
     if isinstance(obj, list | tuple):
-        return [_jsonable(v) for v in obj]
+        return [jsonable(v) for v in obj]
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj

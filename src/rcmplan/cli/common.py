@@ -96,9 +96,9 @@ def print_summary(result: RunResult) -> None:
 
 def print_json(obj: Any) -> None:
     """JSON to stdout."""
-    from rcmplan.analysis.report import _jsonable
+    from rcmplan.analysis.report import jsonable
 
-    print(json.dumps(_jsonable(obj), indent=2))
+    print(json.dumps(jsonable(obj), indent=2))
 
 
 def _um(v: float | None) -> str:

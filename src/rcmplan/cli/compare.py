@@ -48,12 +48,12 @@ def compare_rows(args: argparse.Namespace) -> list[dict[str, Any]]:
 
 def run(args: argparse.Namespace) -> int:
     """Print the comparison table; write compare.json and the chart."""
-    from rcmplan.analysis.report import _jsonable, prepare_folder
+    from rcmplan.analysis.report import jsonable, prepare_folder
     from rcmplan.cli.robot import table
 
     out = prepare_folder(args.out or args.out_default)
     rows = compare_rows(args)
-    (out / "compare.json").write_text(json.dumps(_jsonable(rows), indent=2))
+    (out / "compare.json").write_text(json.dumps(jsonable(rows), indent=2))
     if not args.no_plots:
         from rcmplan.analysis.plots import method_comparison
 

@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run each experiment with the thesis setting (as interpreted) and rcmplan's."""
-    from rcmplan.analysis.report import _jsonable, prepare_folder
+    from rcmplan.analysis.report import jsonable, prepare_folder
     from rcmplan.cli.robot import table
     from rcmplan.scene import thesis
 
@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
 
                 rcm_deviation_per_iteration(o.log, out / f"{key}-{setting}.png")
         rows.append(row)
-    (out / "reproduce.json").write_text(json.dumps(_jsonable(rows), indent=2))
+    (out / "reproduce.json").write_text(json.dumps(jsonable(rows), indent=2))
     if args.json:
         print_json(rows)
         return 0

@@ -155,13 +155,13 @@ def write_outputs(
     args: argparse.Namespace, out: Path, result: SweepResult, gains: GainSearchResult | None
 ) -> dict[str, Any]:
     """summary.json, targets.csv, gains.json and the figures; returns the summary."""
-    from rcmplan.analysis.report import _jsonable
+    from rcmplan.analysis.report import jsonable
     from rcmplan.sweep import report
 
     s = report.summary(result)
     if gains is not None:
         s["gain_search"] = report.gain_summary(gains)
-    (out / "summary.json").write_text(json.dumps(_jsonable(s), indent=2))
+    (out / "summary.json").write_text(json.dumps(jsonable(s), indent=2))
     report.write_targets_csv(result, out / "targets.csv")
     if not args.no_plots:
         from rcmplan.sweep import maps
