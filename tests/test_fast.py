@@ -4,10 +4,9 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 
+import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they do not skip)
 import numpy as np
 import pytest
-
-pytest.importorskip("numba")
 
 from rcmplan import Iramis, IramisParameters
 from rcmplan.control import (
