@@ -28,20 +28,13 @@ class Pose(NamedTuple):
 
 def rcm_target(tip: FloatArray, trocar: FloatArray) -> FloatArray:
     """X_ext of "tip at `tip` while the RCM stays at `trocar`" (both (3,) in [m])."""
-    tip = vector("tip", tip, 3)
-    trocar = vector("trocar", trocar, 3)
-    axis = tip - trocar
-    norm = float(np.linalg.norm(axis))
-    out = np.empty(6)
-    out[0] = tip[0]
-    if norm == 0.0:
+    x = rcm_targets(vector("tip", tip, 3)[None, :], vector("trocar", trocar, 3))[0]
+    if not np.isfinite(x[1]):
         # RCM at the tip (lambda = 1): the needle direction is free; callers pass angles instead.
         raise UnreachableTargetError(
             "the tip coincides with the trocar: the needle axis is undefined"
         )
-    out[1], out[2] = angles_from_axis(axis / norm)
-    out[3:] = trocar
-    return out
+    return x
 
 
 def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:

@@ -25,7 +25,8 @@ from rcmplan.control.augmented import extended_task
 from rcmplan.control.log import RunLog
 from rcmplan.control.loop import Controller, LoopSettings, Phase, interpolate
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, Tolerance
-from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.control.targets import pivot_target, rcm_target, solve_pose
+from rcmplan.control.tasks import angles_from_axis
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.eye import default_eye, default_points
@@ -111,14 +112,8 @@ def dls_spiral(setting: str) -> Outcome:
     pts = default_points(eye)
     solver: Solver = DlsSolver(0.1, Tolerance(1e-4, 1e-4)) if setting == "thesis" else DlsSolver()
     phases = spiral(robot, eye, pts, Spiral(), Steps())[2:]  # from insert on
-    start = solve_pose(robot, np.array([eye.port[0], *_axis_angles(eye), *eye.port]))
+    start = solve_pose(robot, pivot_target(eye.port[0], *angles_from_axis(eye.axis), eye.port))
     return _run("DLS spiral (figs. 4.6, 4.7)", setting, solver, phases, start.q, 1.0, True)
-
-
-def _axis_angles(eye: object) -> tuple[float, float]:
-    from rcmplan.control.tasks import angles_from_axis
-
-    return angles_from_axis(eye.axis)  # type: ignore[attr-defined]
 
 
 EXPERIMENTS = {"pivot": pivot_alignment, "p3-p7": move_p3_p7, "spiral": dls_spiral}
