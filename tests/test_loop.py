@@ -171,3 +171,14 @@ def test_solve_pose_realises_the_target_exactly(robot: Iramis, rng) -> None:
         pose = solve_pose(robot, x)
         np.testing.assert_allclose(extended_task(robot, pose.q, pose.lam), x, atol=1e-14)
         np.testing.assert_allclose(robot.tip(pose.q), pts.as_dict()[name], atol=1e-14)
+
+
+def test_log_builder_keeps_a_copy_of_each_block() -> None:
+    from rcmplan.control.log import ARRAY_FIELDS, SHAPES, LogBuilder
+
+    log, buf = LogBuilder(), np.zeros(4)
+    cols = {k: np.zeros((4, SHAPES[k]) if k in SHAPES else 4) for k in ARRAY_FIELDS}
+    log.extend(4, **{**cols, "time": buf})
+    buf[:] = 1.0  # the caller refills its buffer for the next block
+    log.extend(4, **{**cols, "time": buf})
+    np.testing.assert_array_equal(log.finish().time, [0, 0, 0, 0, 1, 1, 1, 1])

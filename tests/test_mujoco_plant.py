@@ -121,9 +121,52 @@ def test_command_beyond_travel_raises_slider_limit_error(
         dynamic.command_sliders(s)
 
 
-def test_non_finite_command_raises_invalid_input(dynamic: MujocoPlant) -> None:
-    with pytest.raises(InvalidInputError):
-        dynamic.command_sliders(np.array([np.nan, 0, 0, 0, 0, 0]))
+@pytest.mark.parametrize(
+    "bad", [[np.nan, 0, 0, 0, 0, 0], [0, 0, 0, 0, 0, np.inf], [0.0] * 5, "L1", [[0.0] * 6]]
+)
+def test_malformed_command_raises_invalid_input(dynamic: MujocoPlant, bad: object) -> None:
+    before = dynamic._cmd.copy()
+    with pytest.raises(InvalidInputError, match="s = "):
+        dynamic.command_sliders(bad)  # type: ignore[arg-type]
+    np.testing.assert_array_equal(dynamic._cmd, before)  # the last valid command stands
+
+
+def test_gravity_compensation_is_gravity_off_with_the_same_accelerations(
+    robot: Iramis, rng: np.random.Generator
+) -> None:
+    import mujoco
+
+    from rcmplan.sim.mujoco.files import load_model
+    from rcmplan.sim.mujoco.model import ModelOptions
+
+    plant = MujocoPlant(robot)  # compensation on: gravity switched off in the model
+    assert plant.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY
+    gravcomp = load_model(robot, plant.eye, plant.piezo, ModelOptions())  # per-body gravcomp
+    assert not gravcomp.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY
+    for _ in range(20):
+        plant.reset(rng.uniform(0.5 * robot.lower, 0.5 * robot.upper))
+        plant.data.qvel[:] = rng.normal(0.0, 0.01, plant.model.nv)
+        data = mujoco.MjData(gravcomp)
+        data.qpos[:], data.qvel[:], data.act[:] = plant.data.qpos, plant.data.qvel, plant.data.act
+        mujoco.mj_forward(plant.model, plant.data)
+        mujoco.mj_forward(gravcomp, data)
+        np.testing.assert_allclose(plant.data.qacc, data.qacc, rtol=1e-9, atol=1e-9)
+
+
+def test_an_uncompensated_body_keeps_gravity(robot: Iramis) -> None:
+    import mujoco
+
+    from rcmplan.sim.mujoco.plant import cancel_gravity
+
+    plant = MujocoPlant(robot, gravity_compensation=False)
+    assert not plant.model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY
+    model = plant.model.__copy__()
+    model.body_gravcomp[:] = 1.0
+    needle = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "frame6")
+    model.body_gravcomp[needle] = 0.0  # one moving body left uncompensated
+    cancel_gravity(mujoco, model)
+    assert not model.opt.disableflags & mujoco.mjtDisableBit.mjDSBL_GRAVITY
+    assert model.body_gravcomp[needle - 1] == 1.0
 
 
 def test_a_servo_too_stiff_for_the_timestep_raises_simulation_error(robot: Iramis) -> None:

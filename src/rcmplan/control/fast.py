@@ -9,6 +9,7 @@ decided in `rcmplan.control.fast_cache` (mode "auto", "on" or "off"; see docs/pe
 
 from __future__ import annotations
 
+import importlib.util
 from types import ModuleType
 from typing import TYPE_CHECKING
 
@@ -51,9 +52,10 @@ def fast_converge_phase(
     """Run Algorithm 1 on every target of a phase in compiled code, if it applies.
 
     Applies when the solver is a PinvSolver, DlsSolver or TipSolver and the fast path is
-    enabled (see `fast_cache.use_fast`). On a KinematicPlant the whole loop is compiled; on any
-    other plant (MuJoCo) the plant steps in Python and each iteration's control work is one
-    compiled call. Records go to controller.log, the plant and controller.lam end where the
+    enabled (see `fast_cache.use_fast`). On a KinematicPlant, and on a dynamic MujocoPlant
+    (physics through MuJoCo's C functions, `fast_mujoco`), the whole loop is compiled; on any
+    other plant the plant steps in Python and each iteration's control work is one compiled
+    call. Records go to controller.log, the plant and controller.lam end where the
     reference loop leaves them, and an early stop raises the reference loop's exception.
     Returns False (nothing done) otherwise.
     """
@@ -67,8 +69,22 @@ def fast_converge_phase(
     # A plant with dynamics needs tens of iterations per target, each a physics step.
     if not fast_cache.use_fast(DYNAMIC_ITERATIONS_PER_TARGET * len(targets)):
         return False
+    if _is_dynamic_mujoco(controller.plant):
+        done = fast_cache.mujoco_loop().run_phase_on_mujoco(controller, solver, targets, pid, sid)
+        if done:
+            return True
     run_phase_on_plant(controller, solver, targets, pid, sid)
     return True
+
+
+def _is_dynamic_mujoco(plant: object) -> bool:
+    """A dynamic MujocoPlant (checked without importing MuJoCo for other plants)."""
+    cls = type(plant)
+    return (
+        cls.__name__ == "MujocoPlant"
+        and cls.__module__ == "rcmplan.sim.mujoco.plant"
+        and getattr(plant, "mode", None) == "dynamic"
+    )
 
 
 def fast_check_targets(robot: Iramis, targets: FloatArray) -> bool:
@@ -185,6 +201,21 @@ def compile_kernels() -> None:
             ctl = Controller(plant, solver)
             ctl.lam = 1.0 - 8e-3 / robot.params.l6
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
+    if importlib.util.find_spec("mujoco") is not None:
+        _compile_mujoco_loop(robot, jobs)
+
+
+def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -> None:
+    """The compiled loop around the dynamic MuJoCo plant, on a short move per solver."""
+    from rcmplan.control.loop import Controller
+    from rcmplan.sim.mujoco.plant import MujocoPlant
+
+    loop = fast_cache.mujoco_loop()
+    for solver, targets in jobs:
+        plant = MujocoPlant(robot, mode="dynamic")
+        ctl = Controller(plant, solver)
+        ctl.lam = 1.0 - 8e-3 / robot.params.l6
+        loop.run_phase_on_mujoco(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0)
 
 
 class _SteppedPlant(KinematicPlant):

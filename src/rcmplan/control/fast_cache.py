@@ -69,12 +69,21 @@ def loop_kernels() -> ModuleType:
     return importlib.import_module("rcmplan.control.fast_loop")
 
 
+def mujoco_loop() -> ModuleType:
+    """The compiled loop around the dynamic MuJoCo plant (`fast_mujoco`); needs numba and
+    MuJoCo (MissingExtraError naming the extra otherwise)."""
+    require_extra("numba", "fast")
+    require_extra("mujoco", "sim")
+    return importlib.import_module("rcmplan.control.fast_mujoco")
+
+
 def stamp_path() -> Path:
     """The file that marks numba's cache as holding every kernel of this source and numba."""
     here = Path(__file__).parent
     key = hashlib.sha256()
-    for name in ("fast_kernels.py", "fast_loop.py"):
-        key.update((here / name).read_bytes())
+    for path in (here / "fast_kernels.py", here / "fast_loop.py", here / "fast_mujoco.py",
+                 here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
+        key.update(path.read_bytes())
     key.update(metadata.version("numba").encode())
     key.update(sys.version.encode())
     key.update(os.environ.get("NUMBA_CACHE_DIR", "").encode())

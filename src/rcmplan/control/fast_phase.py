@@ -144,7 +144,12 @@ def run_phase_on_plant(
                     n = 0
             if status == STEPPED:
                 plant.command_sliders(fail[12:18].copy())
-                plant.advance()
+                try:
+                    plant.advance()
+                except RcmplanError:  # the partial log keeps every record so far
+                    append_records(controller.log, rec, irec, n, pid, sid)
+                    controller.lam = float(state[0])
+                    raise
                 continue
             controller.lam = float(state[0])
             if status != DONE:

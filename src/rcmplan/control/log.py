@@ -118,10 +118,11 @@ INT_FIELDS = ("step", "iteration", "solver", "phase")
 
 
 def _column(k: str, values: object, n: int) -> np.ndarray:
-    """Values of field k as an array of n records with the field's dtype and shape."""
+    """Values of field k as a new array of n records with the field's dtype and shape (a
+    copy: callers refill their record buffers after handing them over)."""
     dtype = np.int64 if k in INT_FIELDS else float
     shape = (n, SHAPES[k]) if k in SHAPES else (n,)
-    return np.asarray(values, dtype=dtype).reshape(shape)
+    return np.array(values, dtype=dtype).reshape(shape)
 
 
 @dataclass

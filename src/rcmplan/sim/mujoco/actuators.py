@@ -119,6 +119,20 @@ def reference_velocity(
     (synchronised axes): every slider arrives together and the slider-space path stays
     straight, as with a coordinated motion controller; no slider exceeds its speed.
     """
-    v = (quantise(s_cmd, steps) - s_ref) / dt
+    return synchronised_velocity(quantise(s_cmd, steps), s_ref, dt, speed)
+
+
+def synchronised_velocity(
+    target: FloatArray, s_ref: FloatArray, dt: float, speed: FloatArray
+) -> FloatArray:
+    """(target - s_ref) / dt, scaled down as a whole so that no slider exceeds its speed.
+
+    `target` is already quantised; this is the per-period part of `reference_velocity`,
+    written with in-place operations (the MuJoCo plant calls it every control period).
+    """
+    v = np.subtract(target, s_ref)
+    v /= dt
     excess = float(np.max(np.abs(v) / speed))
-    return np.asarray(v / excess if excess > 1.0 else v, dtype=float)
+    if excess > 1.0:
+        v /= excess
+    return v

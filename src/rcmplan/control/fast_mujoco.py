@@ -1,0 +1,140 @@
+"""Algorithm 1 closed around the dynamic MuJoCo plant, all in compiled code.
+
+Each control period the compiled loop reads the simulated sliders, runs one iteration of
+Algorithm 1 (`fast_loop.iterate`) and, when it steps, runs the plant's period
+(`sim.mujoco.compiled.advance`: the physics steps through MuJoCo's C functions). Python is
+back only between record blocks and at the end, so a period costs the physics and about a
+microsecond more. The log, the plant's state and the stops equal those of the per-iteration
+path (`fast_phase.run_phase_on_plant`); tests/test_fast_mujoco.py checks it bit for bit.
+Needs numba (the `fast` extra) and MuJoCo (the `sim` extra).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, cast
+
+import numpy as np
+from numba import njit
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.fast_loop import DONE, NO_TIP, PAUSED, STEPPED, iterate, target_frame
+from rcmplan.control.fast_phase import (
+    append_records,
+    method_code,
+    raise_stop,
+    robot_params,
+    singular_threshold,
+    solver_arrays,
+)
+from rcmplan.control.solvers import Solver
+from rcmplan.exceptions import SimulationError
+from rcmplan.sim.mujoco.compiled import OK, PlantArrays, advance, plant_arrays
+
+if TYPE_CHECKING:
+    from rcmplan.control.loop import Controller
+    from rcmplan.sim.mujoco.plant import MujocoPlant
+
+PLANT_STOPPED = 100  # status: the plant's period failed a check (code in info[2])
+CAPACITY = 1 << 15  # records per block
+
+
+@njit(cache=True)
+def run_targets_on_mujoco(
+    P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
+    drift: bool, thr: float, targets: FloatArray, k0: int, it0: int, s: FloatArray,
+    cmd: FloatArray, state: FloatArray, rec: FloatArray, irec: NDArray[np.int64],
+    info: NDArray[np.int64], fail: FloatArray, slider_qpos: NDArray[np.intp],
+    fns: NDArray[np.intp], model: int, data: int, substeps: int, dt: float, steps: FloatArray,
+    speed: FloatArray, gap2: float, act: FloatArray, ctrl: FloatArray, qpos: FloatArray,
+    qvel: FloatArray, xpos: FloatArray, warn: NDArray[np.int32], act_idx: NDArray[np.intp],
+    servo: NDArray[np.intp], feedforward: NDArray[np.intp], slot: NDArray[np.intp],
+    pin: NDArray[np.intp],
+) -> int:  # fmt: skip
+    """Algorithm 1 on targets[k0:] (from iteration it0 of target k0) on the MuJoCo plant.
+
+    state = (lambda, plant time [s], dt [s]); cmd (6,) holds the last slider command. On
+    return info = (records written, target reached, detail) and, after PAUSED (the record block
+    is full), info[1], info[2] are the target and iteration to resume from.
+    """
+    w, d, f, v = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    J, A = np.empty((6, 6)), np.empty((6, 6))
+    trocar, tip_t = np.full(3, np.nan), np.empty(3)
+    n, cap = 0, rec.shape[0]
+    for k in range(k0, targets.shape[0]):
+        info[0], info[1] = n, k
+        kind = target_frame(targets[k], method != 3, w, tip_t, trocar)
+        if kind < 0:
+            return NO_TIP
+        for it in range(it0 if k == k0 else 0, max_it + 1):
+            if n == cap:
+                info[0], info[1], info[2] = n, k, it
+                return PAUSED
+            for i in range(6):
+                s[i] = qpos[slider_qpos[i]]
+            status = iterate(P, method, K, damping, tol, max_it, drift, thr, targets[k],
+                             kind == 1, tip_t, trocar, s, state, it, rec[n], fail, info,
+                             w, d, f, J, A)  # fmt: skip
+            if it > 0:
+                irec[n, 0], irec[n, 1] = k, it
+                n += 1
+                info[0] = n
+            if status == STEPPED:
+                for i in range(6):
+                    cmd[i] = fail[12 + i]
+                code = advance(cmd, v, fns, model, data, substeps, dt, steps, speed, gap2,
+                               act, ctrl, qpos, qvel, xpos, warn, act_idx, servo,
+                               feedforward, slot, pin)  # fmt: skip
+                state[1] += state[2]
+                if code != OK:
+                    info[1], info[2] = k, code
+                    return PLANT_STOPPED
+                continue
+            if status == DONE:
+                break
+            return status
+    info[0], info[1] = n, targets.shape[0]
+    return DONE
+
+
+def run_phase_on_mujoco(
+    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int,
+    arrays: PlantArrays | None = None,
+) -> bool:  # fmt: skip
+    """Algorithm 1 on each target with the dynamic MuJoCo plant, compiled; False (nothing
+    done) if MuJoCo's C functions cannot be found. See the module docstring."""
+    plant = cast("MujocoPlant", controller.plant)
+    arrays = arrays or plant_arrays(plant)
+    if arrays is None:
+        return False
+    cfg = controller.settings
+    K, damping, tol = solver_arrays(solver)
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    head: tuple[Any, ...] = (
+        robot_params(controller.robot), method_code(solver), K, damping, tol,
+        cfg.max_iterations, cfg.drift_correction, float(singular_threshold(controller)), targets,
+    )  # fmt: skip
+    s, cmd = np.empty(6), plant.command
+    state = np.array([controller.lam, plant.time, plant.dt])
+    rec, irec = np.empty((CAPACITY, 35)), np.empty((CAPACITY, 2), dtype=np.int64)
+    info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
+    tail = (s, cmd, state, rec, irec, info, fail, arrays.slider_qpos, *arrays.args())
+    status, k0, it0 = PAUSED, 0, 0
+    kernel: Any = run_targets_on_mujoco
+    try:
+        while status == PAUSED:
+            status = kernel(*head, k0, it0, *tail)
+            append_records(controller.log, rec, irec, int(info[0]), pid, sid)
+            k0, it0 = int(info[1]), int(info[2])
+    finally:
+        plant.command_sliders(cmd)
+        plant.time = float(state[1])
+        controller.lam = float(state[0])
+    if status == PLANT_STOPPED:
+        plant.check()  # raises the plant's own SimulationError
+        raise SimulationError(f"the plant stopped (check {int(info[2])}) at t = {plant.time} s")
+    if status != DONE:
+        where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
+        m = solver.tolerance().shape[0]
+        raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
+    return True

@@ -1,0 +1,173 @@
+"""The dynamic MuJoCo plant's control period in compiled code (needs numba: the `fast` extra).
+
+`advance` is `MujocoPlant.advance` in dynamic mode, operation for operation: the quantised
+command, the synchronised reference velocity, the servo and feed-forward controls, the physics
+steps, the kinematics and the checks (NaN, MuJoCo warnings, loop-closure gap). MuJoCo's own
+`mj_step` and `mj_kinematics` are called from the compiled code through their C addresses, so
+a closed control loop on the MuJoCo plant runs without returning to Python between periods
+(`rcmplan.control.fast_mujoco`). tests/test_fast_mujoco.py checks that it gives the same log,
+to the last bit, as the Python plant.
+
+The C addresses come from the shared library the `mujoco` package loaded; they are arguments,
+not constants, so numba's cache stays valid across processes.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray
+
+OK, DIVERGED, WARNED, GAP = range(4)  # status codes of `advance`
+LIBRARY_PATTERNS = {"linux": "libmujoco.so*", "darwin": "libmujoco*.dylib", "win32": "mujoco*.dll"}
+
+
+def _call_model_data(typingctx: Any, fn: Any, model: Any, data: Any) -> Any:
+    """call_model_data(fn, model, data) calls the C function `void fn(const mjModel*,
+    mjData*)` at address fn (all three are addresses, as integers)."""
+    sig = types.void(types.intp, types.intp, types.intp)
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        ptr = ir.IntType(8).as_pointer()
+        fnty = ir.FunctionType(ir.VoidType(), [ptr, ptr])
+        f = builder.inttoptr(args[0], fnty.as_pointer())
+        builder.call(f, [builder.inttoptr(args[1], ptr), builder.inttoptr(args[2], ptr)])
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+call_model_data: Any = intrinsic(_call_model_data)
+
+
+def library_path(mj: Any) -> Path | None:
+    """The MuJoCo shared library inside the `mujoco` package, or None if there is none."""
+    pattern = next((p for key, p in LIBRARY_PATTERNS.items() if sys.platform.startswith(key)), "")
+    found = sorted(Path(mj.__file__).parent.glob(pattern)) if pattern else []
+    return found[0] if found else None
+
+
+def function_addresses(mj: Any) -> tuple[int, int] | None:
+    """C addresses of (mj_step, mj_kinematics) in the library `mj` uses, or None."""
+    path = library_path(mj)
+    if path is None:
+        return None
+    lib = ctypes.CDLL(str(path))  # already loaded by the bindings: the same instance
+    return tuple(int(ctypes.cast(getattr(lib, n), ctypes.c_void_p).value or 0)  # type: ignore[return-value]
+                 for n in ("mj_step", "mj_kinematics"))  # fmt: skip
+
+
+@dataclass(frozen=True)
+class PlantArrays:
+    """Everything `advance` reads or writes, as views of one MuJoCo plant's data.
+
+    Attributes:
+        fns: Addresses (mj_step, mj_kinematics); model, data: of the plant's MjModel/MjData.
+        substeps: Physics steps per control period; dt: the control period [s].
+        steps, speed: Slider resolution and speed (6,); gap2: the loop-gap limit squared [m^2].
+        act, ctrl, qpos, qvel, xpos, warn: Views of mjData's arrays (MuJoCo writes into them).
+        act_idx, servo, feedforward, slider_qpos, slot, pin: Index arrays into those views.
+    """
+
+    fns: NDArray[np.intp]
+    model: int
+    data: int
+    substeps: int
+    dt: float
+    steps: FloatArray
+    speed: FloatArray
+    gap2: float
+    act: FloatArray
+    ctrl: FloatArray
+    qpos: FloatArray
+    qvel: FloatArray
+    xpos: FloatArray
+    warn: NDArray[np.int32]
+    act_idx: NDArray[np.intp]
+    servo: NDArray[np.intp]
+    feedforward: NDArray[np.intp]
+    slider_qpos: NDArray[np.intp]
+    slot: NDArray[np.intp]
+    pin: NDArray[np.intp]
+
+    def args(self) -> tuple[Any, ...]:
+        """The arguments of `advance` after the command, in order."""
+        return (self.fns, self.model, self.data, self.substeps, self.dt, self.steps,
+                self.speed, self.gap2, self.act, self.ctrl, self.qpos, self.qvel, self.xpos,
+                self.warn, self.act_idx, self.servo, self.feedforward, self.slot,
+                self.pin)  # fmt: skip
+
+
+def plant_arrays(plant: Any) -> PlantArrays | None:
+    """The arrays of a dynamic `MujocoPlant`, or None if its C functions cannot be found."""
+    fns = function_addresses(plant.mj)
+    if fns is None or not all(fns):
+        return None
+    d, ids = plant.data, plant._ids
+
+    def idx(a: Any) -> NDArray[np.intp]:
+        return np.ascontiguousarray(a, dtype=np.intp)
+
+    return PlantArrays(
+        fns=np.array(fns, dtype=np.intp), model=int(plant.model._address),
+        data=int(d._address), substeps=int(plant.substeps), dt=float(plant.dt),
+        steps=np.ascontiguousarray(plant._steps, dtype=np.float64),
+        speed=np.ascontiguousarray(plant._speed, dtype=np.float64),
+        gap2=float(plant.gap_limit) ** 2, act=d.act, ctrl=d.ctrl, qpos=d.qpos, qvel=d.qvel,
+        xpos=d.site_xpos, warn=d.warning.number, act_idx=idx(ids.act), servo=idx(ids.servo),
+        feedforward=idx(ids.feedforward), slider_qpos=idx(ids.slider_qpos),
+        slot=idx(plant.index.slot_array), pin=idx(plant.index.pin_array),
+    )  # fmt: skip
+
+
+@njit(cache=True)
+def advance(
+    cmd: FloatArray, v: FloatArray, fns: NDArray[np.intp], model: int, data: int,
+    substeps: int, dt: float, steps: FloatArray, speed: FloatArray, gap2: float,
+    act: FloatArray, ctrl: FloatArray, qpos: FloatArray, qvel: FloatArray, xpos: FloatArray,
+    warn: NDArray[np.int32], act_idx: NDArray[np.intp], servo: NDArray[np.intp],
+    feedforward: NDArray[np.intp], slot: NDArray[np.intp], pin: NDArray[np.intp],
+) -> int:  # fmt: skip
+    """One control period of the dynamic plant towards the command cmd (6,); v (6,) is
+    scratch. Returns OK or the first failing check (DIVERGED, WARNED, GAP)."""
+    excess = 0.0
+    for i in range(6):
+        target = np.rint(cmd[i] / steps[i]) * steps[i]
+        v[i] = (target - act[act_idx[i]]) / dt
+        excess = max(excess, abs(v[i]) / speed[i])
+    for i in range(6):
+        if excess > 1.0:
+            v[i] /= excess
+        ctrl[servo[i]] = v[i]
+        ctrl[feedforward[i]] = v[i]
+    for _ in range(substeps):
+        call_model_data(fns[0], model, data)
+    call_model_data(fns[1], model, data)
+    total = 0.0
+    for x in qpos:
+        total += x * x
+    for x in qvel:
+        total += x * x
+    if not np.isfinite(total):
+        return DIVERGED
+    for n in warn:
+        if n != 0:
+            return WARNED
+    for k in range(slot.shape[0]):
+        g = 0.0
+        for j in range(3):
+            r = xpos[slot[k], j] - xpos[pin[k], j]
+            g += r * r
+        if g > gap2:
+            return GAP
+    return OK

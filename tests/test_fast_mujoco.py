@@ -1,0 +1,158 @@
+"""The compiled loop around the dynamic MuJoCo plant equals the per-iteration path bit for bit:
+records, plant state, stops and partial logs."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import mujoco  # the `sim` extra: without it these tests fail, they do not skip
+import numba  # noqa: F401  (the `fast` extra, likewise)
+import numpy as np
+import pytest
+
+from rcmplan import Iramis
+from rcmplan.control import (
+    Controller,
+    DlsSolver,
+    Phase,
+    PinvSolver,
+    extended_task,
+    fast,
+    fast_cache,
+    interpolate,
+)
+from rcmplan.control import fast_mujoco as fm
+from rcmplan.control.log import ARRAY_FIELDS, RunLog
+from rcmplan.exceptions import SimulationError
+from rcmplan.sim.mujoco import compiled
+from rcmplan.sim.mujoco.plant import MujocoPlant
+
+
+@pytest.fixture(autouse=True)
+def fast_on() -> Iterator[None]:
+    fast_cache.set_mode("on")
+    yield
+    fast_cache.set_mode(None)
+
+
+def phases(robot: Iramis, n: int = 12) -> list[Phase]:
+    """A pivot (RCM) phase from home, then a short free move of the tip."""
+    x0 = extended_task(robot, robot.home, 1.0)
+    pivot = Phase("pivot", interpolate(x0, x0 + [0, 0.002, 0.02, 0, 0, 0], n))
+
+    def free(q: np.ndarray) -> np.ndarray:
+        tip = robot.tip(q)
+        return interpolate(tip, tip + [2e-4, -1e-4, 1e-4], 4)
+
+    return [pivot, Phase("free", free, kind="free")]
+
+
+def run(
+    per_iteration: bool, monkeypatch: pytest.MonkeyPatch, solver: Any, **plant: Any
+) -> tuple[RunLog | None, MujocoPlant, Controller, Exception | None]:
+    """Run `phases` on a fresh dynamic plant on one path; returns (log, plant, controller,
+    the exception raised or None)."""
+    robot = Iramis()
+    p = MujocoPlant(robot, mode="dynamic", **plant)
+    ctl = Controller(p, solver)
+    with monkeypatch.context() as m:
+        if per_iteration:
+            m.setattr(fast, "_is_dynamic_mujoco", lambda plant: False)
+        else:
+            m.setattr(fm, "run_phase_on_mujoco", counted(fm.run_phase_on_mujoco))
+        try:
+            return ctl.run(phases(robot)), p, ctl, None
+        except SimulationError as exc:
+            return exc.log, p, ctl, exc
+
+
+calls: list[int] = []
+
+
+def counted(fn: Callable[..., bool]) -> Callable[..., bool]:
+    def wrapper(*args: Any, **kwargs: Any) -> bool:
+        done = fn(*args, **kwargs)
+        calls.append(int(done))
+        return done
+
+    return wrapper
+
+
+def assert_identical(a: RunLog | None, b: RunLog | None) -> None:
+    assert a is not None and b is not None
+    assert len(a) == len(b) > 0
+    for k in ARRAY_FIELDS:
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k), err_msg=k)
+    assert a.phase_names == b.phase_names and a.solver_names == b.solver_names
+
+
+def assert_same_plant(a: MujocoPlant, b: MujocoPlant) -> None:
+    np.testing.assert_array_equal(a.data.qpos, b.data.qpos)
+    np.testing.assert_array_equal(a.data.qvel, b.data.qvel)
+    np.testing.assert_array_equal(a.data.act, b.data.act)
+    np.testing.assert_array_equal(a._cmd, b._cmd)
+    assert a.time == b.time
+
+
+@pytest.mark.parametrize("solver", [PinvSolver(), DlsSolver()], ids=["pinv", "dls"])
+def test_compiled_loop_equals_the_per_iteration_path(
+    solver: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls.clear()
+    ref, ref_plant, ref_ctl, err = run(True, monkeypatch, solver)
+    assert err is None
+    got, plant, ctl, err = run(False, monkeypatch, solver)
+    assert err is None
+    assert calls == [1, 1]  # both phases (RCM and free) ran compiled
+    assert_identical(ref, got)
+    assert_same_plant(ref_plant, plant)
+    assert ctl.lam == ref_ctl.lam
+    assert ref is not None and ref.time[-1] > 0.5  # a real dynamic run: hundreds of periods
+
+
+def test_full_record_blocks_resume_where_they_paused(monkeypatch: pytest.MonkeyPatch) -> None:
+    ref, ref_plant, _, _ = run(True, monkeypatch, PinvSolver())
+    monkeypatch.setattr(fm, "CAPACITY", 7)  # pause every 7 records, mid-target
+    got, plant, _, _ = run(False, monkeypatch, PinvSolver())
+    assert_identical(ref, got)
+    assert_same_plant(ref_plant, plant)
+
+
+def test_a_plant_failure_stops_both_paths_alike_with_the_partial_log(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    ref, _, _, ref_err = run(True, monkeypatch, PinvSolver(), gap_limit=1e-7)
+    got, _, _, err = run(False, monkeypatch, PinvSolver(), gap_limit=1e-7)
+    assert ref_err is not None and err is not None
+    assert "loop-closure gap" in str(err) and str(err) == str(ref_err)
+    assert_identical(ref, got)
+
+
+def test_a_diverged_state_raises_simulation_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    robot = Iramis()
+    plant = MujocoPlant(robot)
+    plant.data.qvel[0] = np.nan
+    ctl = Controller(plant, PinvSolver())
+    with pytest.raises(SimulationError, match=r"diverged \(NaN or inf\) at t = 0.001 s"):
+        ctl.run(phases(robot)[:1])
+    assert plant.time == pytest.approx(1e-3)  # the compiled loop stopped after one period
+
+
+def test_without_the_c_library_the_per_iteration_path_runs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    ref, ref_plant, _, _ = run(True, monkeypatch, PinvSolver())
+    monkeypatch.setattr(compiled, "function_addresses", lambda mj: None)
+    calls.clear()
+    got, plant, _, _ = run(False, monkeypatch, PinvSolver())
+    assert calls == [0, 0]  # declined, and the controller fell back
+    assert_identical(ref, got)
+    assert_same_plant(ref_plant, plant)
+
+
+def test_library_path_finds_the_loaded_mujoco_library() -> None:
+    path = compiled.library_path(mujoco)
+    assert path is not None and path.exists()
+    addresses = compiled.function_addresses(mujoco)
+    assert addresses is not None and all(a > 0 for a in addresses)
