@@ -6,7 +6,6 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from typing import Any
 
-import mujoco  # the `sim` extra: without it these tests fail, they do not skip
 import numba  # noqa: F401  (the `fast` extra, likewise)
 import numpy as np
 import pytest
@@ -26,7 +25,12 @@ from rcmplan.control import fast_mujoco as fm
 from rcmplan.control.log import ARRAY_FIELDS, RunLog
 from rcmplan.exceptions import SimulationError
 from rcmplan.sim.mujoco import compiled
+from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.plant import MujocoPlant
+
+# MuJoCo through rcmplan (which picks headless EGL first); without the `sim` extra these tests
+# fail, they do not skip.
+mujoco = mujoco_module()
 
 
 @pytest.fixture(autouse=True)
