@@ -107,6 +107,41 @@ def injection(path: str) -> dict[str, Any]:
             "rtf": sim / wall, "rtf_cpu": sim / cpu}  # fmt: skip
 
 
+class SiteRecorder(MujocoPlant):
+    """The dynamic plant, keeping MuJoCo's needle base and tip sites after every period (a
+    subclass, so the controller steps it from Python)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.sites: dict[int, np.ndarray] = {}
+
+    def advance(self) -> None:
+        super().advance()
+        period = round(self.time / self.dt)
+        self.sites[period] = np.concatenate([self.needle_base_position(), self.tip_position()])
+
+
+def simulated_needle_rcm() -> tuple[float, float]:
+    """(max trocar-to-needle-line distance from MuJoCo's sites, the same from the log's FK of
+    the read sliders) over the records inside the eye of the dynamic default injection [m]."""
+    from rcmplan.control import Controller
+    from rcmplan.control.methods import make_solver
+    from rcmplan.scene.scenario import load_scenario
+
+    robot, sc = Iramis(), load_scenario("default")
+    eye = sc.eye(robot)
+    plant = SiteRecorder(robot, eye=eye, points=sc.points(eye), dt=sc.dt)
+    solver = make_solver(sc.method, sc.method_settings, robot, eye=eye, dt=sc.dt)
+    log = Controller(plant, solver, settings=sc.loop).run(sc.phases(robot))
+    inside = np.flatnonzero(np.all(np.isfinite(log.trocar), axis=1))
+    sim = np.array([plant.sites[round(t / plant.dt)] for t in log.time[inside]])
+    base, tip, trocar = sim[:, :3], sim[:, 3:], log.trocar[inside]
+    u = (tip - base) / np.linalg.norm(tip - base, axis=1, keepdims=True)
+    d = trocar - base
+    perp = d - np.sum(d * u, axis=1, keepdims=True) * u
+    return float(np.linalg.norm(perp, axis=1).max()), float(log.line_distance()[inside].max())
+
+
 def injection_rows(physics: Callable[[], float]) -> list[dict[str, Any]]:
     """The dynamic default injection on the three paths; the closed compiled loop three times
     (median and slowest), each run next to a measurement of MuJoCo's bare step rate, since
@@ -120,6 +155,7 @@ def injection_rows(physics: Callable[[], float]) -> list[dict[str, Any]]:
         closed.append(injection("closed"))
     rates.append(physics())
     per_it, ref = injection("per-iteration"), injection("reference")
+    sim_line, fk_line = simulated_needle_rcm()
     fast = sorted(closed, key=lambda r: r["rtf"])[len(closed) // 2]
     slow = min(closed, key=lambda r: r["rtf"])
     bare = statistics.median(rates) * 1e-4  # physics alone, real-time factor
@@ -128,6 +164,8 @@ def injection_rows(physics: Callable[[], float]) -> list[dict[str, Any]]:
         row(f"{tag}: status", fast["status"], "", target="ok"),
         row(f"{tag}: max RCM deviation", 1e6 * fast["rcm"], "um", target="<= 10 um"),
         row(f"{tag}: max tip error", 1e6 * fast["tip"], "um", target="<= 10 um"),
+        row(f"{tag}: max trocar distance from MuJoCo's needle (sites)", 1e6 * sim_line, "um",
+            "same from FK of the read sliders", 1e6 * fk_line, "<= 10 um"),
         row(f"{tag}: control iterations / simulated time", fast["iterations"], "", "s",
             fast["sim"]),
         row(f"{tag}: real-time factor, compiled closed loop (median of {len(closed)})",

@@ -24,17 +24,17 @@ def plant() -> MujocoPlant:
 
 @pytest.fixture(scope="module")
 def renderer(plant: MujocoPlant) -> SceneRenderer:
-    return SceneRenderer(plant.model, W, H)
+    return SceneRenderer(plant.scene()[0], W, H)
 
 
 def needle_end_pixel(renderer: SceneRenderer, plant: MujocoPlant) -> tuple[np.ndarray, np.ndarray]:
     """(projected FK tip, needle pixel farthest along the projected needle direction)."""
     robot = plant.robot
     q = robot.joints_from_sliders(plant.read_sliders())
-    tip = renderer.project(plant.data, robot.tip(q))
-    base = renderer.project(plant.data, robot.needle_base(q))
-    seg = renderer.segment(plant.data)
-    v, u = np.nonzero(seg == plant.model.geom("needle").id)
+    tip = renderer.project(plant.scene()[1], robot.tip(q))
+    base = renderer.project(plant.scene()[1], robot.needle_base(q))
+    seg = renderer.segment(plant.scene()[1])
+    v, u = np.nonzero(seg == plant.scene()[0].geom("needle").id)
     pixels = np.column_stack([u + 0.5, v + 0.5])  # pixel centres
     along = (pixels - base) @ (tip - base) / np.linalg.norm(tip - base)
     return tip, pixels[int(np.argmax(along))]
@@ -43,7 +43,7 @@ def needle_end_pixel(renderer: SceneRenderer, plant: MujocoPlant) -> tuple[np.nd
 def test_snapshot_is_not_blank(plant: MujocoPlant, renderer: SceneRenderer) -> None:
     plant.reset(plant.robot.home_sliders)
     for camera in ("overview", "closeup"):
-        img = renderer.render(plant.data, camera)
+        img = renderer.render(plant.scene()[1], camera)
         assert img.shape == (H, W, 3) and img.dtype == np.uint8
         assert img.std() > 10.0
         assert len(np.unique(img.reshape(-1, 3), axis=0)) > 100
@@ -64,15 +64,15 @@ def test_needle_tip_is_drawn_where_forward_kinematics_projects_it(
 def test_projection_rejects_points_behind_the_camera(
     plant: MujocoPlant, renderer: SceneRenderer
 ) -> None:
-    cam = plant.data.cam("closeup")
+    cam = plant.scene()[1].cam("closeup")
     behind = cam.xpos + cam.xmat.reshape(3, 3)[:, 2] * 0.1  # cameras look along -z
     with pytest.raises(InvalidInputError, match="in front of the camera"):
-        renderer.project(plant.data, behind)
+        renderer.project(plant.scene()[1], behind)
 
 
 def test_unknown_camera_lists_the_cameras(plant: MujocoPlant, renderer: SceneRenderer) -> None:
     with pytest.raises(InvalidInputError, match="closeup"):
-        renderer.render(plant.data, "top")
+        renderer.render(plant.scene()[1], "top")
 
 
 def test_animation_with_tip_trace_is_written_as_gif(

@@ -69,9 +69,9 @@ def run(args: argparse.Namespace) -> int:
         sliders, phantom = scenario_trajectory(args, robot)
         eye, name = phantom, args.scenario
     plant = MujocoPlant(robot, mode="kinematic", eye=eye)
-    renderer = SceneRenderer(plant.model, args.width, args.height)
+    renderer = SceneRenderer(plant.scene()[0], args.width, args.height)
     written = [
-        save_png(out / f"home_{cam}.png", renderer.render(plant.data, cam))
+        save_png(out / f"home_{cam}.png", renderer.render(plant.scene()[1], cam))
         for cam in ("overview", "closeup")
     ]
     frames = animate(plant, sliders, renderer, args.camera, args.frames)

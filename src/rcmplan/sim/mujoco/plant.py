@@ -8,7 +8,9 @@ Modes:
 After every period the plant checks for NaN, MuJoCo warnings and the loop-closure gap and
 raises SimulationError when the simulation has become unstable.
 
-A period costs ten physics steps plus a few microseconds of Python: commands within travel
+The plant simulates the robot alone without visual geoms (`files.physics_model`); `scene()`
+poses the full scene (eye, visuals) for renders. A period costs ten physics steps plus a few
+microseconds of Python: commands within travel
 take a short path (one comparison), the checks read cached views of MuJoCo's arrays, and with
 gravity compensation on (every moving body has gravcomp 1) gravity is switched off in the
 compiled model instead, which gives the same forces without MuJoCo's per-body gravcomp pass
@@ -28,7 +30,7 @@ from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.eye import Eye, EyePoints
 from rcmplan.sim.mujoco.actuators import PiezoParameters, quantise, synchronised_velocity
 from rcmplan.sim.mujoco.assembly import LoopIndex, assemble_at, loop_gap
-from rcmplan.sim.mujoco.files import load_model, mujoco_module
+from rcmplan.sim.mujoco.files import load_model, mujoco_module, physics_model
 from rcmplan.sim.mujoco.model import ModelOptions
 from rcmplan.sim.mujoco.scene import EyePhantom, default_eye, phantom_of
 
@@ -81,7 +83,8 @@ class MujocoPlant:
         )
         self.piezo = piezo or PiezoParameters.from_robot(self.robot)
         options = ModelOptions(physics_dt=physics_dt, gravity_compensation=gravity_compensation)
-        self.model = load_model(self.robot, self.eye, self.piezo, options)
+        self._options = options
+        self.model = physics_model(self.robot, self.piezo, options)
         if gravity_compensation:
             cancel_gravity(self.mj, self.model)
         self.data = self.mj.MjData(self.model)
@@ -90,6 +93,7 @@ class MujocoPlant:
         self._steps, self._speed = self.piezo.steps(), np.asarray(self.piezo.speed)
         self._lower, self._upper = self.robot.lower, self.robot.upper
         self._warning_count = self.data.warning.number  # a view: MuJoCo updates it in place
+        self._scene: tuple[Any, Any] | None = None
         self.time = 0.0
         self._cmd = self.robot.home_sliders.copy()
         self.reset(self.robot.home_sliders)
@@ -155,6 +159,19 @@ class MujocoPlant:
         T[:3, :3] = self.data.site_xmat[self._ids.tip].reshape(3, 3)
         T[:3, 3] = self.data.site_xpos[self._ids.tip]
         return T
+
+    def scene(self) -> tuple[Any, Any]:
+        """(MjModel, MjData) of the full scene (eye phantom, visual geoms) posed at the plant's
+        state, for rendering; `model` and `data` are the physics (robot without visuals)."""
+        if self._scene is None:
+            model = load_model(self.robot, self.eye, self.piezo, self._options)
+            self._scene = (model, self.mj.MjData(model))
+        model, data = self._scene
+        d = self.data
+        data.qpos[:], data.qvel[:], data.act[:], data.ctrl[:] = d.qpos, d.qvel, d.act, d.ctrl
+        data.time = d.time
+        self.mj.mj_forward(model, data)
+        return model, data
 
     def loop_gap(self) -> float:
         """Largest PCJM loop-closure gap in [m]."""

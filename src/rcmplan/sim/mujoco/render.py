@@ -33,7 +33,7 @@ class SceneRenderer:
     """Render a compiled scene offscreen.
 
     Args:
-        model: An `mujoco.MjModel` (for example `MujocoPlant.model`).
+        model: An `mujoco.MjModel` with cameras (for example `MujocoPlant.scene()[0]`).
         width, height: Image size in pixels (at most the model's offscreen buffer).
     """
 
@@ -165,5 +165,5 @@ def animate(
             plant.advance()
         trace.append(plant.tip_position())
         if i in keep:
-            images.append(renderer.render(plant.data, camera, np.array(trace)))
+            images.append(renderer.render(plant.scene()[1], camera, np.array(trace)))
     return images
