@@ -1,6 +1,7 @@
 """MuJoCo plant figures: physics speed, real-time factor, kinematic agreement, the injection.
 
 Run alone: MUJOCO_GL=egl python benchmarks/bench_mujoco.py
+Only the real-time factor, N runs spread over time: python benchmarks/bench_mujoco.py --watch N
 Rows follow benchmarks/README.md. Speeds of the plant alone are medians of three runs.
 """
 
@@ -194,7 +195,8 @@ def rows() -> list[dict[str, Any]]:
     out = [
         row("MuJoCo physics steps per second (dt 1e-4 s)", steps, "1/s"),
         row("MuJoCo physics alone, real-time factor", steps * dyn.model.opt.timestep, "x"),
-        row("plant advance at 1 kHz, real-time factor", plant_real_time_factor(dyn), "x"),
+        row("plant.advance() from Python at 1 kHz, random commands: real-time factor",
+            plant_real_time_factor(dyn), "x"),
         row("kinematic mode, 500 settings: max tip error", 1e6 * kp, "um", target="<= 1 um"),
         row("kinematic mode, 500 settings: max tip angle error", 1e6 * ka, "urad",
             target="<= 1 urad"),
@@ -207,7 +209,37 @@ def rows() -> list[dict[str, Any]]:
     return out + injection_rows(lambda: physics_steps_per_second(dyn, 10000))
 
 
-if __name__ == "__main__":
-    from run import print_table
+def watch(runs: int, pause: float = 8.0) -> None:
+    """Time the compiled closed-loop injection `runs` times, each beside MuJoCo's bare step rate,
+    and print one line per run and the range (the host's speed drifts)."""
+    from rcmplan.control.fast import compile_kernels
 
-    print_table(rows())
+    compile_kernels()
+    dyn = MujocoPlant(Iramis(), mode="dynamic")
+    out = []
+    for _ in range(runs):
+        bare = physics_steps_per_second(dyn, 10000)
+        r = injection("closed")
+        out.append((bare, r["rtf"]))
+        print(f"{time.strftime('%H:%M:%S')}  bare {bare:9.0f} steps/s  real-time factor "
+              f"{r['rtf']:5.2f}  status {r['status']}", flush=True)  # fmt: skip
+        time.sleep(pause)
+    b, f = np.array(out).T
+    print(
+        f"{runs} runs: real-time factor {f.min():.2f} to {f.max():.2f} (median "
+        f"{np.median(f):.2f}); bare step rate {b.min():.0f} to {b.max():.0f} steps/s"
+    )
+
+
+if __name__ == "__main__":
+    import argparse
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--watch", type=int, metavar="N", help="only time N injection runs")
+    args = parser.parse_args()
+    if args.watch:
+        watch(args.watch)
+    else:
+        from run import print_table
+
+        print_table(rows())
