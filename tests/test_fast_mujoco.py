@@ -160,3 +160,21 @@ def test_library_path_finds_the_loaded_mujoco_library() -> None:
     assert path is not None and path.exists()
     addresses = compiled.function_addresses(mujoco)
     assert addresses is not None and all(a > 0 for a in addresses)
+
+
+@pytest.mark.parametrize("n, compiled", [(80, True), (12, False)])
+def test_auto_mode_counts_a_whole_dynamic_job_towards_the_payoff(
+    n: int, compiled: bool, monkeypatch: pytest.MonkeyPatch, tmp_path: Any
+) -> None:
+    stamp = tmp_path / "warm.ok"
+    stamp.write_text("warm\n")
+    fast_cache.set_mode("auto")
+    monkeypatch.setattr(fast_cache, "loaded", lambda: False)  # as in a new process
+    monkeypatch.setattr(fast_cache, "stamp_path", lambda: stamp)  # numba's cache is warm
+    monkeypatch.setitem(fast_cache._state, "reference_targets", 0)
+    monkeypatch.setattr(fm, "run_phase_on_mujoco", counted(fm.run_phase_on_mujoco))
+    calls.clear()
+    robot = Iramis()
+    Controller(MujocoPlant(robot), PinvSolver()).run(phases(robot, n)[:1])
+    # 80 targets x 40 periods pay for loading the kernels (3,000); 12 do not
+    assert calls == ([1] if compiled else [])

@@ -114,6 +114,11 @@ def use_fast(n_targets: int = 0) -> bool:
     return False
 
 
+def expect(n_targets: int) -> None:
+    """Count work a job is about to do towards the payoff of mode "auto" (see `use_fast`)."""
+    _state["reference_targets"] += n_targets
+
+
 @contextlib.contextmanager
 def pinned() -> Iterator[str]:
     """Run a block on one path only: compiled if numba is installed and the mode is not "off",

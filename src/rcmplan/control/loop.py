@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
-from rcmplan.control.fast import fast_check_targets, fast_converge_phase
+from rcmplan.control.fast import expect_job, fast_check_targets, fast_converge_phase
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, tip_of_target
@@ -152,6 +152,7 @@ class Controller:
         Phases with target arrays are all checked before any motion; a planned phase is checked
         when it is planned, before its own motion.
         """
+        expect_job(self, phases)
         try:
             for ph in phases:
                 if ph.kind == "rcm" and not callable(ph.targets):
