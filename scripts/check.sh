@@ -16,7 +16,7 @@ if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
   fi
 fi
 
-python -m pip install -q --disable-pip-version-check -e ".[all,dev]"
+python -m pip install -q --disable-pip-version-check -e ".[all,video,dev]"
 
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 python -m ruff check src tests benchmarks

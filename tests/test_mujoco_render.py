@@ -89,6 +89,29 @@ def test_animation_with_tip_trace_is_written_as_gif(
     assert iio.imread(png).shape == (H, W, 3)
 
 
+def test_animation_is_written_as_mp4(
+    plant: MujocoPlant, renderer: SceneRenderer, tmp_path: Path
+) -> None:
+    t = np.linspace(0.0, 1.0, 20)[:, None]
+    frames = animate(plant, t * np.array([0.0, 0.0, 0.0, 0.0, 8e-3, 0.0]), renderer, frames=4)
+    path = save_animation(tmp_path / "move.mp4", frames, fps=10)
+    read = iio.mimread(path, format="FFMPEG")
+    assert len(read) == 4 and read[0].shape[:2] == (H, W)
+    assert np.abs(read[-1].astype(float) - frames[-1]).mean() < 10  # lossy, but the same image
+
+
+def test_mp4_without_imageio_ffmpeg_names_the_video_extra(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    import sys
+
+    from rcmplan.exceptions import MissingExtraError
+
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
+    with pytest.raises(MissingExtraError, match=r"rcmplan\[video\]"):
+        save_animation(tmp_path / "a.mp4", [np.zeros((16, 16, 3), dtype=np.uint8)])
+
+
 def test_unknown_animation_format_is_rejected(tmp_path: Path) -> None:
     frame = np.zeros((4, 4, 3), dtype=np.uint8)
     with pytest.raises(InvalidInputError, match=r"\.gif or \.mp4"):

@@ -27,7 +27,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--camera", default="closeup", help="animation camera: closeup or overview")
     p.add_argument("--frames", type=int, default=60, help="animation frames (60)")
     p.add_argument("--fps", type=float, default=20.0, help="animation frame rate (20)")
-    p.add_argument("--format", choices=("gif", "mp4"), default="gif", help="animation format")
+    p.add_argument(
+        "--format", choices=("gif", "mp4"), default="gif", help="animation (mp4: `video` extra)"
+    )
     p.add_argument("--scenario", default="default", help="scenario to animate (default)")
     p.add_argument("--plant", default="kinematic", help="plant the scenario runs on (kinematic)")
     p.add_argument("--demo", action="store_true", help="animate a generated slider trajectory")

@@ -127,7 +127,9 @@ def save_png(path: Path, image: Image) -> Path:
 
 
 def save_animation(path: Path, frames: list[Image], fps: float = 20.0) -> Path:
-    """Write frames as GIF (Pillow) or MP4 (needs the `imageio-ffmpeg` package)."""
+    """Write frames as GIF (Pillow) or MP4 (H.264 through imageio-ffmpeg: the `video` extra).
+
+    MP4 frames are padded to a multiple of 16 pixels by the encoder."""
     iio = require_extra("imageio.v2", "sim")
     if not frames:
         raise InvalidInputError("frames", frames, "at least one frame")
@@ -136,7 +138,7 @@ def save_animation(path: Path, frames: list[Image], fps: float = 20.0) -> Path:
     if suffix == ".gif":
         iio.mimsave(path, frames, duration=1000.0 / fps, loop=0)
     elif suffix == ".mp4":
-        require_extra("imageio_ffmpeg", "sim")
+        require_extra("imageio_ffmpeg", "video")
         iio.mimsave(path, frames, fps=fps)
     else:
         raise InvalidInputError("path", str(path), "a file name ending in .gif or .mp4")
