@@ -196,6 +196,25 @@ def iterate(
 
 
 @njit(cache=True)
+def iterate_recorded(
+    P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
+    drift: bool, thr: float, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, k: int, it: int, n: int,
+    rec: FloatArray, irec: np.ndarray, fail: FloatArray, info: np.ndarray, w: FloatArray,
+    d: FloatArray, f: FloatArray, J: FloatArray, A: FloatArray,
+) -> tuple[int, int]:  # fmt: skip
+    """`iterate` on target k, its record kept in rec[n], irec[n] from the second iteration on;
+    returns (status, records written), the count also in info[0]."""
+    status = iterate(P, method, K, damping, tol, max_it, drift, thr, target, pivot, tip_t,
+                     trocar, s, state, it, rec[n], fail, info, w, d, f, J, A)  # fmt: skip
+    if it > 0:
+        irec[n, 0], irec[n, 1] = k, it
+        n += 1
+        info[0] = n
+    return status, n
+
+
+@njit(cache=True)
 def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray,
                  trocar: FloatArray) -> int:  # fmt: skip
     """Fill the target's tip point and trocar (NaN in free space); returns 1 for a pivot
@@ -234,13 +253,9 @@ def run_targets(
         if kind < 0:
             return NO_TIP
         for it in range(max_it + 1):
-            status = iterate(P, method, K, damping, tol, max_it, drift, thr, targets[k],
-                             kind == 1, tip_t, trocar, s, state, it, rec[n], fail, info,
-                             w, d, f, J, A)  # fmt: skip
-            if it > 0:
-                irec[n, 0], irec[n, 1] = k, it
-                n += 1
-                info[0] = n
+            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, thr,
+                                         targets[k], kind == 1, tip_t, trocar, s, state, k,
+                                         it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
             if status == DONE:
                 break
             if status != STEPPED:

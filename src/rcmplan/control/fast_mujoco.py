@@ -18,7 +18,14 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.fast_loop import DONE, NO_TIP, PAUSED, STEPPED, iterate, target_frame
+from rcmplan.control.fast_loop import (
+    DONE,
+    NO_TIP,
+    PAUSED,
+    STEPPED,
+    iterate_recorded,
+    target_frame,
+)
 from rcmplan.control.fast_phase import (
     append_records,
     method_code,
@@ -72,13 +79,9 @@ def run_targets_on_mujoco(
                 return PAUSED
             for i in range(6):
                 s[i] = qpos[slider_qpos[i]]
-            status = iterate(P, method, K, damping, tol, max_it, drift, thr, targets[k],
-                             kind == 1, tip_t, trocar, s, state, it, rec[n], fail, info,
-                             w, d, f, J, A)  # fmt: skip
-            if it > 0:
-                irec[n, 0], irec[n, 1] = k, it
-                n += 1
-                info[0] = n
+            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, thr,
+                                         targets[k], kind == 1, tip_t, trocar, s, state, k,
+                                         it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
             if status == STEPPED:
                 for i in range(6):
                     cmd[i] = fail[12 + i]
