@@ -15,6 +15,7 @@ not constants, so numba's cache stays valid across processes.
 from __future__ import annotations
 
 import ctypes
+import functools
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -57,8 +58,10 @@ def library_path(mj: Any) -> Path | None:
     return found[0] if found else None
 
 
+@functools.cache
 def function_addresses(mj: Any) -> tuple[int, int] | None:
-    """C addresses of (mj_step, mj_kinematics) in the library `mj` uses, or None."""
+    """C addresses of (mj_step, mj_kinematics) in the library `mj` uses, or None; looked up
+    once per process (every phase on the plant asks)."""
     path = library_path(mj)
     if path is None:
         return None
