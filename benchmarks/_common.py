@@ -62,7 +62,7 @@ class FastController(Controller):
     def run_phase(self, phase: Phase) -> None:
         solver = self.solver if phase.kind == "rcm" else self.free_solver
         pid, sid = self.log.phase_id(phase.name), self.log.solver_id(solver.name)
-        q = self.robot.joints_from_sliders(self.plant.read_sliders())
+        q = self.robot.joints_from_actuators(self.plant.read_actuators())
         targets = phase.plan(q)
         if phase.kind == "rcm":
             if callable(phase.targets):

@@ -37,7 +37,7 @@ THESIS_MOVE_S = 120.0  # "roughly 2 minutes" for p3 -> p7
 def _run(solver: Any, phases: list[Phase], q: np.ndarray, lam: float, drift: bool = True) -> tuple:
     robot = Iramis()
     plant = KinematicPlant(robot)
-    plant.reset(robot.sliders_from_joints(q))
+    plant.reset(robot.actuators_from_joints(q))
     ctl = Controller(plant, solver, settings=LoopSettings(drift_correction=drift))
     ctl.lam = lam
     t0 = time.perf_counter()

@@ -33,7 +33,7 @@ def physics_steps_per_second(plant: MujocoPlant, n: int = 20000) -> float:
         mujoco.mj_step(plant.model, plant.data, nstep=n)
         return n / (time.perf_counter() - t)
 
-    plant.reset(plant.robot.home_sliders)
+    plant.reset(plant.robot.home_actuators)
     return median_of_three(once)
 
 
@@ -45,11 +45,11 @@ def plant_real_time_factor(
     robot, rng = plant.robot, np.random.default_rng(SEED)
 
     def once() -> float:
-        plant.reset(robot.home_sliders)
+        plant.reset(robot.home_actuators)
         t = clock()
         for k in range(round(seconds / plant.dt)):
             if k % 10 == 0:
-                plant.command_sliders(rng.uniform(0.5 * robot.lower, 0.5 * robot.upper))
+                plant.command_actuators(rng.uniform(0.5 * robot.lower, 0.5 * robot.upper))
             plant.advance()
         return seconds / (clock() - t)
 
@@ -70,11 +70,11 @@ def agreement(plant: MujocoPlant, n: int, settle: float = 0.0) -> tuple[float, f
         s = rng.uniform(robot.lower, robot.upper)
         if settle:  # start 1 mm away, move, settle
             plant.reset(np.clip(s - 1e-3, robot.lower, robot.upper))
-            plant.command_sliders(s)
+            plant.command_actuators(s)
             plant.settle(settle)
         else:
             plant.reset(s)
-        T = robot.forward_kinematics(robot.joints_from_sliders(plant.read_sliders()))
+        T = robot.forward_kinematics(robot.joints_from_actuators(plant.read_actuators()))
         Ts = plant.tip_pose()
         err = (np.linalg.norm(Ts[:3, 3] - T[:3, 3]), angle(Ts[:3, :3], T[:3, :3]), plant.loop_gap())
         worst = np.maximum(worst, err)

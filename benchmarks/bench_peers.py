@@ -94,7 +94,7 @@ class CompiledSolve:
 
     def __init__(self, robot: Iramis, method: int, x0: np.ndarray) -> None:
         self.run = fast_cache.loop_kernels().run_targets
-        self.s0 = robot.sliders_from_joints(np.array([*x0[:5], 0.0]))
+        self.s0 = robot.actuators_from_joints(np.array([*x0[:5], 0.0]))
         self.state0 = np.array([x0[5], 0.0, 1e-3])
         self.rec, self.irec = np.empty((101, 35)), np.empty((101, 2), dtype=np.int64)
         self.info, self.fail = np.zeros(3, dtype=np.int64), np.empty(24)

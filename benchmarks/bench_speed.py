@@ -68,7 +68,7 @@ def loop_rows() -> list[dict[str, Any]]:
     rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
     info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
     args = (robot_params(robot), 0, np.ones(6), 0.0, np.full(6, 1e-8), 100, True, 0.1, targets, 0)
-    s0 = robot.sliders_from_joints(pose.q)
+    s0 = robot.actuators_from_joints(pose.q)
 
     def once() -> float:
         t = time.perf_counter()

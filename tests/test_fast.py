@@ -147,7 +147,7 @@ def run_both(robot: Iramis, phases: list[Phase], error: type, **kw: object) -> t
     if isinstance(a, ConvergenceError):
         np.testing.assert_allclose(a.error, b.error, rtol=0, atol=TOL)
     assert_same_log(a.log, b.log)
-    np.testing.assert_allclose(ca.plant.read_sliders(), cb.plant.read_sliders(), atol=TOL)
+    np.testing.assert_allclose(ca.plant.read_actuators(), cb.plant.read_actuators(), atol=TOL)
     assert ca.plant.time == cb.plant.time and abs(ca.lam - cb.lam) <= TOL
     return a, b
 

@@ -129,11 +129,11 @@ def test_needle_base_is_the_chain_with_l6_zero(robot: Iramis, rng) -> None:
 def test_slider_joint_round_trips(robot: Iramis, rng) -> None:
     for q in random_joints(rng, 1000):
         np.testing.assert_allclose(
-            robot.joints_from_sliders(robot.sliders_from_joints(q)), q, atol=1e-12
+            robot.joints_from_actuators(robot.actuators_from_joints(q)), q, atol=1e-12
         )
     for s in rng.uniform(-0.025, 0.025, (1000, 6)):
         np.testing.assert_allclose(
-            robot.sliders_from_joints(robot.joints_from_sliders(s)), s, atol=1e-12
+            robot.actuators_from_joints(robot.joints_from_actuators(s)), s, atol=1e-12
         )
 
 
@@ -143,17 +143,17 @@ def test_slider_jacobian_matches_finite_differences(robot: Iramis, rng) -> None:
         num = np.column_stack(
             [
                 (
-                    robot.tip(robot.joints_from_sliders(s + h * e))
-                    - robot.tip(robot.joints_from_sliders(s - h * e))
+                    robot.tip(robot.joints_from_actuators(s + h * e))
+                    - robot.tip(robot.joints_from_actuators(s - h * e))
                 )
                 / (2 * h)
                 for e in np.eye(6)
             ]
         )
         np.testing.assert_allclose(robot.slider_jacobian(s)[:3], num, atol=1e-7)
-        q = robot.joints_from_sliders(s)
+        q = robot.joints_from_actuators(s)
         np.testing.assert_allclose(
-            robot.sliders_from_joints_jacobian(q) @ robot.joints_from_sliders_jacobian(s),
+            robot.actuators_from_joints_jacobian(q) @ robot.joints_from_actuators_jacobian(s),
             np.eye(6),
             atol=1e-10,
         )
@@ -183,8 +183,8 @@ def test_sliders_beyond_travel_raise_naming_the_slider_and_range(robot: Iramis) 
     s = np.zeros(6)
     s[4] = 0.06
     with pytest.raises(SliderLimitError, match=r"L5 = 0.06 is beyond its travel \[-0.01, 0.05\]"):
-        robot.check_sliders(s)
-    np.testing.assert_allclose(robot.slider_margin(np.zeros(6))[:4], 0.04)
+        robot.check_actuators(s)
+    np.testing.assert_allclose(robot.actuator_margin(np.zeros(6))[:4], 0.04)
 
 
 @pytest.mark.parametrize("bad", [np.zeros(5), np.full(6, np.nan), "abc", np.zeros((2, 6))])
@@ -192,7 +192,7 @@ def test_bad_vectors_raise_invalid_input(robot: Iramis, bad) -> None:
     with pytest.raises(InvalidInputError):
         robot.forward_kinematics(bad)
     with pytest.raises(InvalidInputError):
-        robot.joints_from_sliders(bad)
+        robot.joints_from_actuators(bad)
 
 
 def test_parameters_are_validated_through_the_pcjm() -> None:

@@ -39,7 +39,7 @@ def pivot_phase(robot: Iramis, n: int = 500) -> Phase:
 
 def controller_at(robot: Iramis, q: np.ndarray, lam: float, solver, **settings) -> Controller:
     plant = KinematicPlant(robot)
-    plant.reset(robot.sliders_from_joints(q))
+    plant.reset(robot.actuators_from_joints(q))
     ctl = Controller(plant, solver, settings=LoopSettings(**settings))
     ctl.lam = lam
     return ctl
@@ -120,12 +120,12 @@ def test_random_reachable_targets_in_a_cone_all_converge(robot: Iramis, rng) -> 
 def test_unreachable_targets_raise_before_any_motion(robot: Iramis, tip) -> None:
     eye, pts, pose = p3_pose(robot)
     ctl = controller_at(robot, pose.q, pose.lam, PinvSolver())
-    s0 = ctl.plant.read_sliders()
+    s0 = ctl.plant.read_actuators()
     targets = np.array([rcm_target(pts.p3, eye.port), rcm_target(tip(eye), eye.port)])
     with pytest.raises(UnreachableTargetError) as info:
         ctl.run([Phase("move", targets)])
     assert len(info.value.log) == 0
-    np.testing.assert_array_equal(ctl.plant.read_sliders(), s0)
+    np.testing.assert_array_equal(ctl.plant.read_actuators(), s0)
 
 
 def test_iteration_cap_raises_convergence_error_with_the_partial_log(robot: Iramis) -> None:

@@ -57,7 +57,7 @@ def test_tip_pose_equals_forward_kinematics_at_200_random_slider_settings(
     worst_p, worst_r, worst_gap = 0.0, 0.0, 0.0
     for s in rng.uniform(robot.lower, robot.upper, size=(200, 6)):
         kinematic.reset(s)
-        T = robot.forward_kinematics(robot.joints_from_sliders(s))
+        T = robot.forward_kinematics(robot.joints_from_actuators(s))
         T_sim = kinematic.tip_pose()
         worst_p = max(worst_p, float(np.linalg.norm(T_sim[:3, 3] - T[:3, 3])))
         worst_r = max(worst_r, rotation_angle(T_sim[:3, :3], T[:3, :3]))
@@ -73,7 +73,7 @@ def test_bodies_carry_the_dh_frames(
     ids = [kinematic.model.body(f"frame{i}").id for i in range(1, 7)]
     for s in rng.uniform(robot.lower, robot.upper, size=(10, 6)):
         kinematic.reset(s)
-        frames = robot.chain.frames(robot.joints_from_sliders(s))
+        frames = robot.chain.frames(robot.joints_from_actuators(s))
         for i, b in enumerate(ids, start=1):
             np.testing.assert_allclose(kinematic.data.xpos[b], frames[i][:3, 3], atol=1e-12)
             R = kinematic.data.xmat[b].reshape(3, 3)
@@ -85,10 +85,10 @@ def test_simulated_joints_equal_joints_from_sliders(
 ) -> None:
     s = rng.uniform(robot.lower, robot.upper)
     kinematic.reset(s)
-    np.testing.assert_allclose(kinematic.joints(), robot.joints_from_sliders(s), atol=1e-12)
+    np.testing.assert_allclose(kinematic.joints(), robot.joints_from_actuators(s), atol=1e-12)
     np.testing.assert_allclose(
         kinematic.needle_base_position(),
-        robot.needle_base(robot.joints_from_sliders(s)),
+        robot.needle_base(robot.joints_from_actuators(s)),
         atol=1e-12,
     )
 
@@ -143,7 +143,7 @@ def test_scene_steps_one_second_of_random_slider_commands_without_warnings(
 ) -> None:
     plant = MujocoPlant(robot, mode="dynamic")
     for _ in range(100):
-        plant.command_sliders(rng.uniform(robot.lower, robot.upper))
+        plant.command_actuators(rng.uniform(robot.lower, robot.upper))
         for _ in range(10):
             plant.advance()
     assert plant.data.time == pytest.approx(1.0)

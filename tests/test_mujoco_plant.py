@@ -39,16 +39,16 @@ def test_both_modes_implement_the_plant_interface() -> None:
 def test_kinematic_mode_places_the_sliders_exactly(robot: Iramis, rng: np.random.Generator) -> None:
     plant = MujocoPlant(robot, mode="kinematic")
     s = rng.uniform(robot.lower, robot.upper)
-    plant.command_sliders(s)
+    plant.command_actuators(s)
     plant.advance()
-    np.testing.assert_allclose(plant.read_sliders(), s, atol=1e-15)
+    np.testing.assert_allclose(plant.read_actuators(), s, atol=1e-15)
     assert plant.time == pytest.approx(1e-3)
 
 
 def test_reset_places_sliders_at_rest_and_zeroes_time(dynamic: MujocoPlant, robot: Iramis) -> None:
     s = 0.5 * robot.upper
     dynamic.reset(s)
-    np.testing.assert_allclose(dynamic.read_sliders(), s, atol=1e-15)
+    np.testing.assert_allclose(dynamic.read_actuators(), s, atol=1e-15)
     assert dynamic.time == 0.0
     assert not dynamic.data.qvel.any()
 
@@ -60,11 +60,11 @@ def test_dynamic_mode_settles_on_forward_kinematics(
         start = rng.uniform(0.8 * robot.lower, 0.8 * robot.upper)
         goal = start + rng.uniform(-1e-3, 1e-3, size=6)
         dynamic.reset(start)
-        dynamic.command_sliders(goal)
+        dynamic.command_actuators(goal)
         dynamic.settle(0.3)
-        s = dynamic.read_sliders()
+        s = dynamic.read_actuators()
         np.testing.assert_allclose(s[:5], goal[:5], atol=0.1 * UM)
-        T = robot.forward_kinematics(robot.joints_from_sliders(s))
+        T = robot.forward_kinematics(robot.joints_from_actuators(s))
         assert np.linalg.norm(dynamic.tip_position() - T[:3, 3]) < UM
         assert dynamic.loop_gap() < UM
 
@@ -72,22 +72,22 @@ def test_dynamic_mode_settles_on_forward_kinematics(
 def test_sliders_move_together_and_no_faster_than_their_speed(
     dynamic: MujocoPlant, robot: Iramis
 ) -> None:
-    dynamic.reset(robot.home_sliders)
+    dynamic.reset(robot.home_actuators)
     goal = robot.upper.copy()
-    dynamic.command_sliders(goal)
+    dynamic.command_actuators(goal)
     for _ in range(100):
         dynamic.advance()
-    fraction = dynamic.read_sliders() / goal  # of the way to the goal, per slider
+    fraction = dynamic.read_actuators() / goal  # of the way to the goal, per slider
     np.testing.assert_allclose(fraction, fraction[0], rtol=0.02)  # a straight slider path
-    speed_used = np.abs(dynamic.read_sliders()) / (robot.speed * 0.1)  # after 0.1 s
+    speed_used = np.abs(dynamic.read_actuators()) / (robot.speed * 0.1)  # after 0.1 s
     assert speed_used.max() == pytest.approx(1.0, abs=0.02)
 
 
 def test_loop_gap_stays_below_one_micrometre_at_full_speed(
     dynamic: MujocoPlant, robot: Iramis
 ) -> None:
-    dynamic.reset(robot.home_sliders)
-    dynamic.command_sliders(np.array([10e-3, -10e-3, -10e-3, 10e-3, 5e-3, 0.5]))
+    dynamic.reset(robot.home_actuators)
+    dynamic.command_actuators(np.array([10e-3, -10e-3, -10e-3, 10e-3, 5e-3, 0.5]))
     worst = 0.0
     for _ in range(400):
         dynamic.advance()
@@ -107,7 +107,7 @@ def test_gravity_compensation_removes_the_sag(robot: Iramis) -> None:
     for on in (True, False):
         plant = MujocoPlant(robot, gravity_compensation=on)
         plant.settle(0.3)
-        sag[on] = float(np.abs(plant.read_sliders()[:5]).max())
+        sag[on] = float(np.abs(plant.read_actuators()[:5]).max())
     assert sag[False] > 1 * UM
     assert sag[True] < 0.01 * sag[False]
 
@@ -115,10 +115,10 @@ def test_gravity_compensation_removes_the_sag(robot: Iramis) -> None:
 def test_command_beyond_travel_raises_slider_limit_error(
     dynamic: MujocoPlant, robot: Iramis
 ) -> None:
-    s = robot.home_sliders.copy()
+    s = robot.home_actuators.copy()
     s[4] = robot.upper[4] + 1e-3
     with pytest.raises(SliderLimitError, match="L5"):
-        dynamic.command_sliders(s)
+        dynamic.command_actuators(s)
 
 
 @pytest.mark.parametrize(
@@ -127,7 +127,7 @@ def test_command_beyond_travel_raises_slider_limit_error(
 def test_malformed_command_raises_invalid_input(dynamic: MujocoPlant, bad: object) -> None:
     before = dynamic._cmd.copy()
     with pytest.raises(InvalidInputError, match="s = "):
-        dynamic.command_sliders(bad)  # type: ignore[arg-type]
+        dynamic.command_actuators(bad)  # type: ignore[arg-type]
     np.testing.assert_array_equal(dynamic._cmd, before)  # the last valid command stands
 
 
@@ -172,7 +172,7 @@ def test_an_uncompensated_body_keeps_gravity(robot: Iramis) -> None:
 def test_a_servo_too_stiff_for_the_timestep_raises_simulation_error(robot: Iramis) -> None:
     stiff = PiezoParameters.from_robot(robot, bandwidth=5000.0)  # omega dt = 31 at 1 ms
     plant = MujocoPlant(robot, physics_dt=1e-3, piezo=stiff)
-    plant.command_sliders(np.array([1e-3, 0.0, 0.0, 0.0, 0.0, 0.0]))
+    plant.command_actuators(np.array([1e-3, 0.0, 0.0, 0.0, 0.0, 0.0]))
     with pytest.raises(SimulationError, match=r"loop-closure gap .* exceeds the limit"):
         for _ in range(100):
             plant.advance()

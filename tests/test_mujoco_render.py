@@ -30,7 +30,7 @@ def renderer(plant: MujocoPlant) -> SceneRenderer:
 def needle_end_pixel(renderer: SceneRenderer, plant: MujocoPlant) -> tuple[np.ndarray, np.ndarray]:
     """(projected FK tip, needle pixel farthest along the projected needle direction)."""
     robot = plant.robot
-    q = robot.joints_from_sliders(plant.read_sliders())
+    q = robot.joints_from_actuators(plant.read_actuators())
     tip = renderer.project(plant.scene()[1], robot.tip(q))
     base = renderer.project(plant.scene()[1], robot.needle_base(q))
     seg = renderer.segment(plant.scene()[1])
@@ -41,7 +41,7 @@ def needle_end_pixel(renderer: SceneRenderer, plant: MujocoPlant) -> tuple[np.nd
 
 
 def test_snapshot_is_not_blank(plant: MujocoPlant, renderer: SceneRenderer) -> None:
-    plant.reset(plant.robot.home_sliders)
+    plant.reset(plant.robot.home_actuators)
     for camera in ("overview", "closeup"):
         img = renderer.render(plant.scene()[1], camera)
         assert img.shape == (H, W, 3) and img.dtype == np.uint8

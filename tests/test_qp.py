@@ -56,11 +56,12 @@ def step_input(solver: QpSolver, q, lam, target) -> StepInput:  # type: ignore[n
 # --- the problem builder ---------------------------------------------------------------------
 def test_variable_map_matches_finite_differences_of_the_pcjm(robot: Iramis) -> None:
     q = np.array([0.003, 0.3, -0.002, -0.4, 0.02, 0.0])
-    s = robot.sliders_from_joints(q)
+    s = robot.actuators_from_joints(q)
     h = 1e-7
     fd = np.array(
         [
-            (robot.joints_from_sliders(s + h * e) - robot.joints_from_sliders(s - h * e)) / (2 * h)
+            (robot.joints_from_actuators(s + h * e) - robot.joints_from_actuators(s - h * e))
+            / (2 * h)
             for e in np.eye(6)
         ]
     ).T
@@ -118,7 +119,7 @@ def test_far_target_moves_a_slider_exactly_at_its_speed_limit(robot: Iramis, eye
     dq, _ = solver.step(robot, q, lam, target, solver.error(robot, q, lam, target))
     q_new = q.copy()
     q_new[:5] += dq
-    ds = np.abs(robot.sliders_from_joints(q_new) - robot.sliders_from_joints(q))[:5]
+    ds = np.abs(robot.actuators_from_joints(q_new) - robot.actuators_from_joints(q))[:5]
     assert np.max(ds / (robot.speed[:5] * 1e-3)) == pytest.approx(1.0, abs=1e-9)
 
 
@@ -265,7 +266,7 @@ def test_near_a_slider_limit_the_qp_ends_at_the_closest_feasible_point(robot: Ir
     def cons(u: np.ndarray) -> np.ndarray:  # soft travel end and RCM tolerance, both >= 0, um
         z = z0 + SCALE * u
         q = np.append(z[:5], 0.0)
-        s = robot.sliders_from_joints(q)
+        s = robot.actuators_from_joints(q)
         d = robot.needle_point(q, z[5]) - target[3:]
         a = robot.needle_axis(q)
         line = np.linalg.norm(d - (d @ a) * a)

@@ -100,7 +100,7 @@ def run_scenario(
         eye = scenario.eye(robot)
         scene = {"eye": eye, "points": scenario.points(eye)}
         plant = make_plant(scenario.plant, robot, scene=scene, dt=scenario.dt)
-        plant.reset(robot.home_sliders)
+        plant.reset(robot.home_actuators)
         solver = make_solver(
             scenario.method, scenario.method_settings, robot, eye=eye, dt=scenario.dt
         )

@@ -41,7 +41,7 @@ def demo_trajectory(robot: Iramis, n: int = 240) -> FloatArray:
     t = 0.5 - 0.5 * np.cos(np.linspace(0.0, 2.0 * np.pi, n))[:, None]  # 0 -> 1 -> 0
     insert = np.clip(2.0 * t, 0.0, 1.0) * np.array([0.0, 0.0, 0.0, 0.0, 10e-3, 0.0])
     tilt = np.clip(2.0 * t - 1.0, 0.0, 1.0) * np.array([1e-3, -1e-3, -1e-3, 1e-3, 0.0, 0.0])
-    return robot.home_sliders + insert + tilt
+    return robot.home_actuators + insert + tilt
 
 
 def scenario_trajectory(args: argparse.Namespace, robot: Iramis) -> tuple[FloatArray, EyePhantom]:
@@ -55,7 +55,7 @@ def scenario_trajectory(args: argparse.Namespace, robot: Iramis) -> tuple[FloatA
         print(f"rcmplan render: run stopped early ({result.status}); animating the partial log")
     eye = scenario.eye(robot)
     phantom = phantom_of(eye, scenario.points(eye))
-    return np.vstack([robot.home_sliders, result.log.sliders]), phantom
+    return np.vstack([robot.home_actuators, result.log.sliders]), phantom
 
 
 def run(args: argparse.Namespace) -> int:

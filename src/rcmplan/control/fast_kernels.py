@@ -24,7 +24,7 @@ HALF_PI = 0.5 * math.pi
 
 
 @njit(cache=True)
-def joints_from_sliders(P: FloatArray, s: FloatArray, q: FloatArray) -> None:
+def joints_from_actuators(P: FloatArray, s: FloatArray, q: FloatArray) -> None:
     """q from s through both PCJMs (eqs. 2.1, 2.2), written into q (6,)."""
     q[0] = 0.5 * (s[0] + s[1])
     q[1] = math.atan((s[1] - s[0]) / P[6])
@@ -35,7 +35,7 @@ def joints_from_sliders(P: FloatArray, s: FloatArray, q: FloatArray) -> None:
 
 
 @njit(cache=True)
-def sliders_from_joints(P: FloatArray, q: FloatArray, s: FloatArray) -> bool:
+def actuators_from_joints(P: FloatArray, q: FloatArray, s: FloatArray) -> bool:
     """s from q (inverse PCJM maps) into s (6,); False if q is not finite or |q1|, |q3| >= pi/2."""
     for i in range(6):
         if not math.isfinite(q[i]):

@@ -19,15 +19,15 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.fast_kernels import (
+    actuators_from_joints,
     axis_from_angles,
     dls_solve,
     first_beyond_travel,
     jacobian_a,
-    joints_from_sliders,
+    joints_from_actuators,
     njit,
     point,
     point_jacobian,
-    sliders_from_joints,
     solve_augmented,
     task,
     tip_jacobian,
@@ -170,7 +170,7 @@ def iterate(
     iteration on the record goes to row (35,). fail holds (q, q_new, s_new, error).
     """
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:24]
-    joints_from_sliders(P, s, q)
+    joints_from_actuators(P, s, q)
     tr = trig(q)
     if method != TIP and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
@@ -187,7 +187,7 @@ def iterate(
     for i in range(6):
         qn[i] = q[i] + d[i] if i < 5 else q[i]
     state[0] += d[5]
-    if not sliders_from_joints(P, qn, sn):
+    if not actuators_from_joints(P, qn, sn):
         return BAD_JOINTS
     info[2] = first_beyond_travel(P, sn)
     if info[2] >= 0:
@@ -292,7 +292,7 @@ def pose_clear(
     q[0] = tip[2] - (P[0] + P[1] * c1 + s1 * c3 * w + P[4] * s1 * s3)
     q[1], q[3], q[4], q[5] = phi, psi, w - P[5], 0.0
     q[2] = tip[1] - (P[2] + P[3] - s3 * w + P[4] * c3)
-    if not sliders_from_joints(P, q, s):
+    if not actuators_from_joints(P, q, s):
         return False
     for i in range(6):  # noqa: SIM110
         if s[i] < P[7 + i] + margin or s[i] > P[13 + i] - margin:

@@ -130,7 +130,7 @@ def run_phase_on_mujoco(
             append_records(controller.log, rec, irec, int(info[0]), pid, sid)
             k0, it0 = int(info[1]), int(info[2])
     finally:
-        plant.command_sliders(cmd)
+        plant.command_actuators(cmd)
         plant.time = float(state[1])
         controller.lam = float(state[0])
     if status == PLANT_STOPPED:

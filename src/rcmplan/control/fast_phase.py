@@ -87,7 +87,7 @@ def run_phase_compiled(
     K, damping, tol = solver_arrays(solver)
     thr = singular_threshold(controller)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    s = plant.read_sliders()
+    s = plant.read_actuators()
     state = np.array([controller.lam, plant.time, plant.dt])
     cap = 4 * targets.shape[0] + cfg.max_iterations
     rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
@@ -99,7 +99,7 @@ def run_phase_compiled(
         status = loop.run_targets(*args, k0, s, state, rec, irec, info, fail)
         append_records(controller.log, rec, irec, int(info[0]), pid, sid)
         k0 = int(info[1])
-    plant.command_sliders(s)
+    plant.command_actuators(s)
     plant.advance()
     plant.time = float(state[1])
     controller.lam = float(state[0])
@@ -134,7 +134,7 @@ def run_phase_on_plant(
                 state[1] = plant.time
                 status = loop.iterate(P, code, K, damping, tol, cfg.max_iterations,
                                       cfg.drift_correction, float(thr), targets[k], kind == 1,
-                                      tip_t, trocar, plant.read_sliders(), state, it, rec[n],
+                                      tip_t, trocar, plant.read_actuators(), state, it, rec[n],
                                       fail, info, w, d, f, J, A)  # fmt: skip
             if it > 0 and kind >= 0:
                 irec[n] = k, it
@@ -143,7 +143,7 @@ def run_phase_on_plant(
                     append_records(controller.log, rec, irec, n, pid, sid)
                     n = 0
             if status == STEPPED:
-                plant.command_sliders(fail[12:18].copy())
+                plant.command_actuators(fail[12:18].copy())
                 try:
                     plant.advance()
                 except RcmplanError:  # the partial log keeps every record so far
@@ -173,8 +173,8 @@ def raise_stop(
         raise ConvergenceError(cfg.max_iterations, np.abs(e[: tol.size]), tol, where=where)
     checks: dict[int, Any] = {
         SINGULAR: lambda: robot.check_singularity(q, cfg.singular_threshold),
-        BAD_JOINTS: lambda: robot.sliders_from_joints(qn),
-        SLIDER_LIMIT: lambda: robot.check_sliders(sn),
+        BAD_JOINTS: lambda: robot.actuators_from_joints(qn),
+        SLIDER_LIMIT: lambda: robot.check_actuators(sn),
         NO_TIP: lambda: tip_of_target(targets[k]),
     }
     checks[status]()

@@ -175,7 +175,7 @@ class Controller:
         sid = self.log.solver_id(solver.name)
         start = time.perf_counter()
         try:
-            q = self.robot.joints_from_sliders(self.plant.read_sliders())
+            q = self.robot.joints_from_actuators(self.plant.read_actuators())
             targets = phase.plan(q)
             width = 6 if phase.kind == "rcm" else 3
             if targets.ndim != 2 or targets.shape[1] != width:
@@ -206,8 +206,8 @@ class Controller:
         trocar = target[3:] if rcm else NAN3
         target_tip = tip_of_target(target) if rcm else target
         for it in range(cfg.max_iterations + 1):
-            s = plant.read_sliders()
-            q = robot.joints_from_sliders(s)
+            s = plant.read_actuators()
+            q = robot.joints_from_actuators(s)
             base, tip = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
             if rcm and cfg.drift_correction:
                 self.lam = closest_lambda(base, tip, trocar)
@@ -223,7 +223,7 @@ class Controller:
             q_new = q.copy()
             q_new[:5] += dq
             self.lam += dlam
-            plant.command_sliders(robot.sliders_from_joints(q_new))
+            plant.command_actuators(robot.actuators_from_joints(q_new))
             plant.advance()
         raise ConvergenceError(
             cfg.max_iterations,

@@ -100,7 +100,7 @@ class QpSolver:
         step, result = self._solve(robot, q, lam, target)
         s = step.sliders.copy()
         s[:5] += result.x[:5] * SCALE
-        dq = robot.joints_from_sliders(s) - q
+        dq = robot.joints_from_actuators(s) - q
         return dq[:5], float(result.x[5] * SCALE / robot.params.l6)
 
     # --- helpers ----------------------------------------------------------------------------

@@ -119,7 +119,7 @@ def kinematics(robot: Iramis, q: FloatArray, lam: float) -> Kinematics:
     J_tip = robot.needle_point_jacobian(q, 1.0)
     J_tip[:, 5] = 0.0
     return Kinematics(
-        robot.sliders_from_joints(q),
+        robot.actuators_from_joints(q),
         variable_map(robot, q),
         J_tip,
         robot.needle_point_jacobian(q, lam),

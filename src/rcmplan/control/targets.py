@@ -102,7 +102,7 @@ def solve_pose(robot: Iramis, x_ext: FloatArray) -> Pose:
     q0 = tip[2] - (p.l1 + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3)  # z row
     q = np.array([q0, phi, q2, psi, w - p.l6, 0.0])
     try:
-        robot.check_sliders(robot.sliders_from_joints(q))
+        robot.check_actuators(robot.actuators_from_joints(q))
     except (SliderLimitError, PcjmAngleError) as exc:
         raise UnreachableTargetError(str(exc), x_ext) from exc
     return Pose(q, lam)

@@ -88,7 +88,7 @@ class Iramis:
         self.lower = np.array(p.slider_lower, dtype=float)
         self.upper = np.array(p.slider_upper, dtype=float)
         self.speed = np.array(p.slider_speed, dtype=float)
-        self.home_sliders = np.zeros(6)
+        self.home_actuators = np.zeros(6)
         self.home = np.zeros(6)
 
     # --- DH tables -------------------------------------------------------------------------
@@ -198,31 +198,31 @@ class Iramis:
     def slider_jacobian(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """Geometric tip Jacobian w.r.t. the sliders s, (6, 6): J_0^6(q(s)) dq/ds."""
         s = vector("s", s, 6)
-        return self.jacobian(self.joints_from_sliders(s)) @ self.joints_from_sliders_jacobian(s)
+        return self.jacobian(self.joints_from_actuators(s)) @ self.joints_from_actuators_jacobian(s)
 
     # --- sliders <-> joints -------------------------------------------------------------------
-    def joints_from_sliders(self, s: Sequence[float] | FloatArray) -> FloatArray:
+    def joints_from_actuators(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """q = (q0..q5) from s = (L1, L2, L3, L4, L5, q5) (eqs. 2.1, 2.2 for each PCJM)."""
         s = vector("s", s, 6)
         q0, q1 = self.pcjm.joints(s[0], s[1])
         q2, q3 = self.pcjm.joints(s[2], s[3])
         return np.array([q0, q1, q2, q3, s[4], s[5]])
 
-    def sliders_from_joints(self, q: Sequence[float] | FloatArray) -> FloatArray:
+    def actuators_from_joints(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """s = (L1, L2, L3, L4, L5, q5) from q (inverse of eqs. 2.1, 2.2; see pcjm.py)."""
         q = vector("q", q, 6)
         L1, L2 = self.pcjm.sliders(q[0], q[1])
         L3, L4 = self.pcjm.sliders(q[2], q[3])
         return np.array([L1, L2, L3, L4, q[4], q[5]])
 
-    def joints_from_sliders_jacobian(self, s: Sequence[float] | FloatArray) -> FloatArray:
+    def joints_from_actuators_jacobian(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """dq/ds, a (6, 6) array."""
         D = np.eye(6)
         D[0:2, 0:2] = self.pcjm.joints_jacobian(s[0], s[1])
         D[2:4, 2:4] = self.pcjm.joints_jacobian(s[2], s[3])
         return D
 
-    def sliders_from_joints_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
+    def actuators_from_joints_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """ds/dq, a (6, 6) array."""
         D = np.eye(6)
         D[0:2, 0:2] = self.pcjm.sliders_jacobian(q[1])
@@ -230,7 +230,7 @@ class Iramis:
         return D
 
     # --- limits and singularities --------------------------------------------------------
-    def check_sliders(self, s: Sequence[float] | FloatArray) -> FloatArray:
+    def check_actuators(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """Return s if every slider is within its travel, else raise SliderLimitError."""
         s = vector("s", s, 6)
         bad = (s < self.lower) | (s > self.upper)
@@ -239,7 +239,7 @@ class Iramis:
             raise SliderLimitError(i, SLIDER_NAMES[i], float(s[i]), self.lower[i], self.upper[i])
         return s
 
-    def slider_margin(self, s: Sequence[float] | FloatArray) -> FloatArray:
+    def actuator_margin(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """Distance of each slider to its nearer travel limit (negative when beyond)."""
         s = np.asarray(s, dtype=float)
         return np.minimum(s - self.lower, self.upper - s)

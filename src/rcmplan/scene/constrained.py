@@ -56,7 +56,7 @@ def slider_gap(robot: Iramis, eye: Eye, tip: np.ndarray, slider: int) -> float:
         q = solve_pose(robot, rcm_target(tip, eye.port)).q
     except UnreachableTargetError:
         return -1.0
-    return float(robot.upper[slider] - robot.sliders_from_joints(q)[slider])
+    return float(robot.upper[slider] - robot.actuators_from_joints(q)[slider])
 
 
 def near_limit_point(robot: Iramis, eye: Eye, depth: float = 8e-3) -> np.ndarray:

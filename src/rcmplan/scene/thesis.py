@@ -57,7 +57,7 @@ def _run(
 ) -> Outcome:  # fmt: skip
     robot = Iramis()
     plant = KinematicPlant(robot)
-    plant.reset(robot.sliders_from_joints(start))
+    plant.reset(robot.actuators_from_joints(start))
     ctl = Controller(
         plant, solver, settings=LoopSettings(max_iterations=2000, drift_correction=drift)
     )

@@ -22,22 +22,22 @@ class KinematicPlant:
         self.robot = robot or Iramis()
         self.dt = scalar("dt", dt, 0.0, np.inf, low_open=True)
         self.time = 0.0
-        self._s = self.robot.home_sliders.copy()
+        self._s = self.robot.home_actuators.copy()
         self._cmd = self._s.copy()
 
     def reset(self, s: FloatArray) -> None:
         """Place the sliders at s (checked against travel) and zero the time."""
-        self._s = self.robot.check_sliders(vector("s", s, 6)).copy()
+        self._s = self.robot.check_actuators(vector("s", s, 6)).copy()
         self._cmd = self._s.copy()
         self.time = 0.0
 
-    def read_sliders(self) -> FloatArray:
+    def read_actuators(self) -> FloatArray:
         """The slider positions (6,)."""
         return self._s.copy()
 
-    def command_sliders(self, s: FloatArray) -> None:
+    def command_actuators(self, s: FloatArray) -> None:
         """Command sliders; SliderLimitError beyond travel, InvalidInputError if not finite."""
-        self._cmd = self.robot.check_sliders(vector("s", s, 6)).copy()
+        self._cmd = self.robot.check_actuators(vector("s", s, 6)).copy()
 
     def advance(self) -> None:
         """The sliders reach the command; time moves on by dt."""

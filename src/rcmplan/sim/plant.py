@@ -33,11 +33,11 @@ class Plant(Protocol):
         """Place the sliders at s and set the time to zero."""
         ...
 
-    def read_sliders(self) -> FloatArray:
+    def read_actuators(self) -> FloatArray:
         """The current slider positions (6,) in [m] and [rad]."""
         ...
 
-    def command_sliders(self, s: FloatArray) -> None:
+    def command_actuators(self, s: FloatArray) -> None:
         """Command slider positions (6,); raises SliderLimitError beyond travel."""
         ...
 

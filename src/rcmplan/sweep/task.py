@@ -100,7 +100,7 @@ def scene(motion: MotionSettings) -> tuple[Iramis, Eye, FloatArray, FloatArray]:
     eye = motion.eye(robot)
     start = start_point(eye, motion)
     pose = solve_pose(robot, rcm_target(start, eye.port))
-    return robot, eye, start, robot.sliders_from_joints(pose.q)
+    return robot, eye, start, robot.actuators_from_joints(pose.q)
 
 
 def motion_phases(motion: MotionSettings, start: FloatArray, target: FloatArray, trocar: FloatArray

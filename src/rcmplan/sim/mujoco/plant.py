@@ -95,13 +95,13 @@ class MujocoPlant:
         self._warning_count = self.data.warning.number  # a view: MuJoCo updates it in place
         self._scene: tuple[Any, Any] | None = None
         self.time = 0.0
-        self._cmd = self.robot.home_sliders.copy()
-        self.reset(self.robot.home_sliders)
+        self._cmd = self.robot.home_actuators.copy()
+        self.reset(self.robot.home_actuators)
 
     # --- Plant interface ---------------------------------------------------------------------
     def reset(self, s: FloatArray) -> None:
         """Place the sliders at s (closing the loops), at rest, and set the time to zero."""
-        s = self.robot.check_sliders(vector("s", s, 6)).copy()
+        s = self.robot.check_actuators(vector("s", s, 6)).copy()
         self.mj.mj_resetData(self.model, self.data)
         assemble_at(self.mj, self.model, self.data, self.index, s)
         self.data.act[self._ids.act] = s
@@ -109,11 +109,11 @@ class MujocoPlant:
         self._cmd = s
         self.time = 0.0
 
-    def read_sliders(self) -> FloatArray:
+    def read_actuators(self) -> FloatArray:
         """The simulated slider joint positions (6,) in [m] and [rad]."""
         return np.array(self.data.qpos[self._ids.slider_qpos], dtype=float)
 
-    def command_sliders(self, s: FloatArray) -> None:
+    def command_actuators(self, s: FloatArray) -> None:
         """Command sliders; SliderLimitError beyond travel, InvalidInputError if not finite."""
         try:
             cmd = np.array(s, dtype=np.float64)
@@ -121,7 +121,7 @@ class MujocoPlant:
         except (TypeError, ValueError):
             ok = False
         if not ok:  # NaN fails the comparison too; the full check names what is wrong
-            cmd = self.robot.check_sliders(vector("s", s, 6)).copy()
+            cmd = self.robot.check_actuators(vector("s", s, 6)).copy()
         self._cmd = cmd
 
     def advance(self) -> None:
@@ -211,7 +211,7 @@ class MujocoPlant:
         if gap > self.gap_limit:
             raise SimulationError(
                 f"PCJM loop-closure gap {gap:.3g} m exceeds the limit {self.gap_limit:.3g} m "
-                f"at t = {self.time:.6g} s (sliders {self.read_sliders()})"
+                f"at t = {self.time:.6g} s (sliders {self.read_actuators()})"
             )
 
 

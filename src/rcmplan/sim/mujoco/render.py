@@ -163,7 +163,7 @@ def animate(
     trace, images = [], []
     for i, row in enumerate(s):
         if i > 0:
-            plant.command_sliders(row)
+            plant.command_actuators(row)
             plant.advance()
         trace.append(plant.tip_position())
         if i in keep:
