@@ -10,8 +10,9 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.control import Controller, Phase, RunLog, fast_cache
-from rcmplan.control.fast import fast_check_targets, fast_converge_phase
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.runner import fast_check_targets, fast_converge_phase
+from rcmplan.control import Controller, Phase, RunLog
 
 THESIS_ITERATION_S = 180.0 / 1350  # V-REP loop: about 3 min for 1350 iterations (NOTES.md)
 

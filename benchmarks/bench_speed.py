@@ -19,11 +19,12 @@ import numpy as np
 
 from _common import THESIS_ITERATION_S, FastController, per_call, quick, row
 from rcmplan import Iramis
-from rcmplan.control import Controller, PinvSolver, extended_task, fast_cache, solve_pose
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.phase import robot_params
+from rcmplan.compiled.runner import FastIramis
+from rcmplan.control import Controller, PinvSolver, extended_task, solve_pose
 from rcmplan.control import loop as loop_module
 from rcmplan.control.augmented import augmented_jacobian
-from rcmplan.control.fast import FastIramis
-from rcmplan.control.fast_phase import robot_params
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection, spiral
 from rcmplan.sim import KinematicPlant
@@ -154,8 +155,8 @@ def process_rows() -> list[dict[str, Any]]:
         inject = [py, "-m", "rcmplan", "inject", "--no-plots", "--out", f"{tmp}/out"]
         first = timed_process(inject, fresh)
         later = statistics.median(timed_process(inject, fresh) for _ in range(3))
-        compile_s = timed_process([py, "-m", "rcmplan.control.fast_warm"], fresh)
-        load = [py, "-c", "from rcmplan.control.fast import compile_kernels; compile_kernels()"]
+        compile_s = timed_process([py, "-m", "rcmplan.compiled.warm"], fresh)
+        load = [py, "-c", "from rcmplan.compiled.runner import compile_kernels; compile_kernels()"]
         load_s = statistics.median(timed_process(load, fresh) for _ in range(3))
         forced = {**fresh, "NUMBA_CACHE_DIR": f"{tmp}/numba2", "RCMPLAN_FAST": "on"}
         forced_s = timed_process(inject, forced)

@@ -9,8 +9,9 @@ import pytest
 
 from rcmplan import Iramis
 from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.tasks import angles_from_axis, axis_from_angles, needle_angles
+from rcmplan.control.tasks import NeedleAngles
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.needle import angles_from_axis, axis_from_angles
 
 from conftest import random_joints
 
@@ -38,7 +39,7 @@ def test_angles_and_axis_invert_each_other(rng) -> None:
 
 def test_needle_angles_are_q1_and_q3(robot: Iramis, rng) -> None:
     for q in random_joints(rng, 200, angle=1.4):
-        assert needle_angles(robot, q) == pytest.approx((q[1], q[3]), abs=1e-12)
+        assert tuple(NeedleAngles().value(robot, q, 1.0)) == pytest.approx((q[1], q[3]), abs=1e-12)
 
 
 def test_thesis_variant_equals_eq_6_1(robot: Iramis, rng) -> None:

@@ -9,6 +9,9 @@ import numpy as np
 import pytest
 
 from rcmplan import Iramis, IramisParameters
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.phase import robot_params
+from rcmplan.compiled.runner import FastIramis, fast_check_targets, fast_converge_phase
 from rcmplan.control import (
     Controller,
     DlsSolver,
@@ -16,11 +19,8 @@ from rcmplan.control import (
     Phase,
     PinvSolver,
     TipSolver,
-    fast_cache,
 )
 from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.fast import FastIramis, fast_check_targets, fast_converge_phase
-from rcmplan.control.fast_phase import robot_params
 from rcmplan.control.log import ARRAY_FIELDS, RunLog
 from rcmplan.control.solvers import dls_solve
 from rcmplan.exceptions import (

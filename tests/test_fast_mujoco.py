@@ -11,17 +11,16 @@ import numpy as np
 import pytest
 
 from rcmplan import Iramis
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled import mujoco_loop as fm
 from rcmplan.control import (
     Controller,
     DlsSolver,
     Phase,
     PinvSolver,
     extended_task,
-    fast,
-    fast_cache,
     interpolate,
 )
-from rcmplan.control import fast_mujoco as fm
 from rcmplan.control.log import ARRAY_FIELDS, RunLog
 from rcmplan.exceptions import SimulationError
 from rcmplan.sim.mujoco import compiled
@@ -62,7 +61,7 @@ def run(
     ctl = Controller(p, solver)
     with monkeypatch.context() as m:
         if per_iteration:
-            m.setattr(fast, "_is_dynamic_mujoco", lambda plant: False)
+            m.setattr(p, "compiled_physics", False)
         else:
             m.setattr(fm, "run_phase_on_mujoco", counted(fm.run_phase_on_mujoco))
         try:

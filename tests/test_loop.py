@@ -18,13 +18,13 @@ from rcmplan.control import (
     solve_pose,
     split_steps,
 )
-from rcmplan.control.tasks import angles_from_axis, axis_from_angles
 from rcmplan.exceptions import (
     ConvergenceError,
     InvalidInputError,
     SingularPoseError,
     UnreachableTargetError,
 )
+from rcmplan.robot.needle import angles_from_axis, axis_from_angles
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import Steps, line_targets
 from rcmplan.sim import KinematicPlant

@@ -8,7 +8,7 @@ import pytest
 from rcmplan import Iramis
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.solvers import DlsSolver, PinvSolver, TipSolver, Tolerance, dls_solve
-from rcmplan.control.tasks import rcm_jacobian, tip_position_jacobian
+from rcmplan.control.tasks import TIP_AND_RCM, stack_jacobian
 from rcmplan.exceptions import InvalidInputError
 
 Q = np.array([0.003, 0.1, -0.004, 0.15, 0.01, 0.0])
@@ -52,7 +52,7 @@ def test_gain_k_scales_the_first_order_error(robot: Iramis) -> None:
 
 
 def test_dls_step_solves_the_damped_normal_equations(robot: Iramis) -> None:
-    J = np.vstack([tip_position_jacobian(robot, Q), rcm_jacobian(robot, Q, 0.8)])
+    J = stack_jacobian(TIP_AND_RCM, robot, Q, 0.8)
     e = np.linspace(-1e-4, 1e-4, 6)
     D = 0.05
     d = dls_solve(J, e, D)

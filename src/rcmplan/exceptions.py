@@ -42,24 +42,31 @@ class PcjmAngleError(InvalidInputError):
     """A PCJM angle has no slider difference (|q| >= pi/2), or a slider pair has no angle."""
 
 
-class SliderLimitError(RcmplanError):
-    """A slider command or configuration lies outside its travel.
+class ActuatorLimitError(RcmplanError):
+    """An actuator command or configuration lies outside its travel.
 
     Attributes:
-        index: Slider index in s = (L1, L2, L3, L4, L5, q5).
-        value: Commanded value in m (rad for q5).
+        index: Actuator index (iRAM!S: in s = (L1, L2, L3, L4, L5, q5); an arm: the joint).
+        slider: The actuator's name.
+        value: Commanded value in m or rad.
         lower, upper: The travel limits.
     """
 
-    def __init__(self, index: int, name: str, value: float, lower: float, upper: float) -> None:
+    def __init__(
+        self, index: int, name: str, value: float, lower: float, upper: float,
+        kind: str = "slider",
+    ) -> None:  # fmt: skip
         self.index = index
         self.slider = name
         self.value = value
         self.lower = lower
         self.upper = upper
         super().__init__(
-            f"slider {name} = {value:.9g} is beyond its travel [{lower:.9g}, {upper:.9g}]"
+            f"{kind} {name} = {value:.9g} is beyond its travel [{lower:.9g}, {upper:.9g}]"
         )
+
+
+SliderLimitError = ActuatorLimitError  # iRAM!S's actuators are its piezo sliders
 
 
 class SingularPoseError(RcmplanError):
@@ -71,12 +78,14 @@ class SingularPoseError(RcmplanError):
         threshold: The smallest accepted measure.
     """
 
-    def __init__(self, q: Any, measure: float, threshold: float) -> None:
+    def __init__(
+        self, q: Any, measure: float, threshold: float, name: str = "min(|cos q1|, |cos q3|)"
+    ) -> None:
         self.q = q
         self.measure = measure
         self.threshold = threshold
         super().__init__(
-            f"pose is singular: min(|cos q1|, |cos q3|) = {measure:.3g} is below the "
+            f"pose is singular: {name} = {measure:.3g} is below the "
             f"threshold {threshold:.3g} (q = {_short(q)})"
         )
 
@@ -165,3 +174,46 @@ def require_extra(module: str, extra: str) -> Any:
         return importlib.import_module(module)
     except ImportError as exc:
         raise MissingExtraError(module.split(".")[0], extra) from exc
+
+
+class ModelFileError(RcmplanError):
+    """A robot model file (URDF, MJCF) cannot be read.
+
+    Attributes:
+        path: The file as given.
+        reason: The parser's reason.
+    """
+
+    def __init__(self, path: Any, reason: str) -> None:
+        self.path = path
+        self.reason = reason
+        super().__init__(f"cannot load robot model file {str(path)!r}: {reason}")
+
+
+class UnknownFrameError(InvalidInputError):
+    """A frame (link, body or site) is not in the model.
+
+    Attributes:
+        frame: The name asked for.
+        frames: The frames that exist.
+    """
+
+    def __init__(self, name: str, frame: str, frames: Any) -> None:
+        self.frame = frame
+        self.frames = tuple(frames)
+        super().__init__(name, frame, "one of " + ", ".join(self.frames))
+
+
+class UnsupportedJointError(InvalidInputError):
+    """A joint on a chain's path is neither revolute, prismatic nor fixed (mimic, floating...).
+
+    Attributes:
+        joint: The joint name.
+        kind: Its type as the model file states it.
+    """
+
+    def __init__(self, joint: str, kind: str) -> None:
+        self.joint = joint
+        self.kind = kind
+        valid = "revolute, continuous, prismatic or fixed joints (no mimic) on the chain's path"
+        super().__init__(f"joint {joint!r} type", kind, valid)

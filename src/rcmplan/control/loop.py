@@ -21,11 +21,12 @@ from typing import NamedTuple
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
-from rcmplan.control.fast import expect_job, fast_check_targets, fast_converge_phase
 from rcmplan.control.log import LogBuilder, RunLog
+from rcmplan.control.runner import Runner, default_runner
 from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, tip_of_target
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmplanError
+from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import closest_lambda
 from rcmplan.sim.plant import Plant
 
@@ -117,6 +118,8 @@ class Controller:
         solver: Step solver for RCM phases.
         free_solver: Step solver for free-space phases (default: tip pseudoinverse).
         settings: Loop settings.
+        runner: Runs phases faster where it applies (default: the compiled runner when
+            `rcmplan.compiled` is loaded, else the reference code); see `control.runner`.
     """
 
     def __init__(
@@ -125,12 +128,14 @@ class Controller:
         solver: Solver,
         free_solver: Solver | None = None,
         settings: LoopSettings | None = None,
+        runner: Runner | None = None,
     ) -> None:
         self.plant = plant
-        self.robot = plant.robot
+        self.robot: RobotModel = plant.robot
         self.solver = solver
         self.free_solver: Solver = free_solver or TipSolver()
         self.settings = settings or LoopSettings()
+        self.runner = runner or default_runner()
         self.lam = 1.0
         self.log = LogBuilder()
         self.phase_times: dict[str, float] = {}
@@ -139,9 +144,10 @@ class Controller:
     def check_targets(self, targets: FloatArray) -> None:
         """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose), and
         those the solver's own limits refuse (a solver may define `check_targets`)."""
-        if not fast_check_targets(self.robot, targets):
+        if not self.runner.check_targets(self.robot, targets):
+            seed = None
             for target in targets:
-                solve_pose(self.robot, target)
+                seed = solve_pose(self.robot, target, seed).q
         solver_check = getattr(self.solver, "check_targets", None)
         if solver_check is not None:
             solver_check(targets)
@@ -152,7 +158,7 @@ class Controller:
         Phases with target arrays are all checked before any motion; a planned phase is checked
         when it is planned, before its own motion.
         """
-        expect_job(self, phases)
+        self.runner.expect_job(self, phases)
         try:
             for ph in phases:
                 if ph.kind == "rcm" and not callable(ph.targets):
@@ -186,7 +192,7 @@ class Controller:
                 if callable(phase.targets):
                     self.check_targets(targets)
                 self.lam = self._closest_lambda(q, targets[0][3:])
-            if not fast_converge_phase(self, solver, targets, pid, sid):
+            if not self.runner.run_phase(self, solver, targets, pid, sid):
                 for k, target in enumerate(targets):
                     self.converge(solver, target, pid, sid, k)
         finally:
@@ -205,6 +211,7 @@ class Controller:
         rcm = solver.kind == "rcm"
         trocar = target[3:] if rcm else NAN3
         target_tip = tip_of_target(target) if rcm else target
+        active = list(robot.active)
         for it in range(cfg.max_iterations + 1):
             s = plant.read_actuators()
             q = robot.joints_from_actuators(s)
@@ -221,7 +228,7 @@ class Controller:
             robot.check_singularity(q, cfg.singular_threshold)
             dq, dlam = solver.step(robot, q, self.lam, target, e)
             q_new = q.copy()
-            q_new[:5] += dq
+            q_new[active] += dq
             self.lam += dlam
             plant.command_actuators(robot.actuators_from_joints(q_new))
             plant.advance()

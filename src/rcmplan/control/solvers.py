@@ -2,7 +2,9 @@
 
 Each solver states its own task error (what the loop drives to zero), its tolerance per error
 component, and one step. RCM solvers take an X_ext target (6,); free-space solvers a tip point
-(3,). Joint increments cover q0..q4; the needle roll q5 is not moved.
+(3,). Joint increments cover the robot's active joints (iRAM!S: q0..q4; the needle roll is not
+moved). On a redundant robot (more than five active joints) the pseudoinverse step is the
+minimum-norm solution plus a posture term in the null space of J_a.
 """
 
 from __future__ import annotations
@@ -13,11 +15,20 @@ from typing import ClassVar, Literal, NamedTuple, Protocol
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
-from rcmplan.control.augmented import VARIANTS, JacobianVariant, augmented_jacobian, extended_task
+from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.targets import tip_of_target
-from rcmplan.control.tasks import axis_from_angles, rcm_jacobian, rcm_point, tip_position_jacobian
+from rcmplan.control.tasks import (
+    TIP_AND_BASE,
+    TIP_AND_RCM,
+    VARIANTS,
+    JacobianVariant,
+    Posture,
+    TipPosition,
+    stack_jacobian,
+)
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
+from rcmplan.robot.needle import axis_from_angles
 
 SolverKind = Literal["rcm", "free"]
 
@@ -53,7 +64,7 @@ class Solver(Protocol):
         """ "rcm" (X_ext targets) or "free" (tip points)."""
         ...
 
-    def error(self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """The task error the loop drives to zero."""
         ...
 
@@ -62,9 +73,9 @@ class Solver(Protocol):
         ...
 
     def step(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """(delta q0..q4 (5,), delta lambda)."""
+        """(delta q[active] (m,), delta lambda)."""
         ...
 
 
@@ -94,15 +105,21 @@ def check_damping(D: float) -> float:
 class PinvSolver:
     """Augmented-Jacobian step d theta_ext = J_a^+ K e (eq. 3.17); J_a is square: J_a^+ = J_a^-1.
 
+    On a redundant robot, d theta_ext = J_a^+ K e + (I - J_a^+ J_a) k_p (home - theta_ext) over
+    the active joints (lambda has no preferred value).
+
     Attributes:
         K: Diagonal gains (6,), each in (0, 2).
         variant: "exact" angle rows or the "thesis" rows of eq. 6.1.
         tol: Loop tolerance.
+        posture_gain: k_p in [0, 1]: the fraction of the way to the home posture taken per
+            step in the null space (redundant robots only).
     """
 
     K: tuple[float, ...] = (1.0,) * 6
     variant: JacobianVariant = "exact"
     tol: Tolerance = field(default_factory=Tolerance)
+    posture_gain: float = 0.05
     name: ClassVar[str] = "pinv"
     kind: ClassVar[SolverKind] = "rcm"
 
@@ -110,9 +127,10 @@ class PinvSolver:
         object.__setattr__(self, "K", tuple(check_gains(self.K)))
         if self.variant not in VARIANTS:
             raise InvalidInputError("variant", self.variant, f"one of {VARIANTS}")
+        scalar("posture_gain", self.posture_gain, 0.0, 1.0)
         self.tol.checked()
 
-    def error(self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """X_ext target minus X_ext now: (x [m], phi, psi [rad], p_rcm [m])."""
         return target - extended_task(robot, q, lam)
 
@@ -121,12 +139,20 @@ class PinvSolver:
         return self.tol.x_ext()
 
     def step(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """Solve J_a d = K e."""
+        """Solve J_a d = K e (square), or the minimum-norm step plus the null-space posture."""
         J = augmented_jacobian(robot, q, lam, self.variant)
-        d = np.asarray(np.linalg.solve(J, np.asarray(self.K) * error), dtype=np.float64)
-        return d[:5], float(d[5])
+        Ke = np.asarray(self.K) * error
+        if J.shape[0] == J.shape[1]:
+            d = np.asarray(np.linalg.solve(J, Ke), dtype=np.float64)
+        else:
+            J_pinv = np.linalg.pinv(J)
+            home = Posture().value(robot, robot.home, lam)
+            z = np.zeros(J.shape[1])
+            z[:-1] = self.posture_gain * (home - Posture().value(robot, q, lam))
+            d = J_pinv @ Ke + z - J_pinv @ (J @ z)
+        return d[:-1], float(d[-1])
 
 
 def dls_solve(J: FloatArray, e: FloatArray, D: float) -> FloatArray:
@@ -160,16 +186,16 @@ class DlsSolver:
         check_damping(self.damping)
         self.tol.checked()
 
-    def error(self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """(tip target - tip, trocar - p_rcm), both in [m] (base task for a pivot)."""
         e = np.empty(6)
         tip = tip_of_target(target)
         e[:3] = tip - robot.needle_point(q, 1.0)
         if _is_pivot(tip, target):
-            base = tip - robot.params.l6 * axis_from_angles(target[1], target[2])
+            base = tip - robot.needle_length * axis_from_angles(target[1], target[2])
             e[3:] = base - robot.needle_point(q, 0.0)
         else:
-            e[3:] = target[3:] - rcm_point(robot, q, lam)
+            e[3:] = target[3:] - robot.needle_point(q, lam)
         return e
 
     def tolerance(self) -> FloatArray:
@@ -177,17 +203,13 @@ class DlsSolver:
         return np.full(6, self.tol.position)
 
     def step(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """One DLS step on the stacked (tip, RCM) task."""
         pivot = _is_pivot(tip_of_target(target), target)
-        J = np.vstack(
-            [tip_position_jacobian(robot, q), rcm_jacobian(robot, q, 0.0 if pivot else lam)]
-        )
-        if pivot:
-            J[3:, 5] = 0.0
+        J = stack_jacobian(TIP_AND_BASE if pivot else TIP_AND_RCM, robot, q, lam)
         d = dls_solve(J, error, self.damping)
-        return d[:5], float(d[5])
+        return d[:-1], float(d[-1])
 
 
 def _is_pivot(tip: FloatArray, target: FloatArray) -> bool:
@@ -217,7 +239,7 @@ class TipSolver:
         """ "tip-pinv" or "tip-dls"."""
         return "tip-dls" if self.damping > 0 else "tip-pinv"
 
-    def error(self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """Tip target minus tip, in [m]."""
         return target[:3] - robot.needle_point(q, 1.0)
 
@@ -226,8 +248,8 @@ class TipSolver:
         return np.full(3, self.tol.position)
 
     def step(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """Minimum-norm (or damped) step on the 3x5 tip Jacobian; lambda unchanged."""
-        J = tip_position_jacobian(robot, q)[:, :5]
+        """Minimum-norm (or damped) step on the (3, m) tip Jacobian; lambda unchanged."""
+        J = TipPosition().jacobian(robot, q, lam)[:, :-1]
         return dls_solve(J, error, self.damping), 0.0

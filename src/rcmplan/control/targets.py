@@ -1,22 +1,22 @@
 """Targets as a user states them, checked before any motion.
 
 "Tip to point P while the RCM stays at trocar point C" fixes the needle line (through C and P),
-so it fixes phi, psi and, with the tip's x, the whole extended task X_ext. On iRAM!S the pose
-that realises X_ext has a closed form (phi = q1, psi = q3, then q4, q2, q0 from eq. 2.7), which
-lets every target be checked for lambda in [0, 1], needle angle and slider travel before motion.
+so it fixes phi, psi and, with the tip's x, the whole extended task X_ext. The robot model
+finds joints that put the tip at P with the needle along that line (`needle_pose`: a closed form
+on iRAM!S, phi = q1, psi = q3, then q4, q2, q0 from eq. 2.7; Newton's method on an arm), which
+lets every target be checked for lambda in [0, 1], reach and actuator travel before motion.
 """
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.control.tasks import angles_from_axis, axis_from_angles
 from rcmplan.exceptions import PcjmAngleError, SliderLimitError, UnreachableTargetError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
+from rcmplan.robot.needle import angles_from_axis, axis_from_angles
 
 
 class Pose(NamedTuple):
@@ -68,39 +68,36 @@ def tip_of_target(x_ext: FloatArray) -> FloatArray:
     return x_ext[3:] + t * axis
 
 
-def solve_pose(robot: Iramis, x_ext: FloatArray) -> Pose:
-    """The configuration (q with q5 = 0, lambda) that realises X_ext exactly, or raise.
+def solve_pose(robot: RobotModel, x_ext: FloatArray, seed: FloatArray | None = None) -> Pose:
+    """A configuration (q, lambda) that realises X_ext exactly, or raise.
 
-    Raises UnreachableTargetError when lambda would leave [0, 1], the needle angles leave the
-    non-singular range, or a slider leaves its travel.
+    Raises UnreachableTargetError when the robot cannot point the needle that way, lambda would
+    leave [0, 1], or an actuator leaves its travel.
+
+    Args:
+        seed: Joints to start an iterative search from (the previous target's, along a path).
     """
     x_ext = vector("target", x_ext, 6)
-    p = robot.params
     phi, psi = float(x_ext[1]), float(x_ext[2])
-    thr = p.singular_threshold
-    if min(abs(math.cos(phi)), abs(math.cos(psi))) < thr:
-        raise UnreachableTargetError(
-            f"needle angles (phi, psi) = ({phi:.4g}, {psi:.4g}) rad leave the reach "
-            f"|cos phi|, |cos psi| >= {thr:g}",
-            x_ext,
-        )
     tip = tip_of_target(x_ext)
+    try:
+        q = robot.needle_pose(tip, phi, psi, seed)
+    except UnreachableTargetError as exc:
+        if exc.target is not None:
+            raise
+        raise UnreachableTargetError(exc.reason, x_ext) from exc
     axis = axis_from_angles(phi, psi)
+    length = robot.needle_length
     depth = float(np.dot(tip - x_ext[3:], axis))  # tip ahead of the RCM along the axis
-    lam = 1.0 - depth / p.l6
+    lam = 1.0 - depth / length
     if -1e-9 <= lam < 0.0 or 1.0 < lam <= 1.0 + 1e-9:  # rounding at the ends of the needle
         lam = min(1.0, max(0.0, lam))
     if not 0.0 <= lam <= 1.0:
         raise UnreachableTargetError(
             f"lambda = {lam:.6g} is outside [0, 1]: the RCM would leave the needle "
-            f"(tip {1e3 * depth:.3f} mm ahead of the RCM, needle length {1e3 * p.l6:.1f} mm)",
+            f"(tip {1e3 * depth:.3f} mm ahead of the RCM, needle length {1e3 * length:.1f} mm)",
             x_ext,
         )
-    c1, s1, c3, s3 = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
-    w = (p.l2 * s1 - p.l5 * c1 * s3 - tip[0]) / (c1 * c3)  # x row of eq. 2.7
-    q2 = tip[1] - (p.l3 + p.l4 - s3 * w + p.l5 * c3)  # y row
-    q0 = tip[2] - (p.l1 + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3)  # z row
-    q = np.array([q0, phi, q2, psi, w - p.l6, 0.0])
     try:
         robot.check_actuators(robot.actuators_from_joints(q))
     except (SliderLimitError, PcjmAngleError) as exc:
@@ -108,8 +105,8 @@ def solve_pose(robot: Iramis, x_ext: FloatArray) -> Pose:
     return Pose(q, lam)
 
 
-def solve_tip_pose(robot: Iramis, tip: FloatArray, axis: FloatArray) -> FloatArray:
+def solve_tip_pose(robot: RobotModel, tip: FloatArray, axis: FloatArray) -> FloatArray:
     """Joints q placing the tip at `tip` with the needle along `axis` (unit), checked."""
     phi, psi = angles_from_axis(vector("axis", axis, 3))
-    trocar = vector("tip", tip, 3) - 0.5 * robot.params.l6 * axis_from_angles(phi, psi)
+    trocar = vector("tip", tip, 3) - 0.5 * robot.needle_length * axis_from_angles(phi, psi)
     return solve_pose(robot, np.array([tip[0], phi, psi, *trocar])).q

@@ -1,72 +1,147 @@
-"""Task functions of the iRAM!S needle and their exact Jacobians.
+"""Tasks: a value and its exact Jacobian over theta_ext = (q[active], lambda) (eq. 3.11).
 
-Every Jacobian is with respect to the extended variables theta_ext = (q0, q1, q2, q3, q4, lambda)
-(eq. 3.11); the needle roll q5 moves no point of a straight needle and is left out.
-
-Needle angles. The needle axis of iRAM!S is a(q) = (-cos q1 cos q3, -sin q3, sin q1 cos q3).
-rcmplan defines the two needle angles from any unit axis a as
-
-    phi = atan2(a_z, -a_x)                   (rotation about the base y axis, towards +z)
-    psi = atan2(-a_y, sqrt(a_x^2 + a_z^2))   (elevation towards -y)
-
-so that axis_from_angles(phi, psi) inverts them, and on iRAM!S phi = q1 and psi = q3 whenever
-|q3| < pi/2. Their exact derivatives are therefore the unit rows e_q1 and e_q3.
+A task reads the robot model at (q, lambda). The thesis's extended task X_ext = (x_tip, phi, psi,
+p_rcm) (eq. 3.14) is the stacking `X_EXT` of three tasks, and its Jacobian is J_a (eq. 3.15);
+damped least squares stacks the tip and the RCM point (`TIP_AND_RCM`). Needle angles are
+defined in `rcmplan.robot.needle`; on iRAM!S their exact rows are e_q1 and e_q3.
 """
 
 from __future__ import annotations
 
-import math
+from dataclasses import dataclass
+from typing import ClassVar, Literal, Protocol
 
 import numpy as np
 
 from rcmplan._validate import FloatArray
-from rcmplan.robot.iramis import Iramis
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.model import RobotModel
+from rcmplan.robot.needle import angles_from_axis
+
+JacobianVariant = Literal["exact", "thesis"]
+VARIANTS: tuple[str, ...] = ("exact", "thesis")
 
 
-def angles_from_axis(axis: FloatArray) -> tuple[float, float]:
-    """(phi, psi) in [rad] of a needle axis (see module docstring)."""
-    ax, ay, az = float(axis[0]), float(axis[1]), float(axis[2])
-    return math.atan2(az, -ax), math.atan2(-ay, math.hypot(ax, az))
+class Task(Protocol):
+    """A task: its values at (q, lambda) and their Jacobian (values, m + 1)."""
+
+    def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray: ...
+    def jacobian(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray: ...
 
 
-def axis_from_angles(phi: float, psi: float) -> FloatArray:
-    """The unit needle axis with needle angles (phi, psi); inverse of angles_from_axis."""
-    return np.array([-math.cos(phi) * math.cos(psi), -math.sin(psi), math.sin(phi) * math.cos(psi)])
+@dataclass(frozen=True)
+class TipPosition:
+    """Rows `axes` of the needle tip position in [m] (eq. 2.7); lambda moves no tip."""
+
+    axes: tuple[int, ...] = (0, 1, 2)
+
+    @property
+    def size(self) -> int:
+        """Number of rows."""
+        return len(self.axes)
+
+    def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """The tip coordinates."""
+        return robot.tip(q)[list(self.axes)]
+
+    def jacobian(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """Rows of d p_tip / d theta_ext with a zero lambda column."""
+        J = robot.needle_point_jacobian(q, 1.0)[list(self.axes)]
+        J[:, -1] = 0.0
+        return J
 
 
-def needle_angles(robot: Iramis, q: FloatArray) -> tuple[float, float]:
-    """(phi, psi) of the needle at q."""
-    return angles_from_axis(robot.needle_axis(q))
+@dataclass(frozen=True)
+class NeedleAngles:
+    """The needle angles (phi, psi) in [rad].
+
+    Attributes:
+        variant: "exact" rows (the derivative of phi, psi), or "thesis": the geometric angular
+            velocities (omega_y, omega_z) of eq. 6.1, a cos-scaled approximation (NOTES.md).
+    """
+
+    variant: JacobianVariant = "exact"
+    size: ClassVar[int] = 2
+
+    def __post_init__(self) -> None:
+        if self.variant not in VARIANTS:
+            raise InvalidInputError("jacobian variant", self.variant, f"one of {VARIANTS}")
+
+    def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """(phi, psi)."""
+        return np.array(angles_from_axis(robot.needle_axis(q)))
+
+    def jacobian(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """(2, m + 1) rows."""
+        if self.variant == "exact":
+            return robot.needle_angles_jacobian(q)
+        return robot.needle_angular_jacobian(q)[1:3]
 
 
-def needle_angles_jacobian() -> FloatArray:
-    """d(phi, psi)/d theta_ext: exactly the rows e_q1 and e_q3 on iRAM!S, a (2, 6) array."""
-    J = np.zeros((2, 6))
-    J[0, 1] = 1.0
-    J[1, 3] = 1.0
-    return J
+@dataclass(frozen=True)
+class RcmPoint:
+    """The RCM point p(lambda) on the needle in [m] (eqs. 3.7-3.10)."""
+
+    size: ClassVar[int] = 3
+
+    def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """p(lambda)."""
+        return robot.needle_point(q, lam)
+
+    def jacobian(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """J_c = d p(lambda) / d theta_ext (eq. 3.10)."""
+        return robot.needle_point_jacobian(q, lam)
 
 
-def needle_angles_jacobian_thesis(q: FloatArray) -> FloatArray:
-    """The thesis's angle rows (eq. 6.1): geometric omega_y = dq1, omega_z = cos q1 dq3."""
-    J = np.zeros((2, 6))
-    J[0, 1] = 1.0
-    J[1, 3] = math.cos(q[1])
-    return J
+@dataclass(frozen=True)
+class NeedleBase:
+    """The needle base p(0) in [m], held fixed in lambda (a pivot about the tip)."""
+
+    size: ClassVar[int] = 3
+
+    def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """p(0)."""
+        return robot.needle_point(q, 0.0)
+
+    def jacobian(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """d p(0) / d theta_ext with a zero lambda column."""
+        J = robot.needle_point_jacobian(q, 0.0)
+        J[:, -1] = 0.0
+        return J
 
 
-def tip_position_jacobian(robot: Iramis, q: FloatArray) -> FloatArray:
-    """d p_tip / d theta_ext, a (3, 6) array with a zero lambda column (rows 1-3 of eq. 2.13)."""
-    J = robot.needle_point_jacobian(q, 1.0)
-    J[:, 5] = 0.0
-    return J
+@dataclass(frozen=True)
+class Posture:
+    """The active joints themselves: a redundant arm's preferred posture (null space)."""
+
+    def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """q[active]."""
+        return np.asarray(q, dtype=float)[list(robot.active)]
+
+    def jacobian(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
+        """[I 0], (m, m + 1)."""
+        m = len(robot.active)
+        return np.eye(m, m + 1)
 
 
-def rcm_point(robot: Iramis, q: FloatArray, lam: float) -> FloatArray:
-    """The RCM point p(lambda) on the needle in [m] (eq. 3.7)."""
-    return robot.needle_point(q, lam)
+def stack_value(
+    tasks: tuple[Task, ...], robot: RobotModel, q: FloatArray, lam: float
+) -> FloatArray:
+    """The tasks' values one after another."""
+    return np.concatenate([t.value(robot, q, lam) for t in tasks])
 
 
-def rcm_jacobian(robot: Iramis, q: FloatArray, lam: float) -> FloatArray:
-    """J_c = d p(lambda) / d theta_ext, a (3, 6) array (eq. 3.10)."""
-    return robot.needle_point_jacobian(q, lam)
+def stack_jacobian(
+    tasks: tuple[Task, ...], robot: RobotModel, q: FloatArray, lam: float
+) -> FloatArray:
+    """The tasks' Jacobians one above another."""
+    return np.vstack([t.jacobian(robot, q, lam) for t in tasks])
+
+
+def x_ext_tasks(variant: JacobianVariant = "exact") -> tuple[Task, ...]:
+    """X_ext = (x_tip, phi, psi, p_rcm) as tasks (eq. 3.14)."""
+    return (TipPosition((0,)), NeedleAngles(variant), RcmPoint())
+
+
+TIP_AND_RCM: tuple[Task, ...] = (TipPosition(), RcmPoint())
+TIP_AND_BASE: tuple[Task, ...] = (TipPosition(), NeedleBase())

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.exceptions import SingularPoseError, SliderLimitError
+from rcmplan.exceptions import SingularPoseError, SliderLimitError, UnreachableTargetError
 from rcmplan.robot.dh import DHChain, DHLink
 from rcmplan.robot.pcjm import Pcjm
 
@@ -77,9 +77,17 @@ class IramisParameters:
 class Iramis:
     """The iRAM!S robot: kinematics in closed form (eq. 2.7, 2.12) and as a DH chain.
 
+    A `RobotModel` whose actuators are the sliders s and whose controller moves q0..q4 and
+    lambda (the roll q5 moves no point of the straight needle).
+
     Args:
         params: Geometry and limits; the thesis values and stated assumptions by default.
     """
+
+    name: str = "iramis"
+    joint_names: tuple[str, ...] = JOINT_NAMES
+    actuator_names: tuple[str, ...] = SLIDER_NAMES
+    active: tuple[int, ...] = (0, 1, 2, 3, 4)
 
     def __init__(self, params: IramisParameters | None = None) -> None:
         self.params = params or IramisParameters()
@@ -90,6 +98,9 @@ class Iramis:
         self.speed = np.array(p.slider_speed, dtype=float)
         self.home_actuators = np.zeros(6)
         self.home = np.zeros(6)
+        self.needle_length: float = p.l6
+        self.resolution: float = p.slider_resolution
+        self.singular_threshold: float = p.singular_threshold
 
     # --- DH tables -------------------------------------------------------------------------
     def dh_links(self, l6: float | None = None) -> list[DHLink]:
@@ -191,6 +202,20 @@ class Iramis:
         J[3:, 5] = self.needle_axis(q)  # z_5: the needle axis
         return J
 
+    def needle_angular_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """Angular velocity of the needle per (q0..q4, lambda), (3, 6): z_1 dq1 + z_3 dq3."""
+        J = np.zeros((3, 6))
+        J[1, 1] = 1.0  # z_1 of frame 1
+        J[0, 3], J[2, 3] = math.sin(q[1]), math.cos(q[1])  # z_3
+        return J
+
+    def needle_angles_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """d(phi, psi)/d(q0..q4, lambda): exactly the rows e_q1 and e_q3, (2, 6)."""
+        J = np.zeros((2, 6))
+        J[0, 1] = 1.0
+        J[1, 3] = 1.0
+        return J
+
     def jacobian_05(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """J_0^5 (6, 5): the tip Jacobian without the needle roll q5 (eq. 2.13)."""
         return self.jacobian(q)[:, :5]
@@ -222,6 +247,16 @@ class Iramis:
         D[2:4, 2:4] = self.pcjm.joints_jacobian(s[2], s[3])
         return D
 
+    def joint_rates(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """dq/ds (6, 6) at joints q: d q_rot / d L2 = -d q_rot / d L1 = cos^2(q_rot) / d."""
+        D = np.eye(6)
+        d = self.params.pcjm_spacing
+        for i in (0, 2):
+            g = math.cos(q[i + 1]) ** 2 / d
+            D[i, i] = D[i, i + 1] = 0.5
+            D[i + 1, i], D[i + 1, i + 1] = -g, g
+        return D
+
     def actuators_from_joints_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """ds/dq, a (6, 6) array."""
         D = np.eye(6)
@@ -249,6 +284,13 @@ class Iramis:
         """min(|cos q1|, |cos q3|): zero exactly on the singular set of J_a and J_0^5 (NOTES.md)."""
         return min(abs(math.cos(q[1])), abs(math.cos(q[3])))
 
+    @staticmethod
+    def singular_terms(q: Sequence[float] | FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(cos q1, cos q3) and their gradients (2, 6): both stay above the singular floor."""
+        grad = np.zeros((2, 6))
+        grad[0, 1], grad[1, 3] = -math.sin(q[1]), -math.sin(q[3])
+        return np.array([math.cos(q[1]), math.cos(q[3])]), grad
+
     def check_singularity(
         self, q: Sequence[float] | FloatArray, threshold: float | None = None
     ) -> None:
@@ -257,6 +299,26 @@ class Iramis:
         m = self.singularity_measure(q)
         if m < thr:
             raise SingularPoseError(np.asarray(q), m, thr)
+
+    def needle_pose(
+        self, tip: FloatArray, phi: float, psi: float, seed: FloatArray | None = None
+    ) -> FloatArray:
+        """Joints (q5 = 0) putting the tip at `tip` [m] with needle angles (phi, psi) [rad]:
+        phi = q1, psi = q3, then w = q4 + l6 from the x row of eq. 2.7, q2 from its y row and
+        q0 from its z row. Raises UnreachableTargetError outside the non-singular angle range;
+        travel is not checked. `seed` is not needed (closed form)."""
+        p = self.params
+        thr = p.singular_threshold
+        if min(abs(math.cos(phi)), abs(math.cos(psi))) < thr:
+            raise UnreachableTargetError(
+                f"needle angles (phi, psi) = ({phi:.4g}, {psi:.4g}) rad leave the reach "
+                f"|cos phi|, |cos psi| >= {thr:g}"
+            )
+        c1, s1, c3, s3 = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
+        w = (p.l2 * s1 - p.l5 * c1 * s3 - tip[0]) / (c1 * c3)  # x row of eq. 2.7
+        q2 = tip[1] - (p.l3 + p.l4 - s3 * w + p.l5 * c3)  # y row
+        q0 = tip[2] - (p.l1 + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3)  # z row
+        return np.array([q0, phi, q2, psi, w - p.l6, 0.0])
 
     def assumptions(self) -> list[Assumption]:
         """Every model parameter with its source, thesis or assumed."""

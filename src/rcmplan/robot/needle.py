@@ -1,10 +1,56 @@
-"""A straight needle: the segment from p_base (lambda = 0) to p_tip (lambda = 1), eqs. 3.7-3.10."""
+"""Needle geometry: the straight needle on a tool frame, its points, its angles (eqs. 3.7-3.10).
+
+A straight needle is the segment from p_base (lambda = 0) to p_tip (lambda = 1) of length l;
+p(lambda) = p_base + lambda l a with a its unit axis.
+
+Needle angles. rcmplan defines two angles of any unit axis a as
+
+    phi = atan2(a_z, -a_x)                   (rotation about the world y axis, towards +z)
+    psi = atan2(-a_y, sqrt(a_x^2 + a_z^2))   (elevation towards -y)
+
+so that `axis_from_angles(phi, psi)` inverts them; on iRAM!S phi = q1 and psi = q3 whenever
+|q3| < pi/2 (the needle points along -x at home). The pair is singular where a = +-y.
+"""
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass, field
+
 import numpy as np
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, matrix, scalar
+
+
+@dataclass(frozen=True)
+class StraightNeedle:
+    """A straight needle fixed to a tool frame.
+
+    Attributes:
+        length: Needle length l in [m], base to tip.
+        mount: (4, 4) pose of the needle base in the tool frame; the needle runs along the
+            mount's +z axis (identity: from the tool frame's origin along its z).
+    """
+
+    length: float
+    mount: FloatArray = field(default_factory=lambda: np.eye(4))
+
+    def __post_init__(self) -> None:
+        scalar("needle.length", self.length, 0.0, 1.0, low_open=True)
+        object.__setattr__(self, "mount", matrix("needle.mount", self.mount, (4, 4)))
+
+    @property
+    def name(self) -> str:
+        """ "straight"."""
+        return "straight"
+
+    def point_local(self, lam: float) -> FloatArray:
+        """p(lambda) in tool-frame coordinates in [m]."""
+        return self.mount[:3, 3] + lam * self.length * self.mount[:3, 2]
+
+    def axis_local(self) -> FloatArray:
+        """The unit needle axis in the tool frame."""
+        return np.array(self.mount[:3, 2])
 
 
 def needle_point(p_base: FloatArray, p_tip: FloatArray, lam: float) -> FloatArray:
@@ -12,22 +58,35 @@ def needle_point(p_base: FloatArray, p_tip: FloatArray, lam: float) -> FloatArra
     return p_base + lam * (p_tip - p_base)
 
 
-def needle_point_jacobian(
-    J_base: FloatArray, J_tip: FloatArray, p_base: FloatArray, p_tip: FloatArray, lam: float
-) -> FloatArray:
-    """Jacobian of p(lambda) w.r.t. (q, lambda): [J_base + lam (J_tip - J_base), p_tip - p_base].
-
-    J_base and J_tip are the (3, n) linear-velocity Jacobians of the two points; the result is
-    (3, n + 1), its last column the derivative along lambda (eqs. 3.9, 3.10).
-    """
-    J = np.empty((3, J_base.shape[1] + 1))
-    J[:, :-1] = J_base + lam * (J_tip - J_base)
-    J[:, -1] = p_tip - p_base
-    return J
-
-
 def closest_lambda(p_base: FloatArray, p_tip: FloatArray, point: FloatArray) -> float:
     """The lambda in [0, 1] of the needle point closest to `point` (drift correction, ch. 5)."""
     axis = p_tip - p_base
     lam = float(np.dot(point - p_base, axis) / np.dot(axis, axis))
     return min(1.0, max(0.0, lam))
+
+
+def angles_from_axis(axis: FloatArray) -> tuple[float, float]:
+    """(phi, psi) in [rad] of a needle axis (see module docstring)."""
+    ax, ay, az = float(axis[0]), float(axis[1]), float(axis[2])
+    return math.atan2(az, -ax), math.atan2(-ay, math.hypot(ax, az))
+
+
+def axis_from_angles(phi: float, psi: float) -> FloatArray:
+    """The unit needle axis with needle angles (phi, psi); inverse of angles_from_axis."""
+    return np.array([-math.cos(phi) * math.cos(psi), -math.sin(psi), math.sin(phi) * math.cos(psi)])
+
+
+def angles_jacobian(axis: FloatArray, J_omega: FloatArray) -> FloatArray:
+    """d(phi, psi)/d theta (2, k) from the unit axis a and its angular Jacobian (3, k).
+
+    The axis turns with the needle: da = omega x a, so da/d theta = -[a]x J_omega; then the
+    chain rule through the definitions of phi and psi (module docstring).
+    """
+    ax, ay, az = float(axis[0]), float(axis[1]), float(axis[2])
+    da = np.cross(J_omega.T, axis).T  # (3, k): column j is omega_j x a
+    h2 = ax * ax + az * az
+    h = math.sqrt(h2)
+    out = np.empty((2, J_omega.shape[1]))
+    out[0] = (az * da[0] - ax * da[2]) / h2
+    out[1] = -h * da[1] + ay * (ax * da[0] + az * da[2]) / h
+    return out

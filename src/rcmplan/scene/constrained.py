@@ -24,9 +24,9 @@ from rcmplan.control.log import RunLog
 from rcmplan.control.loop import Phase
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import rcm_target, solve_pose
-from rcmplan.control.tasks import angles_from_axis, axis_from_angles
 from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.needle import angles_from_axis, axis_from_angles
 from rcmplan.scene.eye import Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import Spiral, injection, spiral
 

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
-from rcmplan.control.tasks import axis_from_angles
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.needle import axis_from_angles
 
 POINT_NAMES = ("p1", "p2", "p3", "p4", "p5", "p6", "p7")
 
@@ -157,7 +157,7 @@ def default_points(
         spread: Angle in [rad] between the axis and the rays from the trocar to p4..p7; p4/p5
             tilt phi by +-spread and p6/p7 tilt psi by +-spread, so both needle angles change.
     """
-    from rcmplan.control.tasks import angles_from_axis
+    from rcmplan.robot.needle import angles_from_axis
 
     phi, psi = angles_from_axis(eye.axis)
     rays = [(phi + spread, psi), (phi - spread, psi), (phi, psi + spread), (phi, psi - spread)]

@@ -17,9 +17,9 @@ import numpy as np
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.loop import Phase, interpolate
 from rcmplan.control.targets import pivot_target, rcm_target, rcm_targets, solve_pose
-from rcmplan.control.tasks import angles_from_axis
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.needle import angles_from_axis
 from rcmplan.scene.eye import Eye, EyePoints
 
 DEFAULT_VISITS = ("p4", "p5", "p6", "p7")

@@ -26,9 +26,9 @@ from rcmplan.control.log import RunLog
 from rcmplan.control.loop import Controller, LoopSettings, Phase, interpolate
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, Tolerance
 from rcmplan.control.targets import pivot_target, rcm_target, solve_pose
-from rcmplan.control.tasks import angles_from_axis
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.needle import angles_from_axis
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import Spiral, Steps, line_targets, spiral
 from rcmplan.sim.kinematic import KinematicPlant

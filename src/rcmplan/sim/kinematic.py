@@ -6,6 +6,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 
 
 class KinematicPlant:
@@ -17,9 +18,10 @@ class KinematicPlant:
     """
 
     name = "kinematic"
+    exact_commands = True  # capability: advance() puts the actuators exactly at the command
 
-    def __init__(self, robot: Iramis | None = None, dt: float = 1e-3) -> None:
-        self.robot = robot or Iramis()
+    def __init__(self, robot: RobotModel | None = None, dt: float = 1e-3) -> None:
+        self.robot: RobotModel = robot or Iramis()
         self.dt = scalar("dt", dt, 0.0, np.inf, low_open=True)
         self.time = 0.0
         self._s = self.robot.home_actuators.copy()
@@ -27,7 +29,7 @@ class KinematicPlant:
 
     def reset(self, s: FloatArray) -> None:
         """Place the sliders at s (checked against travel) and zero the time."""
-        self._s = self.robot.check_actuators(vector("s", s, 6)).copy()
+        self._s = self.robot.check_actuators(vector("s", s, len(self.robot.lower))).copy()
         self._cmd = self._s.copy()
         self.time = 0.0
 
@@ -37,7 +39,7 @@ class KinematicPlant:
 
     def command_actuators(self, s: FloatArray) -> None:
         """Command sliders; SliderLimitError beyond travel, InvalidInputError if not finite."""
-        self._cmd = self.robot.check_actuators(vector("s", s, 6)).copy()
+        self._cmd = self.robot.check_actuators(vector("s", s, len(self.robot.lower))).copy()
 
     def advance(self) -> None:
         """The sliders reach the command; time moves on by dt."""

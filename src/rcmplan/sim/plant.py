@@ -1,8 +1,10 @@
 """The plant interface: what a controller may do with a robot, simulated or real.
 
-A plant reads and commands slider positions s = (L1, L2, L3, L4, L5, q5) and advances time by
-one control period, the way the thesis's MATLAB loop read and set V-REP joints. Controllers only
-see this interface, so the same loop drives the kinematic plant and the MuJoCo plant.
+A plant reads and commands actuator positions s (iRAM!S: its sliders (L1, L2, L3, L4, L5, q5);
+an arm: its joints) and advances time by one control period, the way the thesis's MATLAB loop
+read and set V-REP joints. Controllers only see this interface, so the same loop drives the
+kinematic plant and the MuJoCo plant. A plant states what it can do by attributes
+(`exact_commands`, `compiled_physics`), never by its class name.
 """
 
 from __future__ import annotations
@@ -10,12 +12,12 @@ from __future__ import annotations
 from typing import Protocol, runtime_checkable
 
 from rcmplan._validate import FloatArray
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 
 
 @runtime_checkable
 class Plant(Protocol):
-    """A robot that takes slider commands.
+    """A robot that takes actuator commands.
 
     Attributes:
         robot: The kinematic model the plant realises.
@@ -24,10 +26,14 @@ class Plant(Protocol):
         name: Short name for logs and reports ("kinematic", "mujoco-dynamic", ...).
     """
 
-    robot: Iramis
     dt: float
     time: float
     name: str
+
+    @property
+    def robot(self) -> RobotModel:
+        """The robot model the plant realises."""
+        ...
 
     def reset(self, s: FloatArray) -> None:
         """Place the sliders at s and set the time to zero."""

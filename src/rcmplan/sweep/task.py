@@ -19,7 +19,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.analysis.metrics import phase_metrics
-from rcmplan.control import fast_cache
+from rcmplan.compiled import cache as fast_cache
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_solver
 from rcmplan.control.targets import rcm_target, solve_pose

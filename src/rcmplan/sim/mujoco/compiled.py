@@ -5,7 +5,7 @@ command, the synchronised reference velocity, the servo and feed-forward control
 steps, the kinematics and the checks (NaN, MuJoCo warnings, loop-closure gap). MuJoCo's own
 `mj_step` and `mj_kinematics` are called from the compiled code through their C addresses, so
 a closed control loop on the MuJoCo plant runs without returning to Python between periods
-(`rcmplan.control.fast_mujoco`). tests/test_fast_mujoco.py checks that it gives the same log,
+(`rcmplan.compiled.mujoco_loop`). tests/test_fast_mujoco.py checks that it gives the same log,
 to the last bit, as the Python plant.
 
 The C addresses come from the shared library the `mujoco` package loaded; they are arguments,

@@ -14,7 +14,7 @@ body has gravcomp 1) gravity is switched off in the compiled model instead, whic
 same forces without MuJoCo's per-body gravcomp pass (`cancel_gravity`). A period costs ten
 physics steps plus some 30 us of Python (commands within travel take a one-comparison path,
 the checks read cached views of MuJoCo's arrays); with the `fast` extra a controller runs the
-whole closed loop compiled instead (`rcmplan.control.fast_mujoco`).
+whole closed loop compiled instead (`rcmplan.compiled.mujoco_loop`).
 """
 
 from __future__ import annotations
@@ -72,6 +72,10 @@ class MujocoPlant:
         self.robot = robot or Iramis()
         self.mode = mode
         self.name = f"mujoco-{mode}"
+        # capabilities: a kinematic-mode command is reached exactly; a dynamic period can run
+        # in compiled code (`rcmplan.sim.mujoco.compiled`)
+        self.exact_commands = False
+        self.compiled_physics = mode == "dynamic"
         self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
         physics_dt = scalar("physics_dt", physics_dt, 0.0, dt, low_open=True)
         self.substeps = round(dt / physics_dt)

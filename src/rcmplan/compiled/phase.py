@@ -14,17 +14,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.control import fast_cache
+from rcmplan.compiled import cache as fast_cache
 from rcmplan.control.log import LogBuilder
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
 from rcmplan.control.targets import tip_of_target
-from rcmplan.exceptions import ConvergenceError, RcmplanError
+from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmplanError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 
 if TYPE_CHECKING:
     from rcmplan.control.loop import Controller
 
-# status codes and record layout of rcmplan.control.fast_loop (kept here to avoid importing it)
+# status codes and record layout of rcmplan.compiled.loop (kept here to avoid importing it)
 DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
 BLOCK = 4096  # records buffered before they go to the log
 REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
@@ -33,8 +34,10 @@ REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13,
 VECTORS = tuple(k for k, (a, b) in REC_COLUMNS.items() if b - a > 1)
 
 
-def robot_params(robot: Iramis) -> FloatArray:
+def robot_params(robot: RobotModel) -> FloatArray:
     """The parameter vector P of the kernels: l1..l6 [m], PCJM spacing d [m], travel (6 + 6)."""
+    if not isinstance(robot, Iramis):
+        raise InvalidInputError("robot", robot.name, "an iRAM!S model (the kernels' closed form)")
     p = robot.params
     head = [p.l1, p.l2, p.l3, p.l4, p.l5, p.l6, robot.pcjm.spacing]
     return np.array([*head, *robot.lower, *robot.upper], dtype=np.float64)
@@ -63,7 +66,7 @@ def solver_arrays(solver: Solver) -> tuple[FloatArray, float, FloatArray]:
 def singular_threshold(controller: Controller) -> float:
     """The loop's singular threshold: its own setting, else the robot's."""
     own = controller.settings.singular_threshold
-    return float(controller.robot.params.singular_threshold if own is None else own)
+    return float(controller.robot.singular_threshold if own is None else own)
 
 
 def append_records(

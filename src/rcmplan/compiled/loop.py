@@ -6,7 +6,7 @@ the trocar), task error, record (from the second iteration on), per-component to
 iteration cap, singularity check, step, sliders from joints, travel check, command and advance
 (the sliders reach the command, time moves on by dt).
 
-The kernel stops with a status code instead of raising; `rcmplan.control.fast` turns the code
+The kernel stops with a status code instead of raising; `rcmplan.compiled.runner` turns the code
 into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
 `REC_COLUMNS`, `irec` (cap, 2) with (step, iteration).
 """
@@ -18,7 +18,7 @@ import math
 import numpy as np
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.fast_kernels import (
+from rcmplan.compiled.kernels import (
     actuators_from_joints,
     axis_from_angles,
     dls_solve,

@@ -1,6 +1,6 @@
 """Compiled closed-form kinematics of iRAM!S: needle points, X_ext, J_a and the step solves.
 
-The one module that imports numba (the `fast` extra); `rcmplan.control.fast` imports it only
+The one module that imports numba (the `fast` extra); `rcmplan.compiled.runner` imports it only
 when numba is installed. Every kernel repeats the arithmetic of the reference code in the same
 order (`Iramis.needle_point`, `augmented.py`, `solvers.py`), so results agree to rounding.
 

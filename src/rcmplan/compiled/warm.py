@@ -1,10 +1,10 @@
-"""`python -m rcmplan.control.fast_warm`: compile every kernel into numba's cache, then stamp it.
+"""`python -m rcmplan.compiled.warm`: compile every kernel into numba's cache, then stamp it.
 
 Started in the background by the "auto" mode of `fast_cache` when the cache is cold; safe to run
 by hand (for example in a container build) so that the first large job starts compiled.
 """
 
-from rcmplan.control.fast_cache import compile_all
+from rcmplan.compiled.cache import compile_all
 
 if __name__ == "__main__":
     print(compile_all())

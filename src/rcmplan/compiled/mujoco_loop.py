@@ -18,7 +18,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.fast_loop import (
+from rcmplan.compiled.loop import (
     DONE,
     NO_TIP,
     PAUSED,
@@ -26,7 +26,7 @@ from rcmplan.control.fast_loop import (
     iterate_recorded,
     target_frame,
 )
-from rcmplan.control.fast_phase import (
+from rcmplan.compiled.phase import (
     append_records,
     method_code,
     raise_stop,

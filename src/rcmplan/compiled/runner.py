@@ -1,24 +1,32 @@
-"""The fast path: compiled iRAM!S kinematics, batched evaluation and a compiled control loop.
+"""The compiled runner: compiled iRAM!S kinematics, batched evaluation and a compiled control
+loop, behind the controller's runner seam (`rcmplan.control.runner`).
+
+`CompiledRunner` decides by itself whether it applies: the robot must be one whose kinematics
+the iRAM!S kernels reproduce (`kernel_params` checks the kernels against the model at probe
+configurations, so a subclass with other geometry runs on the reference path), the solver one
+of the methods the kernels implement (exact types: a subclass may change `step`), and the plant
+one that says what it can do (`exact_commands`: a command is reached exactly in one period;
+`compiled_physics`: its period can run in compiled code).
 
 Needs numba (the `fast` extra); without it every entry point here either raises
 MissingExtraError (explicit use: `FastIramis`) or returns False so that the caller runs the
 reference Python code (`fast_converge_phase`, `fast_check_targets`). Results equal the
 reference to rounding (tests/test_fast.py checks 1e-12). When the compiled path is used is
-decided in `rcmplan.control.fast_cache` (mode "auto", "on" or "off"; see docs/performance.md).
+decided in `rcmplan.compiled.cache` (mode "auto", "on" or "off"; see docs/performance.md).
 """
 
 from __future__ import annotations
 
 import importlib.util
+import weakref
 from types import ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.control import fast_cache
-from rcmplan.control.augmented import VARIANTS, JacobianVariant
-from rcmplan.control.fast_phase import (
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.phase import (
     method_code,
     robot_params,
     run_phase_compiled,
@@ -26,8 +34,10 @@ from rcmplan.control.fast_phase import (
 )
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
 from rcmplan.control.targets import solve_pose
+from rcmplan.control.tasks import VARIANTS, JacobianVariant
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.sim.kinematic import KinematicPlant
 
 if TYPE_CHECKING:
@@ -60,9 +70,9 @@ def fast_converge_phase(
     reference loop leaves them, and an early stop raises the reference loop's exception.
     Returns False (nothing done) otherwise.
     """
-    if method_code(solver) is None:
+    if method_code(solver) is None or kernel_params(controller.robot) is None:
         return False
-    if type(controller.plant) is KinematicPlant:
+    if getattr(controller.plant, "exact_commands", False):
         if not fast_cache.use_fast(len(targets)):
             return False
         run_phase_compiled(controller, solver, targets, pid, sid)
@@ -70,7 +80,7 @@ def fast_converge_phase(
     # A plant with dynamics needs tens of iterations per target, each a physics step.
     if not fast_cache.use_fast(DYNAMIC_ITERATIONS_PER_TARGET * len(targets)):
         return False
-    if _is_dynamic_mujoco(controller.plant):
+    if getattr(controller.plant, "compiled_physics", False):
         done = fast_cache.mujoco_loop().run_phase_on_mujoco(controller, solver, targets, pid, sid)
         if done:
             return True
@@ -83,23 +93,44 @@ def expect_job(controller: Controller, phases: list[Phase]) -> None:
     "auto"'s payoff: there every control period costs about 0.5 ms on the reference path and
     0.1 ms compiled, so a whole injection pays for loading the kernels from its first phase on
     (a kinematic plant keeps counting phase by phase: its reference loop is cheap)."""
-    if type(controller.plant) is KinematicPlant:
+    if getattr(controller.plant, "exact_commands", False):
         return
     n = sum(len(ph.targets) for ph in phases if not callable(ph.targets))
     fast_cache.expect(DYNAMIC_ITERATIONS_PER_TARGET * n)
 
 
-def _is_dynamic_mujoco(plant: object) -> bool:
-    """A dynamic MujocoPlant (checked without importing MuJoCo for other plants)."""
-    cls = type(plant)
-    return (
-        cls.__name__ == "MujocoPlant"
-        and cls.__module__ == "rcmplan.sim.mujoco.plant"
-        and getattr(plant, "mode", None) == "dynamic"
-    )
+_PROBES = np.array([[4e-3, 0.3, -6e-3, -0.2, 5e-3, 0.4], [-9e-3, -0.5, 2e-3, 0.6, -3e-3, -1.1],
+                    [1e-3, 0.05, 1e-2, 0.12, 2e-2, 0.0]])  # fmt: skip
+_kernel_ok: weakref.WeakKeyDictionary[object, FloatArray | None] = weakref.WeakKeyDictionary()
 
 
-def fast_check_targets(robot: Iramis, targets: FloatArray) -> bool:
+def kernel_params(robot: RobotModel) -> FloatArray | None:
+    """The kernels' parameter vector for `robot` if the iRAM!S kernels reproduce its needle
+    points, actuator map and angle rows at three probe configurations (1e-12), else None."""
+    if robot in _kernel_ok:
+        return _kernel_ok[robot]
+    P: FloatArray | None = None
+    if isinstance(robot, Iramis) and fast_cache.numba_available():
+        P = robot_params(robot)
+        k = fast_cache.kernels()
+        out = np.empty(3)
+        for q in _PROBES:
+            s = np.empty(6)
+            k.actuators_from_joints(P, q, s)
+            ok = np.allclose(s, robot.actuators_from_joints(q), rtol=0.0, atol=1e-12)
+            for lam in (0.0, 0.7, 1.0):
+                k.needle_point(P, q, lam, out)
+                ok &= np.allclose(out, robot.needle_point(q, lam), rtol=0.0, atol=1e-12)
+            ok &= np.array_equal(robot.needle_angles_jacobian(q), Iramis.needle_angles_jacobian(
+                robot, q))  # fmt: skip
+            if not ok:
+                P = None
+                break
+    _kernel_ok[robot] = P
+    return P
+
+
+def fast_check_targets(robot: RobotModel, targets: FloatArray) -> bool:
     """`solve_pose` on every X_ext target, screened in compiled code; False if not enabled.
 
     The kernel flags every target that might fail (same formulas, margin 1e-12); flagged
@@ -108,9 +139,11 @@ def fast_check_targets(robot: Iramis, targets: FloatArray) -> bool:
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     if targets.ndim != 2 or targets.shape[1] != 6 or not fast_cache.use_fast(len(targets)):
         return False
+    if kernel_params(robot) is None:
+        return False
     flags = np.zeros(targets.shape[0], dtype=np.bool_)
     k = fast_cache.loop_kernels()
-    k.screen_targets(robot_params(robot), robot.params.singular_threshold, targets, flags)
+    k.screen_targets(robot_params(robot), robot.singular_threshold, targets, flags)
     for i in np.flatnonzero(flags):
         solve_pose(robot, targets[i])
     return True
@@ -232,3 +265,21 @@ def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -
 
 class _SteppedPlant(KinematicPlant):
     """A kinematic plant that takes the per-iteration path of plants with dynamics."""
+
+
+class CompiledRunner:
+    """The compiled path behind the controller's seam (see the module docstring)."""
+
+    def expect_job(self, controller: Controller, phases: list[Phase]) -> None:
+        """Count a job on a plant with dynamics towards mode "auto"'s payoff."""
+        expect_job(controller, phases)
+
+    def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
+        """Screen targets in compiled code, where it applies."""
+        return fast_check_targets(robot, targets)
+
+    def run_phase(
+        self, controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+    ) -> bool:
+        """Run a phase in compiled code, where it applies."""
+        return fast_converge_phase(controller, solver, targets, pid, sid)

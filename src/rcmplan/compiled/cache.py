@@ -9,7 +9,7 @@ Modes (environment variable RCMPLAN_FAST, or `set_mode`):
   runs the reference code; once it has run PAYOFF_TARGETS targets (or is about to run a phase
   that large) it switches to the compiled code if numba's cache is warm. With a cold cache it
   keeps the reference code and starts one background process that compiles the kernels into the
-  cache (`python -m rcmplan.control.fast_warm`); a stamp file marks the cache warm when done.
+  cache (`python -m rcmplan.compiled.warm`); a stamp file marks the cache warm when done.
   Kernels already loaded in the process are always used. See docs/performance.md for figures.
 """
 
@@ -58,30 +58,30 @@ def numba_available() -> bool:
 
 
 def kernels() -> ModuleType:
-    """The kinematics kernels (`fast_kernels`); MissingExtraError without numba."""
+    """The kinematics kernels (`kernels`); MissingExtraError without numba."""
     require_extra("numba", "fast")
-    return importlib.import_module("rcmplan.control.fast_kernels")
+    return importlib.import_module("rcmplan.compiled.kernels")
 
 
 def loop_kernels() -> ModuleType:
-    """The compiled control loop (`fast_loop`); MissingExtraError without numba."""
+    """The compiled control loop (`loop`); MissingExtraError without numba."""
     require_extra("numba", "fast")
-    return importlib.import_module("rcmplan.control.fast_loop")
+    return importlib.import_module("rcmplan.compiled.loop")
 
 
 def mujoco_loop() -> ModuleType:
-    """The compiled loop around the dynamic MuJoCo plant (`fast_mujoco`); needs numba and
+    """The compiled loop around the dynamic MuJoCo plant (`mujoco_loop`); needs numba and
     MuJoCo (MissingExtraError naming the extra otherwise)."""
     require_extra("numba", "fast")
     require_extra("mujoco", "sim")
-    return importlib.import_module("rcmplan.control.fast_mujoco")
+    return importlib.import_module("rcmplan.compiled.mujoco_loop")
 
 
 def stamp_path() -> Path:
     """The file that marks numba's cache as holding every kernel of this source and numba."""
     here = Path(__file__).parent
     key = hashlib.sha256()
-    for path in (here / "fast_kernels.py", here / "fast_loop.py", here / "fast_mujoco.py",
+    for path in (here / "kernels.py", here / "loop.py", here / "mujoco_loop.py",
                  here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
         key.update(path.read_bytes())
     key.update(metadata.version("numba").encode())
@@ -94,7 +94,7 @@ def stamp_path() -> Path:
 
 def loaded() -> bool:
     """True if the compiled loop is loaded in this process (compiled or read from the cache)."""
-    loop = sys.modules.get("rcmplan.control.fast_loop")
+    loop = sys.modules.get("rcmplan.compiled.loop")
     return loop is not None and bool(loop.run_targets.signatures)
 
 
@@ -134,11 +134,11 @@ def pinned() -> Iterator[str]:
 
 
 def warm_in_background() -> None:
-    """Start, once per process, `python -m rcmplan.control.fast_warm` to fill the cache."""
+    """Start, once per process, `python -m rcmplan.compiled.warm` to fill the cache."""
     if _state["warming"] is not None:
         return
     _state["warming"] = subprocess.Popen(
-        [sys.executable, "-m", "rcmplan.control.fast_warm"],
+        [sys.executable, "-m", "rcmplan.compiled.warm"],
         stdin=subprocess.DEVNULL,
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
@@ -148,10 +148,10 @@ def warm_in_background() -> None:
 
 def compile_all() -> Path:
     """Compile every kernel (numba writes them to its cache), then write the stamp."""
-    from rcmplan.control.fast import compile_kernels
+    from rcmplan.compiled.runner import compile_kernels
 
     compile_kernels()
     path = stamp_path()
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("numba cache of rcmplan.control.fast_kernels and fast_loop is warm\n")
+    path.write_text("numba cache of rcmplan.compiled kernels and loops is warm\n")
     return path

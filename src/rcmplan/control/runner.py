@@ -1,0 +1,68 @@
+"""The seam between the control loop and a faster runner of it.
+
+`Controller` asks its runner, before the reference Python code, whether it will check a phase's
+targets or run a whole phase itself; a runner that says yes leaves the controller, its log and
+the plant exactly as the reference loop would. The compiled runner (`rcmplan.compiled`) decides
+by itself, from the robot, solver and plant, whether it applies, and says no otherwise.
+`rcmplan.compiled` registers itself as the default runner when it is imported (`import
+rcmplan` does); without it the reference code runs.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Protocol
+
+from rcmplan._validate import FloatArray
+from rcmplan.robot.model import RobotModel
+
+if TYPE_CHECKING:
+    from rcmplan.control.loop import Controller, Phase
+    from rcmplan.control.solvers import Solver
+
+
+class Runner(Protocol):
+    """Runs parts of Algorithms 1 and 2 instead of the reference loop, where it applies."""
+
+    def expect_job(self, controller: Controller, phases: list[Phase]) -> None:
+        """Told the whole job before it starts (to decide whether compiling pays)."""
+        ...
+
+    def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
+        """Check RCM targets as `solve_pose` would (raising its errors); False: not done."""
+        ...
+
+    def run_phase(
+        self, controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+    ) -> bool:
+        """Algorithm 1 on every target of a phase; False: nothing done."""
+        ...
+
+
+class ReferenceRunner:
+    """Runs nothing: the controller's own Python code does everything."""
+
+    def expect_job(self, controller: Controller, phases: list[Phase]) -> None:
+        """Nothing to prepare."""
+
+    def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
+        """Not done here."""
+        return False
+
+    def run_phase(
+        self, controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+    ) -> bool:
+        """Not done here."""
+        return False
+
+
+_default: list[Runner] = [ReferenceRunner()]
+
+
+def register_default(runner: Runner) -> None:
+    """Make `runner` the one a Controller uses when given none."""
+    _default[0] = runner
+
+
+def default_runner() -> Runner:
+    """The runner a Controller uses when given none."""
+    return _default[0]

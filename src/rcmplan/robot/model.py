@@ -1,0 +1,297 @@
+"""What the controller needs of a robot: `RobotModel`, and `SerialArm`, any serial chain
+holding a straight needle.
+
+A model has joints q (n,) and actuators s (n,): a plant reads and commands actuators, tasks live
+in joint space. The actuator map is the identity on an arm and the PCJM slider map on iRAM!S.
+The controller moves the `active` joints and lambda, theta_ext = (q[active], lambda) (eq. 3.11);
+a joint that only rolls a straight needle about its own axis moves no point of it and is held.
+Every point and Jacobian is in the world frame in [m]; Jacobians are over theta_ext.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.exceptions import (
+    InvalidInputError,
+    SingularPoseError,
+    SliderLimitError,
+    UnreachableTargetError,
+)
+from rcmplan.robot.chain import JointChain
+from rcmplan.robot.needle import StraightNeedle, angles_from_axis, angles_jacobian
+
+IK_ITERATIONS = 100  # Newton iterations of `SerialArm.needle_pose`
+IK_TOLERANCE = 1e-12  # [m] and [rad]
+
+
+@runtime_checkable
+class RobotModel(Protocol):
+    """A robot holding a needle, as the controller, tasks, limits and plants see it.
+
+    Attributes:
+        name: Short name ("iramis", "ur5", ...).
+        joint_names, actuator_names: Names of q and s.
+        active: Indices of the joints the controller moves.
+        lower, upper, speed: Actuator travel and largest speed (n,) in [m], [rad], per s.
+        home: Joints at home (n,); home_actuators: the same as actuators.
+        needle_length: l in [m]. resolution: Smallest actuator step in [m] or [rad].
+        singular_threshold: Smallest accepted singularity measure.
+    """
+
+    name: str
+    joint_names: tuple[str, ...]
+    actuator_names: tuple[str, ...]
+    active: tuple[int, ...]
+    lower: FloatArray
+    upper: FloatArray
+    speed: FloatArray
+    home: FloatArray
+    home_actuators: FloatArray
+    needle_length: float
+    resolution: float
+    singular_threshold: float
+
+    def joints_from_actuators(self, s: FloatArray) -> FloatArray: ...
+    def actuators_from_joints(self, q: FloatArray) -> FloatArray: ...
+    def joint_rates(self, q: FloatArray) -> FloatArray:
+        """dq/ds (n, n) at joints q."""
+        ...
+
+    def check_actuators(self, s: FloatArray) -> FloatArray: ...
+    def actuator_margin(self, s: FloatArray) -> FloatArray: ...
+    def needle_point(self, q: FloatArray, lam: float) -> FloatArray: ...
+    def needle_axis(self, q: FloatArray) -> FloatArray: ...
+    def tip(self, q: FloatArray) -> FloatArray: ...
+    def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
+        """d p(lambda) / d theta_ext, (3, m + 1)."""
+        ...
+
+    def needle_angular_jacobian(self, q: FloatArray) -> FloatArray:
+        """Angular velocity of the needle per theta_ext, (3, m + 1), zero lambda column."""
+        ...
+
+    def needle_angles_jacobian(self, q: FloatArray) -> FloatArray:
+        """Exact d(phi, psi) / d theta_ext, (2, m + 1)."""
+        ...
+
+    def singularity_measure(self, q: FloatArray) -> float: ...
+    def singular_terms(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Quantities (k,) to keep above the singular floor and their gradients (k, n)."""
+        ...
+
+    def check_singularity(self, q: FloatArray, threshold: float | None = None) -> None: ...
+    def needle_pose(
+        self, tip: FloatArray, phi: float, psi: float, seed: FloatArray | None = None
+    ) -> FloatArray:
+        """Joints putting the tip at `tip` with needle angles (phi, psi), travel unchecked;
+        UnreachableTargetError if there are none."""
+        ...
+
+
+class SerialArm:
+    """Any serial chain with a straight needle on its end frame; actuators are the joints.
+
+    Args:
+        chain: The arm's kinematics (from DH, URDF or MJCF), placed in the world.
+        needle: The needle on the chain's end frame.
+        home: Joints at home (n,), within the chain's limits.
+        name: Short name.
+        roll_joint: Index of a joint that turns the needle about its own axis (held by the
+            controller on a straight needle), or None.
+        singular_threshold: Smallest accepted inverse condition number of the needle's
+            Jacobian (tip velocity / l and the two needle rotations normal to its axis).
+        resolution: Smallest joint step in [rad] or [m].
+    """
+
+    def __init__(
+        self,
+        chain: JointChain,
+        needle: StraightNeedle,
+        home: Sequence[float] | FloatArray,
+        name: str = "arm",
+        roll_joint: int | None = None,
+        singular_threshold: float = 0.01,
+        resolution: float = 1e-9,
+    ) -> None:
+        self.chain, self.needle, self.name = chain, needle, name
+        n = chain.n
+        self.joint_names = self.actuator_names = chain.joint_names
+        self.lower, self.upper = chain.lower.copy(), chain.upper.copy()
+        self.speed = chain.velocity.copy()
+        self.needle_length = needle.length
+        self.singular_threshold = scalar("singular_threshold", singular_threshold, 0.0, 1.0)
+        self.resolution = scalar("resolution", resolution, 0.0, 1e-3, low_open=True)
+        if roll_joint is not None and not 0 <= roll_joint < n:
+            raise InvalidInputError("roll_joint", roll_joint, f"a joint index in [0, {n - 1}]")
+        self.active = tuple(i for i in range(n) if i != roll_joint)
+        self.home = self.check_actuators(vector("home", home, n)).copy()
+        self.home_actuators = self.home.copy()
+        self._key: bytes = b""
+        self._T = np.empty((n + 1, 4, 4))
+        self._check_dofs(roll_joint)
+
+    def _check_dofs(self, roll_joint: int | None) -> None:
+        """Refuse a chain that cannot hold an RCM and reach a point (rank 6 over theta_ext)."""
+        m = len(self.active)
+        J = np.vstack([self.needle_point_jacobian(self.home, 1.0)[0:1],
+                       self.needle_angles_jacobian(self.home),
+                       self.needle_point_jacobian(self.home, 0.5)])  # fmt: skip
+        rank = int(np.linalg.matrix_rank(J, tol=1e-9))
+        if m < 5 or rank < 6:
+            raise InvalidInputError(
+                f"robot {self.name!r}",
+                f"{m} moving joints, task rank {rank} at home",
+                "at least 5 joints that move the needle (task rank 6 with lambda) to hold an "
+                "RCM and reach a point",
+            )
+        if roll_joint is not None:
+            cols = np.hstack([self._point_jacobian(self.home, 0.0)[:3, [roll_joint]],
+                              self._point_jacobian(self.home, 1.0)[:3, [roll_joint]]])  # fmt: skip
+            if np.abs(cols).max() > 1e-9:
+                raise InvalidInputError(
+                    "roll_joint", roll_joint, "a joint turning the needle about its own axis"
+                )
+
+    # --- actuators (the joints themselves) ---------------------------------------------
+    def joints_from_actuators(self, s: FloatArray) -> FloatArray:
+        """q = s."""
+        return vector("s", s, self.chain.n).copy()
+
+    def actuators_from_joints(self, q: FloatArray) -> FloatArray:
+        """s = q."""
+        return vector("q", q, self.chain.n).copy()
+
+    def joint_rates(self, q: FloatArray) -> FloatArray:
+        """dq/ds = I."""
+        return np.eye(self.chain.n)
+
+    def check_actuators(self, s: FloatArray) -> FloatArray:
+        """Return s if every joint is within its travel, else raise ActuatorLimitError."""
+        s = vector("s", s, self.chain.n)
+        bad = (s < self.lower) | (s > self.upper)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise SliderLimitError(i, self.joint_names[i], float(s[i]), self.lower[i],
+                                   self.upper[i], kind="joint")  # fmt: skip
+        return s
+
+    def actuator_margin(self, s: FloatArray) -> FloatArray:
+        """Distance of each joint to its nearer limit (negative when beyond)."""
+        s = vector("s", s, self.chain.n)
+        return np.minimum(s - self.lower, self.upper - s)
+
+    # --- needle ---------------------------------------------------------------------------
+    def _frames(self, q: FloatArray) -> FloatArray:
+        q = np.asarray(q, dtype=float)
+        key = q.tobytes()
+        if key != self._key:
+            self._T = self.chain.frames(q)
+            self._key = key
+        return self._T
+
+    def needle_point(self, q: FloatArray, lam: float) -> FloatArray:
+        """p(lambda) in [m] (eq. 3.7)."""
+        T = self._frames(q)[-1]
+        return T[:3, :3] @ self.needle.point_local(lam) + T[:3, 3]
+
+    def needle_axis(self, q: FloatArray) -> FloatArray:
+        """Unit needle axis, base to tip."""
+        return self._frames(q)[-1, :3, :3] @ self.needle.axis_local()
+
+    def tip(self, q: FloatArray) -> FloatArray:
+        """Needle tip in [m]."""
+        return self.needle_point(q, 1.0)
+
+    def needle_base(self, q: FloatArray) -> FloatArray:
+        """Needle base (lambda = 0) in [m]."""
+        return self.needle_point(q, 0.0)
+
+    def _point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
+        """Geometric Jacobian (6, n) of p(lambda) over all joints (eqs. 2.9-2.11)."""
+        T = self._frames(q)
+        p = T[-1, :3, :3] @ self.needle.point_local(lam) + T[-1, :3, 3]
+        J = np.zeros((6, self.chain.n))
+        for k in range(self.chain.n):
+            z = T[k, :3, :3] @ self.chain.axes[k]
+            if self.chain.prismatic[k]:
+                J[:3, k] = z
+            else:
+                J[:3, k] = np.cross(z, p - T[k, :3, 3])
+                J[3:, k] = z
+        return J
+
+    def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
+        """d p(lambda) / d(q[active], lambda), (3, m + 1) (eq. 3.10)."""
+        out = np.empty((3, len(self.active) + 1))
+        out[:, :-1] = self._point_jacobian(q, lam)[:3, list(self.active)]
+        out[:, -1] = self.needle_length * self.needle_axis(q)
+        return out
+
+    def needle_angular_jacobian(self, q: FloatArray) -> FloatArray:
+        """Angular velocity of the needle per (q[active], lambda), (3, m + 1)."""
+        out = np.zeros((3, len(self.active) + 1))
+        out[:, :-1] = self._point_jacobian(q, 1.0)[3:, list(self.active)]
+        return out
+
+    def needle_angles_jacobian(self, q: FloatArray) -> FloatArray:
+        """Exact d(phi, psi) / d(q[active], lambda), (2, m + 1)."""
+        return angles_jacobian(self.needle_axis(q), self.needle_angular_jacobian(q))
+
+    # --- singularities --------------------------------------------------------------------
+    def singularity_measure(self, q: FloatArray) -> float:
+        """Inverse condition number of [J_tip / l; N J_omega] over the active joints, in [0, 1]:
+        zero exactly where the needle loses a direction of motion (N: the two normals to it)."""
+        a = self.needle_axis(q)
+        helper = np.zeros(3)
+        helper[int(np.argmin(np.abs(a)))] = 1.0
+        n1 = np.cross(a, helper)
+        n1 /= np.linalg.norm(n1)
+        N = np.array([n1, np.cross(a, n1)])
+        J = self._point_jacobian(q, 1.0)[:, list(self.active)]
+        M = np.vstack([J[:3] / self.needle_length, N @ J[3:]])
+        sv = np.linalg.svd(M, compute_uv=False)
+        return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
+
+    def singular_terms(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The measure (1,) and its gradient (1, n) by central differences (step 1e-7)."""
+        q = vector("q", q, self.chain.n)
+        grad = np.zeros((1, self.chain.n))
+        for j in self.active:
+            h = np.zeros(self.chain.n)
+            h[j] = 1e-7
+            grad[0, j] = (self.singularity_measure(q + h) - self.singularity_measure(q - h)) / 2e-7
+        return np.array([self.singularity_measure(q)]), grad
+
+    def check_singularity(self, q: FloatArray, threshold: float | None = None) -> None:
+        """Raise SingularPoseError if the measure is below the threshold."""
+        thr = self.singular_threshold if threshold is None else threshold
+        m = self.singularity_measure(q)
+        if m < thr:
+            raise SingularPoseError(np.asarray(q), m, thr, "inverse condition number")
+
+    def needle_pose(
+        self, tip: FloatArray, phi: float, psi: float, seed: FloatArray | None = None
+    ) -> FloatArray:
+        """Joints putting the tip at `tip` [m] with needle angles (phi, psi) [rad]: Newton's
+        method (minimum-norm steps) on (tip, phi, psi) over the active joints from `seed`
+        (default home), at most IK_ITERATIONS steps; travel is not checked here."""
+        q = (self.home if seed is None else vector("seed", seed, self.chain.n)).copy()
+        goal = np.array([*vector("tip", tip, 3), phi, psi])
+        cols = list(self.active)
+        for _ in range(IK_ITERATIONS):
+            err = goal - np.array([*self.tip(q), *angles_from_axis(self.needle_axis(q))])
+            err[3:] = (err[3:] + np.pi) % (2 * np.pi) - np.pi
+            if np.abs(err).max() <= IK_TOLERANCE:
+                return q
+            J = np.vstack([self.needle_point_jacobian(q, 1.0), self.needle_angles_jacobian(q)])
+            q[cols] += np.linalg.lstsq(J[:, :-1], err, rcond=None)[0]
+        raise UnreachableTargetError(
+            f"no joints of {self.name} put the tip at {np.round(1e3 * goal[:3], 3).tolist()} mm "
+            f"with needle angles ({phi:.4g}, {psi:.4g}) rad (Newton residual "
+            f"{np.abs(err).max():.3g} after {IK_ITERATIONS} steps)"
+        )
