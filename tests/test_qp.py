@@ -72,7 +72,9 @@ def test_task_jacobian_is_the_augmented_jacobian_through_the_slider_map(robot: I
     q = np.array([0.003, 0.3, -0.002, -0.4, 0.02, 0.0])
     kin = kinematics(robot, q, 0.7)
     assert np.allclose(
-        task_jacobian(kin), augmented_jacobian(robot, q, 0.7) @ variable_map(robot, q), atol=1e-12
+        task_jacobian(kin, robot.needle_angles_jacobian(q)),
+        augmented_jacobian(robot, q, 0.7) @ variable_map(robot, q),
+        atol=1e-12,
     )
 
 

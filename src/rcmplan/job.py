@@ -17,7 +17,8 @@ from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_solver
 from rcmplan.exceptions import RcmplanError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
+from rcmplan.robot.registry import make_robot
 from rcmplan.scene.scenario import Scenario
 from rcmplan.sim.registry import make_plant
 
@@ -40,7 +41,7 @@ class RunResult:
     phases: list[PhaseMetrics]
     status: str
     wall_time_s: float
-    robot: Iramis
+    robot: RobotModel
     error: RcmplanError | None = None
     extra: dict[str, Any] = field(default_factory=dict)
 
@@ -68,6 +69,7 @@ class RunResult:
         ]
         return {
             "scenario": self.scenario.name,
+            "robot": self.robot.name,
             "procedure": self.scenario.procedure,
             "method": self.scenario.method,
             "plant": self.scenario.plant,
@@ -84,7 +86,7 @@ class RunResult:
 
 def run_scenario(
     scenario: Scenario,
-    robot: Iramis | None = None,
+    robot: RobotModel | None = None,
     on_phase: Callable[[Phase], None] | None = None,
 ) -> RunResult:
     """Run a scenario end to end on its plant with its method and measure it.
@@ -92,10 +94,10 @@ def run_scenario(
     Args:
         on_phase: Called after each finished phase (for progress bars).
     """
-    robot = robot or Iramis()
     start = time.perf_counter()
     error: RcmplanError | None = None
     controller: Controller | None = None
+    robot = robot or make_robot(scenario.robot)
     try:
         eye = scenario.eye(robot)
         scene = {"eye": eye, "points": scenario.points(eye)}

@@ -12,7 +12,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from rcmplan.control.log import RunLog
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 
 
 @dataclass(frozen=True)
@@ -86,10 +86,10 @@ class SliderUse:
         return asdict(self)
 
 
-def slider_use(log: RunLog, robot: Iramis) -> SliderUse:
+def slider_use(log: RunLog, robot: RobotModel) -> SliderUse:
     """Slider ranges used and margin to travel, per slider ([m], q5 in [rad])."""
     if len(log) == 0:
-        nan = (float("nan"),) * 6
+        nan = (float("nan"),) * len(robot.lower)
         return SliderUse(nan, nan, nan)
     lo, hi = log.sliders.min(axis=0), log.sliders.max(axis=0)
     margin = np.minimum(lo - robot.lower, robot.upper - hi)

@@ -119,7 +119,7 @@ def _settings(result: RunResult) -> dict[str, Any]:
         "steps": sc.steps,
         "eye": sc.eye_options,
         "points": sc.point_options,
-        "robot": result.robot.params,
+        "robot": result.robot.name,
     }
 
 

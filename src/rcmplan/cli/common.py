@@ -12,6 +12,7 @@ from typing import Any
 from rcmplan.control.loop import Phase
 from rcmplan.control.methods import METHODS
 from rcmplan.job import RunResult
+from rcmplan.robot.registry import ROBOTS
 from rcmplan.scene.scenario import Scenario, load_scenario
 from rcmplan.sim.registry import PLANTS
 
@@ -19,6 +20,7 @@ from rcmplan.sim.registry import PLANTS
 def add_run_options(p: argparse.ArgumentParser, scenario: str) -> None:
     """--scenario, --method, --plant, --out, --json, --no-plots."""
     p.add_argument("--scenario", default=scenario, help=f"scenario name or TOML file ({scenario})")
+    p.add_argument("--robot", choices=tuple(ROBOTS), help="robot (default: the scenario's)")
     p.add_argument("--method", choices=METHODS, help="control method (default: the scenario's)")
     p.add_argument("--plant", choices=sorted(PLANTS), help="plant (default: the scenario's)")
     p.add_argument("--out", default=None, help="output folder (default: rcmplan-out/<command>)")
@@ -29,6 +31,8 @@ def add_run_options(p: argparse.ArgumentParser, scenario: str) -> None:
 def scenario_from_args(args: argparse.Namespace) -> Scenario:
     """The scenario named on the command line with --method and --plant applied."""
     sc = load_scenario(args.scenario)
+    if getattr(args, "robot", None):
+        sc = sc.with_robot(args.robot)
     if args.method:
         sc = sc.with_method(args.method)
     if args.plant:

@@ -40,6 +40,7 @@ class RunLog:
     phase: NDArray[np.int64]
     phase_names: tuple[str, ...] = ()
     solver_names: tuple[str, ...] = ()
+    actuator_labels: tuple[str, ...] = ()
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
@@ -59,7 +60,8 @@ class RunLog:
     def select(self, mask: NDArray[np.bool_]) -> RunLog:
         """The records where mask is true."""
         arrays = {k: getattr(self, k)[mask] for k in ARRAY_FIELDS}
-        return RunLog(**arrays, phase_names=self.phase_names, solver_names=self.solver_names)
+        return RunLog(**arrays, phase_names=self.phase_names, solver_names=self.solver_names,
+                      actuator_labels=self.actuator_labels)  # fmt: skip
 
     def save_npz(self, path: str | Path) -> None:
         """Write every array and the names to an NPZ file."""
@@ -69,6 +71,7 @@ class RunLog:
             **arrays,
             phase_names=np.array(self.phase_names, dtype=str),
             solver_names=np.array(self.solver_names, dtype=str),
+            actuator_labels=np.array(self.actuator_labels, dtype=str),
         )
 
     @staticmethod
@@ -80,14 +83,16 @@ class RunLog:
                 **arrays,
                 phase_names=tuple(str(s) for s in z["phase_names"]),
                 solver_names=tuple(str(s) for s in z["solver_names"]),
+                actuator_labels=tuple(str(s) for s in z.get("actuator_labels", ())),
             )
 
     def save_csv(self, path: str | Path) -> None:
         """Write one CSV row per record, SI units in the column names (floats to 17 digits)."""
         header = ["time_s", "phase", "solver", "step", "iteration", "lambda"]
-        units = ("L1_m", "L2_m", "L3_m", "L4_m", "L5_m", "q5_rad")
-        header += [f"s{i}_{n}" for i, n in enumerate(units)]
-        header += [f"q{i}" for i in range(6)]
+        n_act = self.sliders.shape[1]
+        labels = self.actuator_labels or tuple(f"{i}" for i in range(n_act))
+        header += [f"s{i}_{n}" for i, n in enumerate(labels)]
+        header += [f"q{i}" for i in range(self.joints.shape[1])]
         for name in FIELDS_3:
             header += [f"{name}_{a}_m" for a in "xyz"]
         header += [f"error_{i}" for i in range(6)]
@@ -115,13 +120,14 @@ ARRAY_FIELDS = (
 SHAPES = {"sliders": 6, "joints": 6, "tip": 3, "rcm": 3, "trocar": 3, "base": 3,
           "target_tip": 3, "error": 6}  # fmt: skip
 INT_FIELDS = ("step", "iteration", "solver", "phase")
+WIDE = ("sliders", "joints")  # one column per actuator or joint of the robot (iRAM!S: 6)
 
 
 def _column(k: str, values: object, n: int) -> np.ndarray:
     """Values of field k as a new array of n records with the field's dtype and shape (a
     copy: callers refill their record buffers after handing them over)."""
     dtype = np.int64 if k in INT_FIELDS else float
-    shape = (n, SHAPES[k]) if k in SHAPES else (n,)
+    shape = (n, SHAPES[k] if n == 0 or k not in WIDE else -1) if k in SHAPES else (n,)
     return np.array(values, dtype=dtype).reshape(shape)
 
 
@@ -134,6 +140,7 @@ class LogBuilder:
 
     phase_names: list[str] = field(default_factory=list)
     solver_names: list[str] = field(default_factory=list)
+    actuator_labels: tuple[str, ...] = ()
     _rows: dict[str, list] = field(default_factory=lambda: {k: [] for k in ARRAY_FIELDS})
     _blocks: dict[str, list] = field(default_factory=lambda: {k: [] for k in ARRAY_FIELDS})
     _n_blocks: int = 0
@@ -183,5 +190,8 @@ class LogBuilder:
             for k in ARRAY_FIELDS
         }
         return RunLog(
-            **arrays, phase_names=tuple(self.phase_names), solver_names=tuple(self.solver_names)
+            **arrays,
+            phase_names=tuple(self.phase_names),
+            solver_names=tuple(self.solver_names),
+            actuator_labels=self.actuator_labels,
         )

@@ -138,6 +138,10 @@ class Controller:
         self.runner = runner or default_runner()
         self.lam = 1.0
         self.log = LogBuilder()
+        units = self.robot.actuator_units
+        self.log.actuator_labels = tuple(
+            f"{n}_{u}" for n, u in zip(self.robot.actuator_names, units, strict=True)
+        )
         self.phase_times: dict[str, float] = {}
         self.on_phase: Callable[[Phase], None] | None = None
 

@@ -13,6 +13,7 @@ from typing import Any
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, Tolerance
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 
 METHODS = ("pinv", "pinv-thesis", "dls", "qp")
 DEFAULT_METHOD = "pinv"
@@ -37,7 +38,10 @@ class MethodSettings:
 
 
 def make_solver(
-    name: str, settings: MethodSettings | None = None, robot: Iramis | None = None, **context: Any
+    name: str,
+    settings: MethodSettings | None = None,
+    robot: RobotModel | None = None,
+    **context: Any,
 ) -> Solver:
     """The RCM step solver called `name`.
 

@@ -28,7 +28,7 @@ from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import solve_pose, tip_of_target
 from rcmplan.exceptions import UnreachableTargetError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.scene.eye import Eye
 
 
@@ -51,7 +51,7 @@ class QpSolver:
 
     def __init__(
         self,
-        robot: Iramis,
+        robot: RobotModel,
         eye: Eye | None = None,
         dt: float = 1e-3,
         K: tuple[float, ...] = (1.0,) * 6,
@@ -74,7 +74,7 @@ class QpSolver:
 
     @classmethod
     def from_settings(
-        cls, cfg: Any, robot: Iramis, eye: Eye | None = None, dt: float = 1e-3, **extra: Any
+        cls, cfg: Any, robot: RobotModel, eye: Eye | None = None, dt: float = 1e-3, **extra: Any
     ) -> QpSolver:
         """From MethodSettings (K, damping, tolerance, extra); `extra` adds or overrides keys."""
         options: dict[str, Any] = {**dict(cfg.extra), **extra}
@@ -83,7 +83,7 @@ class QpSolver:
         return cls(robot, eye, dt, tuple(cfg.K), cfg.damping, cfg.tolerance, limits, backend)
 
     # --- the Solver protocol ---------------------------------------------------------------
-    def error(self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """The X_ext error a feasible step can still remove, J x* / K (see module docstring)."""
         self.check_target(target)
         step, result = self._solve(robot, q, lam, target)
@@ -94,24 +94,26 @@ class QpSolver:
         return self.tol.x_ext()
 
     def step(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """The QP's step: joint increments recovered exactly from the slider increments."""
+        """The QP's step: joint increments recovered exactly from the actuator increments."""
         step, result = self._solve(robot, q, lam, target)
+        active = list(robot.active)
+        m = len(active)
         s = step.sliders.copy()
-        s[:5] += result.x[:5] * SCALE
+        s[active] += result.x[:m] * SCALE
         dq = robot.joints_from_actuators(s) - q
-        return dq[:5], float(result.x[5] * SCALE / robot.params.l6)
+        return dq[active], float(result.x[m] * SCALE / robot.needle_length)
 
     # --- helpers ----------------------------------------------------------------------------
     def task_error(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray
     ) -> FloatArray:
         """The plain X_ext error, target minus X_ext now."""
         return np.asarray(target - extended_task(robot, q, lam), dtype=float)
 
     def _solve(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray
     ) -> tuple[StepQP, QpResult]:
         """Build and solve this state's QP once; `error` and `step` share the result."""
         key = np.concatenate([q, [lam], target]).tobytes()
@@ -155,7 +157,9 @@ class QpSolver:
         return eye is not None and bool(np.linalg.norm(tip - eye.port) <= self.limits.port_zone)
 
 
-def make_qp(robot: Iramis, eye: Eye | None = None, dt: float = 1e-3, **options: Any) -> QpSolver:
+def make_qp(
+    robot: RobotModel, eye: Eye | None = None, dt: float = 1e-3, **options: Any
+) -> QpSolver:
     """A QpSolver with default settings and unit-suffixed options (as in a scenario's [qp])."""
     from rcmplan.control.methods import MethodSettings
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from rcmplan._validate import scalar, vector
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.scene.eye import Eye
 
 # extra key -> (field, factor to SI)
@@ -50,8 +50,8 @@ class QpLimits:
         contact_tolerance: A target tip within this distance [m] of the retina (or of a point in
             `contacts`) is a contact: the margin is relaxed to the target's own depth.
         contacts: Extra contact points (each (3,) in [m]) where the margin is relaxed.
-        singular_margin: Smallest min(|cos q1|, |cos q3|) kept; None: the robot's threshold
-            plus 0.05.
+        singular_margin: Smallest value of the robot's singular terms kept (iRAM!S: cos q1 and
+            cos q3); None: 1.5 times the robot's singular threshold (iRAM!S: 0.15).
         singular_gain: Damper gain in (0, 1] of the singular margin.
         angle_weight: Weight of the needle-angle rows in [m/rad] (1 mrad counts as 10 um).
         rcm_weight: Weight of the RCM rows (dimensionless).
@@ -99,27 +99,27 @@ class QpLimits:
                 raise InvalidInputError("qp option", key, f"one of {valid}")
         return cls(**kwargs)
 
-    def singular_floor(self, robot: Iramis) -> float:
-        """The min(|cos q1|, |cos q3|) the QP keeps."""
+    def singular_floor(self, robot: RobotModel) -> float:
+        """The smallest singular term the QP keeps (iRAM!S: min(cos q1, cos q3))."""
         if self.singular_margin is None:
-            return robot.params.singular_threshold + 0.05
+            return 1.5 * robot.singular_threshold
         return self.singular_margin
 
-    def check(self, robot: Iramis, eye: Eye | None) -> QpLimits:
+    def check(self, robot: RobotModel, eye: Eye | None) -> QpLimits:
         """Raise InvalidInputError for limits inconsistent with the robot or the eye."""
         check_robot_limits(robot, self.travel_margin)
-        if self.singular_floor(robot) <= robot.params.singular_threshold:
+        if self.singular_floor(robot) <= robot.singular_threshold:
             raise InvalidInputError(
                 "singular_margin",
                 self.singular_margin,
-                f"above the robot's singular threshold {robot.params.singular_threshold:g}",
+                f"above the robot's singular threshold {robot.singular_threshold:g}",
             )
         if eye is not None:
             check_eye_limits(self, eye)
         return self
 
 
-def check_robot_limits(robot: Iramis, margin: float) -> None:
+def check_robot_limits(robot: RobotModel, margin: float) -> None:
     """Slider travel must be ordered with room for the margin; speeds positive and finite."""
     lo, hi, v = robot.lower, robot.upper, robot.speed
     bad = np.flatnonzero(~(hi - lo > 2.0 * margin))

@@ -1,19 +1,21 @@
 """The quadratic programme of one QP control step, built as plain arrays tests can inspect.
 
-Decision variables x = (dL1, dL2, dL3, dL4, dL5, l6 dlambda) / SCALE: the five slider increments
-that move the needle (the roll q5 is not moved) and the RCM's move along the needle, all in
-micrometres (SCALE = 1e-6 m) so that every solver sees numbers of order one. Slider increments
-(not joint increments) make travel and speed limits exact variable bounds; the joint step is
-recovered exactly through the PCJM map (eqs. 2.1, 2.2).
+Decision variables x = (ds[active], l dlambda) / SCALE: the increments of the actuators of the
+active joints (iRAM!S: the sliders L1..L5, the roll q5 is not moved; an arm: its joints) and the
+RCM's move along the needle, in micrometres or microradians (SCALE = 1e-6) so that every solver
+sees numbers of order one. Actuator increments (not joint increments) make travel and speed
+limits exact variable bounds; the joint step is recovered exactly through the actuator map
+(iRAM!S: the PCJM maps, eqs. 2.1, 2.2).
 
     minimise   1/2 |W (J x SCALE - K e)|^2 / SCALE^2 + 1/2 D^2 |x|^2
     subject to lb <= x <= ub                      slider travel, speed over dt, lambda in [0, 1]
                A x = b  or  G_rcm x <= h_rcm      RCM: linearised equality or a box bound
                G_eye x <= h_eye                   retina margin, velocity damper with a gain
-               G_sing x <= h_sing                 min(|cos q1|, |cos q3|) kept above a margin
+               G_sing x <= h_sing                 the robot's singular terms kept above a margin
+                                                  (iRAM!S: cos q1 and cos q3)
 
 J = J_a(q, lambda) T is the augmented Jacobian (eq. 3.15, exact angle rows) times the map
-T = d(q0..q4, lambda) / d(s1..s5, l6 lambda); e the X_ext error; W weights the task rows
+T = d(q[active], lambda) / d(s[active], l lambda); e the X_ext error; W weights the task rows
 (angles in metres through `angle_weight`).
 """
 
@@ -28,12 +30,11 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import tip_of_target
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.scene.eye import Eye
 
 SCALE = 1e-6  # [m] per unit of the decision variables
 RECOVERY = 1e-6  # [m] largest push back per step when a damped quantity is past its floor
-NO_ROWS = np.zeros((0, 6))
 
 
 @dataclass(frozen=True)
@@ -56,8 +57,8 @@ class StepQP:
 
     Attributes:
         problem: The QP.
-        task: d X_ext / d x (6, 6) in SI units per unit of x (times SCALE).
-        sliders: The slider positions s (6,) at which the QP was built.
+        task: d X_ext / d x (6, m + 1) in SI units per unit of x (times SCALE).
+        sliders: The actuator positions s (n,) at which the QP was built.
         contact: True if the step's target is a retina contact (margin relaxed).
     """
 
@@ -87,8 +88,8 @@ class Kinematics(NamedTuple):
     """Quantities of one state shared by the QP rows, computed once.
 
     Attributes:
-        s: Sliders (6,). T: d(q0..q4, lambda)/d(L1..L5, l6 lambda) (6, 6).
-        J_tip, J_rcm: d p / d(q0..q4, lambda) (3, 6) of the tip and of p(lambda).
+        s: Actuators (n,). T: d(q[active], lambda)/d(s[active], l lambda) (m + 1, m + 1).
+        J_tip, J_rcm: d p / d(q[active], lambda) (3, m + 1) of the tip and of p(lambda).
         tip, rcm: Tip and RCM point (3,) in [m]. axis: Unit needle axis (3,).
     """
 
@@ -101,23 +102,21 @@ class Kinematics(NamedTuple):
     axis: FloatArray
 
 
-def variable_map(robot: Iramis, q: FloatArray) -> FloatArray:
-    """T = d(q0..q4, lambda) / d(L1..L5, l6 lambda), a (6, 6) array (eqs. 2.1, 2.2)."""
-    T = np.zeros((6, 6))
-    d = robot.params.pcjm_spacing
-    for i in (0, 2):
-        g = math.cos(q[i + 1]) ** 2 / d  # d q_rot / d L2 = -d q_rot / d L1 (eq. 2.2)
-        T[i, i] = T[i, i + 1] = 0.5
-        T[i + 1, i], T[i + 1, i + 1] = -g, g
-    T[4, 4] = 1.0
-    T[5, 5] = 1.0 / robot.params.l6
+def variable_map(robot: RobotModel, q: FloatArray) -> FloatArray:
+    """T = d(q[active], lambda) / d(s[active], l lambda), (m + 1, m + 1): the actuator map's
+    dq/ds on the active joints (iRAM!S: eqs. 2.1, 2.2) and 1 / l for lambda."""
+    active = list(robot.active)
+    m = len(active)
+    T = np.zeros((m + 1, m + 1))
+    T[:m, :m] = robot.joint_rates(q)[np.ix_(active, active)]
+    T[m, m] = 1.0 / robot.needle_length
     return T
 
 
-def kinematics(robot: Iramis, q: FloatArray, lam: float) -> Kinematics:
+def kinematics(robot: RobotModel, q: FloatArray, lam: float) -> Kinematics:
     """The shared quantities at (q, lambda)."""
     J_tip = robot.needle_point_jacobian(q, 1.0)
-    J_tip[:, 5] = 0.0
+    J_tip[:, -1] = 0.0
     return Kinematics(
         robot.actuators_from_joints(q),
         variable_map(robot, q),
@@ -129,13 +128,12 @@ def kinematics(robot: Iramis, q: FloatArray, lam: float) -> Kinematics:
     )
 
 
-def task_jacobian(kin: Kinematics) -> FloatArray:
-    """d X_ext / d(L1..L5, l6 lambda) = J_a T, J_a with the exact angle rows (eq. 3.15)."""
+def task_jacobian(kin: Kinematics, J_angles: FloatArray) -> FloatArray:
+    """d X_ext / d x = J_a T, J_a with the exact angle rows J_angles (2, m + 1) (eq. 3.15)."""
     T = kin.T
-    task = np.empty((6, 6))
+    task = np.empty((6, T.shape[1]))
     task[0] = kin.J_tip[0] @ T
-    task[1] = T[1]  # d phi = d q1
-    task[2] = T[3]  # d psi = d q3
+    task[1:3] = J_angles @ T  # on iRAM!S the rows e_q1, e_q3: T[1] and T[3]
     task[3:] = kin.J_rcm @ T
     return task
 
@@ -154,23 +152,20 @@ def damper_row(
 
 
 def slider_bounds(
-    robot: Iramis, s: FloatArray, lam: float, dt: float, lim: QpLimits
+    robot: RobotModel, s: FloatArray, lam: float, dt: float, lim: QpLimits
 ) -> tuple[FloatArray, FloatArray]:
-    """lb, ub on x: travel (less the margin) and speed over dt; lambda in [0, 1].
+    """lb, ub on x: actuator travel (less the margin) and speed over dt; lambda in [0, 1].
 
-    A slider already past its soft travel may stay or move back, never further out.
+    An actuator already past its soft travel may stay or move back, never further out.
     """
-    lo = robot.lower[:5] + lim.travel_margin - s[:5]
-    hi = robot.upper[:5] - lim.travel_margin - s[:5]
-    step = robot.speed[:5] * dt
-    lb = np.minimum(np.maximum(lo, -step), 0.0)
-    ub = np.maximum(np.minimum(hi, step), 0.0)
-    l6 = robot.params.l6
-    lb6 = np.empty(6)
-    ub6 = np.empty(6)
-    lb6[:5], lb6[5] = lb, -lam * l6
-    ub6[:5], ub6[5] = ub, (1.0 - lam) * l6
-    return lb6 / SCALE, ub6 / SCALE
+    active = list(robot.active)
+    lo = robot.lower[active] + lim.travel_margin - s[active]
+    hi = robot.upper[active] - lim.travel_margin - s[active]
+    step = robot.speed[active] * dt
+    length = robot.needle_length
+    lb = np.append(np.minimum(np.maximum(lo, -step), 0.0), -lam * length)
+    ub = np.append(np.maximum(np.minimum(hi, step), 0.0), (1.0 - lam) * length)
+    return lb / SCALE, ub / SCALE
 
 
 def cost(task: FloatArray, inp: StepInput) -> tuple[FloatArray, FloatArray]:
@@ -180,7 +175,7 @@ def cost(task: FloatArray, inp: StepInput) -> tuple[FloatArray, FloatArray]:
     Aw = w[:, None] * task
     bw = w * inp.K * inp.error / SCALE
     P = Aw.T @ Aw
-    P[np.diag_indices(6)] += inp.damping**2
+    P[np.diag_indices(P.shape[0])] += inp.damping**2
     return P, -Aw.T @ bw
 
 
@@ -225,13 +220,14 @@ def is_contact(eye: Eye, lim: QpLimits, tip_target: FloatArray) -> bool:
 def eye_rows(inp: StepInput, kin: Kinematics) -> tuple[FloatArray, FloatArray, bool]:
     """The retina damper row (none while the tip is within the port zone or with no eye)."""
     eye, lim = inp.eye, inp.limits
+    no_rows = np.zeros((0, kin.T.shape[1]))
     if eye is None:
-        return NO_ROWS, np.zeros(0), False
+        return no_rows, np.zeros(0), False
     tip = kin.tip
     tip_target = tip_of_target(inp.target)
     contact = is_contact(eye, lim, tip_target)
     if np.linalg.norm(tip - eye.port) <= lim.port_zone:
-        return NO_ROWS, np.zeros(0), contact
+        return no_rows, np.zeros(0), contact
     u = (tip - eye.center) / np.linalg.norm(tip - eye.center)
     grad = -(u @ kin.J_tip) @ kin.T
     floor = lim.retina_margin
@@ -241,28 +237,32 @@ def eye_rows(inp: StepInput, kin: Kinematics) -> tuple[FloatArray, FloatArray, b
     return g[None, :], np.array([h]), contact
 
 
-def singular_rows(inp: StepInput, T: FloatArray, floor: float) -> tuple[FloatArray, FloatArray]:
-    """Damper rows keeping cos q1 and cos q3 above `floor` (|q1|, |q3| < pi/2 on the PCJMs)."""
+def singular_rows(
+    robot: RobotModel, inp: StepInput, T: FloatArray, floor: float
+) -> tuple[FloatArray, FloatArray]:
+    """Damper rows keeping each of the robot's singular terms above `floor` (iRAM!S: cos q1
+    and cos q3, with |q1|, |q3| < pi/2 on the PCJMs)."""
+    values, grads = robot.singular_terms(inp.q)
+    active = list(robot.active)
     rows, hs = [], []
-    for j in (1, 3):
-        grad = -math.sin(inp.q[j]) * T[j]
-        g, h = damper_row(grad, math.cos(inp.q[j]), floor, inp.limits.singular_gain)
+    for value, grad in zip(values, grads[:, active] @ T[: len(active)], strict=True):
+        g, h = damper_row(grad, float(value), floor, inp.limits.singular_gain)
         rows.append(g)
         hs.append(h)
     return np.array(rows), np.array(hs)
 
 
-def build_step(robot: Iramis, inp: StepInput) -> StepQP:
+def build_step(robot: RobotModel, inp: StepInput) -> StepQP:
     """The QP of one control step (see module docstring)."""
     kin = kinematics(robot, inp.q, inp.lam)
-    task = task_jacobian(kin)
+    task = task_jacobian(kin, robot.needle_angles_jacobian(inp.q))
     P, qv = cost(task, inp)
     lb, ub = slider_bounds(robot, kin.s, inp.lam, inp.dt, inp.limits)
     Rg, rh = rcm_rows(inp, kin)
     Eg, eh, contact = eye_rows(inp, kin)
-    Sg, sh = singular_rows(inp, kin.T, inp.limits.singular_floor(robot))
+    Sg, sh = singular_rows(robot, inp, kin.T, inp.limits.singular_floor(robot))
     equality = inp.limits.rcm_tolerance == 0.0
     G = np.vstack([Eg, Sg] if equality else [Rg, Eg, Sg])
     h = np.concatenate([eh, sh] if equality else [rh, eh, sh])
-    A, b = (Rg, rh) if equality else (NO_ROWS, np.zeros(0))
+    A, b = (Rg, rh) if equality else (np.zeros((0, task.shape[1])), np.zeros(0))
     return StepQP(QPProblem(P, qv, G, h, A, b, lb, ub), task * SCALE, kin.s, contact)

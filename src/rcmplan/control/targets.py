@@ -90,7 +90,9 @@ def solve_pose(robot: RobotModel, x_ext: FloatArray, seed: FloatArray | None = N
     length = robot.needle_length
     depth = float(np.dot(tip - x_ext[3:], axis))  # tip ahead of the RCM along the axis
     lam = 1.0 - depth / length
-    if -1e-9 <= lam < 0.0 or 1.0 < lam <= 1.0 + 1e-9:  # rounding at the ends of the needle
+    # Within the loop's default position tolerance (1e-8 m) of an end of the needle: at it.
+    slack = 1e-8 / length
+    if -slack <= lam < 0.0 or 1.0 < lam <= 1.0 + slack:
         lam = min(1.0, max(0.0, lam))
     if not 0.0 <= lam <= 1.0:
         raise UnreachableTargetError(

@@ -87,6 +87,7 @@ class Iramis:
     name: str = "iramis"
     joint_names: tuple[str, ...] = JOINT_NAMES
     actuator_names: tuple[str, ...] = SLIDER_NAMES
+    actuator_units: tuple[str, ...] = ("m", "m", "m", "m", "m", "rad")
     active: tuple[int, ...] = (0, 1, 2, 3, 4)
 
     def __init__(self, params: IramisParameters | None = None) -> None:

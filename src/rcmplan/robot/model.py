@@ -35,7 +35,7 @@ class RobotModel(Protocol):
 
     Attributes:
         name: Short name ("iramis", "ur5", ...).
-        joint_names, actuator_names: Names of q and s.
+        joint_names, actuator_names: Names of q and s; actuator_units: "m" or "rad" each.
         active: Indices of the joints the controller moves.
         lower, upper, speed: Actuator travel and largest speed (n,) in [m], [rad], per s.
         home: Joints at home (n,); home_actuators: the same as actuators.
@@ -46,6 +46,7 @@ class RobotModel(Protocol):
     name: str
     joint_names: tuple[str, ...]
     actuator_names: tuple[str, ...]
+    actuator_units: tuple[str, ...]
     active: tuple[int, ...]
     lower: FloatArray
     upper: FloatArray
@@ -121,6 +122,7 @@ class SerialArm:
         self.chain, self.needle, self.name = chain, needle, name
         n = chain.n
         self.joint_names = self.actuator_names = chain.joint_names
+        self.actuator_units = tuple("m" if p else "rad" for p in chain.prismatic)
         self.lower, self.upper = chain.lower.copy(), chain.upper.copy()
         self.speed = chain.velocity.copy()
         self.needle_length = needle.length
@@ -137,9 +139,17 @@ class SerialArm:
 
     def _check_dofs(self, roll_joint: int | None) -> None:
         """Refuse a chain that cannot hold an RCM and reach a point (rank 6 over theta_ext)."""
+        if roll_joint is not None:
+            cols = np.hstack([self._point_jacobian(self.home, 0.0)[:3, [roll_joint]],
+                              self._point_jacobian(self.home, 1.0)[:3, [roll_joint]]])  # fmt: skip
+            if np.abs(cols).max() > 1e-9:
+                raise InvalidInputError(
+                    "roll_joint", roll_joint, "a joint turning the needle about its own axis"
+                )
         m = len(self.active)
-        J = np.vstack([self.needle_point_jacobian(self.home, 1.0)[0:1],
-                       self.needle_angles_jacobian(self.home),
+        tip_x = self.needle_point_jacobian(self.home, 1.0)[0:1]
+        tip_x[0, -1] = 0.0  # lambda moves no tip
+        J = np.vstack([tip_x, self.needle_angles_jacobian(self.home),
                        self.needle_point_jacobian(self.home, 0.5)])  # fmt: skip
         rank = int(np.linalg.matrix_rank(J, tol=1e-9))
         if m < 5 or rank < 6:
@@ -149,13 +159,6 @@ class SerialArm:
                 "at least 5 joints that move the needle (task rank 6 with lambda) to hold an "
                 "RCM and reach a point",
             )
-        if roll_joint is not None:
-            cols = np.hstack([self._point_jacobian(self.home, 0.0)[:3, [roll_joint]],
-                              self._point_jacobian(self.home, 1.0)[:3, [roll_joint]]])  # fmt: skip
-            if np.abs(cols).max() > 1e-9:
-                raise InvalidInputError(
-                    "roll_joint", roll_joint, "a joint turning the needle about its own axis"
-                )
 
     # --- actuators (the joints themselves) ---------------------------------------------
     def joints_from_actuators(self, s: FloatArray) -> FloatArray:

@@ -20,6 +20,7 @@ import numpy as np
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import axis_from_angles
 
 POINT_NAMES = ("p1", "p2", "p3", "p4", "p5", "p6", "p7")
@@ -95,7 +96,7 @@ class Eye:
 
 
 def default_eye(
-    robot: Iramis | None = None,
+    robot: RobotModel | None = None,
     radius: float = 12e-3,
     wall: float = 1e-3,
     trocar_radius: float = 0.45e-3,

@@ -18,7 +18,7 @@ from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.loop import Phase, interpolate
 from rcmplan.control.targets import pivot_target, rcm_target, rcm_targets, solve_pose
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis
 from rcmplan.scene.eye import Eye, EyePoints
 
@@ -83,7 +83,7 @@ def line_targets(
 
 
 def approach_phase(
-    robot: Iramis, target: FloatArray, steps: Steps, name: str = "approach"
+    robot: RobotModel, target: FloatArray, steps: Steps, name: str = "approach"
 ) -> Phase:
     """Free-space tip motion in a straight line from wherever the tip is to `target`."""
 
@@ -94,12 +94,12 @@ def approach_phase(
     return Phase(name, plan, "free")
 
 
-def align_phase(robot: Iramis, eye: Eye, steps: Steps) -> Phase:
+def align_phase(robot: RobotModel, eye: Eye, steps: Steps) -> Phase:
     """Pivot about the tip at the trocar (lambda = 1) until the needle lies on the trocar axis."""
     phi1, psi1 = angles_from_axis(eye.axis)
 
     def plan(q: FloatArray) -> FloatArray:
-        x0 = np.array([robot.tip(q)[0], q[1], q[3], *eye.port])
+        x0 = np.array([robot.tip(q)[0], *angles_from_axis(robot.needle_axis(q)), *eye.port])
         x1 = pivot_target(eye.port[0], phi1, psi1, eye.port)
         return interpolate(x0, x1, steps.count(0.0, float(np.max(np.abs(x1[1:3] - x0[1:3])))))
 
@@ -117,7 +117,7 @@ def check_inside(eye: Eye, name: str, p: FloatArray) -> None:
 
 
 def injection(
-    robot: Iramis,
+    robot: RobotModel,
     eye: Eye,
     points: EyePoints,
     steps: Steps | None = None,
@@ -194,7 +194,7 @@ class Spiral:
 
 
 def spiral(
-    robot: Iramis,
+    robot: RobotModel,
     eye: Eye,
     points: EyePoints,
     shape: Spiral | None = None,

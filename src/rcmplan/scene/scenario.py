@@ -20,7 +20,8 @@ from rcmplan.control.loop import LoopSettings, Phase
 from rcmplan.control.methods import METHODS, MethodSettings
 from rcmplan.control.solvers import Tolerance
 from rcmplan.exceptions import InvalidInputError, ScenarioError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
+from rcmplan.robot.registry import ROBOTS
 from rcmplan.scene.eye import POINT_NAMES, Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
 from rcmplan.sim.registry import PLANTS
@@ -31,7 +32,7 @@ MM = 1e-3
 # section -> key -> (kind, low, high); kind: "float", "int", "bool", "str", "vecN", "strlist"
 SCHEMA: dict[str, dict[str, tuple[str, float, float]]] = {
     "": {"name": ("str", 0, 0), "procedure": ("str", 0, 0), "plant": ("str", 0, 0),
-         "description": ("str", 0, 0)},
+         "robot": ("str", 0, 0), "description": ("str", 0, 0)},
     "eye": {"radius_mm": ("float", 3, 20), "wall_mm": ("float", 0.1, 3),
             "trocar_radius_mm": ("float", 0.05, 2), "trocar_offset_mm": ("vec3", -60, 60),
             "insertion_angles_rad": ("vec2", -1.2, 1.2)},
@@ -59,6 +60,7 @@ class Scenario:
     procedure: str = "injection"
     plant: str = "kinematic"
     method: str = "pinv"
+    robot: str = "iramis"
     eye_options: dict[str, Any] = field(default_factory=dict)
     point_options: dict[str, Any] = field(default_factory=dict)
     point_overrides: dict[str, tuple[float, ...]] = field(default_factory=dict)
@@ -69,7 +71,7 @@ class Scenario:
     spiral: Spiral = field(default_factory=Spiral)
     dt: float = 1e-3
 
-    def eye(self, robot: Iramis) -> Eye:
+    def eye(self, robot: RobotModel) -> Eye:
         """The eye placed for this robot."""
         return default_eye(robot, **self.eye_options)
 
@@ -79,7 +81,7 @@ class Scenario:
         pts.update({k: np.asarray(v, dtype=float) for k, v in self.point_overrides.items()})
         return EyePoints(**pts)
 
-    def phases(self, robot: Iramis) -> list[Phase]:
+    def phases(self, robot: RobotModel) -> list[Phase]:
         """The procedure's phases, every target checked before motion."""
         eye = self.eye(robot)
         pts = self.points(eye)
@@ -92,6 +94,12 @@ class Scenario:
         if method not in METHODS:
             raise InvalidInputError("method", method, f"one of {METHODS}")
         return _replace(self, method=method)
+
+    def with_robot(self, robot: str) -> Scenario:
+        """The same scenario with another robot (the eye is placed for it)."""
+        if robot not in ROBOTS:
+            raise InvalidInputError("robot", robot, "one of " + ", ".join(ROBOTS))
+        return _replace(self, robot=robot)
 
     def with_plant(self, plant: str) -> Scenario:
         """The same scenario on another plant."""
@@ -175,6 +183,9 @@ def scenario_from_dict(data: dict[str, Any]) -> Scenario:
     plant = top.get("plant", "kinematic")
     if plant not in PLANTS:
         raise ScenarioError("plant", plant, f"one of {sorted(PLANTS)}")
+    robot = top.get("robot", "iramis")
+    if robot not in ROBOTS:
+        raise ScenarioError("robot", robot, f"one of {tuple(ROBOTS)}")
     method = ctl.get("method", "pinv")
     if method not in METHODS:
         raise ScenarioError("[controller] method", method, f"one of {METHODS}")
@@ -212,6 +223,7 @@ def scenario_from_dict(data: dict[str, Any]) -> Scenario:
         procedure=procedure,
         plant=plant,
         method=method,
+        robot=robot,
         eye_options=eye_opts,
         point_options=point_opts,
         point_overrides=overrides,

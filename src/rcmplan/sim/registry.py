@@ -11,6 +11,7 @@ from typing import Any
 
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.sim.plant import Plant
 
 # name -> (module, factory attribute, keyword arguments)
@@ -22,7 +23,7 @@ PLANTS: dict[str, tuple[str, str, dict[str, Any]]] = {
 
 
 def make_plant(
-    name: str, robot: Iramis | None = None, scene: dict[str, Any] | None = None, **kwargs: Any
+    name: str, robot: RobotModel | None = None, scene: dict[str, Any] | None = None, **kwargs: Any
 ) -> Plant:
     """Build the plant registered under `name` for `robot`.
 

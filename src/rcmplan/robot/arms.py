@@ -1,0 +1,71 @@
+"""Serial arms holding a needle, placed in the world frame of rcmplan's scenes.
+
+rcmplan's scenes (`rcmplan.scene.eye`) place the eye in front of the needle tip at home, with
+the needle pointing along the world's -x axis at home (as iRAM!S's does). `place_arm` turns an
+arm about the world z axis (vertical stays vertical) so that its needle's horizontal direction
+at home is -x; the shipped arms hold the needle horizontally at home, so it points along -x.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, vector
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.chain import JointChain
+from rcmplan.robot.model import SerialArm
+from rcmplan.robot.needle import StraightNeedle
+
+NEEDLE_LENGTH = 60e-3  # [m], a 60 mm straight needle on the flange (assumed)
+# Home joints [rad]: the needle horizontal, about 0.4-0.5 m in front of the base, away from
+# the arms' singular sets (chosen for the shipped injection; see docs/robots.md).
+HOMES = {
+    "ur5": (0.0, -1.2, 1.9, -0.7, 0.5 * math.pi, 0.0),
+    "panda": (0.0, -0.3, 0.0, -1.3, 0.0, 2.6, 0.25 * math.pi),
+}
+
+
+def place_arm(chain: JointChain, needle: StraightNeedle, home: Sequence[float]) -> JointChain:
+    """The chain turned about the world z axis so that the needle points along -x at home
+    (its horizontal part; raises if the needle is vertical at home)."""
+    T = chain.forward_kinematics(vector("home", home, chain.n))
+    a = T[:3, :3] @ needle.axis_local()
+    if math.hypot(a[0], a[1]) < 0.1:
+        raise InvalidInputError("home", list(home), "a pose whose needle is not vertical")
+    turn = math.pi - math.atan2(a[1], a[0])  # rotate (a_x, a_y) onto (-|a_xy|, 0)
+    c, s = math.cos(turn), math.sin(turn)
+    R = np.eye(4)
+    R[:2, :2] = [[c, -s], [s, c]]
+    return chain.placed(R @ chain.base)
+
+
+def needle_arm(
+    chain: JointChain,
+    home: Sequence[float],
+    name: str,
+    needle: StraightNeedle | None = None,
+    singular_threshold: float = 0.01,
+) -> SerialArm:
+    """A SerialArm with a straight needle along its flange z axis (rolled by the last joint),
+    placed by `place_arm`."""
+    needle = needle or StraightNeedle(NEEDLE_LENGTH)
+    placed = place_arm(chain, needle, home)
+    return SerialArm(placed, needle, home, name=name, roll_joint=chain.n - 1,
+                     singular_threshold=singular_threshold)  # fmt: skip
+
+
+def shipped_arm(name: str) -> SerialArm:
+    """A shipped arm ("ur5" or "panda") from its URDF (`example-robot-data`, extra `robots`)."""
+    from rcmplan.robot.library import robot_chain
+
+    if name not in HOMES:
+        raise InvalidInputError("robot", name, "one of " + ", ".join(HOMES))
+    return needle_arm(robot_chain(name), HOMES[name], name)
+
+
+def home_pose(arm: SerialArm) -> FloatArray:
+    """The arm's needle base and tip at home, (2, 3) in [m]."""
+    return np.array([arm.needle_point(arm.home, 0.0), arm.tip(arm.home)])

@@ -1,0 +1,157 @@
+"""Serial chains from URDF files, parsed with yourdfpy (no meshes are loaded).
+
+The chain runs from a root link to a tip link. Each revolute, continuous or prismatic joint on
+the path becomes a `ChainJoint` with its URDF origin, axis, limits and velocity; fixed joints
+fold into the next moving joint's origin, or into the chain's `tip` after the last one.
+A continuous joint gets the travel [-pi, pi] rad (one full turn; `ChainJoint` needs finite
+limits) and, without a <limit> tag, the `ChainJoint` default velocity. Mimic, floating and
+planar joints on the path raise `UnsupportedJointError`. Lengths in m, angles in rad.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from os import PathLike
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.exceptions import (
+    InvalidInputError,
+    ModelFileError,
+    UnknownFrameError,
+    UnsupportedJointError,
+    require_extra,
+)
+from rcmplan.robot.chain import ChainJoint, JointChain
+from rcmplan.robot.dh import JointType
+
+MOVING: dict[str, JointType] = {
+    "revolute": "revolute",
+    "continuous": "revolute",
+    "prismatic": "prismatic",
+}
+
+
+def load_urdf(
+    path: str | PathLike[str],
+    tip_frame: str,
+    root_frame: str | None = None,
+    name: str | None = None,
+) -> JointChain:
+    """The serial chain of a URDF from `root_frame` to `tip_frame` (link names).
+
+    Args:
+        path: The URDF file.
+        tip_frame: The link whose frame is the chain's end frame.
+        root_frame: The link whose frame is the chain's root (default: the top of the tree
+            that holds `tip_frame`). The chain's `base` is its pose in the URDF root's frame
+            with every joint above it at 0.
+        name: The chain's name (default: the URDF robot name).
+
+    Raises:
+        ModelFileError: The file is missing or the parser rejects it.
+        UnknownFrameError: A frame is not a link of the model (the message lists the links).
+        UnsupportedJointError: A mimic, floating or planar joint lies on the path.
+    """
+    robot = _read(path)
+    links = [link.name for link in robot.links]
+    by_child = {j.child: j for j in robot.joints}
+    for label, frame in (("tip_frame", tip_frame), ("root_frame", root_frame)):
+        if frame is not None and frame not in links:
+            raise UnknownFrameError(f"{label} of {Path(path).name}", frame, links)
+    above = _path_up(by_child, tip_frame)
+    top = above[-1].parent if above else tip_frame
+    root = top if root_frame is None else root_frame
+    path_joints = _path_down(by_child, above, root, tip_frame)
+    joints, tip = _chain_joints(path_joints)
+    if not joints:
+        valid = f"a link below {root!r} with at least one moving joint on the way"
+        raise InvalidInputError("tip_frame", tip_frame, valid)
+    base = _product(_origin(j) for j in reversed(_path_up(by_child, root)))
+    return JointChain(joints, tip, base, name or robot.name)
+
+
+def _read(path: str | PathLike[str]) -> Any:
+    """The yourdfpy Robot of a file, or ModelFileError naming the file and the reason."""
+    yourdfpy = require_extra("yourdfpy", "robots")
+    if not Path(path).is_file():
+        raise ModelFileError(path, "no such file")
+    try:
+        urdf = yourdfpy.URDF.load(
+            str(path),
+            build_scene_graph=False,
+            build_collision_scene_graph=False,
+            load_meshes=False,
+            load_collision_meshes=False,
+        )
+    except Exception as exc:  # yourdfpy raises anything from lxml, KeyError, ValueError...
+        raise ModelFileError(path, f"{type(exc).__name__}: {exc}") from exc
+    if urdf.robot is None or not urdf.robot.links:
+        raise ModelFileError(path, "no <robot> with links in the file")
+    return urdf.robot
+
+
+def _path_up(by_child: dict[str, Any], link: str) -> list[Any]:
+    """The joints from `link` up to the top of its tree, nearest first."""
+    out: list[Any] = []
+    while link in by_child:
+        out.append(by_child[link])
+        link = out[-1].parent
+        if len(out) > len(by_child):
+            raise InvalidInputError("URDF tree", link, "a tree without joint loops")
+    return out
+
+
+def _path_down(by_child: dict[str, Any], above: list[Any], root: str, tip: str) -> list[Any]:
+    """The joints from `root` down to `tip`, or raise naming the links on tip's path."""
+    if root == tip:
+        return []
+    for k, joint in enumerate(above):
+        if joint.parent == root:
+            return list(reversed(above[: k + 1]))
+    ancestors = [j.parent for j in above]
+    raise UnknownFrameError(f"root_frame (an ancestor of {tip!r})", root, ancestors)
+
+
+def _chain_joints(path_joints: Sequence[Any]) -> tuple[list[ChainJoint], FloatArray]:
+    """ChainJoints for the moving joints of a path, and the fixed remainder (the tip)."""
+    joints: list[ChainJoint] = []
+    pending = np.eye(4)
+    for j in path_joints:
+        pending = pending @ _origin(j)
+        if j.type == "fixed":
+            continue
+        if j.type not in MOVING or j.mimic is not None:
+            raise UnsupportedJointError(j.name, "mimic" if j.mimic is not None else str(j.type))
+        joints.append(_joint(j, pending))
+        pending = np.eye(4)
+    return joints, pending
+
+
+def _joint(j: Any, origin: FloatArray) -> ChainJoint:
+    """One ChainJoint from a yourdfpy Joint; limits from <limit>, [-pi, pi] if continuous."""
+    limit = j.limit
+    lower, upper = -math.pi, math.pi
+    if j.type != "continuous":
+        lower = 0.0 if limit is None or limit.lower is None else float(limit.lower)
+        upper = 0.0 if limit is None or limit.upper is None else float(limit.upper)
+    velocity = 1.0 if limit is None or limit.velocity is None else float(limit.velocity)
+    axis = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, dtype=float)
+    return ChainJoint(j.name, MOVING[j.type], origin, axis, lower, upper, velocity)
+
+
+def _origin(j: Any) -> FloatArray:
+    """A joint's origin (4, 4), identity when the URDF omits it."""
+    return np.eye(4) if j.origin is None else np.asarray(j.origin, dtype=float)
+
+
+def _product(transforms: Any) -> FloatArray:
+    """The product of (4, 4) transforms in order."""
+    T = np.eye(4)
+    for M in transforms:
+        T = T @ M
+    return T

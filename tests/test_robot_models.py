@@ -1,0 +1,166 @@
+"""The control core over any robot model: tasks, solvers and runs on iRAM!S, UR5 and Panda."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from fd import fd_jacobian
+from rcmplan import Iramis, IramisParameters, JointChain, SerialArm, StraightNeedle
+from rcmplan.compiled.runner import kernel_params
+from rcmplan.control import Controller, PinvSolver
+from rcmplan.control.augmented import augmented_jacobian, extended_task
+from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.control.tasks import (
+    NeedleAngles,
+    NeedleBase,
+    Posture,
+    RcmPoint,
+    TipPosition,
+)
+from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
+from rcmplan.job import run_scenario
+from rcmplan.robot.arms import needle_arm, shipped_arm
+from rcmplan.robot.registry import ROBOTS, make_robot
+from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.scene.procedures import injection
+from rcmplan.scene.scenario import load_scenario
+from rcmplan.sim.kinematic import KinematicPlant
+
+TASKS = (TipPosition(), NeedleAngles(), RcmPoint(), NeedleBase(), Posture())
+
+
+@pytest.fixture(scope="module", params=["iramis", "ur5", "panda"])
+def model(request: pytest.FixtureRequest):
+    return make_robot(request.param)
+
+
+def _near_home(model, rng: np.random.Generator) -> np.ndarray:
+    q = model.home.copy()
+    q[list(model.active)] += rng.uniform(-0.05, 0.05, len(model.active)) * (
+        0.1 if model.name == "iramis" else 1.0
+    )
+    return q
+
+
+@pytest.mark.parametrize("task", TASKS, ids=lambda t: type(t).__name__)
+def test_every_task_jacobian_equals_finite_differences(model, task, rng) -> None:
+    active = list(model.active)
+    for _ in range(3):
+        q0, lam0 = _near_home(model, rng), 0.6
+
+        def f(x: np.ndarray, q0: np.ndarray = q0) -> np.ndarray:
+            q = q0.copy()
+            q[active] = x[:-1]
+            return task.value(model, q, float(x[-1]))
+
+        x = np.append(q0[active], lam0)
+        J = task.jacobian(model, q0, lam0)
+        assert pytest.approx(fd_jacobian(f, x), abs=2e-7) == J
+
+
+def test_the_thesis_angle_rows_are_the_geometric_angular_velocities(model, rng) -> None:
+    q = _near_home(model, rng)
+    J = augmented_jacobian(model, q, 0.5, "thesis")[1:3]
+    assert pytest.approx(model.needle_angular_jacobian(q)[1:3], abs=1e-15) == J
+
+
+def test_a_satisfied_task_gives_zero_motion(model) -> None:
+    q, lam = model.home, 0.5
+    d_q, d_lam = PinvSolver().step(model, q, lam, extended_task(model, q, lam), np.zeros(6))
+    assert np.abs(d_q).max() == 0.0
+    assert d_lam == 0.0
+
+
+def test_solve_pose_realises_reachable_targets(model) -> None:
+    eye = default_eye(model)
+    pts = default_points(eye)
+    for name in ("p3", "p4", "p5", "p6", "p7"):
+        target = rcm_target(getattr(pts, name), eye.port)
+        pose = solve_pose(model, target)
+        assert extended_task(model, pose.q, pose.lam) == pytest.approx(target, abs=1e-9)
+
+
+@pytest.mark.parametrize("name", ["iramis", "ur5", "panda"])
+def test_the_default_injection_holds_the_rcm_within_a_micrometre(name: str) -> None:
+    scenario = load_scenario("default" if name == "iramis" else name)
+    result = run_scenario(scenario)
+    summary = result.summary()
+    assert summary["status"] == "ok"
+    assert summary["robot"] == name
+    assert summary["max_rcm_deviation_m"] <= 1e-6
+    assert summary["max_tip_error_m"] <= 1e-6
+
+
+def test_the_redundant_arm_moves_in_the_null_space_towards_home() -> None:
+    panda = make_robot("panda")
+    q = panda.home.copy()
+    q[2] += 0.2  # joint 3 away from home: the task is unchanged by a null-space motion
+    target = extended_task(panda, q, 0.5)
+    d_q, _ = PinvSolver(posture_gain=0.5).step(panda, q, 0.5, target, np.zeros(6))
+    J = augmented_jacobian(panda, q, 0.5)
+    assert np.abs(J[:, :-1] @ d_q).max() < 1e-12  # no task motion
+    assert d_q[2] < 0.0  # joint 3 moves back towards home
+
+
+def test_an_iramis_subclass_with_other_kinematics_runs_on_the_reference_path() -> None:
+    class Tilted(Iramis):
+        def needle_point(self, q, lam):  # type: ignore[no-untyped-def]
+            return super().needle_point(q, lam) + np.array([0.0, 0.0, 1e-3 * lam])
+
+    assert kernel_params(Iramis()) is not None or not _numba()
+    assert kernel_params(Tilted()) is None
+    assert kernel_params(Iramis(IramisParameters(l6=0.08))) is not None or not _numba()
+
+
+def _numba() -> bool:
+    from rcmplan.compiled import cache
+
+    return cache.numba_available()
+
+
+def test_the_subclass_run_matches_its_own_reference_loop() -> None:
+    class Tilted(Iramis):
+        def needle_point(self, q, lam):  # type: ignore[no-untyped-def]
+            return super().needle_point(q, lam) + np.array([0.0, 0.0, 1e-3 * lam])
+
+    robot = Tilted()
+    eye = default_eye(robot)
+    phases = injection(robot, eye, default_points(eye))[:1]
+    log = Controller(KinematicPlant(robot), PinvSolver()).run(phases)
+    tips = np.array([robot.tip(q) for q in log.joints])
+    assert tips == pytest.approx(log.tip, abs=1e-15)  # the log used the subclass's geometry
+
+
+def test_a_robot_with_too_few_joints_is_refused_naming_the_count() -> None:
+    chain = JointChain.from_dh(Iramis().chain)
+    four = JointChain(chain.joints[:4], tip=np.eye(4))
+    with pytest.raises(InvalidInputError, match="4 moving joints"):
+        SerialArm(four, StraightNeedle(0.05), np.zeros(4))
+
+
+def test_a_roll_joint_that_moves_the_needle_is_refused() -> None:
+    arm = shipped_arm("ur5")
+    with pytest.raises(InvalidInputError, match="roll_joint"):
+        SerialArm(arm.chain, arm.needle, arm.home, roll_joint=0)
+
+
+def test_a_target_no_joints_reach_is_refused_before_motion() -> None:
+    ur5 = make_robot("ur5")
+    far = ur5.tip(ur5.home) + np.array([-2.0, 0.0, 0.0])  # 2 m beyond the arm
+    with pytest.raises(UnreachableTargetError, match="no joints of ur5"):
+        solve_pose(ur5, rcm_target(far, far + np.array([0.05, 0.0, 0.0])))
+
+
+def test_unknown_robot_names_list_the_registered_ones() -> None:
+    with pytest.raises(InvalidInputError, match="iramis, ur5, panda"):
+        make_robot("kuka")
+    assert set(ROBOTS) == {"iramis", "ur5", "panda"}
+
+
+def test_a_needle_arm_points_its_needle_along_minus_x_at_home() -> None:
+    arm = shipped_arm("panda")
+    placed = needle_arm(arm.chain, arm.home, "again")
+    axis = placed.needle_axis(placed.home)
+    assert axis[0] < -0.99
+    assert abs(axis[1]) < 1e-12
