@@ -9,8 +9,11 @@ import math
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from rcmplan import __version__
 from rcmplan.analysis import plots
+from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.job import RunResult
 
@@ -56,11 +59,37 @@ def write_figures(result: RunResult, out: Path) -> dict[str, Path]:
     made: dict[str, Path] = {}
     if len(log) == 0:
         return made
-    made["tip_path"] = plots.tip_path_3d(log, eye, figs / "tip_path.png")
+    targets = visited_points(log, result.scenario.points(eye).as_dict())
+    made["tip_path"] = plots.tip_path(log, eye, targets, figs / "tip_path.png")
     if any(p.inside_eye for p in result.phases):
-        made["rcm_deviation"] = plots.rcm_deviation_per_iteration(log, figs / "rcm_deviation.png")
+        made["rcm_deviation"] = plots.rcm_deviation_envelope(
+            log, eye, figs / "rcm_deviation.png", rcm_bounds(result)
+        )
         made["rcm_trace"] = plots.rcm_trace(log, eye, figs / "rcm_trace.png")
     return made
+
+
+def visited_points(log: RunLog, points: dict[str, Any], tol_m: float = 1e-6) -> dict[str, Any]:
+    """The named points that some commanded tip target reaches (within tol_m)."""
+    cmd = log.target_tip[np.all(np.isfinite(log.target_tip), axis=1)]
+    return {
+        name: p
+        for name, p in points.items()
+        if cmd.size and np.min(np.linalg.norm(cmd - np.asarray(p), axis=1)) <= tol_m
+    }
+
+
+def rcm_bounds(result: RunResult) -> list[tuple[str, float]]:
+    """Bounds on the RCM deviation, in [m]: the trocar port, and the QP's tolerance."""
+    eye = result.scenario.eye(result.robot)
+    bounds = [("trocar radius", eye.trocar_radius)]
+    if result.scenario.method == "qp":
+        from rcmplan.control.qp_limits import QpLimits
+
+        extra = result.scenario.method_settings.extra
+        tol = extra["rcm_tolerance_um"] * 1e-6 if "rcm_tolerance_um" in extra else None
+        bounds.append(("QP RCM tolerance", tol or QpLimits().rcm_tolerance))
+    return bounds
 
 
 def write_report(result: RunResult, out: Path, figures: dict[str, Path]) -> Path:

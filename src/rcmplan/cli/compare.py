@@ -55,9 +55,9 @@ def run(args: argparse.Namespace) -> int:
     rows = compare_rows(args)
     (out / "compare.json").write_text(json.dumps(jsonable(rows), indent=2))
     if not args.no_plots:
-        from rcmplan.analysis.plots import method_comparison
+        from rcmplan.analysis.plots_compare import method_comparison
 
-        method_comparison([r for r in rows if r["status"] == "ok"], out / "compare.png")
+        method_comparison(rows, out / "compare.png")
     if args.json:
         print_json(rows)
     else:

@@ -38,9 +38,12 @@ def run(args: argparse.Namespace) -> int:
             row[f"{setting}_steps"] = o.steps
             row[f"{setting}_wall_time_s"] = o.wall_time_s
             if not args.no_plots and len(o.log):
-                from rcmplan.analysis.plots import rcm_deviation_per_iteration
+                from rcmplan.analysis.plots import rcm_deviation_envelope
+                from rcmplan.robot.iramis import Iramis
+                from rcmplan.scene.eye import default_eye
 
-                rcm_deviation_per_iteration(o.log, out / f"{key}-{setting}.png")
+                eye = default_eye(Iramis())
+                rcm_deviation_envelope(o.log, eye, out / f"{key}-{setting}.png")
         rows.append(row)
     (out / "reproduce.json").write_text(json.dumps(jsonable(rows), indent=2))
     if args.json:
