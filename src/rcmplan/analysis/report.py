@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import base64
-import html
 import json
 import math
 from pathlib import Path
@@ -11,11 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan import __version__
 from rcmplan.analysis import plots
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.job import RunResult
+from rcmplan.robot.iramis import SLIDER_NAMES
 
 
 def prepare_folder(out: str | Path) -> Path:
@@ -36,8 +34,24 @@ def write_summary(result: RunResult, out: Path) -> Path:
     result.log.save_npz(out / "log.npz")
     result.log.save_csv(out / "log.csv")
     path = out / "summary.json"
-    path.write_text(json.dumps(jsonable(result.summary()), indent=2))
+    path.write_text(json.dumps(jsonable(summary_json(result)), indent=2))
     return path
+
+
+def summary_json(result: RunResult) -> dict[str, Any]:
+    """The run summary with a unit in every key: the slider block per slider (`_m` for the
+    linear sliders L1..L5, `_rad` for q5) and the run's simulated time."""
+    s = dict(result.summary())
+    used = s.get("sliders", {})
+    if used:
+        s["sliders"] = {
+            name: {f"{k}_{'rad' if name == 'q5' else 'm'}": used[k][i]
+                   for k in ("lower_used", "upper_used", "min_margin")}
+            for i, name in enumerate(SLIDER_NAMES)
+        }  # fmt: skip
+    log = result.log
+    s["simulated_time_s"] = float(log.time[-1]) if len(log) else 0.0
+    return s
 
 
 def jsonable(obj: Any) -> Any:
@@ -59,13 +73,13 @@ def write_figures(result: RunResult, out: Path) -> dict[str, Path]:
     made: dict[str, Path] = {}
     if len(log) == 0:
         return made
-    targets = visited_points(log, result.scenario.points(eye).as_dict())
-    made["tip_path"] = plots.tip_path(log, eye, targets, figs / "tip_path.png")
     if any(p.inside_eye for p in result.phases):
         made["rcm_deviation"] = plots.rcm_deviation_envelope(
             log, eye, figs / "rcm_deviation.png", rcm_bounds(result)
         )
         made["rcm_trace"] = plots.rcm_trace(log, eye, figs / "rcm_trace.png")
+    targets = visited_points(log, result.scenario.points(eye).as_dict())
+    made["tip_path"] = plots.tip_path(log, eye, targets, figs / "tip_path.png")
     return made
 
 
@@ -92,76 +106,26 @@ def rcm_bounds(result: RunResult) -> list[tuple[str, float]]:
     return bounds
 
 
-def write_report(result: RunResult, out: Path, figures: dict[str, Path]) -> Path:
-    """report.html with the figures embedded, the summary table and the settings."""
-    s = result.summary()
-    rows = "".join(
-        "<tr>"
-        + "".join(
-            f"<td>{html.escape(str(v))}</td>"
-            for v in (
-                p["name"],
-                _um(p["max_rcm_deviation_m"]),
-                _um(p["rms_rcm_deviation_m"]),
-                _um(p["final_tip_error_m"]),
-                p["iterations"],
-                f"{1e3 * p['wall_time_s']:.2f}",
-            )
-        )
-        + "</tr>"
-        for p in s["phases"]
-    )
-    imgs = "".join(
-        f"<h3>{html.escape(name)}</h3><img alt='{html.escape(name)}' "
-        f"src='data:image/png;base64,{base64.b64encode(path.read_bytes()).decode()}'>"
-        for name, path in figures.items()
-    )
-    settings = html.escape(json.dumps(_settings(result), indent=2, default=str))
-    doc = f"""<!doctype html><html><head><meta charset="utf-8">
-<title>rcmplan run: {html.escape(s["scenario"])}</title>
-<style>body{{font-family:sans-serif;max-width:1100px;margin:2em auto}}
-table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:3px 8px;text-align:right}}
-img{{max-width:100%}}</style></head><body>
-<h1>rcmplan run: {html.escape(s["scenario"])}</h1>
-<p>status: <b>{html.escape(s["status"])}</b> &middot; method {html.escape(s["method"])}
-&middot; plant {html.escape(s["plant"])} &middot; {s["iterations"]} iterations in
-{1e3 * s["wall_time_s"]:.1f} ms &middot; max RCM deviation inside the eye
-{_um(s["max_rcm_deviation_m"])} um &middot; max tip error {_um(s["max_tip_error_m"])} um</p>
-<table><tr><th>phase</th><th>max RCM dev [um]</th><th>RMS RCM dev [um]</th>
-<th>final tip error [um]</th><th>iterations</th><th>wall [ms]</th></tr>{rows}</table>
-{imgs}<h2>Settings</h2><pre>{settings}</pre>
-<p>rcmplan {__version__}</p></body></html>"""
+def write_report(
+    result: RunResult, out: Path, figures: dict[str, Path], scenario_text: str | None = None
+) -> Path:
+    """report.html with the figures embedded, the tables, the settings and the scenario."""
+    from rcmplan.analysis.report_html import render
+
     path = out / "report.html"
-    path.write_text(doc)
+    path.write_text(render(result, summary_json(result), figures, scenario_text))
     return path
 
 
-def _settings(result: RunResult) -> dict[str, Any]:
-    sc = result.scenario
-    return {
-        "scenario": sc.name,
-        "procedure": sc.procedure,
-        "method": sc.method,
-        "plant": sc.plant,
-        "method_settings": sc.method_settings,
-        "loop": sc.loop,
-        "steps": sc.steps,
-        "eye": sc.eye_options,
-        "points": sc.point_options,
-        "robot": result.robot.params,
-    }
-
-
-def _um(v: float | None) -> str:
-    return "-" if v is None else f"{v * 1e6:.4g}"
-
-
-def write_outputs(result: RunResult, out: str | Path, figures: bool = True) -> dict[str, Path]:
-    """Everything for a run in `out`: log, summary, figures, report."""
+def write_outputs(
+    result: RunResult, out: str | Path, figures: bool = True, scenario_text: str | None = None
+) -> dict[str, Path]:
+    """Everything for a run in `out`: log, summary, figures, report (with the scenario file
+    echoed when its text is given)."""
     folder = prepare_folder(out)
     made = {"summary": write_summary(result, folder)}
     if figures:
         figs = write_figures(result, folder)
         made.update(figs)
-        made["report"] = write_report(result, folder, figs)
+        made["report"] = write_report(result, folder, figs, scenario_text)
     return made

@@ -7,6 +7,7 @@ import contextlib
 import json
 import sys
 from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 from rcmplan.control.loop import Phase
@@ -34,6 +35,18 @@ def scenario_from_args(args: argparse.Namespace) -> Scenario:
     if args.plant:
         sc = sc.with_plant(args.plant)
     return sc
+
+
+def scenario_text(source: str) -> str | None:
+    """The text of the scenario file named on the command line (shipped or a path), or None."""
+    from importlib import resources
+
+    from rcmplan.scene.scenario import scenario_names
+
+    if source in scenario_names():
+        return resources.files("rcmplan.scenarios").joinpath(f"{source}.toml").read_text()
+    path = Path(source)
+    return path.read_text() if path.is_file() else None
 
 
 @contextlib.contextmanager

@@ -12,6 +12,7 @@ from rcmplan.cli.common import (
     print_summary,
     progress,
     scenario_from_args,
+    scenario_text,
 )
 from rcmplan.exceptions import RcmplanError
 from rcmplan.job import run_scenario
@@ -30,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Run the scenario, write the outputs, print the summary; exit 1 if the run stopped early."""
-    from rcmplan.analysis.report import prepare_folder, write_outputs
+    from rcmplan.analysis.report import prepare_folder, summary_json, write_outputs
 
     out = prepare_folder(args.out or args.out_default)
     try:
@@ -42,12 +43,14 @@ def run(args: argparse.Namespace) -> int:
     with progress(args.command) as tick:
         result = run_scenario(scenario, on_phase=tick)
     try:
-        write_outputs(result, out, figures=not args.no_plots)
+        write_outputs(
+            result, out, figures=not args.no_plots, scenario_text=scenario_text(args.scenario)
+        )
     except RcmplanError as exc:
         print(f"rcmplan {args.command}: could not write all outputs: {exc}", file=sys.stderr)
         return 2
     if args.json:
-        print_json(result.summary())
+        print_json(summary_json(result))
     else:
         print_summary(result)
         print(f"outputs in {out}/")
