@@ -11,7 +11,12 @@ from rcmplan.cli.common import print_json
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `reproduce` subcommand."""
-    p = sub.add_parser("reproduce", help="rerun the thesis's experiments and compare figures")
+    p = sub.add_parser(
+        "reproduce", help="rerun the thesis's experiments and compare figures",
+        description="Rerun the experiments of the thesis's chapter 4 with the thesis's "
+        "settings (as interpreted, stated in the output) and rcmplan's, beside the figures "
+        "the thesis reports.",
+    )  # fmt: skip
     p.add_argument("--out", default="rcmplan-out/reproduce", help="output folder")
     p.add_argument("--json", action="store_true", help="print the table as JSON")
     p.add_argument("--no-plots", action="store_true", help="skip figures")
