@@ -114,7 +114,8 @@ def rcm_trace(log: RunLog, eye: Eye, path: Path, phase: str | None = None) -> Pa
     dev = sub.rcm_deviation()
     u, v = dev @ e1 * UM, dev @ e2 * UM
     r = eye.trocar_radius * UM
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.6), layout="constrained")
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.6), width_ratios=[1.0, 1.2])
+    fig.subplots_adjust(left=0.08, right=0.97, top=0.92, bottom=0.12, wspace=0.3)
     a1.add_patch(plt.Circle((0, 0), r, fill=False, color=VERMILLION, lw=1.5, label="port"))
     a1.plot(u, v, ".", ms=2, color=BLACK, label="RCM point")
     a1.set_xlim(-1.15 * r, 1.15 * r)
@@ -135,8 +136,10 @@ def rcm_trace(log: RunLog, eye: Eye, path: Path, phase: str | None = None) -> Pa
 def tip_path(log: RunLog, eye: Eye, targets: dict[str, FloatArray], path: Path) -> Path:
     """Tip path in 3D (mm): actual and commanded, named targets; tracking error over time."""
     plt = style.plt()
-    fig = plt.figure(figsize=(11, 5.2), layout="constrained")
-    grid = fig.add_gridspec(2, 2, width_ratios=[1.15, 1.0], height_ratios=[1.4, 7.0])
+    fig = plt.figure(figsize=(11, 5.2))
+    grid = fig.add_gridspec(2, 2, width_ratios=[1.15, 1.0], height_ratios=[1.4, 7.0],
+                            left=0.0, right=0.98, top=0.92, bottom=0.1, wspace=0.25,
+                            hspace=0.06)  # fmt: skip
     ax = fig.add_subplot(grid[:, 0], projection="3d")
     _eye_wireframe(ax, eye)
     tip, cmd = log.tip * 1e3, log.target_tip * 1e3

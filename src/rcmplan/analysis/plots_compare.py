@@ -29,7 +29,8 @@ def method_comparison(rows: Sequence[dict[str, Any]], path: Path) -> Path:
     plt = style.plt()
     names = [r["method"] for r in rows]
     failed = [r["status"] != "ok" for r in rows]
-    fig, axes = plt.subplots(1, len(PANELS), figsize=(12, 3.9), layout="constrained")
+    fig, axes = plt.subplots(1, len(PANELS), figsize=(12, 3.9))
+    fig.subplots_adjust(left=0.05, right=0.99, top=0.84, bottom=0.2, wspace=0.3)
     x = np.arange(len(rows))
     for ax, (label, key, scale, log_scale) in zip(axes, PANELS, strict=True):
         vals = [np.nan if bad or r.get(key) is None else scale * r[key]

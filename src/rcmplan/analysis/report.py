@@ -66,21 +66,30 @@ def jsonable(obj: Any) -> Any:
 
 
 def write_figures(result: RunResult, out: Path) -> dict[str, Path]:
-    """The run's figures as PNG files in out/figures."""
+    """The run's figures as PNG files in out/figures (drawn side by side where possible)."""
+    from functools import partial
+
+    from rcmplan.analysis.parallel import run_jobs
+
     figs = out / "figures"
     eye = result.scenario.eye(result.robot)
     log = result.log
-    made: dict[str, Path] = {}
     if len(log) == 0:
-        return made
+        return {}
+    jobs: dict[str, tuple[Path, Any]] = {}
     if any(p.inside_eye for p in result.phases):
-        made["rcm_deviation"] = plots.rcm_deviation_envelope(
-            log, eye, figs / "rcm_deviation.png", rcm_bounds(result)
-        )
-        made["rcm_trace"] = plots.rcm_trace(log, eye, figs / "rcm_trace.png")
+        path = figs / "rcm_deviation.png"
+        jobs["rcm_deviation"] = (
+            path, partial(plots.rcm_deviation_envelope, log, eye, path, rcm_bounds(result))
+        )  # fmt: skip
+        path = figs / "rcm_trace.png"
+        jobs["rcm_trace"] = (path, partial(plots.rcm_trace, log, eye, path))
     targets = visited_points(log, result.scenario.points(eye).as_dict())
-    made["tip_path"] = plots.tip_path(log, eye, targets, figs / "tip_path.png")
-    return made
+    path = figs / "tip_path.png"
+    jobs["tip_path"] = (path, partial(plots.tip_path, log, eye, targets, path))
+    figs.mkdir(parents=True, exist_ok=True)
+    plots.style.plt()  # import matplotlib once, before any fork
+    return dict(zip(jobs, run_jobs(list(jobs.values())), strict=True))
 
 
 def visited_points(log: RunLog, points: dict[str, Any], tol_m: float = 1e-6) -> dict[str, Any]:

@@ -77,6 +77,7 @@ def progress(label: str, total: int | None = None) -> Iterator[Any]:
     except ImportError:
         yield lambda _phase: None
         return
+    tqdm.monitor_interval = 0  # no monitor thread: the figures may be drawn in forked processes
     bar = tqdm(
         total=total, desc=label, unit="phase", delay=1.0, file=sys.stderr, leave=False,
         disable=not sys.stderr.isatty(),
