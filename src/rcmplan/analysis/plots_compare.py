@@ -39,10 +39,11 @@ def method_comparison(rows: Sequence[dict[str, Any]], path: Path) -> Path:
         if log_scale and np.any(np.isfinite(vals)):
             ax.set_yscale("log")
         for i in [j for j, bad in enumerate(failed) if bad]:
-            ax.text(i, 0.02, f"failed:\n{failure_kind(rows[i]['status'])}", rotation=90,
+            ax.text(i, 0.04, f"failed: {failure_kind(rows[i]['status'])}", rotation=90,
                     ha="center", va="bottom", color=VERMILLION, fontsize=8,
                     transform=ax.get_xaxis_transform())  # fmt: skip
         ax.set_xticks(x, names, rotation=30)
+        ax.set_xlim(-0.6, len(rows) - 0.4)
         for tick, bad in zip(ax.get_xticklabels(), failed, strict=True):
             tick.set_color(VERMILLION if bad else "black")
         ax.set_title(label, fontsize=10)
