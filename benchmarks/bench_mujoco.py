@@ -86,21 +86,26 @@ def injection(path: str) -> dict[str, Any]:
 
     path: "closed" (the whole loop compiled, MuJoCo called from it), "per-iteration" (compiled
     control, the plant stepped from Python) or "reference" (Python control and plant)."""
-    from rcmplan.control import fast, fast_cache
+    from rcmplan.compiled import cache as fast_cache
     from rcmplan.job import run_scenario
     from rcmplan.scene.scenario import load_scenario
 
     fast_cache.set_mode("off" if path == "reference" else "on")
-    dispatch = fast._is_dynamic_mujoco
+    init = MujocoPlant.__init__
+
+    def stepped_init(plant: MujocoPlant, *args: Any, **kwargs: Any) -> None:
+        init(plant, *args, **kwargs)
+        plant.compiled_physics = False  # the plant steps from Python
+
     if path == "per-iteration":
-        fast._is_dynamic_mujoco = lambda plant: False  # type: ignore[assignment]
+        MujocoPlant.__init__ = stepped_init  # type: ignore[method-assign]
     try:
         t, c = time.perf_counter(), time.process_time()
         result = run_scenario(load_scenario("default").with_plant("mujoco"))
         wall, cpu = time.perf_counter() - t, time.process_time() - c
     finally:
         fast_cache.set_mode(None)
-        fast._is_dynamic_mujoco = dispatch  # type: ignore[method-assign]
+        MujocoPlant.__init__ = init  # type: ignore[method-assign]
     s = result.summary()
     sim = float(result.log.time[-1]) if len(result.log) else 0.0
     return {"status": s["status"].split(":")[0], "rcm": s["max_rcm_deviation_m"],

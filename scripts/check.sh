@@ -4,8 +4,9 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Headless MuJoCo rendering through EGL and Mesa (no GPU needed).
-EGL_PACKAGES="libegl1 libegl-mesa0 libgl1-mesa-dri libgles2"
+# Headless MuJoCo rendering through EGL and Mesa (no GPU needed), and Chromium for the test
+# that opens report.html in a real browser.
+EGL_PACKAGES="libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 chromium"
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
   # shellcheck disable=SC2086
   if ! dpkg -s $EGL_PACKAGES >/dev/null 2>&1; then
@@ -19,6 +20,7 @@ fi
 python -m pip install -q --disable-pip-version-check -e ".[all,video,dev]"
 
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
+export RCMPLAN_REQUIRE_BROWSER="${RCMPLAN_REQUIRE_BROWSER:-1}"
 python -m ruff check src tests benchmarks
 python -m ruff format --check src tests benchmarks
 python -m mypy

@@ -75,13 +75,26 @@ def test_unwritable_output_folder_is_a_clear_error(tmp_path: Path, capsys) -> No
     assert "output folder" in capsys.readouterr().err
 
 
-def test_compare_runs_each_method(tmp_path: Path, capsys) -> None:
-    code = main(["compare", "--out", str(tmp_path), "--methods", "pinv", "dls", "--json"])
-    rows = json.loads(capsys.readouterr().out)
+def test_compare_runs_each_method_named_by_a_repeated_method_option(tmp_path: Path, capsys) -> None:
+    code = main(
+        ["compare", "--out", str(tmp_path), "--method", "pinv", "--method", "dls", "--json"]
+    )
+    doc = json.loads(capsys.readouterr().out)
     assert code == 0
+    rows = doc["methods"]
     assert [r["method"] for r in rows] == ["pinv", "dls"]
     assert all(r["max_rcm_deviation_m"] <= 1e-6 for r in rows)
+    for r in rows:
+        assert r["wall_time_per_iteration_s"] == pytest.approx(r["wall_time_s"] / r["iterations"])
+    assert doc["execution_path"] in ("compiled where a method has a kernel", "reference")
+    assert all(r["execution_path"] in ("compiled", "reference") for r in rows)
     assert (tmp_path / "compare.png").stat().st_size > 0
+
+
+def test_compare_has_no_methods_option_any_more(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["compare", "--methods", "pinv"])
+    assert "unrecognized arguments: --methods" in capsys.readouterr().err
 
 
 def test_bad_method_is_refused_by_the_parser(capsys) -> None:

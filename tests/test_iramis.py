@@ -182,7 +182,9 @@ def test_singular_pose_raises_with_measure_and_threshold(robot: Iramis) -> None:
 def test_sliders_beyond_travel_raise_naming_the_slider_and_range(robot: Iramis) -> None:
     s = np.zeros(6)
     s[4] = 0.06
-    with pytest.raises(SliderLimitError, match=r"L5 = 0.06 is beyond its travel \[-0.01, 0.05\]"):
+    with pytest.raises(
+        SliderLimitError, match=r"L5 = 0.06 m is beyond its travel \[-0.01, 0.05\] m"
+    ):
         robot.check_actuators(s)
     np.testing.assert_allclose(robot.actuator_margin(np.zeros(6))[:4], 0.04)
 

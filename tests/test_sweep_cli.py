@@ -75,3 +75,32 @@ def test_gain_search_reports_the_best_settings(tmp_path: Path, capsys) -> None:
 def test_bad_input_raises_a_clear_error(tmp_path: Path, argv: list[str], error: type) -> None:
     with pytest.raises(error):
         run([*argv, "--out", str(tmp_path)])
+
+
+def test_a_resumed_sweep_with_nothing_left_reports_no_rate(tmp_path: Path, capsys) -> None:
+    args = [*SMALL, "--out", str(tmp_path), "--no-plots"]
+    assert run(args) == 0
+    capsys.readouterr()
+    assert run([*args, "--resume"]) == 0
+    rate = next(line for line in capsys.readouterr().out.splitlines() if "per second" in line)
+    assert "every target came from the checkpoint" in rate
+
+
+def test_a_sweep_of_other_settings_into_an_old_folder_names_overwrite(tmp_path: Path) -> None:
+    assert run([*SMALL, "--out", str(tmp_path), "--no-plots"]) == 0
+    other = ["--targets", "9", "--max-angle", "15", "--workers", "1", "--out", str(tmp_path),
+             "--no-plots"]  # fmt: skip
+    with pytest.raises(CheckpointError, match="--overwrite"):
+        run(other)
+    assert run([*other, "--overwrite"]) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["targets"]["sampled"] == 9 and summary["targets"]["resumed_from_checkpoint"] == 0
+
+
+def test_overwrite_refuses_to_remove_a_folder_that_is_no_checkpoint(tmp_path: Path) -> None:
+    keep = tmp_path / "mine"
+    keep.mkdir()
+    (keep / "notes.txt").write_text("keep me")
+    with pytest.raises(CheckpointError, match="not removed"):
+        run([*SMALL, "--out", str(tmp_path), "--checkpoint", str(keep), "--overwrite"])
+    assert (keep / "notes.txt").exists()

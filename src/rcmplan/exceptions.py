@@ -54,15 +54,17 @@ class ActuatorLimitError(RcmplanError):
 
     def __init__(
         self, index: int, name: str, value: float, lower: float, upper: float,
-        kind: str = "slider",
+        kind: str = "slider", unit: str | None = None,
     ) -> None:  # fmt: skip
         self.index = index
         self.slider = name
         self.value = value
         self.lower = lower
         self.upper = upper
+        unit = unit or ("rad" if name == "q5" else "m")
         super().__init__(
-            f"{kind} {name} = {value:.9g} is beyond its travel [{lower:.9g}, {upper:.9g}]"
+            f"{kind} {name} = {value:.6g} {unit} is beyond its travel "
+            f"[{lower:.6g}, {upper:.6g}] {unit}"
         )
 
 
@@ -162,8 +164,19 @@ class MissingExtraError(RcmplanError, ImportError):
 
 
 def _short(value: Any) -> str:
-    text = repr(value)
+    """value on one line: numbers to 3 significant digits, arrays and sequences as (a, b, c)."""
+    text = _one_line(value)
     return text if len(text) <= 200 else text[:197] + "..."
+
+
+def _one_line(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    if hasattr(value, "tolist") and not isinstance(value, str | bytes):
+        value = value.tolist()
+    if isinstance(value, list | tuple):
+        return "(" + ", ".join(_one_line(v) for v in value) + ")"
+    return " ".join(repr(value).split())
 
 
 def require_extra(module: str, extra: str) -> Any:

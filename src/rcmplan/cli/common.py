@@ -7,6 +7,8 @@ import contextlib
 import json
 import sys
 from collections.abc import Iterator
+from dataclasses import replace
+from pathlib import Path
 from typing import Any
 
 from rcmplan.control.loop import Phase
@@ -17,27 +19,58 @@ from rcmplan.scene.scenario import Scenario, load_scenario
 from rcmplan.sim.registry import PLANTS
 
 
-def add_run_options(p: argparse.ArgumentParser, scenario: str) -> None:
-    """--scenario, --method, --plant, --out, --json, --no-plots."""
+def add_run_options(p: argparse.ArgumentParser, scenario: str, many_methods: bool = False) -> None:
+    """--scenario, --method (repeatable with many_methods), --plant, --out, --json, --no-plots."""
     p.add_argument("--scenario", default=scenario, help=f"scenario name or TOML file ({scenario})")
+    if many_methods:
+        listed = "{" + ",".join(METHODS) + "}"
+        p.add_argument("--method", action="append", choices=METHODS, metavar="METHOD",
+                       help=f"a method to run, repeatable: {listed} (all)")  # fmt: skip
+    else:
+        p.add_argument("--method", choices=METHODS, help="control method (default: the scenario's)")
     p.add_argument("--robot", choices=tuple(ROBOTS), help="robot (default: the scenario's)")
-    p.add_argument("--method", choices=METHODS, help="control method (default: the scenario's)")
     p.add_argument("--plant", choices=sorted(PLANTS), help="plant (default: the scenario's)")
     p.add_argument("--out", default=None, help="output folder (default: rcmplan-out/<command>)")
     p.add_argument("--json", action="store_true", help="print summary.json instead of the table")
     p.add_argument("--no-plots", action="store_true", help="skip figures and the HTML report")
 
 
-def scenario_from_args(args: argparse.Namespace) -> Scenario:
-    """The scenario named on the command line with --method and --plant applied."""
+def scenario_from_args(args: argparse.Namespace, procedure: str | None = None) -> Scenario:
+    """The scenario named on the command line with --method and --plant applied.
+
+    A command that fixes its procedure (`inject`, `spiral`) runs that procedure on the
+    scenario's eye, points, steps and controller; when the scenario names another procedure it
+    says so on stderr, so the switch is never silent.
+    """
     sc = load_scenario(args.scenario)
     if getattr(args, "robot", None):
         sc = sc.with_robot(args.robot)
+    if procedure is not None and sc.procedure != procedure:
+        print(f"rcmplan {args.command}: scenario {sc.name!r} names procedure "
+              f"{sc.procedure!r}; running the {procedure} on its eye, points, steps and controller "
+              f"(`rcmplan {COMMAND_OF.get(sc.procedure, 'inject')} --scenario {args.scenario}` "
+              f"runs its own procedure)", file=sys.stderr)  # fmt: skip
+        sc = replace(sc, procedure=procedure)
     if args.method:
         sc = sc.with_method(args.method)
     if args.plant:
         sc = sc.with_plant(args.plant)
     return sc
+
+
+COMMAND_OF = {"injection": "inject", "spiral": "spiral"}
+
+
+def scenario_text(source: str) -> str | None:
+    """The text of the scenario file named on the command line (shipped or a path), or None."""
+    from importlib import resources
+
+    from rcmplan.scene.scenario import scenario_names
+
+    if source in scenario_names():
+        return resources.files("rcmplan.scenarios").joinpath(f"{source}.toml").read_text()
+    path = Path(source)
+    return path.read_text() if path.is_file() else None
 
 
 @contextlib.contextmanager
@@ -48,6 +81,7 @@ def progress(label: str, total: int | None = None) -> Iterator[Any]:
     except ImportError:
         yield lambda _phase: None
         return
+    tqdm.monitor_interval = 0  # no monitor thread: the figures may be drawn in forked processes
     bar = tqdm(
         total=total, desc=label, unit="phase", delay=1.0, file=sys.stderr, leave=False,
         disable=not sys.stderr.isatty(),
@@ -65,37 +99,24 @@ def progress(label: str, total: int | None = None) -> Iterator[Any]:
 
 def print_summary(result: RunResult) -> None:
     """A per-phase table of the run's figures."""
+    from rcmplan.analysis.report_html import PHASE_HEAD, phase_rows
+    from rcmplan.analysis.units import fmt
     from rcmplan.cli.robot import table
 
     s = result.summary()
-    rows = [
-        [
-            p["name"],
-            _um(p["max_rcm_deviation_m"]),
-            _um(p["rms_rcm_deviation_m"]),
-            _um(p["final_tip_error_m"]),
-            str(p["iterations"]),
-            f"{1e3 * p['wall_time_s']:.2f}",
-        ]
-        for p in s["phases"]
-    ]
-    head = [
-        "phase",
-        "max RCM dev [um]",
-        "RMS RCM dev [um]",
-        "tip error [um]",
-        "iterations",
-        "wall [ms]",
-    ]
+    print(f"scenario {s['scenario']}  procedure {s['procedure']}  method {s['method']}  "
+          f"plant {s['plant']}  status {one_line(s['status'])}")  # fmt: skip
+    print(table(list(PHASE_HEAD), phase_rows(s)))
     print(
-        f"scenario {s['scenario']}  method {s['method']}  plant {s['plant']}  status {s['status']}"
+        f"inside the eye: max RCM deviation {fmt(s['max_rcm_deviation_m'], 'um')} um, "
+        f"max tip error {fmt(s['max_tip_error_m'], 'um')} um; {s['iterations']:,} iterations, "
+        f"wall time {fmt(s['wall_time_s'], 'ms')} ms"
     )
-    print(table(head, rows))
-    print(
-        f"inside the eye: max RCM deviation {_um(s['max_rcm_deviation_m'])} um, "
-        f"max tip error {_um(s['max_tip_error_m'])} um; {s['iterations']} iterations, "
-        f"{1e3 * s['wall_time_s']:.1f} ms"
-    )
+
+
+def one_line(text: str) -> str:
+    """text with every run of whitespace (newlines too) as one space."""
+    return " ".join(str(text).split())
 
 
 def print_json(obj: Any) -> None:
@@ -103,7 +124,3 @@ def print_json(obj: Any) -> None:
     from rcmplan.analysis.report import jsonable
 
     print(json.dumps(jsonable(obj), indent=2))
-
-
-def _um(v: float | None) -> str:
-    return "-" if v is None else f"{v * 1e6:.4g}"

@@ -1,4 +1,10 @@
-"""`rcmplan compare`: the same procedure with every method, one table and one chart."""
+"""`rcmplan compare`: the same procedure with every method, one table and one chart.
+
+Every method is measured on the same execution path: the path is pinned for the whole
+comparison (`fast_cache.pinned`: compiled when numba is installed, else the reference code),
+and each method runs once untimed before its measured run, so no method pays for loading or
+compiling code that a later method then gets for free.
+"""
 
 from __future__ import annotations
 
@@ -7,81 +13,114 @@ import json
 import sys
 from typing import Any
 
-from rcmplan.cli.common import add_run_options, print_json, scenario_from_args
+from rcmplan.cli.common import add_run_options, one_line, print_json, scenario_from_args
 from rcmplan.control.methods import METHODS
 from rcmplan.exceptions import MissingExtraError
 from rcmplan.job import run_scenario
+from rcmplan.scene.scenario import Scenario
 
-COLUMNS = (
-    "method",
-    "status",
-    "max_rcm_deviation_m",
-    "max_tip_error_m",
-    "iterations",
-    "wall_time_s",
-)
+COLUMNS = ("method", "status", "max_rcm_deviation_m", "max_tip_error_m", "iterations",
+           "wall_time_s")  # fmt: skip
+HEAD = ["method", "max RCM dev. [um]", "max tip error [um]", "iterations", "wall [ms]",
+        "wall per iteration [us]", "path", "status"]  # fmt: skip
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `compare` subcommand."""
-    p = sub.add_parser("compare", help="run one procedure with every method and compare them")
-    add_run_options(p, "default")
-    p.add_argument("--methods", nargs="+", choices=METHODS, default=list(METHODS))
+    text = "run one procedure with every method and compare them"
+    p = sub.add_parser(
+        "compare", help=text,
+        description="Run the scenario's procedure once per method (--method, repeatable; all by "
+        "default) on one execution path, each after an untimed warm-up run; print and write "
+        "max RCM deviation, tip error, iterations and wall time (total and per iteration).",
+    )  # fmt: skip
+    add_run_options(p, "default", many_methods=True)
     p.set_defaults(run=run, out_default="rcmplan-out/compare")
 
 
-def compare_rows(args: argparse.Namespace) -> list[dict[str, Any]]:
-    """Run the scenario once per method; a method whose extra is missing is reported, not run."""
-    base = scenario_from_args(args)
+def execution_path(scenario: Scenario, pinned: str) -> str:
+    """ "compiled" if the pinned path is compiled and the method has a compiled kernel, else
+    "reference" (the QP, for one, always runs in Python)."""
+    from rcmplan.compiled.phase import method_code
+    from rcmplan.control.methods import make_solver
+    from rcmplan.robot.iramis import Iramis
+
+    if pinned != "on":
+        return "reference"
+    robot = Iramis()
+    solver = make_solver(scenario.method, scenario.method_settings, robot,
+                         eye=scenario.eye(robot), dt=scenario.dt)  # fmt: skip
+    return "compiled" if method_code(solver) is not None else "reference"
+
+
+def measure(scenario: Scenario, pinned: str) -> dict[str, Any]:
+    """One row: a warm-up run, then the measured run of the scenario's method."""
+    run_scenario(scenario)
+    s = run_scenario(scenario).summary()
+    row = {k: s[k] for k in COLUMNS}
+    row["execution_path"] = execution_path(scenario, pinned)
+    its = s["iterations"]
+    row["wall_time_per_iteration_s"] = s["wall_time_s"] / its if its else None
+    return row
+
+
+def compare_rows(args: argparse.Namespace) -> tuple[list[dict[str, Any]], str]:
+    """Run the scenario once per method on one pinned path; a method whose extra is missing is
+    reported, not run. Returns the rows and the path ("on": compiled, "off": reference)."""
+    from rcmplan.compiled import cache as fast_cache
+
+    base = scenario_from_args(argparse.Namespace(**{**vars(args), "method": None}))
     rows = []
-    for method in args.methods:
-        try:
-            result = run_scenario(base.with_method(method))
-        except MissingExtraError as exc:
-            rows.append({"method": method, "status": str(exc), "max_rcm_deviation_m": None,
-                         "max_tip_error_m": None, "iterations": 0, "wall_time_s": 0.0})  # fmt: skip
-            continue
-        s = result.summary()
-        rows.append({k: s[k] for k in COLUMNS})
-    return rows
+    with fast_cache.pinned() as path:
+        for method in args.method or METHODS:
+            try:
+                rows.append(measure(base.with_method(method), path))
+            except MissingExtraError as exc:
+                rows.append({"method": method, "status": f"MissingExtraError: {exc}",
+                             "max_rcm_deviation_m": None, "max_tip_error_m": None,
+                             "iterations": 0, "wall_time_s": None,
+                             "wall_time_per_iteration_s": None,
+                             "execution_path": None})  # fmt: skip
+    return rows, "compiled where a method has a kernel" if path == "on" else "reference"
+
+
+def print_table(rows: list[dict[str, Any]], path: str) -> None:
+    """The comparison as a text table."""
+    from rcmplan.analysis.units import fmt
+    from rcmplan.cli.robot import table
+
+    body = [
+        [r["method"], fmt(r["max_rcm_deviation_m"], "um"), fmt(r["max_tip_error_m"], "um"),
+         f"{r['iterations']:,}", fmt(r["wall_time_s"], "ms"),
+         fmt(r["wall_time_per_iteration_s"], "us"), r["execution_path"] or "-",
+         one_line(r["status"])[:60]]
+        for r in rows
+    ]  # fmt: skip
+    print(table(HEAD, body))
+    print(f"execution path pinned for every method: {path}; wall times from the second of "
+          "two runs in this process")  # fmt: skip
 
 
 def run(args: argparse.Namespace) -> int:
     """Print the comparison table; write compare.json and the chart."""
     from rcmplan.analysis.report import jsonable, prepare_folder
-    from rcmplan.cli.robot import table
 
     out = prepare_folder(args.out or args.out_default)
-    rows = compare_rows(args)
-    (out / "compare.json").write_text(json.dumps(jsonable(rows), indent=2))
+    rows, path = compare_rows(args)
+    doc = {"execution_path": path, "methods": rows}
+    (out / "compare.json").write_text(json.dumps(jsonable(doc), indent=2))
     if not args.no_plots:
-        from rcmplan.analysis.plots import method_comparison
+        from rcmplan.analysis.plots_compare import method_comparison
 
-        method_comparison([r for r in rows if r["status"] == "ok"], out / "compare.png")
+        method_comparison(rows, out / "compare.png")
     if args.json:
-        print_json(rows)
+        print_json(doc)
     else:
-        body = [
-            [r["method"], _um(r["max_rcm_deviation_m"]), _um(r["max_tip_error_m"]),
-             str(r["iterations"]), f"{1e3 * r['wall_time_s']:.1f}", r["status"][:60]]
-            for r in rows
-        ]  # fmt: skip
-        head = [
-            "method",
-            "max RCM dev [um]",
-            "max tip error [um]",
-            "iterations",
-            "wall [ms]",
-            "status",
-        ]
-        print(table(head, body))
+        print_table(rows, path)
         print(f"outputs in {out}/")
     failed = [r["method"] for r in rows if r["status"] != "ok"]
     if failed:
-        print(f"rcmplan compare: methods that did not finish: {failed}", file=sys.stderr)
+        print(f"rcmplan compare: methods that did not finish: {', '.join(failed)}",
+              file=sys.stderr)  # fmt: skip
         return 1
     return 0
-
-
-def _um(v: float | None) -> str:
-    return "-" if v is None else f"{v * 1e6:.4g}"

@@ -8,33 +8,69 @@ import sys
 
 from rcmplan.cli.common import (
     add_run_options,
+    one_line,
     print_json,
     print_summary,
     progress,
     scenario_from_args,
+    scenario_text,
 )
 from rcmplan.exceptions import RcmplanError
 from rcmplan.job import run_scenario
+from rcmplan.scene.scenario import Scenario
+
+COMMANDS = (
+    ("inject", "default", "injection", "the injection of thesis section 3.4 (the main job)"),
+    ("spiral", "spiral", "spiral", "an off-axis spiral traced by the tip in the eye (fig. 4.6)"),
+)
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `inject` and `spiral` subcommands."""
-    for name, scenario, text in (
-        ("inject", "default", "the injection of thesis section 3.4 (the main job)"),
-        ("spiral", "spiral", "an off-axis spiral traced by the tip inside the eye (fig. 4.6)"),
-    ):
-        p = sub.add_parser(name, help=text, description=f"Plan, simulate and measure {text}.")
+    for name, scenario, procedure, text in COMMANDS:
+        p = sub.add_parser(
+            name, help=text, description=f"Plan, simulate and measure {text}. A scenario that "
+            f"describes another procedure lends its eye, points, steps and controller.",
+        )  # fmt: skip
         add_run_options(p, scenario)
-        p.set_defaults(run=run, out_default=f"rcmplan-out/{name}")
+        if name == "inject":
+            add_tip_options(p)
+        p.set_defaults(run=run, out_default=f"rcmplan-out/{name}", procedure=procedure)
+
+
+def add_tip_options(p: argparse.ArgumentParser) -> None:
+    """--target X,Y,Z (repeatable) and --path FILE.csv, in mm in the eye frame."""
+    frame = ("eye frame: origin at the eye centre, z along the insertion axis from the trocar "
+             "through the centre, x horizontal (z x z_base), y = z x x")  # fmt: skip
+    p.add_argument("--target", action="append", metavar="X,Y,Z",
+                   help=f"a tip target in mm, visited from p3 (up to 4; {frame})")  # fmt: skip
+    p.add_argument("--path", metavar="FILE.csv",
+                   help=f"tip points in mm, rows x,y,z, followed from p3 ({frame})")  # fmt: skip
+
+
+def scenario_for(args: argparse.Namespace) -> Scenario:
+    """The scenario of the command line, with --target or --path applied."""
+    from rcmplan.cli import tip_input
+
+    targets = getattr(args, "target", None)
+    path = getattr(args, "path", None)
+    if targets and path:
+        raise RcmplanError("give --target or --path, not both")
+    sc = scenario_from_args(args, None if (targets or path) else args.procedure)
+    if targets:
+        return tip_input.with_targets(sc, [tip_input.parse_point(t) for t in targets])
+    if path:
+        return tip_input.with_path(sc, tip_input.read_path_csv(path))
+    return sc
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the scenario, write the outputs, print the summary; exit 1 if the run stopped early."""
-    from rcmplan.analysis.report import prepare_folder, write_outputs
+    from rcmplan.analysis.report import prepare_folder, summary_json, write_outputs
 
     out = prepare_folder(args.out or args.out_default)
     try:
-        scenario = scenario_from_args(args)
+        scenario = scenario_for(args)
     except RcmplanError as exc:
         status = f"{type(exc).__name__}: {exc}"
         (out / "summary.json").write_text(json.dumps({"scenario": args.scenario, "status": status}))
@@ -42,16 +78,19 @@ def run(args: argparse.Namespace) -> int:
     with progress(args.command) as tick:
         result = run_scenario(scenario, on_phase=tick)
     try:
-        write_outputs(result, out, figures=not args.no_plots)
+        write_outputs(
+            result, out, figures=not args.no_plots, scenario_text=scenario_text(args.scenario)
+        )
     except RcmplanError as exc:
         print(f"rcmplan {args.command}: could not write all outputs: {exc}", file=sys.stderr)
         return 2
     if args.json:
-        print_json(result.summary())
+        print_json(summary_json(result))
     else:
         print_summary(result)
         print(f"outputs in {out}/")
     if not result.ok:
-        print(f"rcmplan {args.command}: run stopped early: {result.status}", file=sys.stderr)
+        print(f"rcmplan {args.command}: run stopped early: {one_line(result.status)}",
+              file=sys.stderr)  # fmt: skip
         return 1
     return 0

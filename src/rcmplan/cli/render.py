@@ -16,22 +16,29 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.robot.iramis import Iramis
 from rcmplan.sim.mujoco.scene import EyePhantom, phantom_of
+from rcmplan.sim.registry import PLANTS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `render` subcommand."""
-    p = sub.add_parser("render", help="render the MuJoCo scene: snapshots and an animation")
+    p = sub.add_parser(
+        "render", help="render the MuJoCo scene: snapshots and an animation",
+        description="Render headless MuJoCo snapshots of the robot and the eye from both "
+        "cameras, and an animation of the scenario's run (or --demo) with the tip trace.",
+    )  # fmt: skip
     p.add_argument("--out", default="rcmplan-out/render", help="output folder")
     p.add_argument("--width", type=int, default=640, help="image width in pixels (640)")
     p.add_argument("--height", type=int, default=480, help="image height in pixels (480)")
-    p.add_argument("--camera", default="closeup", help="animation camera: closeup or overview")
+    p.add_argument("--camera", choices=("closeup", "overview"), default="closeup",
+                   help="animation camera (closeup)")  # fmt: skip
     p.add_argument("--frames", type=int, default=60, help="animation frames (60)")
     p.add_argument("--fps", type=float, default=20.0, help="animation frame rate (20)")
     p.add_argument(
         "--format", choices=("gif", "mp4"), default="gif", help="animation (mp4: `video` extra)"
     )
     p.add_argument("--scenario", default="default", help="scenario to animate (default)")
-    p.add_argument("--plant", default="kinematic", help="plant the scenario runs on (kinematic)")
+    p.add_argument("--plant", choices=sorted(PLANTS), default="kinematic",
+                   help="plant the scenario runs on (kinematic)")  # fmt: skip
     p.add_argument("--demo", action="store_true", help="animate a generated slider trajectory")
     p.set_defaults(run=run)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from dataclasses import asdict
 from typing import Any
 
 import numpy as np
@@ -13,7 +14,12 @@ from rcmplan.robot.iramis import JOINT_NAMES, SLIDER_NAMES, Iramis
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `robot` subcommand."""
-    p = sub.add_parser("robot", help="print the iRAM!S model: DH table, assumptions, home pose")
+    p = sub.add_parser(
+        "robot", help="print the iRAM!S model: DH table, assumptions, home pose",
+        description="Print the iRAM!S model: the standard-DH table of thesis Table 2.1, every "
+        "assumed parameter with its source, the home pose and the slider ranges.",
+    )  # fmt: skip
+    p.add_argument("--json", action="store_true", help="print the model as JSON (SI units)")
     p.set_defaults(run=run)
 
 
@@ -61,8 +67,44 @@ def describe(robot: Iramis) -> str:
     return "\n".join(out)
 
 
+def model_dict(robot: Iramis) -> dict[str, Any]:
+    """The model as JSON-ready data, SI units named in the keys."""
+    links = [
+        {"link": i + 1, "joint": lk.joint, "variable": JOINT_NAMES[i], "theta_rad": lk.theta,
+         "d_m": lk.d, "a_m": lk.a, "alpha_rad": lk.alpha}
+        for i, lk in enumerate(robot.dh_links())
+    ]  # fmt: skip
+    sliders = [_slider(robot, i, n) for i, n in enumerate(SLIDER_NAMES)]
+    q = robot.home
+    return {
+        "dh_links": links,
+        "assumptions": [asdict(a) for a in robot.assumptions()],
+        "home_joints": q.tolist(),
+        "home_tip_m": robot.tip(q).tolist(),
+        "home_needle_axis": robot.needle_axis(q).tolist(),
+        "home_singularity_measure": float(robot.singularity_measure(q)),
+        "sliders": sliders,
+        "units": {"home_joints": "m for q0, q2, q4; rad for q1, q3, q5",
+                  "home_needle_axis": "unit vector, base frame",
+                  "home_singularity_measure": "min(|cos q1|, |cos q3|), dimensionless"},
+    }  # fmt: skip
+
+
+def _slider(robot: Iramis, i: int, name: str) -> dict[str, Any]:
+    unit = "rad" if name == "q5" else "m"
+    return {"slider": name, f"lower_{unit}": float(robot.lower[i]),
+            f"upper_{unit}": float(robot.upper[i]),
+            f"speed_{unit}_per_s": float(robot.speed[i])}  # fmt: skip
+
+
 def run(args: argparse.Namespace) -> int:
-    """Print the model."""
+    """Print the model (as JSON with --json)."""
+    robot = Iramis()
+    if args.json:
+        from rcmplan.cli.common import print_json
+
+        print_json(model_dict(robot))
+        return 0
     np.set_printoptions(suppress=True)
-    print(describe(Iramis()))
+    print(describe(robot))
     return 0

@@ -10,6 +10,7 @@ import argparse
 import contextlib
 import json
 import math
+import shutil
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -59,6 +60,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--checkpoint", metavar="PATH", help="checkpoint folder (OUT/checkpoint)")
     p.add_argument("--resume", action="store_true", help="continue an existing checkpoint")
+    p.add_argument("--overwrite", action="store_true",
+                   help="discard an existing checkpoint of any settings, start afresh")  # fmt: skip
     p.add_argument(
         "--gain-search",
         choices=("none", "grid", "optimize"),
@@ -187,15 +190,36 @@ def print_tables(s: dict[str, Any], gains: GainSearchResult | None) -> None:
             print("no candidate met the constraints")
 
 
+def open_checkpoint(path: Path, settings: SweepSettings, args: argparse.Namespace) -> Checkpoint:
+    """Open the checkpoint: --overwrite discards an old one first; without --resume or
+    --overwrite, an old checkpoint of other settings or with results is a clear error."""
+    from rcmplan.sweep.checkpoint import HEADER, Checkpoint
+    from rcmplan.sweep.errors import CheckpointError
+
+    if args.resume and args.overwrite:
+        raise CheckpointError(path, "--resume and --overwrite exclude each other")
+    if args.overwrite and path.exists():
+        if path.is_dir() and not any(path.iterdir()):
+            pass
+        elif not (path / HEADER).is_file():
+            raise CheckpointError(path, "is not a checkpoint folder (no header.json); not removed")
+        else:
+            shutil.rmtree(path)
+    try:
+        return Checkpoint.open(path, settings, args.resume)
+    except CheckpointError as exc:
+        hint = "" if args.resume else "; or rerun with --overwrite to discard it"
+        raise CheckpointError(exc.path, exc.problem + hint) from exc
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the sweep (and the gain search), write the outputs, print the tables."""
     from rcmplan.analysis.report import prepare_folder
-    from rcmplan.sweep.checkpoint import Checkpoint
     from rcmplan.sweep.executors import make_executor
 
     out = prepare_folder(args.out)
     settings = settings_from_args(args)
-    checkpoint = Checkpoint.open(args.checkpoint or out / "checkpoint", settings, args.resume)
+    checkpoint = open_checkpoint(Path(args.checkpoint or out / "checkpoint"), settings, args)
     try:
         with make_executor(args.workers, args.scheduler, args.timeout) as executor:
             result = run_main(args, settings, checkpoint, executor)

@@ -180,7 +180,7 @@ class SerialArm:
         if bad.any():
             i = int(np.flatnonzero(bad)[0])
             raise SliderLimitError(i, self.joint_names[i], float(s[i]), self.lower[i],
-                                   self.upper[i], kind="joint")  # fmt: skip
+                                   self.upper[i], "joint", self.actuator_units[i])  # fmt: skip
         return s
 
     def actuator_margin(self, s: FloatArray) -> FloatArray:

@@ -56,7 +56,8 @@ def summary(result: SweepResult) -> dict[str, Any]:
         "tip_error_m": _stats([r.tip_error_m for r in ok if r.tip_error_m is not None]),
         "wall_time_s": result.wall_time_s,
         "compute_time_s": sum(r.wall_time_s for r in rs),
-        "targets_per_s": fresh / result.wall_time_s if result.wall_time_s > 0 else None,
+        "targets_run_now": fresh,
+        "targets_per_s": fresh / result.wall_time_s if fresh and result.wall_time_s > 0 else None,
     }
 
 
@@ -74,7 +75,8 @@ def summary_rows(s: dict[str, Any]) -> list[list[str]]:
          f"{_g(dev['median'], UM)} / {_g(dev['p95'], UM)} / {_g(dev['max'], UM)}", "um"],
         ["final tip error (max)", _g(tip["max"], UM), "um"],
         ["wall time", f"{s['wall_time_s']:.2f}", "s"],
-        ["targets per second (this run)", _g(s["targets_per_s"]), "1/s"],
+        ["targets per second (this run)", _g(s["targets_per_s"]) if s["targets_per_s"]
+         else "- (every target came from the checkpoint)", "1/s"],
         ["executor", s["executor"], ""],
     ]  # fmt: skip
 

@@ -1,0 +1,51 @@
+"""Draw independent figures at the same time in forked processes (POSIX), else one by one.
+
+Matplotlib draws on one core; a run's figures are independent, so on a machine with two or
+more cores they can be drawn side by side. A child process inherits the imported matplotlib
+(fork, no new interpreter) and only writes its PNG file. Forking is used only when the process
+runs a single thread (forking a threaded process can deadlock) and more than one core exists.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+from rcmplan.exceptions import RcmplanError
+
+Job = tuple[Path, Callable[[], object]]  # the file a job writes, and the job
+
+
+def can_fork() -> bool:
+    """True on POSIX with more than one core and no other thread in this process."""
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return hasattr(os, "fork") and (cores or 1) > 1 and threading.active_count() == 1
+
+
+def run_jobs(jobs: Sequence[Job]) -> list[Path]:
+    """Run every job and return the paths they wrote: the first job in this process, the
+    others in forked children. Raises RcmplanError naming the files whose child failed."""
+    if len(jobs) < 2 or not can_fork():
+        for _, job in jobs:
+            job()
+        return [path for path, _ in jobs]
+    children = [(_fork(job), path) for path, job in jobs[1:]]
+    jobs[0][1]()
+    failed = [str(path) for pid, path in children if os.waitpid(pid, 0)[1] != 0]
+    if failed:
+        raise RcmplanError(f"drawing {', '.join(failed)} failed (see the messages above)")
+    return [path for path, _ in jobs]
+
+
+def _fork(job: Callable[[], object]) -> int:
+    pid = os.fork()
+    if pid == 0:  # child: draw, then leave without running the parent's exit handlers
+        code = 1
+        try:
+            job()
+            code = 0
+        finally:
+            os._exit(code)
+    return pid

@@ -1,0 +1,137 @@
+"""Tip targets given on the command line: `--target X,Y,Z` and `--path FILE.csv`, in mm.
+
+Both are in the eye frame: origin at the eye centre, z along the insertion axis (from the
+trocar through the eye centre), x = z x z_base / |z x z_base| (horizontal in the robot base
+frame), y = z x x. It is the trocar frame (e1, e2, n) of the figures, moved to the eye centre.
+With the default eye the trocar lies at (0, 0, -12) mm and the retina is the sphere of radius
+11 mm about the origin.
+
+`--target` (up to four, visited in order from p3 like the injection's p4..p7) runs the
+injection with these points; `--path` runs approach, align, insert, a straight move to the
+path's first point, the path, back to p3, retract and withdraw.
+"""
+
+from __future__ import annotations
+
+import csv
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.loop import Phase
+from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.model import RobotModel
+from rcmplan.robot.registry import make_robot
+from rcmplan.scene.eye import Eye
+from rcmplan.scene.procedures import (
+    align_phase,
+    approach_phase,
+    check_inside,
+    line_targets,
+    path_targets,
+)
+from rcmplan.scene.scenario import Scenario
+
+MM = 1e-3
+SLOTS = ("p4", "p5", "p6", "p7")
+
+
+def eye_frame(eye: Eye) -> FloatArray:
+    """Rotation (3, 3) whose columns are the eye frame's x, y, z in the base frame."""
+    z = eye.axis
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def to_base(eye: Eye, points_eye_mm: FloatArray) -> FloatArray:
+    """Points (N, 3) in mm in the eye frame -> points (N, 3) in m in the robot base frame."""
+    return eye.center + (np.asarray(points_eye_mm, dtype=float) * MM) @ eye_frame(eye).T
+
+
+def parse_point(text: str) -> tuple[float, float, float]:
+    """ "X,Y,Z" (mm) -> a tuple; InvalidInputError naming the expected form otherwise."""
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not np.all(np.isfinite(values)):
+        raise InvalidInputError("--target", text, "three finite numbers in mm: X,Y,Z")
+    return (values[0], values[1], values[2])
+
+
+def read_path_csv(path: str | Path) -> FloatArray:
+    """Tip points (N, 3) in mm from a CSV of rows x,y,z (an optional header row is skipped)."""
+    try:
+        with open(path, newline="") as fh:
+            rows = [r for r in csv.reader(fh) if r and not r[0].lstrip().startswith("#")]
+    except OSError as exc:
+        raise InvalidInputError("--path", str(path), f"a readable CSV file ({exc})") from exc
+    if rows and not _numeric(rows[0]):
+        rows = rows[1:]
+    bad = [i for i, r in enumerate(rows) if len(r) != 3 or not _numeric(r)]
+    if bad or len(rows) < 2:
+        raise InvalidInputError("--path", str(path), "at least 2 rows of three numbers x,y,z "
+                                f"in mm (bad rows: {bad[:5]})")  # fmt: skip
+    return np.array([[float(v) for v in r] for r in rows])
+
+
+def _numeric(row: list[str]) -> bool:
+    try:
+        return all(np.isfinite(float(v)) for v in row)
+    except ValueError:
+        return False
+
+
+def with_targets(sc: Scenario, targets_eye_mm: list[tuple[float, float, float]]) -> Scenario:
+    """The scenario's injection visiting the given eye-frame points (mm) instead of p4..p7."""
+    if not 1 <= len(targets_eye_mm) <= len(SLOTS):
+        raise InvalidInputError("--target", len(targets_eye_mm), "1 to 4 targets")
+    eye = sc.eye(make_robot(sc.robot))
+    base = to_base(eye, np.array(targets_eye_mm))
+    overrides = dict(sc.point_overrides)
+    overrides.update({s: tuple(p) for s, p in zip(SLOTS, base, strict=False)})
+    return replace(sc, procedure="injection", point_overrides=overrides,
+                   visits=SLOTS[: len(targets_eye_mm)])  # fmt: skip
+
+
+@dataclass(frozen=True)
+class PathScenario(Scenario):
+    """A scenario whose procedure follows a given tip path (base frame, m) from p3."""
+
+    path_m: tuple[tuple[float, float, float], ...] = ()
+
+    def phases(self, robot: RobotModel) -> list[Phase]:
+        """Approach, align, insert, to the path, the path, back to p3, retract, withdraw."""
+        eye = self.eye(robot)
+        pts = self.points(eye)
+        path = np.array(self.path_m)
+        for i, p in enumerate(path):
+            check_inside(eye, f"path point {i}", p)
+        c, steps = eye.port, self.steps
+        targets = path_targets(path, c, steps)
+        for t in targets[:: max(1, len(targets) // 24)]:
+            solve_pose(robot, t)
+        solve_pose(robot, rcm_target(path[-1], c))
+        return [
+            approach_phase(robot, pts.p2, steps), align_phase(robot, eye, steps),
+            Phase("insert", line_targets(pts.p2, pts.p3, c, steps)),
+            Phase("to-path", line_targets(pts.p3, path[0], c, steps)),
+            Phase("path", targets),
+            Phase("from-path", line_targets(path[-1], pts.p3, c, steps)),
+            Phase("retract", line_targets(pts.p3, pts.p2, c, steps)),
+            approach_phase(robot, pts.p1, steps, name="withdraw"),
+        ]  # fmt: skip
+
+
+def with_path(sc: Scenario, path_eye_mm: FloatArray) -> PathScenario:
+    """The scenario following the given eye-frame tip path (mm) from p3."""
+    eye = sc.eye(make_robot(sc.robot))
+    base = to_base(eye, path_eye_mm)
+    fields = {f: getattr(sc, f) for f in sc.__dataclass_fields__}
+    fields["procedure"] = "path"
+    points = tuple((float(p[0]), float(p[1]), float(p[2])) for p in base)
+    return PathScenario(**fields, path_m=points)
