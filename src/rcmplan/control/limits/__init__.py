@@ -1,0 +1,25 @@
+"""Limits: each gives linear rows over one control step's QP variables x (`base.py`).
+
+`ActuatorLimit` gives variable bounds (travel and speed, lambda in [0, 1]); `RcmLimit`,
+`RetinaBarrier` and `SingularMargin` give inequality rows G x <= h (the RCM, with tolerance 0,
+an equality A x = b). The QP (`rcmplan.control.qp_problem`) is assembled from them.
+"""
+
+from rcmplan.control.limits.actuators import ActuatorLimit
+from rcmplan.control.limits.base import Constraint, Kinematics, Limit, StepInput, kinematics
+from rcmplan.control.limits.rcm import RcmLimit
+from rcmplan.control.limits.retina import RetinaBarrier, is_contact
+from rcmplan.control.limits.singular import SingularMargin
+
+__all__ = [
+    "ActuatorLimit",
+    "Constraint",
+    "Kinematics",
+    "Limit",
+    "RcmLimit",
+    "RetinaBarrier",
+    "SingularMargin",
+    "StepInput",
+    "is_contact",
+    "kinematics",
+]

@@ -1,0 +1,114 @@
+"""What every limit reads: the step's input, the state's shared kinematics, and the row types.
+
+QP variables x = (ds[active], l dlambda) / SCALE: actuator increments of the active joints and
+the RCM's move along the needle, in micrometres or microradians (qp_problem.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple, Protocol
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.qp_limits import QpLimits
+from rcmplan.robot.model import RobotModel
+from rcmplan.scene.eye import Eye
+
+SCALE = 1e-6  # [m] or [rad] per unit of the decision variables
+RECOVERY = 1e-6  # [m] largest push back per step when a damped quantity is past its floor
+
+
+@dataclass(frozen=True)
+class StepInput:
+    """State and settings of one step: joints q (n,), lambda, X_ext target and error (6,),
+    gains K (6,), damping D, control period dt in [s], eye (or None) and the limits."""
+
+    q: FloatArray
+    lam: float
+    target: FloatArray
+    error: FloatArray
+    K: FloatArray
+    damping: float
+    dt: float
+    eye: Eye | None
+    limits: QpLimits
+
+
+class Kinematics(NamedTuple):
+    """Quantities of one state shared by the QP rows, computed once.
+
+    Attributes:
+        s: Actuators (n,). T: d(q[active], lambda)/d(s[active], l lambda) (m + 1, m + 1).
+        J_tip, J_rcm: d p / d(q[active], lambda) (3, m + 1) of the tip and of p(lambda).
+        tip, rcm: Tip and RCM point (3,) in [m]. axis: Unit needle axis (3,).
+    """
+
+    s: FloatArray
+    T: FloatArray
+    J_tip: FloatArray
+    J_rcm: FloatArray
+    tip: FloatArray
+    rcm: FloatArray
+    axis: FloatArray
+
+
+class Constraint(NamedTuple):
+    """Rows G x <= h (or G x = h when `equality`), x in QP units."""
+
+    G: FloatArray
+    h: FloatArray
+    equality: bool = False
+
+
+class Limit(Protocol):
+    """A limit on one control step."""
+
+    def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
+        """Its rows at this state."""
+        ...
+
+
+def variable_map(robot: RobotModel, q: FloatArray) -> FloatArray:
+    """T = d(q[active], lambda) / d(s[active], l lambda), (m + 1, m + 1): the actuator map's
+    dq/ds on the active joints (iRAM!S: eqs. 2.1, 2.2) and 1 / l for lambda."""
+    active = list(robot.active)
+    m = len(active)
+    T = np.zeros((m + 1, m + 1))
+    T[:m, :m] = robot.joint_rates(q)[np.ix_(active, active)]
+    T[m, m] = 1.0 / robot.needle_length
+    return T
+
+
+def kinematics(robot: RobotModel, q: FloatArray, lam: float) -> Kinematics:
+    """The shared quantities at (q, lambda)."""
+    J_tip = robot.needle_point_jacobian(q, 1.0)
+    J_tip[:, -1] = 0.0
+    return Kinematics(
+        robot.actuators_from_joints(q),
+        variable_map(robot, q),
+        J_tip,
+        robot.needle_point_jacobian(q, lam),
+        robot.needle_point(q, 1.0),
+        robot.needle_point(q, lam),
+        robot.needle_axis(q),
+    )
+
+
+def no_rows(kin: Kinematics) -> Constraint:
+    """A limit that holds nothing at this state."""
+    return Constraint(np.zeros((0, kin.T.shape[1])), np.zeros(0))
+
+
+def damper_row(
+    grad: FloatArray, value: float, floor: float, gain: float
+) -> tuple[FloatArray, float]:
+    """One velocity-damper row G x <= h for value + grad x SCALE >= floor, approached at `gain`.
+
+    value_next - floor >= (1 - gain)(value - floor) to first order; past the floor, the state
+    must not get worse and recovers by up to RECOVERY per step.
+    """
+    gap = value - floor
+    need = -gain * gap if gap >= 0.0 else min(-gain * gap, RECOVERY)
+    return -grad, -need / SCALE

@@ -1,0 +1,108 @@
+"""Limit objects: every row is the exact gradient of its quantity, on every shipped robot."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from fd import fd_jacobian
+
+from rcmplan.control.limits import (
+    ActuatorLimit,
+    RcmLimit,
+    RetinaBarrier,
+    SingularMargin,
+    StepInput,
+    kinematics,
+)
+from rcmplan.control.limits.base import SCALE
+from rcmplan.control.limits.rcm import normal_basis
+from rcmplan.control.qp_limits import QpLimits
+from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.robot.registry import make_robot
+from rcmplan.scene.eye import default_eye, default_points
+
+
+@pytest.fixture(scope="module", params=["iramis", "ur5", "panda"])
+def state(request: pytest.FixtureRequest):
+    robot = make_robot(request.param)
+    eye = default_eye(robot)
+    target = rcm_target(default_points(eye).p4, eye.port)
+    pose = solve_pose(robot, target)
+    inp = StepInput(pose.q, pose.lam, target, np.zeros(6), np.ones(6), 1e-4, 1e-3, eye,
+                    QpLimits(rcm_tolerance=0.5e-6))  # fmt: skip
+    return robot, inp
+
+
+def moved(robot, inp: StepInput, x: np.ndarray) -> tuple[np.ndarray, float]:
+    """Joints and lambda after the step x (QP units) from the state."""
+    active = list(robot.active)
+    s = robot.actuators_from_joints(inp.q)
+    s[active] += x[:-1] * SCALE
+    return robot.joints_from_actuators(s), inp.lam + x[-1] * SCALE / robot.needle_length
+
+
+def test_rcm_rows_are_the_gradient_of_the_normal_offset(state) -> None:
+    robot, inp = state
+    kin = kinematics(robot, inp.q, inp.lam)
+    N = normal_basis(kin.axis)
+
+    def offset(x: np.ndarray) -> np.ndarray:
+        q, lam = moved(robot, inp, x)
+        return N @ (robot.needle_point(q, lam) - inp.target[3:]) / SCALE
+
+    G = RcmLimit().constraint(robot, inp, kin).G
+    assert G[:2] == pytest.approx(fd_jacobian(offset, np.zeros(kin.T.shape[1]), 1e-3), abs=1e-6)
+    assert G[2:] == pytest.approx(-G[:2], abs=0.0)
+
+
+def test_retina_row_is_the_gradient_of_the_distance_to_the_retina(state) -> None:
+    robot, inp = state
+    kin = kinematics(robot, inp.q, inp.lam)
+    assert inp.eye is not None
+
+    def distance(x: np.ndarray) -> np.ndarray:
+        q, _ = moved(robot, inp, x)
+        return np.array([inp.eye.distance_to_retina(robot.tip(q)) / SCALE])
+
+    G = RetinaBarrier().constraint(robot, inp, kin).G
+    assert G.shape[0] == 1
+    assert -G == pytest.approx(fd_jacobian(distance, np.zeros(kin.T.shape[1]), 1e-3), abs=1e-6)
+
+
+def test_singular_rows_are_the_gradients_of_the_singular_terms(state) -> None:
+    robot, inp = state
+    kin = kinematics(robot, inp.q, inp.lam)
+
+    def terms(x: np.ndarray) -> np.ndarray:
+        q, _ = moved(robot, inp, x)
+        return robot.singular_terms(q)[0] / SCALE
+
+    G = SingularMargin().constraint(robot, inp, kin).G
+    fd = fd_jacobian(terms, np.zeros(kin.T.shape[1]), 1e-2)
+    assert -G == pytest.approx(fd, abs=1e-5 * max(1.0, float(np.abs(fd).max())))
+
+
+def test_actuator_bounds_keep_every_actuator_within_speed_and_travel(state) -> None:
+    robot, inp = state
+    kin = kinematics(robot, inp.q, inp.lam)
+    lb, ub = ActuatorLimit().bounds(robot, inp, kin)
+    active = list(robot.active)
+    speed = robot.speed[active] * inp.dt / SCALE
+    assert np.all(ub[:-1] <= speed + 1e-9)
+    assert np.all(lb[:-1] >= -speed - 1e-9)
+    for x in (lb, ub):
+        q, lam = moved(robot, inp, x)
+        s = robot.actuators_from_joints(q)
+        assert np.all(s >= robot.lower - 1e-12)
+        assert np.all(s <= robot.upper + 1e-12)
+        assert -1e-12 <= lam <= 1.0 + 1e-12
+
+
+def test_an_rcm_tolerance_of_zero_makes_the_rcm_an_equality(state) -> None:
+    robot, inp = state
+    from dataclasses import replace
+
+    strict = replace(inp, limits=QpLimits(rcm_tolerance=0.0))
+    c = RcmLimit().constraint(robot, strict, kinematics(robot, inp.q, inp.lam))
+    assert c.equality
+    assert c.G.shape[0] == 2
