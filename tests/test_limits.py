@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from fd import fd_jacobian
 
+from fd import fd_jacobian
 from rcmplan.control.limits import (
     ActuatorLimit,
     RcmLimit,
@@ -66,7 +66,7 @@ def test_retina_row_is_the_gradient_of_the_distance_to_the_retina(state) -> None
 
     G = RetinaBarrier().constraint(robot, inp, kin).G
     assert G.shape[0] == 1
-    assert -G == pytest.approx(fd_jacobian(distance, np.zeros(kin.T.shape[1]), 1e-3), abs=1e-6)
+    assert pytest.approx(fd_jacobian(distance, np.zeros(kin.T.shape[1]), 1e-3), abs=1e-6) == -G
 
 
 def test_singular_rows_are_the_gradients_of_the_singular_terms(state) -> None:
@@ -79,7 +79,7 @@ def test_singular_rows_are_the_gradients_of_the_singular_terms(state) -> None:
 
     G = SingularMargin().constraint(robot, inp, kin).G
     fd = fd_jacobian(terms, np.zeros(kin.T.shape[1]), 1e-2)
-    assert -G == pytest.approx(fd, abs=1e-5 * max(1.0, float(np.abs(fd).max())))
+    assert pytest.approx(fd, abs=1e-5 * max(1.0, float(np.abs(fd).max()))) == -G
 
 
 def test_actuator_bounds_keep_every_actuator_within_speed_and_travel(state) -> None:
