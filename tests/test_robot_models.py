@@ -164,3 +164,26 @@ def test_a_needle_arm_points_its_needle_along_minus_x_at_home() -> None:
     axis = placed.needle_axis(placed.home)
     assert axis[0] < -0.99
     assert abs(axis[1]) < 1e-12
+
+
+def test_robot_list_names_every_robot(capsys: pytest.CaptureFixture[str]) -> None:
+    from rcmplan.cli import main
+
+    assert main(["robot", "--list", "--json"]) == 0
+    import json
+
+    names = [r["name"] for r in json.loads(capsys.readouterr().out)["robots"]]
+    assert names == ["iramis", "ur5", "panda"]
+
+
+def test_inject_with_robot_writes_the_robot_into_the_summary(tmp_path, capsys) -> None:
+    import json
+
+    from rcmplan.cli import main
+
+    code = main(["inject", "--robot", "ur5", "--scenario", "ur5", "--no-plots", "--json",
+                 "--out", str(tmp_path)])  # fmt: skip
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert code == 0
+    assert summary["robot"] == "ur5"
+    assert json.loads(capsys.readouterr().out)["robot"] == "ur5"

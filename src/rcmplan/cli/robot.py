@@ -10,15 +10,21 @@ from typing import Any
 import numpy as np
 
 from rcmplan.robot.iramis import JOINT_NAMES, SLIDER_NAMES, Iramis
+from rcmplan.robot.model import RobotModel
+from rcmplan.robot.registry import DEFAULT_ROBOT, ROBOTS, make_robot
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `robot` subcommand."""
     p = sub.add_parser(
-        "robot", help="print the iRAM!S model: DH table, assumptions, home pose",
-        description="Print the iRAM!S model: the standard-DH table of thesis Table 2.1, every "
-        "assumed parameter with its source, the home pose and the slider ranges.",
+        "robot", help="print a robot model: joints, limits, home pose (--list: every robot)",
+        description="Print a robot model. iRAM!S: the standard-DH table of thesis Table 2.1, "
+        "every assumed parameter with its source, the home pose and the slider ranges; an arm: "
+        "its joints from its model file, their limits, the needle and the home pose.",
     )  # fmt: skip
+    p.add_argument("--robot", choices=tuple(ROBOTS), default=DEFAULT_ROBOT,
+                   help=f"the robot to print ({DEFAULT_ROBOT})")  # fmt: skip
+    p.add_argument("--list", action="store_true", help="name every available robot and stop")
     p.add_argument("--json", action="store_true", help="print the model as JSON (SI units)")
     p.set_defaults(run=run)
 
@@ -97,14 +103,55 @@ def _slider(robot: Iramis, i: int, name: str) -> dict[str, Any]:
             f"speed_{unit}_per_s": float(robot.speed[i])}  # fmt: skip
 
 
-def run(args: argparse.Namespace) -> int:
-    """Print the model (as JSON with --json)."""
-    robot = Iramis()
-    if args.json:
-        from rcmplan.cli.common import print_json
+def describe_arm(robot: RobotModel) -> str:
+    """Any robot model as text: joints with limits and speeds, needle, home pose."""
+    rows = []
+    for i, name in enumerate(robot.actuator_names):
+        unit = robot.actuator_units[i]
+        held = "" if i in robot.active else " (needle roll, held)"
+        rows.append([name + held, f"{robot.lower[i]:.4g}", f"{robot.upper[i]:.4g}",
+                     f"{robot.speed[i]:.4g}", unit])  # fmt: skip
+    q = robot.home
+    return "\n".join([
+        f"{robot.name}: {ROBOTS.get(robot.name, '')}", "",
+        table(["joint", "lower", "upper", "speed /s", "unit"], rows), "",
+        f"needle length: {1e3 * robot.needle_length:g} mm",
+        "home pose: q = (" + ", ".join(f"{v:.4g}" for v in q) + ")",
+        "tip at home [mm]: (" + ", ".join(f"{1e3 * v:.3f}" for v in robot.tip(q)) + ")",
+        "needle axis at home: (" + ", ".join(f"{v:+.4f}" for v in robot.needle_axis(q)) + ")",
+        f"singularity measure at home: {robot.singularity_measure(q):.3f} "
+        f"(threshold {robot.singular_threshold:g})",
+    ])  # fmt: skip
 
-        print_json(model_dict(robot))
+
+def arm_dict(robot: RobotModel) -> dict[str, Any]:
+    """Any robot model as JSON-ready data, SI units named in the keys."""
+    q = robot.home
+    joints = [{"joint": n, "unit": u, "lower": float(robot.lower[i]),
+               "upper": float(robot.upper[i]), "speed_per_s": float(robot.speed[i]),
+               "moved_by_controller": i in robot.active}
+              for i, (n, u) in enumerate(zip(robot.actuator_names, robot.actuator_units,
+                                             strict=True))]  # fmt: skip
+    return {"robot": robot.name, "joints": joints, "needle_length_m": robot.needle_length,
+            "home_joints": q.tolist(), "home_tip_m": robot.tip(q).tolist(),
+            "home_needle_axis": robot.needle_axis(q).tolist(),
+            "home_singularity_measure": float(robot.singularity_measure(q))}  # fmt: skip
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the model (as JSON with --json), or the robots with --list."""
+    from rcmplan.cli.common import print_json
+
+    if args.list:
+        if args.json:
+            print_json({"robots": [{"name": n, "description": d} for n, d in ROBOTS.items()]})
+        else:
+            print(table(["robot", "description"], [[n, d] for n, d in ROBOTS.items()]))
+        return 0
+    robot = make_robot(args.robot)
+    if args.json:
+        print_json(model_dict(robot) if isinstance(robot, Iramis) else arm_dict(robot))
         return 0
     np.set_printoptions(suppress=True)
-    print(describe(robot))
+    print(describe(robot) if isinstance(robot, Iramis) else describe_arm(robot))
     return 0
