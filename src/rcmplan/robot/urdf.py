@@ -15,6 +15,7 @@ from collections.abc import Sequence
 from os import PathLike
 from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree
 
 import numpy as np
 
@@ -80,6 +81,10 @@ def _read(path: str | PathLike[str]) -> Any:
     yourdfpy = require_extra("yourdfpy", "robots")
     if not Path(path).is_file():
         raise ModelFileError(path, "no such file")
+    try:  # yourdfpy recovers from broken XML with a partial model: refuse that first
+        ElementTree.parse(path)
+    except ElementTree.ParseError as exc:
+        raise ModelFileError(path, f"malformed XML: {exc}") from exc
     try:
         urdf = yourdfpy.URDF.load(
             str(path),
