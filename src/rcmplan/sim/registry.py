@@ -1,6 +1,9 @@
 """Plants by name, so commands and scenario files can say `--plant mujoco`.
 
 Optional plants are imported on first use; a missing extra raises MissingExtraError.
+A name can stand for another plant on a serial arm: a robot whose `chain` is a `JointChain`
+driven joint by joint (`SerialArm`) takes its plant from `SERIAL_PLANTS` where that table names
+one; iRAM!S (its `chain` is a method giving its DH table; its actuators are sliders) does not.
 """
 
 from __future__ import annotations
@@ -10,6 +13,7 @@ import inspect
 from typing import Any
 
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.chain import JointChain
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.sim.plant import Plant
@@ -19,6 +23,10 @@ PLANTS: dict[str, tuple[str, str, dict[str, Any]]] = {
     "kinematic": ("rcmplan.sim.kinematic", "KinematicPlant", {}),
     "mujoco": ("rcmplan.sim.mujoco.plant", "MujocoPlant", {"mode": "dynamic"}),
     "mujoco-kinematic": ("rcmplan.sim.mujoco.plant", "MujocoPlant", {"mode": "kinematic"}),
+}
+SERIAL_PLANTS: dict[str, tuple[str, str, dict[str, Any]]] = {
+    "mujoco": ("rcmplan.sim.mujoco.arm_plant", "ArmPlant", {"mode": "dynamic"}),
+    "mujoco-kinematic": ("rcmplan.sim.mujoco.arm_plant", "ArmPlant", {"mode": "kinematic"}),
 }
 
 
@@ -34,9 +42,11 @@ def make_plant(
     """
     if name not in PLANTS:
         raise InvalidInputError("plant", name, f"one of {sorted(PLANTS)}")
-    module, attr, defaults = PLANTS[name]
+    robot = robot or Iramis()
+    serial = isinstance(getattr(robot, "chain", None), JointChain) and name in SERIAL_PLANTS
+    module, attr, defaults = SERIAL_PLANTS[name] if serial else PLANTS[name]
     factory = getattr(importlib.import_module(module), attr)
     takes = inspect.signature(factory).parameters
     extra = {k: v for k, v in (scene or {}).items() if k in takes}
-    plant: Plant = factory(robot=robot or Iramis(), **{**defaults, **extra, **kwargs})
+    plant: Plant = factory(robot=robot, **{**defaults, **extra, **kwargs})
     return plant
