@@ -9,7 +9,8 @@ Masses: the shipped arms (`robot.library`) take each link's inertial from their 
 by MuJoCo's own URDF import with every <visual> and <collision> element removed (no meshes at
 all: the physics needs none, and MuJoCo cannot read the .dae visuals); links fused by MuJoCo
 into a moving link come with it, bodies off the chain (Panda's fingers) are dropped. Any other
-arm (DH, MJCF) gets `DEFAULT_LINK` on every body. Every body carries `gravcomp` 1.
+arm (DH, MJCF) gets `DEFAULT_LINK` on every body. Every body carries `gravcomp` 1. The needle's
+own mass (some 30 mg of steel) is left out: each body's inertial is stated explicitly.
 
 Actuators per joint, both fed the reference velocity v [rad/s or m/s] of the period:
 `servo_<joint>` (intvelocity: its state is the reference r, integrated from v and clamped to
@@ -35,7 +36,6 @@ from rcmplan.sim.mujoco.frames import quat_from_matrix
 from rcmplan.sim.mujoco.scene import TROCAR_RADIUS, EyePhantom
 
 NEEDLE_RADIUS = 0.15e-3  # [m], a 30 G needle (0.31 mm outer diameter)
-NEEDLE_DENSITY = 7850.0  # [kg/m^3], steel
 DEFAULT_LINK = (1.0, 1e-2)  # (mass [kg], principal inertia [kg m^2]) of a link without a URDF
 
 
@@ -47,9 +47,11 @@ class ServoOptions:
     inertia at home, armature included): kp = I_j w^2 [N m/rad or N/m], kv = 2 zeta I_j w
     [N m s/rad or N s/m], w = 2 pi bandwidth. Every joint then has the same normalised response,
     so lagging joints lag in proportion and the needle stays near its line (synchronised
-    motion). The bandwidth is high (a lag of about 2% of a period's step at the end of a 1 ms
-    period at 1 kHz) because the RCM target is 10 um at a lever of about 0.5 m; w physics_dt
-    stays below 1 so that the explicit stiffness term is stable (damping is implicit).
+    motion). The bandwidth is high because the RCM target is 10 um at a lever of about 0.5 m:
+    at 1 kHz a critically damped servo that follows a ramp lags by w dt exp(-w dt), about 1%
+    of a 1 ms period's step, at the end of the period (less in the discrete integrator).
+    It is capped at w physics_dt <= 1, since the stiffness term is integrated explicitly
+    (implicitfast treats only the velocity terms, kv and damping, implicitly).
 
     Attributes:
         physics_dt: Physics timestep in [s].
@@ -183,7 +185,7 @@ def _needle(mj: Any, body: Any, arm: SerialArm) -> None:
     quat = quat_from_matrix(T[:3, :3]).tolist()
     body.add_geom(
         name="needle", type=mj.mjtGeom.mjGEOM_CAPSULE, fromto=[*base, *tip],
-        size=[NEEDLE_RADIUS, 0.0, 0.0], density=NEEDLE_DENSITY, rgba=[0.75, 0.75, 0.8, 1.0],
+        size=[NEEDLE_RADIUS, 0.0, 0.0], rgba=[0.75, 0.75, 0.8, 1.0],
     )  # fmt: skip
     for name, p in (("needle_base", base), ("needle_tip", tip)):
         body.add_site(name=name, pos=p.tolist(), quat=quat, size=[2e-4, 0.0, 0.0], group=4)
