@@ -12,11 +12,13 @@ from rcmplan.control.loop import Controller
 from rcmplan.control.methods import make_solver
 from rcmplan.exceptions import InvalidInputError, SliderLimitError
 from rcmplan.robot.arms import shipped_arm
+from rcmplan.robot.chain import JointChain
 from rcmplan.robot.model import SerialArm
+from rcmplan.robot.needle import StraightNeedle
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim.kinematic import KinematicPlant
-from rcmplan.sim.mujoco.arm_model import ServoOptions, arm_model, arm_xml
+from rcmplan.sim.mujoco.arm_model import DEFAULT_LINK, ServoOptions, arm_model, arm_xml
 from rcmplan.sim.mujoco.arm_plant import ArmPlant
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.plant import MujocoPlant
@@ -75,6 +77,26 @@ def test_needle_sites_equal_the_arm_kinematics_at_random_joints(arm: SerialArm) 
         np.testing.assert_allclose(data.site("needle_tip").xpos, arm.tip(q), atol=1e-9)
         np.testing.assert_allclose(data.site("needle_base").xpos, arm.needle_point(q, 0.0),
                                    atol=1e-9)  # fmt: skip
+
+
+def test_an_arm_from_a_dh_table_with_slides_gets_default_links_and_agrees_and_follows() -> None:
+    robot = Iramis()
+    mount = np.eye(4)
+    mount[2, 3] = -robot.params.l6  # the needle base l6 behind the DH tip frame
+    chain = JointChain.from_dh(robot.chain, name="iramis-dh")
+    arm = SerialArm(chain, StraightNeedle(robot.params.l6, mount), np.zeros(6),
+                    name="iramis-dh", roll_joint=5)  # fmt: skip
+    plant = ArmPlant(arm)
+    assert plant.model.body_mass[2] == DEFAULT_LINK[0]  # no URDF: the default link
+    q = np.array([0.01, 0.2, -0.02, -0.1, 0.015, 0.3])
+    plant.data.qpos[:] = q
+    mujoco_module().mj_kinematics(plant.model, plant.data)
+    np.testing.assert_allclose(plant.site_position("needle_tip"), arm.tip(q), atol=1e-9)
+    plant.reset(arm.home)
+    plant.command_actuators(arm.home + 1e-3)  # 1 mm on the slides, 1 mrad on the hinges
+    for _ in range(4):
+        plant.advance()
+    np.testing.assert_allclose(plant.read_actuators(), arm.home + 1e-3, atol=1e-8)
 
 
 def test_the_model_has_a_home_keyframe_joint_limits_and_one_servo_pair_per_joint(
