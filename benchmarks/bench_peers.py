@@ -22,7 +22,7 @@ import numpy as np
 from _common import per_call, quick, row
 from rcmplan import Iramis
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.phase import robot_params
+from rcmplan.compiled.records import robot_params
 from rcmplan.compiled.runner import FastIramis
 from rcmplan.control import extended_task, rcm_target, solve_pose
 from rcmplan.scene.eye import default_eye

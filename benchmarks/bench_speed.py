@@ -19,7 +19,7 @@ import numpy as np
 from _common import THESIS_ITERATION_S, FastController, per_call, quick, row
 from rcmplan import Iramis
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.phase import robot_params
+from rcmplan.compiled.records import robot_params
 from rcmplan.compiled.runner import FastIramis
 from rcmplan.control import Controller, PinvSolver, extended_task, solve_pose
 from rcmplan.control.augmented import augmented_jacobian

@@ -10,7 +10,7 @@ import pytest
 
 from rcmplan import Iramis, IramisParameters
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.phase import robot_params
+from rcmplan.compiled.records import robot_params
 from rcmplan.compiled.runner import FastIramis, fast_check_targets, fast_converge_phase
 from rcmplan.control import (
     Controller,

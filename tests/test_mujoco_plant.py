@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from rcmplan import Iramis
+from rcmplan.control.plant import Plant
 from rcmplan.exceptions import (
     InvalidInputError,
     MissingExtraError,
@@ -16,7 +17,6 @@ from rcmplan.exceptions import (
 )
 from rcmplan.sim.mujoco.actuators import PiezoParameters
 from rcmplan.sim.mujoco.plant import MujocoPlant
-from rcmplan.sim.plant import Plant
 from rcmplan.sim.registry import make_plant
 
 UM = 1e-6

@@ -58,3 +58,10 @@ def test_units_are_converted_to_si(tmp_path: Path) -> None:
     sc = load_scenario(write(tmp_path, "[eye]\nradius_mm = 11.5\n[steps]\nangle_mrad = 1.5"))
     assert sc.eye_options["radius"] == pytest.approx(0.0115)
     assert sc.steps.angle == pytest.approx(0.0015)
+
+
+def test_every_plant_a_scenario_may_name_is_registered() -> None:
+    from rcmplan.scene.scenario import PLANTS
+    from rcmplan.sim.registry import PLANTS as REGISTERED
+
+    assert sorted(PLANTS) == sorted(REGISTERED)

@@ -101,7 +101,6 @@ def print_summary(result: RunResult) -> None:
     """A per-phase table of the run's figures."""
     from rcmplan.analysis.report_html import PHASE_HEAD, phase_rows
     from rcmplan.analysis.units import fmt
-    from rcmplan.cli.robot import table
 
     s = result.summary()
     print(f"scenario {s['scenario']}  procedure {s['procedure']}  method {s['method']}  "
@@ -124,3 +123,12 @@ def print_json(obj: Any) -> None:
     from rcmplan.analysis.report import jsonable
 
     print(json.dumps(jsonable(obj), indent=2))
+
+
+def table(header: list[str], rows: list[list[Any]]) -> str:
+    """A plain-text table with aligned columns."""
+    rows = [[str(c) for c in r] for r in rows]
+    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+    line = "  ".join("-" * w for w in widths)
+    fmt = "  ".join("{:<" + str(w) + "}" for w in widths)
+    return "\n".join([fmt.format(*header), line, *(fmt.format(*r) for r in rows)])

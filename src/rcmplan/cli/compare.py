@@ -41,7 +41,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 def execution_path(scenario: Scenario, pinned: str) -> str:
     """ "compiled" if the pinned path is compiled and the method has a compiled kernel, else
     "reference" (the QP, for one, always runs in Python)."""
-    from rcmplan.compiled.phase import method_code
+    from rcmplan.compiled.records import method_code
     from rcmplan.control.methods import make_solver
     from rcmplan.robot.iramis import Iramis
 

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from rcmplan.cli.common import print_json, table
 from rcmplan.robot.iramis import JOINT_NAMES, SLIDER_NAMES, Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import DEFAULT_ROBOT, ROBOTS, make_robot
@@ -27,15 +28,6 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--list", action="store_true", help="name every available robot and stop")
     p.add_argument("--json", action="store_true", help="print the model as JSON (SI units)")
     p.set_defaults(run=run)
-
-
-def table(header: list[str], rows: list[list[Any]]) -> str:
-    """A plain-text table with aligned columns."""
-    rows = [[str(c) for c in r] for r in rows]
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    line = "  ".join("-" * w for w in widths)
-    fmt = "  ".join("{:<" + str(w) + "}" for w in widths)
-    return "\n".join([fmt.format(*header), line, *(fmt.format(*r) for r in rows)])
 
 
 def describe(robot: Iramis) -> str:
@@ -140,8 +132,6 @@ def arm_dict(robot: RobotModel) -> dict[str, Any]:
 
 def run(args: argparse.Namespace) -> int:
     """Print the model (as JSON with --json), or the robots with --list."""
-    from rcmplan.cli.common import print_json
-
     if args.list:
         if args.json:
             print_json({"robots": [{"name": n, "description": d} for n, d in ROBOTS.items()]})

@@ -69,7 +69,7 @@ def loop_kernels() -> ModuleType:
     return importlib.import_module("rcmplan.compiled.loop")
 
 
-def mujoco_loop() -> ModuleType:
+def closed_loop() -> ModuleType:
     """The compiled loop around the dynamic MuJoCo plant (`mujoco_loop`); needs numba and
     MuJoCo (MissingExtraError naming the extra otherwise)."""
     require_extra("numba", "fast")
@@ -144,14 +144,3 @@ def warm_in_background() -> None:
         stderr=subprocess.DEVNULL,
         start_new_session=True,
     )
-
-
-def compile_all() -> Path:
-    """Compile every kernel (numba writes them to its cache), then write the stamp."""
-    from rcmplan.compiled.runner import compile_kernels
-
-    compile_kernels()
-    path = stamp_path()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("numba cache of rcmplan.compiled kernels and loops is warm\n")
-    return path

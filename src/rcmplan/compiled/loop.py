@@ -8,7 +8,7 @@ iteration cap, singularity check, step, sliders from joints, travel check, comma
 
 The kernel stops with a status code instead of raising; `rcmplan.compiled.runner` turns the code
 into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
-`REC_COLUMNS`, `irec` (cap, 2) with (step, iteration).
+`REC_COLUMNS` (`rcmplan.compiled.records`), `irec` (cap, 2) with (step, iteration).
 """
 
 from __future__ import annotations
@@ -34,13 +34,19 @@ from rcmplan.compiled.kernels import (
     tip_of_target,
     trig,
 )
-
-PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3
-DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
-REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
-               "tip": (14, 17), "rcm": (17, 20), "trocar": (20, 23), "base": (23, 26),
-               "target_tip": (26, 29), "error": (29, 35)}  # fmt: skip
-REC_WIDTH = 35
+from rcmplan.compiled.records import (
+    BAD_JOINTS,
+    DLS,
+    DONE,
+    NO_CONVERGENCE,
+    NO_TIP,
+    PAUSED,
+    PINV_THESIS,
+    SINGULAR,
+    SLIDER_LIMIT,
+    STEPPED,
+    TIP,
+)
 
 
 @njit(cache=True)

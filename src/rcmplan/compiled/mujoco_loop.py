@@ -18,15 +18,12 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.loop import (
+from rcmplan.compiled.loop import iterate_recorded, target_frame
+from rcmplan.compiled.records import (
     DONE,
     NO_TIP,
     PAUSED,
     STEPPED,
-    iterate_recorded,
-    target_frame,
-)
-from rcmplan.compiled.phase import (
     append_records,
     method_code,
     raise_stop,
@@ -39,7 +36,7 @@ from rcmplan.exceptions import SimulationError
 from rcmplan.sim.mujoco.compiled import OK, PlantArrays, advance, plant_arrays
 
 if TYPE_CHECKING:
-    from rcmplan.control.loop import Controller
+    from rcmplan.control.runner import ControlState as Controller
     from rcmplan.sim.mujoco.plant import MujocoPlant
 
 PLANT_STOPPED = 100  # status: the plant's period failed a check (code in info[2])

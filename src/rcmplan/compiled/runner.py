@@ -26,12 +26,8 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, vector
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.phase import (
-    method_code,
-    robot_params,
-    run_phase_compiled,
-    run_phase_on_plant,
-)
+from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
+from rcmplan.compiled.records import method_code, robot_params
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
 from rcmplan.control.targets import solve_pose
 from rcmplan.control.tasks import VARIANTS, JacobianVariant
@@ -41,7 +37,8 @@ from rcmplan.robot.model import RobotModel
 from rcmplan.sim.kinematic import KinematicPlant
 
 if TYPE_CHECKING:
-    from rcmplan.control.loop import Controller, Phase
+    from rcmplan.control.phase import Phase
+    from rcmplan.control.runner import ControlState as Controller
 
 __all__ = [
     "FastIramis",
@@ -81,7 +78,7 @@ def fast_converge_phase(
     if not fast_cache.use_fast(DYNAMIC_ITERATIONS_PER_TARGET * len(targets)):
         return False
     if getattr(controller.plant, "compiled_physics", False):
-        done = fast_cache.mujoco_loop().run_phase_on_mujoco(controller, solver, targets, pid, sid)
+        done = fast_cache.closed_loop().run_phase_on_mujoco(controller, solver, targets, pid, sid)
         if done:
             return True
     run_phase_on_plant(controller, solver, targets, pid, sid)
@@ -255,7 +252,7 @@ def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -
     from rcmplan.control.loop import Controller
     from rcmplan.sim.mujoco.plant import MujocoPlant
 
-    loop = fast_cache.mujoco_loop()
+    loop = fast_cache.closed_loop()
     for solver, targets in jobs:
         plant = MujocoPlant(robot, mode="dynamic")
         ctl = Controller(plant, solver)

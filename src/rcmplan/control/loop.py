@@ -12,102 +12,25 @@ Departures from the thesis, each measured in the benchmarks:
 
 from __future__ import annotations
 
-import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import FloatArray
 from rcmplan.control.log import LogBuilder, RunLog
+from rcmplan.control.phase import LoopSettings, Phase, TargetPlanner, interpolate, split_steps
+from rcmplan.control.plant import Plant
 from rcmplan.control.runner import Runner, default_runner
 from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, tip_of_target
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import closest_lambda
-from rcmplan.sim.plant import Plant
 
 NAN3 = np.full(3, np.nan)
 
-
-TargetPlanner = Callable[[FloatArray], FloatArray]
-
-
-class Phase(NamedTuple):
-    """A named sequence of targets run with Algorithm 1 one after another.
-
-    Attributes:
-        name: Phase name for the log ("approach", "insert", ...).
-        targets: (N, 6) X_ext targets for an RCM phase, (N, 3) tip points for free space; or a
-            planner called with the joints at the start of the phase that returns them (for
-            phases whose start depends on where the previous one ended, such as a pivot).
-        kind: "rcm" or "free".
-    """
-
-    name: str
-    targets: FloatArray | TargetPlanner
-    kind: str = "rcm"
-
-    def plan(self, q: FloatArray) -> FloatArray:
-        """The targets as an array, planned from joints q if the phase has a planner."""
-        t = self.targets(q) if callable(self.targets) else self.targets
-        return np.atleast_2d(np.asarray(t, dtype=float))
-
-
-@dataclass(frozen=True)
-class LoopSettings:
-    """Loop settings.
-
-    Attributes:
-        max_iterations: Iteration cap of Algorithm 1 per target.
-        drift_correction: Re-declare the RCM as the needle point closest to the trocar.
-        singular_threshold: Smallest accepted min(|cos q1|, |cos q3|); None: the robot's.
-    """
-
-    max_iterations: int = 100
-    drift_correction: bool = True
-    singular_threshold: float | None = None
-
-    def __post_init__(self) -> None:
-        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
-            raise InvalidInputError("max_iterations", self.max_iterations, "an integer >= 1")
-        if self.singular_threshold is not None:
-            scalar("singular_threshold", self.singular_threshold, 0.0, 1.0, high_open=True)
-
-
-def interpolate(start: FloatArray, goal: FloatArray, n: int) -> FloatArray:
-    """n equal steps from start to goal: rows start + k/n (goal - start), k = 1..n."""
-    k = np.arange(1, n + 1)[:, None] / n
-    return start[None, :] + k * (goal - start)[None, :]
-
-
-def split_steps(
-    start: FloatArray, goal: FloatArray, step_position: float, step_angle: float | None = None
-) -> FloatArray:
-    """Algorithm 2's split: equal steps no larger than the step sizes (m and rad apart).
-
-    For X_ext (6,) components 1 and 2 are angles; for tip points (3,) all are positions.
-    Raises if the step is larger than the distance to go.
-    """
-    start = vector("start", start)
-    goal = vector("goal", goal, start.shape[0])
-    sp = scalar("step_position", step_position, 0.0, np.inf, low_open=True)
-    sa = math.inf if step_angle is None else scalar("step_angle", step_angle, 0.0, low_open=True)
-    delta = np.abs(goal - start)
-    scale = np.full(start.shape[0], sp)
-    if start.shape[0] == 6:
-        scale[1:3] = sa
-    ratio = float(np.max(delta / scale))
-    if ratio < 1.0:
-        raise InvalidInputError(
-            "step size",
-            (step_position, step_angle),
-            f"at most the distance to go (|delta| = {delta.tolist()})",
-        )
-    return interpolate(start, goal, math.ceil(ratio))
+__all__ = ["Controller", "LoopSettings", "Phase", "TargetPlanner", "interpolate", "split_steps"]
 
 
 class Controller:

@@ -7,10 +7,10 @@ pseudoinverse. Optional methods (the QP controller) are imported on first use.
 from __future__ import annotations
 
 import importlib
-from dataclasses import dataclass, field
 from typing import Any
 
-from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, Tolerance
+from rcmplan.control.method_settings import MethodSettings
+from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
@@ -18,23 +18,7 @@ from rcmplan.robot.model import RobotModel
 METHODS = ("pinv", "pinv-thesis", "dls", "qp")
 DEFAULT_METHOD = "pinv"
 
-
-@dataclass(frozen=True)
-class MethodSettings:
-    """Settings shared by the methods; each method reads the ones it uses.
-
-    Attributes:
-        K: Diagonal gains of the pseudoinverse methods, each in (0, 2).
-        damping: Damping D of DLS, in units of the stacked task [m]; the QP reads it as its
-            dimensionless regularisation per unit of slider motion.
-        tolerance: Loop tolerance (m and rad apart).
-        extra: Method-specific keyword arguments (for example the QP's limits).
-    """
-
-    K: tuple[float, ...] = (1.0,) * 6
-    damping: float = 1e-4
-    tolerance: Tolerance = field(default_factory=Tolerance)
-    extra: dict[str, Any] = field(default_factory=dict)
+__all__ = ["DEFAULT_METHOD", "METHODS", "MethodSettings", "make_solver"]
 
 
 def make_solver(

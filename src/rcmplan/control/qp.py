@@ -22,6 +22,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.augmented import extended_task
+from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
@@ -29,7 +30,6 @@ from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_
 from rcmplan.control.targets import solve_pose, tip_of_target
 from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.robot.model import RobotModel
-from rcmplan.scene.eye import Eye
 
 
 class QpSolver:
@@ -52,7 +52,7 @@ class QpSolver:
     def __init__(
         self,
         robot: RobotModel,
-        eye: Eye | None = None,
+        eye: EyeModel | None = None,
         dt: float = 1e-3,
         K: tuple[float, ...] = (1.0,) * 6,
         damping: float = 1e-4,
@@ -74,7 +74,12 @@ class QpSolver:
 
     @classmethod
     def from_settings(
-        cls, cfg: Any, robot: RobotModel, eye: Eye | None = None, dt: float = 1e-3, **extra: Any
+        cls,
+        cfg: Any,
+        robot: RobotModel,
+        eye: EyeModel | None = None,
+        dt: float = 1e-3,
+        **extra: Any,
     ) -> QpSolver:
         """From MethodSettings (K, damping, tolerance, extra); `extra` adds or overrides keys."""
         options: dict[str, Any] = {**dict(cfg.extra), **extra}
@@ -158,9 +163,9 @@ class QpSolver:
 
 
 def make_qp(
-    robot: RobotModel, eye: Eye | None = None, dt: float = 1e-3, **options: Any
+    robot: RobotModel, eye: EyeModel | None = None, dt: float = 1e-3, **options: Any
 ) -> QpSolver:
     """A QpSolver with default settings and unit-suffixed options (as in a scenario's [qp])."""
-    from rcmplan.control.methods import MethodSettings
+    from rcmplan.control.method_settings import MethodSettings
 
     return QpSolver.from_settings(MethodSettings(), robot, eye, dt, **options)

@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 
 from rcmplan._validate import scalar, vector
+from rcmplan.control.eye_model import EyeModel
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
-from rcmplan.scene.eye import Eye
 
 # extra key -> (field, factor to SI)
 EXTRA_KEYS: dict[str, tuple[str, float]] = {
@@ -105,7 +105,7 @@ class QpLimits:
             return 1.5 * robot.singular_threshold
         return self.singular_margin
 
-    def check(self, robot: RobotModel, eye: Eye | None) -> QpLimits:
+    def check(self, robot: RobotModel, eye: EyeModel | None) -> QpLimits:
         """Raise InvalidInputError for limits inconsistent with the robot or the eye."""
         check_robot_limits(robot, self.travel_margin)
         if self.singular_floor(robot) <= robot.singular_threshold:
@@ -134,7 +134,7 @@ def check_robot_limits(robot: RobotModel, margin: float) -> None:
         raise InvalidInputError("slider speed", v.tolist(), "positive finite speeds")
 
 
-def check_eye_limits(lim: QpLimits, eye: Eye) -> None:
+def check_eye_limits(lim: QpLimits, eye: EyeModel) -> None:
     """The RCM tolerance must fit in the port; the port zone must clear the wall and margin."""
     if lim.rcm_tolerance >= eye.trocar_radius:
         raise InvalidInputError(

@@ -10,20 +10,31 @@ rcmplan` does); without it the reference code runs.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Protocol
+from typing import Protocol
 
 from rcmplan._validate import FloatArray
+from rcmplan.control.log import LogBuilder
+from rcmplan.control.phase import LoopSettings, Phase
+from rcmplan.control.plant import Plant
+from rcmplan.control.solvers import Solver
 from rcmplan.robot.model import RobotModel
 
-if TYPE_CHECKING:
-    from rcmplan.control.loop import Controller, Phase
-    from rcmplan.control.solvers import Solver
+
+class ControlState(Protocol):
+    """What a runner may read and change of the controller that hands it a phase: its robot,
+    plant and loop settings, the RCM's lambda, and the log it appends records to."""
+
+    robot: RobotModel
+    plant: Plant
+    settings: LoopSettings
+    lam: float
+    log: LogBuilder
 
 
 class Runner(Protocol):
     """Runs parts of Algorithms 1 and 2 instead of the reference loop, where it applies."""
 
-    def expect_job(self, controller: Controller, phases: list[Phase]) -> None:
+    def expect_job(self, controller: ControlState, phases: list[Phase]) -> None:
         """Told the whole job before it starts (to decide whether compiling pays)."""
         ...
 
@@ -32,7 +43,7 @@ class Runner(Protocol):
         ...
 
     def run_phase(
-        self, controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+        self, controller: ControlState, solver: Solver, targets: FloatArray, pid: int, sid: int
     ) -> bool:
         """Algorithm 1 on every target of a phase; False: nothing done."""
         ...
@@ -41,7 +52,7 @@ class Runner(Protocol):
 class ReferenceRunner:
     """Runs nothing: the controller's own Python code does everything."""
 
-    def expect_job(self, controller: Controller, phases: list[Phase]) -> None:
+    def expect_job(self, controller: ControlState, phases: list[Phase]) -> None:
         """Nothing to prepare."""
 
     def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
@@ -49,7 +60,7 @@ class ReferenceRunner:
         return False
 
     def run_phase(
-        self, controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+        self, controller: ControlState, solver: Solver, targets: FloatArray, pid: int, sid: int
     ) -> bool:
         """Not done here."""
         return False

@@ -24,9 +24,11 @@ from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import ROBOTS
 from rcmplan.scene.eye import POINT_NAMES, Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
-from rcmplan.sim.registry import PLANTS
 
 PROCEDURES = ("injection", "spiral")
+# The plants a scenario may name; `rcmplan.sim.registry.PLANTS` builds each (a test checks that
+# the two agree). Named here so that scenes do not import the simulators.
+PLANTS = ("kinematic", "mujoco", "mujoco-kinematic")
 MM = 1e-3
 
 # section -> key -> (kind, low, high); kind: "float", "int", "bool", "str", "vecN", "strlist"

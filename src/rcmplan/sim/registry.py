@@ -12,11 +12,11 @@ import importlib
 import inspect
 from typing import Any
 
+from rcmplan.control.plant import Plant
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
-from rcmplan.sim.plant import Plant
 
 # name -> (module, factory attribute, keyword arguments)
 PLANTS: dict[str, tuple[str, str, dict[str, Any]]] = {

@@ -12,9 +12,9 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.robot.model import RobotModel
-from rcmplan.scene.eye import Eye
 
 SCALE = 1e-6  # [m] or [rad] per unit of the decision variables
 RECOVERY = 1e-6  # [m] largest push back per step when a damped quantity is past its floor
@@ -32,7 +32,7 @@ class StepInput:
     K: FloatArray
     damping: float
     dt: float
-    eye: Eye | None
+    eye: EyeModel | None
     limits: QpLimits
 
 

@@ -5,14 +5,14 @@ from __future__ import annotations
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, damper_row, no_rows
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import tip_of_target
 from rcmplan.robot.model import RobotModel
-from rcmplan.scene.eye import Eye
 
 
-def is_contact(eye: Eye, lim: QpLimits, tip_target: FloatArray) -> bool:
+def is_contact(eye: EyeModel, lim: QpLimits, tip_target: FloatArray) -> bool:
     """True if the target tip lies on the retina or on a listed contact point."""
     if abs(eye.distance_to_retina(tip_target)) <= lim.contact_tolerance:
         return True

@@ -1,0 +1,100 @@
+"""What the compiled loops and the controller exchange, defined once: the kernels' method and
+status codes, the record layout, the parameter vector of the iRAM!S kernels, and the conversion
+of a compiled early stop into the exception the reference loop raises.
+
+No numba here: the compiled loops read these module constants as compile-time constants.
+Solvers are recognised by exact type, so a subclass that changes `step` runs on the reference
+path.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.log import LogBuilder
+from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
+from rcmplan.control.targets import tip_of_target
+from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmplanError
+from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
+
+if TYPE_CHECKING:
+    from rcmplan.control.runner import ControlState as Controller
+
+PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3  # method codes of the kernels
+DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
+BLOCK = 4096  # records buffered before they go to the log
+REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
+               "tip": (14, 17), "rcm": (17, 20), "trocar": (20, 23), "base": (23, 26),
+               "target_tip": (26, 29), "error": (29, 35)}  # fmt: skip
+REC_WIDTH = 35
+VECTORS = tuple(k for k, (a, b) in REC_COLUMNS.items() if b - a > 1)
+
+
+def robot_params(robot: RobotModel) -> FloatArray:
+    """The parameter vector P of the kernels: l1..l6 [m], PCJM spacing d [m], travel (6 + 6)."""
+    if not isinstance(robot, Iramis):
+        raise InvalidInputError("robot", robot.name, "an iRAM!S model (the kernels' closed form)")
+    p = robot.params
+    head = [p.l1, p.l2, p.l3, p.l4, p.l5, p.l6, robot.pcjm.spacing]
+    return np.array([*head, *robot.lower, *robot.upper], dtype=np.float64)
+
+
+def method_code(solver: Solver) -> int | None:
+    """The kernel's method code for a solver the compiled loop reproduces, else None."""
+    if type(solver) is PinvSolver:
+        return PINV if solver.variant == "exact" else PINV_THESIS
+    if type(solver) is DlsSolver:
+        return DLS
+    if type(solver) is TipSolver:
+        return TIP
+    return None
+
+
+def solver_arrays(solver: Solver) -> tuple[FloatArray, float, FloatArray]:
+    """(K (6,), damping [m], tolerance padded to (6,)) of a supported solver."""
+    K = np.asarray(getattr(solver, "K", (1.0,) * 6), dtype=np.float64)
+    tol = np.zeros(6)
+    t = solver.tolerance()
+    tol[: t.shape[0]] = t
+    return K, float(getattr(solver, "damping", 0.0)), tol
+
+
+def singular_threshold(controller: Controller) -> float:
+    """The loop's singular threshold: its own setting, else the robot's."""
+    own = controller.settings.singular_threshold
+    return float(controller.robot.singular_threshold if own is None else own)
+
+
+def append_records(
+    log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n: int, pid: int, sid: int
+) -> None:
+    """Append the first n compiled records to a LogBuilder, as one block."""
+    vectors = {k: rec[:n, a:b] for k, (a, b) in ((k, REC_COLUMNS[k]) for k in VECTORS)}
+    log.extend(
+        n, time=rec[:n, 0], lam=rec[:n, 13], step=irec[:n, 0], iteration=irec[:n, 1],
+        solver=sid, phase=pid, **vectors,
+    )  # fmt: skip
+
+
+def raise_stop(
+    controller: Controller, status: int, k: int, targets: FloatArray, fail: FloatArray,
+    tol: FloatArray, where: str,
+) -> None:  # fmt: skip
+    """Raise the exception the reference loop raises for a compiled early stop."""
+    robot, cfg = controller.robot, controller.settings
+    q, qn, sn, e = fail[0:6].copy(), fail[6:12].copy(), fail[12:18].copy(), fail[18:24]
+    if status == NO_CONVERGENCE:
+        raise ConvergenceError(cfg.max_iterations, np.abs(e[: tol.size]), tol, where=where)
+    checks: dict[int, Any] = {
+        SINGULAR: lambda: robot.check_singularity(q, cfg.singular_threshold),
+        BAD_JOINTS: lambda: robot.actuators_from_joints(qn),
+        SLIDER_LIMIT: lambda: robot.check_actuators(sn),
+        NO_TIP: lambda: tip_of_target(targets[k]),
+    }
+    checks[status]()
+    raise RcmplanError(f"compiled loop stopped with status {status} at target {k}")

@@ -1,0 +1,93 @@
+"""Phases of targets, loop settings and Algorithm 2's split (thesis section 3.4).
+
+A phase is a named sequence of targets that Algorithm 1 runs one after another; Algorithm 2
+splits a far target into equal steps (metres and radians apart, see `split_steps`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.exceptions import InvalidInputError
+
+TargetPlanner = Callable[[FloatArray], FloatArray]
+
+
+class Phase(NamedTuple):
+    """A named sequence of targets run with Algorithm 1 one after another.
+
+    Attributes:
+        name: Phase name for the log ("approach", "insert", ...).
+        targets: (N, 6) X_ext targets for an RCM phase, (N, 3) tip points for free space; or a
+            planner called with the joints at the start of the phase that returns them (for
+            phases whose start depends on where the previous one ended, such as a pivot).
+        kind: "rcm" or "free".
+    """
+
+    name: str
+    targets: FloatArray | TargetPlanner
+    kind: str = "rcm"
+
+    def plan(self, q: FloatArray) -> FloatArray:
+        """The targets as an array, planned from joints q if the phase has a planner."""
+        t = self.targets(q) if callable(self.targets) else self.targets
+        return np.atleast_2d(np.asarray(t, dtype=float))
+
+
+@dataclass(frozen=True)
+class LoopSettings:
+    """Loop settings.
+
+    Attributes:
+        max_iterations: Iteration cap of Algorithm 1 per target.
+        drift_correction: Re-declare the RCM as the needle point closest to the trocar.
+        singular_threshold: Smallest accepted min(|cos q1|, |cos q3|); None: the robot's.
+    """
+
+    max_iterations: int = 100
+    drift_correction: bool = True
+    singular_threshold: float | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
+            raise InvalidInputError("max_iterations", self.max_iterations, "an integer >= 1")
+        if self.singular_threshold is not None:
+            scalar("singular_threshold", self.singular_threshold, 0.0, 1.0, high_open=True)
+
+
+def interpolate(start: FloatArray, goal: FloatArray, n: int) -> FloatArray:
+    """n equal steps from start to goal: rows start + k/n (goal - start), k = 1..n."""
+    k = np.arange(1, n + 1)[:, None] / n
+    return start[None, :] + k * (goal - start)[None, :]
+
+
+def split_steps(
+    start: FloatArray, goal: FloatArray, step_position: float, step_angle: float | None = None
+) -> FloatArray:
+    """Algorithm 2's split: equal steps no larger than the step sizes (m and rad apart).
+
+    For X_ext (6,) components 1 and 2 are angles; for tip points (3,) all are positions.
+    Raises if the step is larger than the distance to go.
+    """
+    start = vector("start", start)
+    goal = vector("goal", goal, start.shape[0])
+    sp = scalar("step_position", step_position, 0.0, np.inf, low_open=True)
+    sa = math.inf if step_angle is None else scalar("step_angle", step_angle, 0.0, low_open=True)
+    delta = np.abs(goal - start)
+    scale = np.full(start.shape[0], sp)
+    if start.shape[0] == 6:
+        scale[1:3] = sa
+    ratio = float(np.max(delta / scale))
+    if ratio < 1.0:
+        raise InvalidInputError(
+            "step size",
+            (step_position, step_angle),
+            f"at most the distance to go (|delta| = {delta.tolist()})",
+        )
+    return interpolate(start, goal, math.ceil(ratio))
