@@ -63,6 +63,13 @@ def kernels() -> ModuleType:
     return importlib.import_module("rcmplan.compiled.kernels")
 
 
+def chain_kernels() -> ModuleType:
+    """The kinematics kernels of any serial arm (`chain_kernels`); MissingExtraError without
+    numba."""
+    require_extra("numba", "fast")
+    return importlib.import_module("rcmplan.compiled.chain_kernels")
+
+
 def loop_kernels() -> ModuleType:
     """The compiled control loop (`loop`); MissingExtraError without numba."""
     require_extra("numba", "fast")
@@ -81,7 +88,8 @@ def stamp_path() -> Path:
     """The file that marks numba's cache as holding every kernel of this source and numba."""
     here = Path(__file__).parent
     key = hashlib.sha256()
-    for path in (here / "kernels.py", here / "loop.py", here / "mujoco_loop.py",
+    for path in (here / "kernels.py", here / "chain_kernels.py", here / "loop.py",
+                 here / "mujoco_loop.py",
                  here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
         key.update(path.read_bytes())
     key.update(metadata.version("numba").encode())
