@@ -70,6 +70,13 @@ def chain_kernels() -> ModuleType:
     return importlib.import_module("rcmplan.compiled.chain_kernels")
 
 
+def arm_loop() -> ModuleType:
+    """One compiled iteration of Algorithm 1 for a serial arm (`arm_loop`); MissingExtraError
+    without numba."""
+    require_extra("numba", "fast")
+    return importlib.import_module("rcmplan.compiled.arm_loop")
+
+
 def loop_kernels() -> ModuleType:
     """The compiled control loop (`loop`); MissingExtraError without numba."""
     require_extra("numba", "fast")
@@ -88,8 +95,8 @@ def stamp_path() -> Path:
     """The file that marks numba's cache as holding every kernel of this source and numba."""
     here = Path(__file__).parent
     key = hashlib.sha256()
-    for path in (here / "kernels.py", here / "chain_kernels.py", here / "loop.py",
-                 here / "mujoco_loop.py",
+    for path in (here / "kernels.py", here / "chain_kernels.py", here / "arm_loop.py",
+                 here / "loop.py", here / "mujoco_loop.py",
                  here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
         key.update(path.read_bytes())
     key.update(metadata.version("numba").encode())

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
+from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
 from rcmplan.compiled.records import method_code, robot_params
@@ -67,6 +68,8 @@ def fast_converge_phase(
     reference loop leaves them, and an early stop raises the reference loop's exception.
     Returns False (nothing done) otherwise.
     """
+    if arm_phase.applies(controller, solver):  # any serial arm, on any plant
+        return arm_phase.run_if_fast(controller, solver, targets, pid, sid)
     if method_code(solver) is None or kernel_params(controller.robot) is None:
         return False
     if getattr(controller.plant, "exact_commands", False):
@@ -243,6 +246,7 @@ def compile_kernels() -> None:
             ctl = Controller(plant, solver)
             ctl.lam = 1.0 - 8e-3 / robot.params.l6
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
+    arm_phase.compile_arm_kernels()
     if importlib.util.find_spec("mujoco") is not None:
         _compile_mujoco_loop(robot, jobs)
 
