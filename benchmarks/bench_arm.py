@@ -11,6 +11,9 @@ target. Times are medians per call from Python (`_common.per_call`).
 - pinocchio: `forwardKinematics` + `computeFrameJacobian` (LOCAL_WORLD_ALIGNED) of the flange
   frame, on a model built from the same URDF file (the Panda's finger joints locked), checked
   against the rcmplan chain to 1e-10 first.
+- Phase per record: the UR5's p3-p4 phase of the default injection from p3 on the kinematic
+  plant (`Controller.phase_times`), the compiled arm loop (one compiled call per iteration, the
+  plant in Python) against the reference loop.
 """
 
 from __future__ import annotations
@@ -22,10 +25,14 @@ from typing import Any
 import numpy as np
 
 from _common import per_call, quick, row
+from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm
-from rcmplan.control import PinvSolver, extended_task
+from rcmplan.control import Controller, PinvSolver, extended_task, rcm_target, solve_pose
 from rcmplan.robot.arms import shipped_arm
 from rcmplan.robot.library import robot_chain, robot_file
+from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.scene.procedures import injection
+from rcmplan.sim import KinematicPlant
 
 SEED = 20180507
 ARMS = {"panda": ("Panda (7 joints)", "panda_link8"), "ur5": ("UR5 (6 joints)", "tool0")}
@@ -111,9 +118,29 @@ def arm_rows(name: str) -> list[dict[str, Any]]:
     return rows
 
 
+def phase_us(arm: Any, mode: str) -> float:
+    """Time in the p3-p4 phase per record in [us], with the fast path `mode` ("on", "off")."""
+    eye = default_eye(arm)
+    points = default_points(eye)
+    phase = next(ph for ph in injection(arm, eye, points) if ph.name == "p3-p4")
+    plant = KinematicPlant(arm)
+    plant.reset(solve_pose(arm, rcm_target(points.p3, eye.port)).q)
+    ctl = Controller(plant, PinvSolver())
+    fast_cache.set_mode(mode)
+    try:
+        log = ctl.run([phase])
+    finally:
+        fast_cache.set_mode(None)
+    return 1e6 * ctl.phase_times[phase.name] / len(log)
+
+
 def rows() -> list[dict[str, Any]]:
-    """The Panda's and the UR5's rows."""
-    return [*arm_rows("panda"), *arm_rows("ur5")]
+    """The Panda's and the UR5's rows, then the UR5's p3-p4 phase."""
+    ur5 = shipped_arm("ur5")
+    phase_us(ur5, "on")  # load the compiled loop and probe the arm (once per robot object)
+    loop = row("UR5 p3-p4 phase per record, compiled arm loop", phase_us(ur5, "on"), "us",
+               "rcmplan reference loop", phase_us(ur5, "off"), "ratio <= 1")  # fmt: skip
+    return [*arm_rows("panda"), *arm_rows("ur5"), loop]
 
 
 if __name__ == "__main__":
