@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import dls_solve, gauss_solve, tip_of_target
+from rcmplan.control.solvers import PIVOT_DISTANCE
 
 IntArray = NDArray[np.int64]
 ROWS = 6  # X_ext = (x_tip, phi, psi, p_rcm)
@@ -231,7 +232,7 @@ def dls_step(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: flo
     if not tip_of_target(target, a, tip):
         return False
     pivot = math.sqrt((tip[0] - target[3]) ** 2 + (tip[1] - target[4]) ** 2
-                      + (tip[2] - target[5]) ** 2) < 1e-9  # fmt: skip
+                      + (tip[2] - target[5]) ** 2) < PIVOT_DISTANCE  # fmt: skip
     lam_rcm, length = 0.0 if pivot else lam, A[5 * n + 12, 0]
     frames(A, ix, q, W)
     p_tip, p_rcm = needle_point(A, n, W, 1.0), needle_point(A, n, W, lam_rcm)

@@ -47,6 +47,7 @@ from rcmplan.compiled.records import (
     STEPPED,
     TIP,
 )
+from rcmplan.control.solvers import PIVOT_DISTANCE
 
 
 @njit(cache=True)
@@ -73,11 +74,11 @@ def closest_lambda(
 
 @njit(cache=True)
 def is_pivot(tip: FloatArray, target: FloatArray) -> bool:
-    """True when the target's tip lies on its trocar point (within 1 nm)."""
+    """True when the target's tip lies on its trocar point (within PIVOT_DISTANCE)."""
     acc = 0.0
     for i in range(3):
         acc += (tip[i] - target[3 + i]) ** 2
-    return math.sqrt(acc) < 1e-9
+    return math.sqrt(acc) < PIVOT_DISTANCE
 
 
 @njit(cache=True)

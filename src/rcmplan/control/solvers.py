@@ -31,6 +31,10 @@ from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import axis_from_angles
 
 SolverKind = Literal["rcm", "free"]
+# [m] A target tip this close to its trocar point is on it: a pivot about the tip (lambda = 1).
+# The loop's default position tolerance, so that a tip the loop left within tolerance of the
+# trocar (after the approach) counts as there.
+PIVOT_DISTANCE = 1e-8
 
 
 class Tolerance(NamedTuple):
@@ -213,8 +217,8 @@ class DlsSolver:
 
 
 def _is_pivot(tip: FloatArray, target: FloatArray) -> bool:
-    """True when the target's tip lies on its trocar point (within 1 nm)."""
-    return bool(np.linalg.norm(tip - target[3:]) < 1e-9)
+    """True when the target's tip lies on its trocar point (within PIVOT_DISTANCE)."""
+    return bool(np.linalg.norm(tip - target[3:]) < PIVOT_DISTANCE)
 
 
 @dataclass(frozen=True)
