@@ -182,3 +182,40 @@ def test_log_builder_keeps_a_copy_of_each_block() -> None:
     buf[:] = 1.0  # the caller refills its buffer for the next block
     log.extend(4, **{**cols, "time": buf})
     np.testing.assert_array_equal(log.finish().time, [0, 0, 0, 0, 1, 1, 1, 1])
+
+
+@pytest.mark.parametrize("mode", ["off", "on"])
+def test_a_phase_beyond_the_rcm_bound_stops_the_run_on_either_path(robot: Iramis, mode) -> None:
+    from rcmplan.compiled import cache as fast_cache
+    from rcmplan.exceptions import RcmBoundError
+    from rcmplan.scene.procedures import injection
+
+    eye = default_eye(robot)
+    phases = injection(robot, eye, default_points(eye))
+    fast_cache.set_mode(mode)
+    try:
+        ctl = Controller(
+            KinematicPlant(robot), PinvSolver(), settings=LoopSettings(rcm_bound=0.2e-6)
+        )
+        with pytest.raises(RcmBoundError, match=r"beyond the bound of 0\.200 um") as info:
+            ctl.run(phases)
+    finally:
+        fast_cache.set_mode(None)
+    err = info.value
+    assert err.deviation > 0.2e-6
+    assert err.log is not None
+    inside = err.log.select(np.isfinite(err.log.trocar[:, 0]))
+    worst = np.linalg.norm(inside.rcm_deviation(), axis=1).max()
+    assert worst == pytest.approx(err.deviation, abs=0.0)
+    assert err.log.phase_names[-1] == err.phase  # the run ended in the phase that broke it
+
+
+def test_an_rcm_bound_that_holds_lets_the_run_finish(robot: Iramis) -> None:
+    from rcmplan.scene.procedures import injection
+
+    eye = default_eye(robot)
+    log = Controller(KinematicPlant(robot), PinvSolver()).run(
+        injection(robot, eye, default_points(eye))
+    )
+    inside = log.select(np.isfinite(log.trocar[:, 0]))
+    assert np.linalg.norm(inside.rcm_deviation(), axis=1).max() < LoopSettings().rcm_bound

@@ -140,8 +140,12 @@ def test_dynamic_mode_holds_the_rcm_within_10_um_while_aligning_and_inserting(
 
 
 def test_a_lower_servo_bandwidth_breaks_the_rcm_bound(ur5: SerialArm) -> None:
-    (align, _), _ = run_short_injection(ArmPlant(ur5, servo=ServoOptions(bandwidth=200.0)))
-    assert align > 10 * UM  # the default bandwidth is what keeps the bound
+    from rcmplan.exceptions import RcmBoundError
+
+    with pytest.raises(RcmBoundError) as info:  # the default bandwidth is what keeps the bound
+        run_short_injection(ArmPlant(ur5, servo=ServoOptions(bandwidth=200.0)))
+    assert info.value.phase == "align"
+    assert info.value.deviation > info.value.bound > 10 * UM
 
 
 def test_gravity_compensated_servos_hold_home_without_sag(arm: SerialArm) -> None:

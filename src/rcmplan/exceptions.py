@@ -71,6 +71,26 @@ class ActuatorLimitError(RcmplanError):
 SliderLimitError = ActuatorLimitError  # iRAM!S's actuators are its piezo sliders
 
 
+class RcmBoundError(RcmplanError):
+    """The RCM left its bound: the needle point at lambda moved farther from the trocar than the
+    run allows.
+
+    Attributes:
+        phase: The phase in which it happened.
+        deviation: The largest distance in [m] from the trocar in that phase.
+        bound: The bound in [m].
+    """
+
+    def __init__(self, phase: str, deviation: float, bound: float) -> None:
+        self.phase = phase
+        self.deviation = deviation
+        self.bound = bound
+        super().__init__(
+            f"RCM bound exceeded in phase {phase!r}: the RCM moved {1e6 * deviation:.3f} um "
+            f"from the trocar, beyond the bound of {1e6 * bound:.3f} um"
+        )
+
+
 class SingularPoseError(RcmplanError):
     """A configuration is at or near the singular set cos(q1) = 0 or cos(q3) = 0.
 

@@ -182,6 +182,19 @@ class LogBuilder:
     def __len__(self) -> int:
         return self._n_blocks + len(self._rows["time"])
 
+    def max_rcm_deviation(self, first: int = 0) -> float:
+        """The largest |p_rcm - trocar| in [m] over records first.. (0 where none is held)."""
+        self._flush()
+        if not self._blocks["rcm"]:
+            return 0.0
+        d = (
+            np.concatenate(self._blocks["rcm"])[first:]
+            - np.concatenate(self._blocks["trocar"])[first:]
+        )
+        norms = np.linalg.norm(d, axis=1)
+        held = np.isfinite(norms)
+        return float(norms[held].max()) if held.any() else 0.0
+
     def finish(self) -> RunLog:
         """The records so far as a RunLog."""
         self._flush()

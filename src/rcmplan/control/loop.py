@@ -24,7 +24,7 @@ from rcmplan.control.plant import Plant
 from rcmplan.control.runner import Runner, default_runner
 from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, tip_of_target
-from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmplanError
+from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmBoundError, RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import closest_lambda
 
@@ -119,12 +119,26 @@ class Controller:
                 if callable(phase.targets):
                     self.check_targets(targets)
                 self.lam = self._closest_lambda(q, targets[0][3:])
-            if not self.runner.run_phase(self, solver, targets, pid, sid):
-                for k, target in enumerate(targets):
-                    self.converge(solver, target, pid, sid, k)
+            first = len(self.log)
+            try:
+                if not self.runner.run_phase(self, solver, targets, pid, sid):
+                    for k, target in enumerate(targets):
+                        self.converge(solver, target, pid, sid, k)
+            finally:
+                self._check_rcm_bound(phase.name, first)
         finally:
             spent = time.perf_counter() - start
             self.phase_times[phase.name] = self.phase_times.get(phase.name, 0.0) + spent
+
+    def _check_rcm_bound(self, name: str, first: int) -> None:
+        """Raise RcmBoundError if a record from `first` on has the RCM beyond the bound (both
+        paths check the same records, after the phase or where it stopped)."""
+        bound = self.settings.rcm_bound
+        if bound is None or len(self.log) == first:
+            return
+        worst = self.log.max_rcm_deviation(first)
+        if worst > bound:
+            raise RcmBoundError(name, worst, bound)
 
     def _closest_lambda(self, q: FloatArray, trocar: FloatArray) -> float:
         return closest_lambda(

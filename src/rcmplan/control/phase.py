@@ -47,18 +47,25 @@ class LoopSettings:
     Attributes:
         max_iterations: Iteration cap of Algorithm 1 per target.
         drift_correction: Re-declare the RCM as the needle point closest to the trocar.
-        singular_threshold: Smallest accepted min(|cos q1|, |cos q3|); None: the robot's.
+        singular_threshold: Smallest accepted singularity measure; None: the robot's.
+        rcm_bound: Largest distance in [m] the RCM may move from the trocar in an RCM phase;
+            a phase that exceeds it ends the run with RcmBoundError (its records kept). Default
+            45 um, a tenth of the thesis's 0.45 mm trocar radius; None: unbounded (the thesis
+            reproduction, whose drift is the quantity measured).
     """
 
     max_iterations: int = 100
     drift_correction: bool = True
     singular_threshold: float | None = None
+    rcm_bound: float | None = 45e-6
 
     def __post_init__(self) -> None:
         if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
             raise InvalidInputError("max_iterations", self.max_iterations, "an integer >= 1")
         if self.singular_threshold is not None:
             scalar("singular_threshold", self.singular_threshold, 0.0, 1.0, high_open=True)
+        if self.rcm_bound is not None:
+            scalar("rcm_bound", self.rcm_bound, 0.0, 0.01, low_open=True)
 
 
 def interpolate(start: FloatArray, goal: FloatArray, n: int) -> FloatArray:

@@ -46,6 +46,7 @@ SCHEMA: dict[str, dict[str, tuple[str, float, float]]] = {
                    "damping": ("float", 1e-12, 10), "tolerance_position_m": ("float", 1e-13, 1e-4),
                    "tolerance_angle_rad": ("float", 1e-13, 1e-3),
                    "max_iterations": ("int", 1, 100000), "drift_correction": ("bool", 0, 0),
+                   "rcm_bound_um": ("float", 0.01, 10000),
                    "dt_s": ("float", 1e-5, 0.1)},
     "spiral": {"offset_mm": ("vec2", -10, 10), "radius_mm": ("float", 0.01, 10),
                "turns": ("float", 0.1, 50), "pitch_mm": ("float", -5, 5),
@@ -232,7 +233,11 @@ def scenario_from_dict(data: dict[str, Any]) -> Scenario:
         visits=visits,
         steps=Steps(st.get("position_mm", 0.2) * MM, st.get("angle_mrad", 2.0) * 1e-3),
         method_settings=settings,
-        loop=LoopSettings(ctl.get("max_iterations", 100), ctl.get("drift_correction", True)),
+        loop=LoopSettings(
+            ctl.get("max_iterations", 100),
+            ctl.get("drift_correction", True),
+            rcm_bound=ctl.get("rcm_bound_um", 45.0) * 1e-6,
+        ),
         spiral=Spiral(**sp_opts),
         dt=ctl.get("dt_s", 1e-3),
     )

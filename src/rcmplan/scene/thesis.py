@@ -59,7 +59,9 @@ def _run(
     plant = KinematicPlant(robot)
     plant.reset(robot.actuators_from_joints(start))
     ctl = Controller(
-        plant, solver, settings=LoopSettings(max_iterations=2000, drift_correction=drift)
+        plant,
+        solver,
+        settings=LoopSettings(max_iterations=2000, drift_correction=drift, rcm_bound=None),
     )
     ctl.lam = lam
     t0 = time.perf_counter()
