@@ -5,15 +5,23 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 README = Path(__file__).resolve().parents[1] / "README.md"
 
 
-def test_readme_python_example_runs(capsys) -> None:
-    blocks = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
-    assert blocks, "the README has a Python example"
-    exec(compile(blocks[0], "README.md", "exec"), {})
+BLOCKS = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+
+
+def test_readme_has_the_iramis_and_the_own_robot_examples() -> None:
+    assert len(BLOCKS) == 2
+
+
+@pytest.mark.parametrize("block", BLOCKS, ids=["iramis", "own-robot"])
+def test_readme_python_examples_run(block: str, capsys) -> None:
+    exec(compile(block, "README.md", "exec"), {})
     printed = float(capsys.readouterr().out.strip().splitlines()[-1])
-    assert 0.0 <= printed <= 1e-6  # the example prints the max RCM deviation in metres
+    assert 0.0 <= printed <= 1e-6  # each example prints the max RCM deviation in metres
 
 
 def test_readme_opens_with_the_two_commands() -> None:
