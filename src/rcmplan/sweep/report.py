@@ -45,6 +45,7 @@ def summary(result: SweepResult) -> dict[str, Any]:
             "run": len(rs),
             "resumed_from_checkpoint": result.resumed,
             "by_status": {s: sum(r.status == s for r in rs) for s in STATUSES},
+            "by_cause": cause_counts(result),
         },
         "iterations": {
             **_stats([float(r.iterations) for r in ok]),
@@ -61,6 +62,14 @@ def summary(result: SweepResult) -> dict[str, Any]:
     }
 
 
+def cause_counts(result: SweepResult) -> dict[str, int]:
+    """Number of sampled targets per cause (converged, failed, and why the rest are refused)."""
+    from rcmplan.sweep.fundus import CAUSES, causes
+
+    found = causes(result.sample, result.column("converged"))
+    return {name: int(np.sum(found == i)) for i, name in enumerate(CAUSES)}
+
+
 def summary_rows(s: dict[str, Any]) -> list[list[str]]:
     """(figure, value, unit) rows of the summary for a text table."""
     t, it = s["targets"], s["iterations"]
@@ -70,6 +79,9 @@ def summary_rows(s: dict[str, Any]) -> list[list[str]]:
         ["reachable / out of reach / miss retina",
          f"{t['reachable']} / {t['unreachable']} / {t['misses_retina']}", ""],
         ["converged", f"{t['by_status']['ok']} of {t['run']}", ""],
+        ["out of reach, by cause", ", ".join(f"{k} {v}" for k, v in t["by_cause"].items()
+                                             if v and k not in ("converged", "motion failed"))
+         or "none", ""],
         ["iterations per target (median / max)", f"{_g(it['median'])} / {_g(it['max'])}", ""],
         ["max RCM deviation (median / p95 / max)",
          f"{_g(dev['median'], UM)} / {_g(dev['p95'], UM)} / {_g(dev['max'], UM)}", "um"],
