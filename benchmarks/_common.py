@@ -13,7 +13,7 @@ import numpy as np
 from rcmplan.control import Controller, Phase, RunLog, fast_cache
 from rcmplan.control.fast import fast_check_targets, fast_converge_phase
 
-THESIS_ITERATION_S = 180.0 / 1350  # V-REP loop: about 3 min for 1350 iterations (thesis section 4.1.2)
+THESIS_ITERATION_S = 180.0 / 1350  # V-REP loop: about 3 min for 1350 iterations (sec. 4.1.2)
 
 
 def quick() -> bool:
