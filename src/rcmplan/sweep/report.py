@@ -16,6 +16,16 @@ from rcmplan.sweep.sampling import STATUS_NAMES
 from rcmplan.sweep.task import STATUSES
 
 UM = 1e6
+# Units of the settings block, whose keys are hashed into checkpoints and so keep their names
+SETTINGS_UNITS = {
+    **{f"settings.region.{k}": u for k, u in (("max_angle", "rad"), ("standoff", "m"))},
+    **{f"settings.motion.{k}": u for k, u in (
+        ("damping", "m"), ("tolerance_position", "m"), ("tolerance_angle", "rad"),
+        ("step_position", "m"), ("step_angle", "rad"), ("dt", "s"), ("eye_radius", "m"),
+        ("eye_wall", "m"), ("trocar_radius", "m"), ("trocar_offset", "m"),
+        ("insertion_angles", "rad"), ("start_depth", "m"), ("K", "dimensionless"))},
+    "iterations": "control iterations per target",
+}  # fmt: skip
 
 
 def _stats(values: list[float]) -> dict[str, float | None]:
@@ -57,6 +67,7 @@ def summary(result: SweepResult) -> dict[str, Any]:
         "tip_error_m": _stats([r.tip_error_m for r in ok if r.tip_error_m is not None]),
         "wall_time_s": result.wall_time_s,
         "compute_time_s": sum(r.wall_time_s for r in rs),
+        "units": SETTINGS_UNITS,
         "targets_run_now": fresh,
         "targets_per_s": fresh / result.wall_time_s if fresh and result.wall_time_s > 0 else None,
     }
