@@ -97,7 +97,7 @@ def summary_rows(s: dict[str, Any]) -> list[list[str]]:
         ["max RCM deviation (median / p95 / max)",
          f"{_g(dev['median'], UM)} / {_g(dev['p95'], UM)} / {_g(dev['max'], UM)}", "um"],
         ["final tip error (max)", _g(tip["max"], UM), "um"],
-        ["wall time", f"{s['wall_time_s']:.2f}", "s"],
+        ["wall time", _g(s["wall_time_s"]), "s"],
         ["targets per second (this run)", _g(s["targets_per_s"]) if s["targets_per_s"]
          else "- (every target came from the checkpoint)", "1/s"],
         ["executor", s["executor"], ""],
@@ -161,7 +161,10 @@ def write_targets_csv(result: SweepResult, path: Path) -> Path:
 
 
 def _g(v: float | None, scale: float = 1.0) -> str:
-    return "-" if v is None else f"{v * scale:.4g}"
+    """The one formatter of rcmplan's tables (3 significant digits)."""
+    from rcmplan.analysis.units import fmt
+
+    return fmt(None if v is None else v * scale)
 
 
 def _repr(v: float | None) -> str:
