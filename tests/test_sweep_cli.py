@@ -142,3 +142,19 @@ def test_every_number_in_the_sweep_summary_has_a_unit(tmp_path: Path) -> None:
             assert ok, path
 
     walk({k: v for k, v in s.items() if k != "units"}, "")
+
+
+def test_sweep_runs_each_target_on_the_chosen_plant(tmp_path: Path) -> None:
+    argv = ["--targets", "2", "--max-angle", "5", "--workers", "1", "--plant", "mujoco-kinematic",
+            "--out", str(tmp_path), "--no-plots"]  # fmt: skip
+    assert run(argv) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["settings"]["motion"]["plant"] == "mujoco-kinematic"
+    assert summary["targets"]["by_status"]["ok"] == summary["targets"]["run"] > 0
+
+
+def test_an_unknown_sweep_plant_is_refused() -> None:
+    from rcmplan.sweep.settings import MotionSettings
+
+    with pytest.raises(RcmplanError, match="plant"):
+        MotionSettings(plant="vrep")
