@@ -110,10 +110,7 @@ def gain_tradeoff(search: GainSearchResult, path: Path) -> Path:
     feas = np.array([e.feasible for e in ev])
     ax.scatter(dev[feas], it[feas], c=BLUE, label="meets constraints")
     ax.scatter(dev[~feas], it[~feas], c=VERMILLION, marker="x", label="violates a constraint")
-    for e, x, y in zip(ev, dev, it, strict=True):
-        c = e.candidate
-        ax.annotate(f"{c.k_task:.3g}/{c.k_rcm:.3g}/{1e3 * c.step_position:.3g}", (x, y),
-                    fontsize=7, xytext=(3, 3), textcoords="offset points")  # fmt: skip
+    _label_candidates(ax, ev, dev, it)
     ax.axvline(search.objective.rcm_bound_m * UM, color="k", ls="--", lw=0.8, label="RCM bound")
     if search.best is not None:
         b = search.best
@@ -121,12 +118,32 @@ def gain_tradeoff(search: GainSearchResult, path: Path) -> Path:
                    edgecolors="k", label="best")  # fmt: skip
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.set_ylim(top=float(np.nanmax(it)) * 3.0)  # room for the labels
+    ax.set_xlim(right=float(np.nanmax(dev)) * 3.0)
     ax.set_xlabel("max RCM deviation over the subsample [um]")
     ax.set_ylabel("mean control iterations per target")
     ax.set_title(f"Gain search ({search.mode}, {len(search.subsample_ids)} targets); "
                  "labels: k_task/k_rcm/step [mm]", fontsize=10)  # fmt: skip
     ax.legend(fontsize=8)
     return style.save(fig, path)
+
+
+def _label_candidates(ax: Any, ev: Any, dev: np.ndarray, it: np.ndarray) -> None:
+    """One label per plotted point; candidates within 0.05 decade of each other share it."""
+    groups: list[tuple[float, float, list[str]]] = []
+    for e, x, y in zip(ev, dev, it, strict=True):
+        c = e.candidate
+        text = f"{c.k_task:.3g}/{c.k_rcm:.3g}/{1e3 * c.step_position:.3g}"
+        lx, ly = float(np.log10(x)), float(np.log10(y))
+        near = [g for g in groups if abs(g[0] - lx) < 0.05 and abs(g[1] - ly) < 0.05]
+        if near:
+            near[0][2].append(text)
+        else:
+            groups.append((lx, ly, [text]))
+    for lx, ly, labels in groups:
+        text = "\n".join(labels[:3] + ([f"+{len(labels) - 3} more"] if len(labels) > 3 else []))
+        ax.annotate(text, (10.0**lx, 10.0**ly), fontsize=7, xytext=(4, 2),
+                    textcoords="offset points", va="bottom")  # fmt: skip
 
 
 def _size(n: int) -> float:
