@@ -6,7 +6,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from rcmplan.sweep.maps import _label_candidates
+from rcmplan.sweep.maps import label_candidates
 
 
 class Recorder:
@@ -25,5 +25,5 @@ def candidate(k_task: float, k_rcm: float, step_m: float) -> SimpleNamespace:
 def test_candidates_on_the_same_point_share_one_label_naming_each() -> None:
     ax = Recorder()
     ev = [candidate(1.0, 0.7, 2e-4), candidate(1.0, 1.3, 2e-4), candidate(1.0, 1.0, 5e-4)]
-    _label_candidates(ax, ev, np.array([0.6, 0.6, 3.6]), np.array([660.0, 661.0, 220.0]))
+    label_candidates(ax, ev, np.array([0.6, 0.6, 3.6]), np.array([660.0, 661.0, 220.0]))
     assert ax.labels == ["1/0.7/0.2\n1/1.3/0.2", "1/1/0.5"]

@@ -110,7 +110,7 @@ def gain_tradeoff(search: GainSearchResult, path: Path) -> Path:
     feas = np.array([e.feasible for e in ev])
     ax.scatter(dev[feas], it[feas], c=BLUE, label="meets constraints")
     ax.scatter(dev[~feas], it[~feas], c=VERMILLION, marker="x", label="violates a constraint")
-    _label_candidates(ax, ev, dev, it)
+    label_candidates(ax, ev, dev, it)
     ax.axvline(search.objective.rcm_bound_m * UM, color="k", ls="--", lw=0.8, label="RCM bound")
     if search.best is not None:
         b = search.best
@@ -128,7 +128,7 @@ def gain_tradeoff(search: GainSearchResult, path: Path) -> Path:
     return style.save(fig, path)
 
 
-def _label_candidates(ax: Any, ev: Any, dev: np.ndarray, it: np.ndarray) -> None:
+def label_candidates(ax: Any, ev: Any, dev: np.ndarray, it: np.ndarray) -> None:
     """One label per plotted point; candidates within 0.05 decade of each other share it."""
     groups: list[tuple[float, float, list[str]]] = []
     for e, x, y in zip(ev, dev, it, strict=True):
