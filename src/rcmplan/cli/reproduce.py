@@ -57,7 +57,7 @@ def table_rows(rows: list[dict[str, Any]]) -> tuple[list[list[str]], list[list[s
         rep = r["thesis_reported"]
         reported.append([r["experiment"], rep["rcm_deviation"], rep["iterations"], rep["time"],
                          rep["source"]])  # fmt: skip
-        for setting in ("thesis", "rcmplan"):
+        for setting in SETTINGS:
             o = r[setting]
             runs.append([r["experiment"], setting, fmt(o["max_rcm_deviation_m"], "um"),
                          f"{o['iterations']:,} / {o['steps']:,}",
@@ -66,12 +66,14 @@ def table_rows(rows: list[dict[str, Any]]) -> tuple[list[list[str]], list[list[s
     return reported, runs
 
 
+SETTINGS = ("thesis", "rcmplan", "hypothesis")
 REPORTED_HEAD = ["experiment", "RCM deviation", "iterations", "time", "source"]
 
 
 def run(args: argparse.Namespace) -> int:
     """Run each experiment with the thesis setting (as interpreted) and rcmplan's."""
     from rcmplan.analysis.report import jsonable, prepare_folder
+    from rcmplan.cli import thesis_hypothesis
     from rcmplan.cli.robot import table
     from rcmplan.scene import thesis
 
@@ -79,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
     rows = []
     for key, experiment in thesis.EXPERIMENTS.items():
         outcomes = {setting: experiment(setting) for setting in ("thesis", "rcmplan")}
+        outcomes["hypothesis"] = thesis_hypothesis.EXPERIMENTS[key]()
         rows.append(experiment_row(key, outcomes))
         if not args.no_plots:
             from rcmplan.cli.thesis_figures import experiment_figure
@@ -92,7 +95,9 @@ def run(args: argparse.Namespace) -> int:
     reported, runs = table_rows(rows)
     print("The thesis reports:")
     print(table(REPORTED_HEAD, reported))
-    print("\nrcmplan (kinematic plant), thesis setting as interpreted and rcmplan setting:")
+    print("\nrcmplan (kinematic plant): the thesis setting as interpreted, rcmplan's setting, and "
+          "the hypothesis\n(a reading of the V-REP setup that reproduces the thesis's figures, "
+          "rcmplan.cli.thesis_hypothesis):")  # fmt: skip
     print(table(HEAD, runs))
     print("\nInterpretations (rcmplan.scene.thesis):")
     print((thesis.__doc__ or "").split("\n\n", 1)[1].strip())

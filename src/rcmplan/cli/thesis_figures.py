@@ -14,7 +14,7 @@ import numpy as np
 
 from rcmplan.analysis import style
 from rcmplan.analysis.plots import step_envelope
-from rcmplan.analysis.style import BLUE, ORANGE, UM, VERMILLION
+from rcmplan.analysis.style import BLUE, GREEN, ORANGE, UM, VERMILLION
 
 
 class Reported(NamedTuple):
@@ -36,7 +36,9 @@ REPORTED = {
     "spiral": Reported(100e-6, "below 0.1 mm, 'much more precise' than that precision",
                        "not stated", "28 s", "sec. 4.2, figs. 4.6, 4.7"),
 }  # fmt: skip
-COLOURS = {"thesis": ORANGE, "rcmplan": BLUE}
+COLOURS = {"thesis": ORANGE, "rcmplan": BLUE, "hypothesis": GREEN}
+LABELS = {"thesis": "rcmplan, thesis setting", "rcmplan": "rcmplan, rcmplan setting",
+          "hypothesis": "rcmplan, hypothesised V-REP setup"}  # fmt: skip
 
 
 def experiment_figure(key: str, title: str, outcomes: dict[str, Any], path: Path) -> Path:
@@ -60,7 +62,7 @@ def experiment_figure(key: str, title: str, outcomes: dict[str, Any], path: Path
         _, env = step_envelope(sub, norm)
         per_step = o.iterations / max(o.steps, 1)
         ax.plot(np.arange(1, len(env) + 1), np.maximum(env, 1e-6), color=COLOURS[setting],
-                lw=1.2, label=f"rcmplan, {setting} setting: max {np.max(env):.3g} um, "
+                lw=1.2, label=f"{LABELS[setting]}: max {np.max(env):.3g} um, "
                 f"{per_step:.2f} iterations per step")  # fmt: skip
     ax.set_yscale("log")
     ax.set_xlabel("control step")
