@@ -14,7 +14,7 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.runner import fast_check_targets, fast_converge_phase
 from rcmplan.control import Controller, Phase, RunLog
 
-THESIS_ITERATION_S = 180.0 / 1350  # V-REP loop: about 3 min for 1350 iterations (NOTES.md)
+THESIS_ITERATION_S = 180.0 / 1350  # V-REP loop: about 3 min for 1350 iterations (sec. 4.1.2)
 
 
 def quick() -> bool:

@@ -36,18 +36,18 @@ def injection(robot: str, method: str, plant: str = "kinematic") -> list[dict[st
             UM * rcm if rcm is not None else "-",
             "um",
             target=floor,
-        ),  # fmt: skip
+        ),
         row(
             f"{tag}: max tip error at the targets",
             UM * tip if tip is not None else "-",
             "um",
             target="<= 1 um" if plant == "kinematic" else "",
-        ),  # fmt: skip
+        ),
         row(
             f"{tag}: iterations; control wall time",
             f"{s['iterations']}; {s['wall_time_s']:.2f} s",
             "",
-        ),  # fmt: skip
+        ),
     ]
 
 

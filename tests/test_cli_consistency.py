@@ -132,3 +132,26 @@ def test_a_run_that_stops_early_reports_its_error_on_one_line(tmp_path, capsys) 
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "array(" not in err[0]
     assert "no convergence" in err[0] and "exceeds tolerance (1e-08, 1e-07" in err[0]
+
+
+def test_reproduce_puts_each_thesis_report_with_its_source_beside_both_settings(
+    tmp_path, capsys
+) -> None:
+    assert main(["reproduce", "--out", str(tmp_path), "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["experiment"] for r in rows] == ["pivot", "p3-p7", "spiral"]
+    for r in rows:
+        assert r["thesis_reported"]["source"].startswith("sec. 4.")
+        assert {"thesis", "rcmplan", "hypothesis"} <= set(r)
+        assert (tmp_path / f"{r['experiment']}.png").stat().st_size > 0
+    pivot = rows[0]["thesis_reported"]
+    assert pivot["rcm_deviation_bound_m"] == pytest.approx(30e-6)
+
+
+def test_the_hypothesised_vrep_setup_gives_the_thesiss_pivot_drift_and_iterations() -> None:
+    from rcmplan.cli import thesis_hypothesis
+
+    o = thesis_hypothesis.pivot()
+    x_drift = float(np.nanmax(np.abs(o.log.rcm_deviation()[:, 0])))
+    assert 20e-6 < x_drift < 40e-6  # thesis: +-3e-5 m (sec. 4.1.2)
+    assert 2.5 <= o.iterations / o.steps <= 3.5  # thesis: 1350 points for 500 steps

@@ -6,6 +6,7 @@ import json
 import re
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from rcmplan import Iramis
@@ -71,3 +72,11 @@ def test_settings_rows_show_the_scenario_values_in_scenario_units() -> None:
     assert rows[("points", "p3 depth on the axis")] == ("22.1846", "mm")
     assert rows[("qp", "retina margin")] == ("0.25", "mm")
     assert rows[("controller", "gains K (diagonal)")] == ("1, 1, 1, 1, 1, 1", "")
+
+
+def test_a_path_run_lists_its_tip_points_in_the_settings(robot) -> None:
+    from rcmplan.cli.tip_input import with_path
+
+    sc = with_path(load_scenario("default"), np.array([[0.0, 0.0, 4.0], [1.0, 0.0, 4.0]]))
+    rows = [r for r in settings_rows(sc, robot) if r[0] == "path"]
+    assert len(rows) == 1 and rows[0][1] == "2 tip points, base frame" and rows[0][3] == "mm"

@@ -104,3 +104,57 @@ def test_overwrite_refuses_to_remove_a_folder_that_is_no_checkpoint(tmp_path: Pa
     with pytest.raises(CheckpointError, match="not removed"):
         run([*SMALL, "--out", str(tmp_path), "--checkpoint", str(keep), "--overwrite"])
     assert (keep / "notes.txt").exists()
+
+
+def test_every_number_in_the_sweep_summary_has_a_unit(tmp_path: Path) -> None:
+    assert run([*SMALL, "--out", str(tmp_path), "--no-plots"]) == 0
+    s = json.loads((tmp_path / "summary.json").read_text())
+    counts = {
+        "sampled",
+        "reachable",
+        "unreachable",
+        "misses_retina",
+        "run",
+        "targets_run_now",
+        "resumed_from_checkpoint",
+        "n_targets",
+        "seed",
+        "max_iterations",
+        "total",
+    }
+
+    def walk(obj: object, path: str) -> None:
+        if isinstance(obj, dict):
+            for k, v in obj.items():
+                walk(v, f"{path}.{k}" if path else k)
+        elif isinstance(obj, list):
+            for v in obj:
+                walk(v, path)
+        elif isinstance(obj, int | float) and not isinstance(obj, bool):
+            key = path.rsplit(".", 1)[-1]
+            ok = (
+                key in counts
+                or key.endswith(("_m", "_s", "_rad", "_per_s"))
+                or path in s["units"]
+                or path.split(".")[0] in s["units"]
+                or path.startswith(("targets.by_", "max_rcm_deviation_m", "tip_error_m"))
+            )
+            assert ok, path
+
+    walk({k: v for k, v in s.items() if k != "units"}, "")
+
+
+def test_sweep_runs_each_target_on_the_chosen_plant(tmp_path: Path) -> None:
+    argv = ["--targets", "2", "--max-angle", "5", "--workers", "1", "--plant", "mujoco-kinematic",
+            "--out", str(tmp_path), "--no-plots"]  # fmt: skip
+    assert run(argv) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["settings"]["motion"]["plant"] == "mujoco-kinematic"
+    assert summary["targets"]["by_status"]["ok"] == summary["targets"]["run"] > 0
+
+
+def test_an_unknown_sweep_plant_is_refused() -> None:
+    from rcmplan.sweep.settings import MotionSettings
+
+    with pytest.raises(RcmplanError, match="plant"):
+        MotionSettings(plant="vrep")

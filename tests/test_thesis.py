@@ -30,6 +30,6 @@ def test_reproduce_writes_a_row_per_experiment(tmp_path: Path, capsys) -> None:
     rows = json.loads(capsys.readouterr().out)
     assert [r["experiment"] for r in rows] == list(thesis.EXPERIMENTS)
     for r in rows:
-        assert r["rcmplan_status"] == "ok"
-        assert r["rcmplan_max_rcm_deviation_m"] <= 1e-6
+        assert r["rcmplan"]["status"] == "ok"
+        assert r["rcmplan"]["max_rcm_deviation_m"] <= 1e-6
     assert json.loads((tmp_path / "reproduce.json").read_text()) == rows

@@ -189,13 +189,16 @@ def _short(value: Any) -> str:
     return text if len(text) <= 200 else text[:197] + "..."
 
 
-def _one_line(value: Any) -> str:
-    if isinstance(value, float):
-        return f"{value:.3g}"
+def _one_line(value: Any, digits: int = 6) -> str:
+    """A float to `digits` significant digits (keeping a decimal point: 40.0, not 40), arrays
+    and sequences as (a, b, c) with 3 significant digits each, anything else as its repr."""
     if hasattr(value, "tolist") and not isinstance(value, str | bytes):
         value = value.tolist()
+    if isinstance(value, float):
+        text = f"{value:.{digits}g}"
+        return text if any(c in text for c in ".enia") else text + ".0"
     if isinstance(value, list | tuple):
-        return "(" + ", ".join(_one_line(v) for v in value) + ")"
+        return "(" + ", ".join(_one_line(v, 3) for v in value) + ")"
     return " ".join(repr(value).split())
 
 

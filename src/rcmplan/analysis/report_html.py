@@ -66,11 +66,18 @@ def headline(s: dict[str, Any], trocar_radius_m: float) -> list[tuple[str, str]]
         ("max tip error at the targets", f"{fmt(s['max_tip_error_m'], 'um')} um"),
         ("control iterations", f"{s['iterations']:,}"),
         ("run time (simulated)", f"{fmt(s.get('simulated_time_s'), 's')} s"),
-        ("wall time", f"{fmt(s['wall_time_s'], 'ms')} ms"),
+        ("wall time", _seconds(s["wall_time_s"])),
     ]
 
 
 SETTINGS_HEAD = ("group", "setting", "value", "unit")
+
+
+def _seconds(t_s: float) -> str:
+    """A duration in s from 1 s on, else in ms."""
+    return f"{fmt(t_s, 's')} s" if t_s >= 1.0 else f"{fmt(t_s, 'ms')} ms"
+
+
 PHASE_HEAD = ("phase", "inside the eye", "steps", "iterations", "max RCM dev. [um]",
               "RMS RCM dev. [um]", "final tip error [um]", "max tracking error [um]",
               "wall [ms]")  # fmt: skip

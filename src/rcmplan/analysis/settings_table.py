@@ -76,6 +76,10 @@ def scene_rows(sc: Scenario) -> list[Row]:
     if sc.procedure == "injection":
         rows.append(("points", "visits", fmt_setting(sc.visits), ""))
     rows += [("points", f"{k} (set)", _mm(v), "mm") for k, v in sc.point_overrides.items()]
+    path = getattr(sc, "path_m", ())
+    if path:
+        first, last = (_mm(tuple(p)) for p in (path[0], path[-1]))
+        rows.append(("path", f"{len(path)} tip points, base frame", f"{first} ... {last}", "mm"))
     if sc.procedure == "spiral":
         s = sc.spiral
         rows += [

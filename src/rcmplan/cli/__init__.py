@@ -10,7 +10,7 @@ from collections.abc import Sequence
 
 from rcmplan.exceptions import RcmplanError
 
-COMMANDS = ("compare", "inject", "render", "reproduce", "robot", "sweep")
+COMMANDS = ("compare", "inject", "render", "reproduce", "robot", "scenario", "sweep")
 
 
 def build_parser() -> argparse.ArgumentParser:

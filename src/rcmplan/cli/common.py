@@ -31,8 +31,10 @@ def add_run_options(p: argparse.ArgumentParser, scenario: str, many_methods: boo
     p.add_argument("--robot", choices=tuple(ROBOTS), help="robot (default: the scenario's)")
     p.add_argument("--plant", choices=sorted(PLANTS), help="plant (default: the scenario's)")
     p.add_argument("--out", default=None, help="output folder (default: rcmplan-out/<command>)")
-    p.add_argument("--json", action="store_true", help="print summary.json instead of the table")
-    p.add_argument("--no-plots", action="store_true", help="skip figures and the HTML report")
+    written = "compare.json" if many_methods else "summary.json"
+    p.add_argument("--json", action="store_true", help=f"print {written} instead of the table")
+    skipped = "the chart" if many_methods else "figures and the HTML report"
+    p.add_argument("--no-plots", action="store_true", help=f"skip {skipped}")
 
 
 def scenario_from_args(args: argparse.Namespace, procedure: str | None = None) -> Scenario:

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rcmplan.control.methods import METHODS
+from rcmplan.sim.registry import PLANTS
 from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 from rcmplan.sweep.settings import SAMPLINGS, MotionSettings, Region, SweepSettings
 
@@ -50,6 +51,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--sampling", choices=SAMPLINGS, default="grid", help="ray sampling (grid)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (0)")
     p.add_argument("--method", choices=METHODS, help="control method (default: the scenario's)")
+    p.add_argument("--plant", choices=sorted(PLANTS),
+                   help="plant each target runs on (default: the scenario's)")  # fmt: skip
     p.add_argument("--workers", type=int, help="local processes (default: every core)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (tcp://...)")
     p.add_argument(
@@ -89,7 +92,7 @@ def settings_from_args(args: argparse.Namespace) -> SweepSettings:
     from rcmplan.scene.scenario import load_scenario
 
     sc = load_scenario(args.scenario)
-    changes = {"method": args.method} if args.method else {}
+    changes = {k: getattr(args, k) for k in ("method", "plant") if getattr(args, k, None)}
     region = Region(math.radians(args.max_angle), args.targets, args.sampling, args.seed)
     return SweepSettings(region, MotionSettings.from_scenario(sc, **changes))
 

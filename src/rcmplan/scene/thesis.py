@@ -3,8 +3,8 @@
 Each experiment states how it interprets the thesis where the thesis is ambiguous:
 
 - K = "diag([11012122])" is read as diag(1, 10, 12, 1, 2, 2) (section 4.1.2). As a Newton gain
-  it diverges (entries above 2, NOTES.md), so the thesis setting divides it by its largest entry:
-  the same relative weights, the fastest component converging in one step.
+  it diverges (entries above 2, errata in docs/kinematics.md), so the thesis setting divides it
+  by its largest entry: the same relative weights, the fastest component converging in one step.
 - The loop tolerance 0.0002 (Algorithm 1) is applied to metres and radians alike, as printed.
 - The thesis's J_a (eq. 6.1, geometric angle rows) and no drift correction.
 - The V-REP DLS spiral: damping D = 0.1 and the IK precision 0.1 mm as the loop tolerance.

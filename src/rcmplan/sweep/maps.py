@@ -1,99 +1,87 @@
 """Retina maps of a sweep and the gain-search trade-off, as matplotlib PNG figures.
 
-Each target is a dot at its ray's tilt from the insertion axis (sampling.py), in degrees:
-reachability (converged, failed, out of the robot's reach, ray missing the retina), maximum RCM
-deviation in [um] and control iterations. The dashed circle is the sampled cone.
+Each target is a dot where its ray meets the retina, in fundus coordinates (`fundus.py`): the
+retina unrolled about the point opposite the trocar, arc lengths in [mm], +z_base up. Maps:
+reachability with each unreachable target coloured by its cause (slider travel, singular
+margin, RCM cone, eye wall), maximum RCM deviation in [um] and control iterations. The dashed
+curve is the edge of the sampled cone.
 """
 
 from __future__ import annotations
 
-import math
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rcmplan.exceptions import require_extra
+from rcmplan.analysis import style
+from rcmplan.analysis.style import BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION
+from rcmplan.robot.iramis import Iramis
+from rcmplan.scene.eye import Eye
+from rcmplan.sweep import fundus
 from rcmplan.sweep.gains import GainSearchResult
 from rcmplan.sweep.runner import SweepResult
-from rcmplan.sweep.sampling import MISSES_RETINA, REACHABLE, UNREACHABLE
+from rcmplan.sweep.sampling import UNREACHABLE
 
 UM = 1e6
-CATEGORIES = (
-    ("converged", "tab:green", "o"),
-    ("motion failed", "tab:red", "o"),
-    ("out of reach (robot)", "0.7", "o"),
-    ("ray misses retina", "black", "x"),
-)
+# colour and marker per fundus.CAUSES entry (Okabe-Ito, markers differ too)
+STYLES = ((GREEN, "o"), (VERMILLION, "X"), (ORANGE, "s"), (PURPLE, "D"), (SKY, "^"),
+          ("0.6", "v"), (BLACK, "x"))  # fmt: skip
+ORIENTATION = "fundus view about the point opposite the trocar; up = +z_base"
 
 
-def _plt() -> Any:
-    mpl = require_extra("matplotlib", "plots")
-    mpl.use("Agg")
-    return require_extra("matplotlib.pyplot", "plots")
+def _eye(result: SweepResult) -> Eye:
+    return result.settings.motion.eye(Iramis())
 
 
-def _axes(plt: Any, result: SweepResult, title: str) -> tuple[Any, Any]:
-    fig, ax = plt.subplots(figsize=(6.4, 5.6), layout="constrained")
-    r = math.degrees(result.settings.region.max_angle)
-    t = np.linspace(0.0, 2.0 * math.pi, 200)
-    ax.plot(r * np.cos(t), r * np.sin(t), "k--", lw=0.6)
-    ax.set_aspect("equal")
-    ax.set_xlabel("tilt along e1 [deg]")
-    ax.set_ylabel("tilt along e2 [deg]")
-    ax.set_title(title)
+def _axes(plt: Any, result: SweepResult, eye: Eye, title: str) -> tuple[Any, Any]:
+    fig, ax = plt.subplots(figsize=(7.6, 6.0))
+    fig.subplots_adjust(left=0.1, right=0.72, top=0.9, bottom=0.1)
+    edge = fundus.cone_edge_mm(eye, result.settings.region.max_angle)
+    ax.plot(*edge.T, "k--", lw=0.7, label="sampled cone")
+    ax.plot([0.0], [0.0], "+", color=BLACK, ms=10)
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("along e1, horizontal [mm on the retina]")
+    ax.set_ylabel("towards +z_base [mm on the retina]")
+    ax.set_title(f"{title}\n{ORIENTATION}", fontsize=10)
     return fig, ax
 
 
-def _save(plt: Any, fig: Any, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
-    plt.close(fig)
-    return path
-
-
-def categories(result: SweepResult) -> np.ndarray:
-    """Category index per sampled target (index into CATEGORIES)."""
-    status = result.sample.status
-    conv = result.column("converged")
-    cat = np.full(len(status), 2)
-    cat[status == MISSES_RETINA] = 3
-    cat[(status == REACHABLE) & (conv == 1.0)] = 0
-    cat[(status == REACHABLE) & (conv != 1.0)] = 1
-    return cat
-
-
 def reachability_map(result: SweepResult, path: Path) -> Path:
-    """Which retina targets converged, failed, or lie out of reach."""
-    plt = _plt()
-    tilt = np.degrees(result.sample.tilt)
-    cat = categories(result)
+    """Which retina targets converged, failed, or are out of reach, and why."""
+    plt = style.plt()
+    eye = _eye(result)
+    xy = fundus.fundus_mm(result.sample.points, eye)
+    cause = fundus.causes(result.sample, result.column("converged"))
     counts = result.sample.counts()
-    fig, ax = _axes(plt, result, f"Reachability ({counts['reachable']} of {len(cat)} reachable)")
-    for i, (label, colour, marker) in enumerate(CATEGORIES):
-        m = cat == i
+    fig, ax = _axes(plt, result, eye, f"Reachability: {counts['reachable']} of {len(cause)} "
+                    "targets reachable")  # fmt: skip
+    for i, (label, (colour, marker)) in enumerate(zip(fundus.CAUSES, STYLES, strict=True)):
+        m = cause == i
         if np.any(m):
-            ax.scatter(*tilt[m].T, s=_size(len(cat)), c=colour, marker=marker,
-                       label=f"{label} ({int(m.sum())})")  # fmt: skip
-    ax.legend(loc="upper right", fontsize=8)
-    return _save(plt, fig, path)
+            note = ", no retina point: not drawn" if i == fundus.WALL else ""
+            ax.scatter(*xy[m].T, s=_size(len(cause)), c=colour, marker=marker,
+                       label=f"{label} ({int(m.sum())}{note})")  # fmt: skip
+    ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, title="cause")
+    return style.save(fig, path)
 
 
 def value_map(result: SweepResult, path: Path, column: str, label: str, scale: float) -> Path:
     """A result column as colour over the reachable targets, unreachable ones in grey."""
-    plt = _plt()
-    tilt = np.degrees(result.sample.tilt)
+    plt = style.plt()
+    eye = _eye(result)
+    xy = fundus.fundus_mm(result.sample.points, eye)
     values = result.column(column) * scale
     ok = np.isfinite(values)
-    fig, ax = _axes(plt, result, label)
+    fig, ax = _axes(plt, result, eye, label)
     s = _size(len(values))
     out = result.sample.status == UNREACHABLE
-    ax.scatter(*tilt[out].T, s=s, c="0.85", label="out of reach")
+    ax.scatter(*xy[out].T, s=s, c="0.85", label="out of reach")
     if np.any(ok):
-        sc = ax.scatter(*tilt[ok].T, s=s, c=values[ok], cmap="viridis")
-        fig.colorbar(sc, ax=ax, label=label)
-    ax.legend(loc="upper right", fontsize=8)
-    return _save(plt, fig, path)
+        sc = ax.scatter(*xy[ok].T, s=s, c=values[ok], cmap="cividis")
+        fig.colorbar(sc, ax=ax, label=label, shrink=0.8)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.25, 1.0), fontsize=8)
+    return style.save(fig, path)
 
 
 def sweep_maps(result: SweepResult, folder: Path) -> dict[str, Path]:
@@ -111,15 +99,18 @@ def sweep_maps(result: SweepResult, folder: Path) -> dict[str, Path]:
 
 
 def gain_tradeoff(search: GainSearchResult, path: Path) -> Path:
-    """Mean iterations against max RCM deviation per candidate, the bound and the best."""
-    plt = _plt()
-    fig, ax = plt.subplots(figsize=(6.4, 4.8), layout="constrained")
+    """Mean iterations against max RCM deviation per candidate, the bound and the best; each
+    point labelled with its candidate (k_task, k_rcm, step in mm)."""
+    plt = style.plt()
+    fig, ax = plt.subplots(figsize=(7.4, 5.2))
+    fig.subplots_adjust(left=0.12, right=0.97, top=0.9, bottom=0.12)
     ev = search.evaluations
     dev = np.array([e.max_rcm_deviation_m for e in ev]) * UM
     it = np.array([e.mean_iterations for e in ev])
     feas = np.array([e.feasible for e in ev])
-    ax.scatter(dev[feas], it[feas], c="tab:green", label="meets constraints")
-    ax.scatter(dev[~feas], it[~feas], c="tab:red", marker="x", label="violates a constraint")
+    ax.scatter(dev[feas], it[feas], c=BLUE, label="meets constraints")
+    ax.scatter(dev[~feas], it[~feas], c=VERMILLION, marker="x", label="violates a constraint")
+    label_candidates(ax, ev, dev, it)
     ax.axvline(search.objective.rcm_bound_m * UM, color="k", ls="--", lw=0.8, label="RCM bound")
     if search.best is not None:
         b = search.best
@@ -127,11 +118,32 @@ def gain_tradeoff(search: GainSearchResult, path: Path) -> Path:
                    edgecolors="k", label="best")  # fmt: skip
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.set_ylim(top=float(np.nanmax(it)) * 3.0)  # room for the labels
+    ax.set_xlim(right=float(np.nanmax(dev)) * 3.0)
     ax.set_xlabel("max RCM deviation over the subsample [um]")
     ax.set_ylabel("mean control iterations per target")
-    ax.set_title(f"Gain search ({search.mode}, {len(search.subsample_ids)} targets)")
+    ax.set_title(f"Gain search ({search.mode}, {len(search.subsample_ids)} targets); "
+                 "labels: k_task/k_rcm/step [mm]", fontsize=10)  # fmt: skip
     ax.legend(fontsize=8)
-    return _save(plt, fig, path)
+    return style.save(fig, path)
+
+
+def label_candidates(ax: Any, ev: Any, dev: np.ndarray, it: np.ndarray) -> None:
+    """One label per plotted point; candidates within 0.05 decade of each other share it."""
+    groups: list[tuple[float, float, list[str]]] = []
+    for e, x, y in zip(ev, dev, it, strict=True):
+        c = e.candidate
+        text = f"{c.k_task:.3g}/{c.k_rcm:.3g}/{1e3 * c.step_position:.3g}"
+        lx, ly = float(np.log10(x)), float(np.log10(y))
+        near = [g for g in groups if abs(g[0] - lx) < 0.05 and abs(g[1] - ly) < 0.05]
+        if near:
+            near[0][2].append(text)
+        else:
+            groups.append((lx, ly, [text]))
+    for lx, ly, labels in groups:
+        text = "\n".join(labels[:3] + ([f"+{len(labels) - 3} more"] if len(labels) > 3 else []))
+        ax.annotate(text, (10.0**lx, 10.0**ly), fontsize=7, xytext=(4, 2),
+                    textcoords="offset points", va="bottom")  # fmt: skip
 
 
 def _size(n: int) -> float:

@@ -16,6 +16,16 @@ from rcmplan.sweep.sampling import STATUS_NAMES
 from rcmplan.sweep.task import STATUSES
 
 UM = 1e6
+# Units of the settings block, whose keys are hashed into checkpoints and so keep their names
+SETTINGS_UNITS = {
+    **{f"settings.region.{k}": u for k, u in (("max_angle", "rad"), ("standoff", "m"))},
+    **{f"settings.motion.{k}": u for k, u in (
+        ("damping", "m"), ("tolerance_position", "m"), ("tolerance_angle", "rad"),
+        ("step_position", "m"), ("step_angle", "rad"), ("dt", "s"), ("eye_radius", "m"),
+        ("eye_wall", "m"), ("trocar_radius", "m"), ("trocar_offset", "m"),
+        ("insertion_angles", "rad"), ("start_depth", "m"), ("K", "dimensionless"))},
+    "iterations": "control iterations per target",
+}  # fmt: skip
 
 
 def _stats(values: list[float]) -> dict[str, float | None]:
@@ -45,6 +55,7 @@ def summary(result: SweepResult) -> dict[str, Any]:
             "run": len(rs),
             "resumed_from_checkpoint": result.resumed,
             "by_status": {s: sum(r.status == s for r in rs) for s in STATUSES},
+            "by_cause": cause_counts(result),
         },
         "iterations": {
             **_stats([float(r.iterations) for r in ok]),
@@ -56,9 +67,18 @@ def summary(result: SweepResult) -> dict[str, Any]:
         "tip_error_m": _stats([r.tip_error_m for r in ok if r.tip_error_m is not None]),
         "wall_time_s": result.wall_time_s,
         "compute_time_s": sum(r.wall_time_s for r in rs),
+        "units": SETTINGS_UNITS,
         "targets_run_now": fresh,
         "targets_per_s": fresh / result.wall_time_s if fresh and result.wall_time_s > 0 else None,
     }
+
+
+def cause_counts(result: SweepResult) -> dict[str, int]:
+    """Number of sampled targets per cause (converged, failed, and why the rest are refused)."""
+    from rcmplan.sweep.fundus import CAUSES, causes
+
+    found = causes(result.sample, result.column("converged"))
+    return {name: int(np.sum(found == i)) for i, name in enumerate(CAUSES)}
 
 
 def summary_rows(s: dict[str, Any]) -> list[list[str]]:
@@ -70,11 +90,14 @@ def summary_rows(s: dict[str, Any]) -> list[list[str]]:
         ["reachable / out of reach / miss retina",
          f"{t['reachable']} / {t['unreachable']} / {t['misses_retina']}", ""],
         ["converged", f"{t['by_status']['ok']} of {t['run']}", ""],
+        ["out of reach, by cause", ", ".join(f"{k} {v}" for k, v in t["by_cause"].items()
+                                             if v and k not in ("converged", "motion failed"))
+         or "none", ""],
         ["iterations per target (median / max)", f"{_g(it['median'])} / {_g(it['max'])}", ""],
         ["max RCM deviation (median / p95 / max)",
          f"{_g(dev['median'], UM)} / {_g(dev['p95'], UM)} / {_g(dev['max'], UM)}", "um"],
         ["final tip error (max)", _g(tip["max"], UM), "um"],
-        ["wall time", f"{s['wall_time_s']:.2f}", "s"],
+        ["wall time", _g(s["wall_time_s"]), "s"],
         ["targets per second (this run)", _g(s["targets_per_s"]) if s["targets_per_s"]
          else "- (every target came from the checkpoint)", "1/s"],
         ["executor", s["executor"], ""],
@@ -138,7 +161,10 @@ def write_targets_csv(result: SweepResult, path: Path) -> Path:
 
 
 def _g(v: float | None, scale: float = 1.0) -> str:
-    return "-" if v is None else f"{v * scale:.4g}"
+    """The one formatter of rcmplan's tables (3 significant digits)."""
+    from rcmplan.analysis.units import fmt
+
+    return fmt(None if v is None else v * scale)
 
 
 def _repr(v: float | None) -> str:

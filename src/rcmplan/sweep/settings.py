@@ -22,6 +22,7 @@ from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.eye import Eye, default_eye
 from rcmplan.scene.procedures import Steps
 from rcmplan.scene.scenario import Scenario
+from rcmplan.sim.registry import PLANTS
 
 SamplingKind = Literal["grid", "random"]
 SAMPLINGS = ("grid", "random")
@@ -75,6 +76,7 @@ class MotionSettings:
         trocar_offset: Trocar relative to the needle tip at home in [m].
         insertion_angles: Needle angles (phi, psi) of the insertion axis in [rad].
         start_depth: Depth of the start point p3 on the insertion axis inside the trocar in [m].
+        plant: Plant each target's motion runs on (rcmplan.sim.registry.PLANTS).
     """
 
     method: str = "pinv"
@@ -93,10 +95,13 @@ class MotionSettings:
     trocar_offset: tuple[float, float, float] = (-8e-3, 0.0, 0.0)
     insertion_angles: tuple[float, float] = (0.05, 0.12)
     start_depth: float = 8e-3
+    plant: str = "kinematic"
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
             raise InvalidInputError("method", self.method, f"one of {METHODS}")
+        if self.plant not in PLANTS:
+            raise InvalidInputError("plant", self.plant, f"one of {sorted(PLANTS)}")
         object.__setattr__(self, "K", tuple(float(k) for k in check_gains(self.K)))
         check_damping(self.damping)
         self.steps()
@@ -153,6 +158,7 @@ class MotionSettings:
             trocar_offset=tuple(eye.get("trocar_offset", (-8e-3, 0.0, 0.0))),
             insertion_angles=tuple(eye.get("insertion_angles", (0.05, 0.12))),
             start_depth=scenario.point_options.get("depth", 8e-3),
+            plant=scenario.plant,
         )
         return replace(base, **changes)
 

@@ -31,9 +31,10 @@ from rcmplan.exceptions import (
     UnreachableTargetError,
 )
 from rcmplan.robot.iramis import Iramis
-from rcmplan.scene.eye import Eye
+from rcmplan.scene.eye import Eye, default_points
 from rcmplan.scene.procedures import line_targets
-from rcmplan.sim.kinematic import KinematicPlant
+from rcmplan.sim.plant import Plant
+from rcmplan.sim.registry import make_plant
 from rcmplan.sweep.sampling import start_point
 from rcmplan.sweep.settings import MotionSettings
 
@@ -103,6 +104,14 @@ def scene(motion: MotionSettings) -> tuple[Iramis, Eye, FloatArray, FloatArray]:
     return robot, eye, start, robot.actuators_from_joints(pose.q)
 
 
+@functools.lru_cache(maxsize=4)
+def _plant(motion: MotionSettings) -> Plant:
+    """The motion's plant, built once per worker process and reset for each target."""
+    robot, eye, _, _ = scene(motion)
+    points = default_points(eye, depth=motion.start_depth)
+    return make_plant(motion.plant, robot, scene={"eye": eye, "points": points}, dt=motion.dt)
+
+
 def motion_phases(motion: MotionSettings, start: FloatArray, target: FloatArray, trocar: FloatArray
                   ) -> list[Phase]:  # fmt: skip
     """The two RCM phases: p3 -> target and target -> p3, straight lines of targets."""
@@ -118,7 +127,7 @@ def run_target(motion: MotionSettings, target_id: int, point: Sequence[float]) -
     robot, eye, start, sliders = scene(motion)
     target = np.asarray(point, dtype=float)
     t0 = time.perf_counter()
-    plant = KinematicPlant(robot, dt=motion.dt)
+    plant = _plant(motion)
     plant.reset(sliders)
     solver = make_solver(motion.method, motion.method_settings(), robot, eye=eye, dt=motion.dt)
     controller = Controller(plant, solver, settings=motion.loop())

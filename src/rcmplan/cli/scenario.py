@@ -1,0 +1,217 @@
+"""`rcmplan scenario`: the scenario file format, generated from the validator's own schema.
+
+`--schema` prints the page `docs/scenario-schema.md` holds (a test keeps the two equal): every
+section and key of `rcmplan.scene.scenario.SCHEMA` with its type, allowed range, default (read
+from a scenario parsed from an empty file, so it is the value the code uses) and meaning; the
+`[qp]` keys come from `rcmplan.control.qp_limits`. `--list` names the shipped scenarios.
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from rcmplan.analysis.units import fmt_setting
+from rcmplan.scene.scenario import SCHEMA, Scenario, load_scenario, scenario_from_dict
+
+MM = 1e3
+Key = tuple[str, str]
+
+DESCRIPTIONS: dict[Key, str] = {
+    ("", "name"): "name shown in outputs",
+    ("", "procedure"): "`injection` or `spiral`",
+    ("", "plant"): "plant the run uses (`rcmplan inject --help` lists them)",
+    ("", "description"): "one line for people; not used by the run",
+    ("eye", "radius_mm"): "outer (scleral) radius of the eye",
+    ("eye", "wall_mm"): "wall thickness; the retina is the inner sphere",
+    ("eye", "trocar_radius_mm"): "radius of the trocar port (the RCM bound)",
+    ("eye", "trocar_offset_mm"): "trocar relative to the needle tip at home, base frame",
+    ("eye", "insertion_angles_rad"): "needle angles (phi, psi) of the insertion axis",
+    ("points", "outside_mm"): "p1: distance outside the trocar on its axis",
+    ("points", "depth_mm"): "p3: depth inside the trocar on its axis",
+    ("points", "spread_rad"): "tilt of the rays from the trocar to p4..p7",
+    ("points", "visits"): "points the injection visits from p3, in order (among p3..p7)",
+    ("steps", "position_mm"): "largest tip step between two targets",
+    ("steps", "angle_mrad"): "largest needle-angle step between two targets",
+    ("controller", "method"): "`pinv`, `pinv-thesis`, `dls` or `qp`",
+    ("controller", "K"): "diagonal gains of the pseudoinverse methods, each in (0, 2)",
+    ("controller", "damping"): "DLS damping in m (the QP: regularisation per unit motion)",
+    ("controller", "tolerance_position_m"): "loop tolerance on position components",
+    ("controller", "tolerance_angle_rad"): "loop tolerance on angle components",
+    ("controller", "max_iterations"): "iteration cap of Algorithm 1 per target",
+    ("controller", "drift_correction"): "re-declare the RCM as the needle point nearest the trocar",
+    ("controller", "dt_s"): "control period",
+    ("spiral", "offset_mm"): "spiral centre from p3 along (e1, e2), normal to the trocar axis",
+    ("spiral", "radius_mm"): "final radius (grows linearly from 0)",
+    ("spiral", "turns"): "number of turns",
+    ("spiral", "pitch_mm"): "advance along the trocar axis per turn (0: flat)",
+    ("spiral", "points_per_turn"): "samples per turn",
+}
+DESCRIPTIONS.update({
+    ("points", f"p{n}_mm"): f"p{n} given directly, base frame (replaces its default placement)"
+    for n in range(1, 8)
+})  # fmt: skip
+
+
+def mm(v: Any) -> Any:
+    """A length or a tuple of lengths from m to mm."""
+    return tuple(x * MM for x in v) if isinstance(v, tuple) else v * MM
+
+
+def _defaults(sc: Scenario) -> dict[Key, Any]:
+    """Default value of each key, in the file's units, read from the parsed scenario."""
+    eye, pts, ms = sc.eye_options, sc.point_options, sc.method_settings
+    return {
+        ("", "name"): sc.name, ("", "procedure"): sc.procedure, ("", "plant"): sc.plant,
+        ("eye", "radius_mm"): mm(eye["radius"]), ("eye", "wall_mm"): mm(eye["wall"]),
+        ("eye", "trocar_radius_mm"): mm(eye["trocar_radius"]),
+        ("eye", "trocar_offset_mm"): mm(eye["trocar_offset"]),
+        ("eye", "insertion_angles_rad"): eye["insertion_angles"],
+        ("points", "outside_mm"): mm(pts["outside"]), ("points", "depth_mm"): mm(pts["depth"]),
+        ("points", "spread_rad"): pts["spread"], ("points", "visits"): sc.visits,
+        ("steps", "position_mm"): mm(sc.steps.position),
+        ("steps", "angle_mrad"): sc.steps.angle * 1e3,
+        ("controller", "method"): sc.method, ("controller", "K"): ms.K,
+        ("controller", "damping"): ms.damping,
+        ("controller", "tolerance_position_m"): ms.tolerance.position,
+        ("controller", "tolerance_angle_rad"): ms.tolerance.angle,
+        ("controller", "max_iterations"): sc.loop.max_iterations,
+        ("controller", "drift_correction"): sc.loop.drift_correction,
+        ("controller", "dt_s"): sc.dt,
+        ("spiral", "offset_mm"): mm(sc.spiral.offset),
+        ("spiral", "radius_mm"): mm(sc.spiral.radius),
+        ("spiral", "turns"): sc.spiral.turns, ("spiral", "pitch_mm"): mm(sc.spiral.pitch),
+        ("spiral", "points_per_turn"): sc.spiral.points_per_turn,
+    }  # fmt: skip
+
+
+def _kind(kind: str, lo: float, hi: float) -> tuple[str, str]:
+    """(type, allowed) of a SCHEMA entry."""
+    if kind in ("str", "bool"):
+        return {"str": "string", "bool": "true / false"}[kind], ""
+    if kind == "strlist":
+        return "list of point names", ""
+    if kind.startswith("vec"):
+        return f"list of {kind[3:]} numbers", f"each in [{lo:g}, {hi:g}]"
+    return {"float": "number", "int": "integer"}[kind], f"[{lo:g}, {hi:g}]"
+
+
+def attribute_docs(docstring: str) -> dict[str, str]:
+    """name -> text of the "Attributes:" section of a Google-style docstring, on one line."""
+    out: dict[str, str] = {}
+    name = None
+    for line in docstring.split("Attributes:", 1)[-1].splitlines():
+        head, sep, text = line.strip().partition(": ")
+        depth = len(line) - len(line.lstrip())
+        if sep and head.isidentifier() and depth == 8:
+            name, out[head] = head, text.strip()
+        elif name and line.strip():
+            out[name] += " " + line.strip()
+    return {k: v.replace("|", "\\|") for k, v in out.items()}
+
+
+def _unit(key: str) -> str:
+    if key.endswith("_mm_per_rad"):
+        return "mm/rad"
+    for suffix, unit in (("_mm", "mm"), ("_mrad", "mrad"), ("_rad", "rad"), ("_m", "m"),
+                         ("_s", "s"), ("_um", "um")):  # fmt: skip
+        if key.endswith(suffix):
+            return unit
+    return ""
+
+
+def section_rows(section: str, defaults: dict[Key, Any]) -> list[str]:
+    """Markdown table rows of one section."""
+    rows = []
+    for key, (kind, lo, hi) in SCHEMA[section].items():
+        typ, allowed = _kind(kind, lo, hi)
+        default = fmt_setting(defaults[(section, key)]) if (section, key) in defaults else "-"
+        rows.append(f"| `{key}` | {typ} | {allowed} | {_unit(key)} | {default} | "
+                    f"{DESCRIPTIONS[(section, key)]} |")  # fmt: skip
+    return rows
+
+
+def qp_rows() -> list[str]:
+    """Markdown rows of the [qp] section, from the QP's own key table and defaults."""
+    from dataclasses import fields
+
+    from rcmplan.control.qp_limits import EXTRA_KEYS, QpLimits
+
+    defaults = QpLimits()
+    doc = {f.name: f.name.replace("_", " ") for f in fields(QpLimits)}
+    doc.update(attribute_docs(QpLimits.__doc__ or ""))
+    rows = []
+    for key, (name, factor) in EXTRA_KEYS.items():
+        value = getattr(defaults, name)
+        shown = "-" if value is None else fmt_setting(value / factor)
+        rows.append(f"| `{key}` | number | | {_unit(key)} | {shown} | {doc[name]} |")
+    rows.append("| `contacts_mm` | list of points | | mm | none | extra contact points where "
+                "the retina margin is relaxed |")  # fmt: skip
+    return rows
+
+
+HEAD = ["| key | type | allowed | unit | default | meaning |", "|---|---|---|---|---|---|"]
+
+
+def schema_markdown() -> str:
+    """The scenario file format as a Markdown page (docs/scenario-schema.md)."""
+    defaults = _defaults(scenario_from_dict({}))
+    out = [
+        "# Scenario files",
+        "",
+        "Generated by `rcmplan scenario --schema` from the validator's schema",
+        "(`rcmplan.scene.scenario.SCHEMA`, `rcmplan.control.qp_limits.EXTRA_KEYS`); a test keeps",
+        "this page equal to the generator's output. Keys carry their unit; values are converted",
+        "to SI on load. A key outside this list, or a value outside its range, is an error that",
+        "names the key and the allowed values. Defaults are those of a scenario parsed from an",
+        "empty file. Shipped scenarios: " + ", ".join(f"`{n}`" for n in _names()) + ".",
+    ]
+    for section in SCHEMA:
+        title = "Top level" if section == "" else f"[{section}]"
+        out += ["", f"## {title}", ""]
+        if section == "qp":
+            out += ["Options of the `qp` method. The meanings quote `QpLimits`, which holds SI",
+                    "values; the file gives each in the unit its key names.", ""]  # fmt: skip
+        out += HEAD
+        out += qp_rows() if section == "qp" else section_rows(section, defaults)
+    return "\n".join(out) + "\n"
+
+
+def _names() -> list[str]:
+    from rcmplan.scene.scenario import scenario_names
+
+    return scenario_names()
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the `scenario` subcommand."""
+    p = sub.add_parser(
+        "scenario", help="the scenario file format and the shipped scenarios",
+        description="Print the scenario file format generated from the validator (--schema, "
+        "Markdown), or list the shipped scenarios (--list, the default).",
+    )  # fmt: skip
+    p.add_argument("--schema", action="store_true", help="print the file format (Markdown)")
+    p.add_argument("--list", action="store_true", help="list the shipped scenarios")
+    p.add_argument("--json", action="store_true", help="print the list as JSON")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the schema or the list of scenarios."""
+    if args.schema:
+        print(schema_markdown(), end="")
+        return 0
+    rows = []
+    for name in _names():
+        sc = load_scenario(name)
+        rows.append({"name": name, "procedure": sc.procedure, "method": sc.method,
+                     "plant": sc.plant})  # fmt: skip
+    if args.json:
+        from rcmplan.cli.common import print_json
+
+        print_json(rows)
+        return 0
+    from rcmplan.cli.robot import table
+
+    print(table(["name", "procedure", "method", "plant"], [list(r.values()) for r in rows]))
+    return 0
