@@ -28,7 +28,7 @@ def write(tmp_path: Path, text: str) -> Path:
     ("text", "pattern"),
     [
         ("procedure = 'dance'", r"procedure = 'dance'.*injection"),
-        ("[eye]\nradius_mm = 40.0", r"\[eye\] radius_mm = 40 .*\[3, 20\]"),
+        ("[eye]\nradius_mm = 40.0", r"\[eye\] radius_mm = 40.0.*\[3, 20\]"),
         ("[eye]\nradius = 12.0", r"\[eye\] key = 'radius'.*radius_mm"),
         ("[controller]\nK = [1, 10, 12, 1, 2, 2]", r"\[controller\] K"),
         ("[controller]\nmethod = 'magic'", r"method = 'magic'.*pinv"),

@@ -22,6 +22,7 @@ DESCRIPTIONS: dict[Key, str] = {
     ("", "procedure"): "`injection` or `spiral`",
     ("", "plant"): "plant the run uses (`rcmplan inject --help` lists them)",
     ("", "description"): "one line for people; not used by the run",
+    ("", "robot"): "the robot (`rcmplan robot --list` names them); the eye is placed for it",
     ("eye", "radius_mm"): "outer (scleral) radius of the eye",
     ("eye", "wall_mm"): "wall thickness; the retina is the inner sphere",
     ("eye", "trocar_radius_mm"): "radius of the trocar port (the RCM bound)",
@@ -41,6 +42,8 @@ DESCRIPTIONS: dict[Key, str] = {
     ("controller", "max_iterations"): "iteration cap of Algorithm 1 per target",
     ("controller", "drift_correction"): "re-declare the RCM as the needle point nearest the trocar",
     ("controller", "dt_s"): "control period",
+    ("controller", "rcm_bound_um"): "largest RCM distance from the trocar; a phase beyond it "
+    "ends the run (RcmBoundError)",
     ("spiral", "offset_mm"): "spiral centre from p3 along (e1, e2), normal to the trocar axis",
     ("spiral", "radius_mm"): "final radius (grows linearly from 0)",
     ("spiral", "turns"): "number of turns",
@@ -63,6 +66,7 @@ def _defaults(sc: Scenario) -> dict[Key, Any]:
     eye, pts, ms = sc.eye_options, sc.point_options, sc.method_settings
     return {
         ("", "name"): sc.name, ("", "procedure"): sc.procedure, ("", "plant"): sc.plant,
+        ("", "robot"): sc.robot,
         ("eye", "radius_mm"): mm(eye["radius"]), ("eye", "wall_mm"): mm(eye["wall"]),
         ("eye", "trocar_radius_mm"): mm(eye["trocar_radius"]),
         ("eye", "trocar_offset_mm"): mm(eye["trocar_offset"]),
@@ -78,6 +82,7 @@ def _defaults(sc: Scenario) -> dict[Key, Any]:
         ("controller", "max_iterations"): sc.loop.max_iterations,
         ("controller", "drift_correction"): sc.loop.drift_correction,
         ("controller", "dt_s"): sc.dt,
+        ("controller", "rcm_bound_um"): sc.loop.rcm_bound * 1e6 if sc.loop.rcm_bound else None,
         ("spiral", "offset_mm"): mm(sc.spiral.offset),
         ("spiral", "radius_mm"): mm(sc.spiral.radius),
         ("spiral", "turns"): sc.spiral.turns, ("spiral", "pitch_mm"): mm(sc.spiral.pitch),

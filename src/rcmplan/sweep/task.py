@@ -22,6 +22,7 @@ from rcmplan.analysis.metrics import phase_metrics
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_solver
+from rcmplan.control.plant import Plant
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import (
     ConvergenceError,
@@ -33,7 +34,6 @@ from rcmplan.exceptions import (
 from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.eye import Eye, default_points
 from rcmplan.scene.procedures import line_targets
-from rcmplan.sim.plant import Plant
 from rcmplan.sim.registry import make_plant
 from rcmplan.sweep.sampling import start_point
 from rcmplan.sweep.settings import MotionSettings

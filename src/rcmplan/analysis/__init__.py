@@ -1,0 +1,1 @@
+"""Measuring a run and showing it: metrics, figures, the HTML report."""
