@@ -148,8 +148,16 @@ def test_a_roll_joint_that_moves_the_needle_is_refused() -> None:
 def test_a_target_no_joints_reach_is_refused_before_motion() -> None:
     ur5 = make_robot("ur5")
     far = ur5.tip(ur5.home) + np.array([-2.0, 0.0, 0.0])  # 2 m beyond the arm
-    with pytest.raises(UnreachableTargetError, match="no joints of ur5"):
+    with pytest.raises(UnreachableTargetError, match=r"no joints of ur5.*lies 2\.\d+ m from"):
         solve_pose(ur5, rcm_target(far, far + np.array([0.05, 0.0, 0.0])))
+    assert ur5.reach < 2.0
+
+
+def test_an_eye_beyond_the_arm_is_refused_before_motion_naming_the_distance() -> None:
+    ur5 = make_robot("ur5")
+    eye = default_eye(ur5, trocar_offset=(-1.5, 0.0, 0.0))  # 1.5 m in front of the tip
+    with pytest.raises(UnreachableTargetError, match=r"m from the arm's base, which reaches"):
+        injection(ur5, eye, default_points(eye))
 
 
 def test_unknown_robot_names_list_the_registered_ones() -> None:

@@ -293,8 +293,20 @@ class SerialArm:
                 return q
             J = np.vstack([self.needle_point_jacobian(q, 1.0), self.needle_angles_jacobian(q)])
             q[cols] += np.linalg.lstsq(J[:, :-1], err, rcond=None)[0]
+        distance = float(np.linalg.norm(goal[:3] - self.chain.base[:3, 3]))
         raise UnreachableTargetError(
             f"no joints of {self.name} put the tip at {np.round(1e3 * goal[:3], 3).tolist()} mm "
             f"with needle angles ({phi:.4g}, {psi:.4g}) rad (Newton residual "
-            f"{np.abs(err).max():.3g} after {IK_ITERATIONS} steps)"
+            f"{np.abs(err).max():.3g} after {IK_ITERATIONS} steps; the point lies "
+            f"{distance:.3f} m from the arm's base, which reaches at most {self.reach:.3f} m)"
         )
+
+    @property
+    def reach(self) -> float:
+        """An upper bound in [m] on the distance from the base to the tip: the lengths of the
+        joint origins plus the needle's (prismatic travel added)."""
+        links = float(np.linalg.norm(self.chain.origins[:, :3, 3], axis=1).sum())
+        travel = float(np.abs(np.where(self.chain.prismatic, np.maximum(
+            np.abs(self.lower), np.abs(self.upper)), 0.0)).sum())  # fmt: skip
+        tip = float(np.linalg.norm(self.chain.tip[:3, 3]))
+        return links + travel + tip + float(np.linalg.norm(self.needle.point_local(1.0)))
