@@ -23,6 +23,7 @@ import numpy as np
 
 from rcmplan import Iramis, IramisParameters
 from rcmplan._validate import FloatArray
+from rcmplan.analysis import thesis
 from rcmplan.analysis.plots import step_starts
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.control.augmented import extended_task
@@ -32,7 +33,6 @@ from rcmplan.control.solvers import DlsSolver, PinvSolver, Tolerance
 from rcmplan.control.targets import pivot_target, solve_pose
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.needle import angles_from_axis
-from rcmplan.scene import thesis
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import Spiral, Steps, spiral
 from rcmplan.sim.kinematic import KinematicPlant
@@ -105,7 +105,7 @@ def main() -> None:
 
 
 def dls_spiral(damping: float) -> tuple[RunLog, int]:
-    """Fig. 4.6/4.7 as `rcmplan.scene.thesis.dls_spiral` runs it, with another damping."""
+    """Fig. 4.6/4.7 as `rcmplan.analysis.thesis.dls_spiral` runs it, with another damping."""
     eye = default_eye(NOMINAL)
     phases = spiral(NOMINAL, eye, default_points(eye), Spiral(), Steps())[2:]
     start = solve_pose(NOMINAL, pivot_target(eye.port[0], *angles_from_axis(eye.axis), eye.port))

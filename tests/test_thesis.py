@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from rcmplan.analysis import thesis
 from rcmplan.cli import main
-from rcmplan.scene import thesis
 
 
 def test_pivot_alignment_runs_500_steps_with_both_settings() -> None:

@@ -8,80 +8,19 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-from typing import Any
 
-from rcmplan import __version__
-from rcmplan.analysis.metrics import PhaseMetrics, overall, phase_metrics, slider_use
-from rcmplan.control.log import LogBuilder, RunLog
+from rcmplan.analysis.metrics import phase_metrics
+from rcmplan.analysis.result import RunResult
+from rcmplan.control.log import LogBuilder
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_solver
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.scenario import Scenario
+
+__all__ = ["RunResult", "run_scenario"]
 from rcmplan.sim.registry import make_plant
-
-
-@dataclass
-class RunResult:
-    """What a run produced.
-
-    Attributes:
-        scenario: The scenario that ran.
-        log: The run log (partial when the run stopped early).
-        phases: Metrics per phase.
-        status: "ok" or the error message.
-        error: The exception that stopped the run, if any.
-        wall_time_s: Wall time of the whole run (planning, control, measuring) in [s].
-    """
-
-    scenario: Scenario
-    log: RunLog
-    phases: list[PhaseMetrics]
-    status: str
-    wall_time_s: float
-    robot: RobotModel
-    error: RcmplanError | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def ok(self) -> bool:
-        """True when the run finished every phase."""
-        return self.status == "ok"
-
-    def summary(self) -> dict[str, Any]:
-        """The summary.json contract: scenario, method, plant, status, phases, overall figures."""
-        phases = [
-            {
-                "name": p.name,
-                "inside_eye": p.inside_eye,
-                "max_rcm_deviation_m": p.max_rcm_deviation_m,
-                "rms_rcm_deviation_m": p.rms_rcm_deviation_m,
-                "max_rcm_deviation_xyz_m": p.max_rcm_deviation_xyz_m,
-                "final_tip_error_m": p.final_tip_error_m,
-                "max_tracking_error_m": p.max_tracking_error_m,
-                "iterations": p.iterations,
-                "steps": p.steps,
-                "wall_time_s": p.wall_time_s,
-            }
-            for p in self.phases
-        ]
-        return {
-            "scenario": self.scenario.name,
-            "robot": self.robot.name,
-            "procedure": self.scenario.procedure,
-            "method": self.scenario.method,
-            "plant": self.scenario.plant,
-            "status": self.status,
-            "phases": phases,
-            **overall(self.phases),
-            "iterations": len(self.log),
-            "wall_time_s": self.wall_time_s,
-            "sliders": slider_use(self.log, self.robot).as_dict(),
-            "rcmplan_version": __version__,
-            **self.extra,
-        }
 
 
 def run_scenario(

@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 
 from rcmplan.analysis import plots
+from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.job import RunResult
 from rcmplan.robot.iramis import SLIDER_NAMES
 
 

@@ -13,9 +13,9 @@ from pathlib import Path
 from typing import Any
 
 from rcmplan import __version__
+from rcmplan.analysis.result import RunResult
 from rcmplan.analysis.settings_table import settings_rows
 from rcmplan.analysis.units import fmt
-from rcmplan.job import RunResult
 
 CSS = """
 body{font:15px/1.45 system-ui,sans-serif;color:#222;max-width:980px;margin:1.5em auto;

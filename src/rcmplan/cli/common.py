@@ -11,9 +11,9 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from rcmplan.analysis.result import RunResult
 from rcmplan.control.loop import Phase
 from rcmplan.control.methods import METHODS
-from rcmplan.job import RunResult
 from rcmplan.robot.registry import ROBOTS
 from rcmplan.scene.scenario import Scenario, load_scenario
 from rcmplan.sim.registry import PLANTS

@@ -72,10 +72,10 @@ REPORTED_HEAD = ["experiment", "RCM deviation", "iterations", "time", "source"]
 
 def run(args: argparse.Namespace) -> int:
     """Run each experiment with the thesis setting (as interpreted) and rcmplan's."""
+    from rcmplan.analysis import thesis
     from rcmplan.analysis.report import jsonable, prepare_folder
     from rcmplan.cli import thesis_hypothesis
     from rcmplan.cli.robot import table
-    from rcmplan.scene import thesis
 
     out = prepare_folder(args.out)
     rows = []
@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
           "the hypothesis\n(a reading of the V-REP setup that reproduces the thesis's figures, "
           "rcmplan.cli.thesis_hypothesis):")  # fmt: skip
     print(table(HEAD, runs))
-    print("\nInterpretations (rcmplan.scene.thesis):")
+    print("\nInterpretations (rcmplan.analysis.thesis):")
     print((thesis.__doc__ or "").split("\n\n", 1)[1].strip())
     print("\nWhy the thesis settings do not give the thesis's drift, iterations and DLS "
           "precision, measured: docs/thesis.md (python benchmarks/thesis_study.py).")  # fmt: skip

@@ -20,6 +20,7 @@ import time
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.analysis import thesis
 from rcmplan.analysis.metrics import overall, phase_metrics
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.control.augmented import extended_task
@@ -30,7 +31,6 @@ from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis
-from rcmplan.scene import thesis
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import Spiral, Steps, line_targets, spiral
 from rcmplan.sim.kinematic import KinematicPlant
