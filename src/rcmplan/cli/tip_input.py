@@ -21,18 +21,11 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.loop import Phase
-from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import Eye
-from rcmplan.scene.procedures import (
-    align_phase,
-    approach_phase,
-    check_inside,
-    line_targets,
-    path_targets,
-)
+from rcmplan.scene.procedures import path_procedure
 from rcmplan.scene.scenario import Scenario
 
 MM = 1e-3
@@ -107,24 +100,7 @@ class PathScenario(Scenario):
     def phases(self, robot: RobotModel) -> list[Phase]:
         """Approach, align, insert, to the path, the path, back to p3, retract, withdraw."""
         eye = self.eye(robot)
-        pts = self.points(eye)
-        path = np.array(self.path_m)
-        for i, p in enumerate(path):
-            check_inside(eye, f"path point {i}", p)
-        c, steps = eye.port, self.steps
-        targets = path_targets(path, c, steps)
-        for t in targets[:: max(1, len(targets) // 24)]:
-            solve_pose(robot, t)
-        solve_pose(robot, rcm_target(path[-1], c))
-        return [
-            approach_phase(robot, pts.p2, steps), align_phase(robot, eye, steps),
-            Phase("insert", line_targets(pts.p2, pts.p3, c, steps)),
-            Phase("to-path", line_targets(pts.p3, path[0], c, steps)),
-            Phase("path", targets),
-            Phase("from-path", line_targets(path[-1], pts.p3, c, steps)),
-            Phase("retract", line_targets(pts.p3, pts.p2, c, steps)),
-            approach_phase(robot, pts.p1, steps, name="withdraw"),
-        ]  # fmt: skip
+        return path_procedure(robot, eye, self.points(eye), np.array(self.path_m), self.steps)
 
 
 def with_path(sc: Scenario, path_eye_mm: FloatArray) -> PathScenario:

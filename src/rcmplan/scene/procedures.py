@@ -193,6 +193,37 @@ class Spiral:
         )
 
 
+def path_procedure(
+    robot: RobotModel,
+    eye: Eye,
+    points: EyePoints,
+    path: FloatArray,
+    steps: Steps | None = None,
+    name: str = "path",
+) -> list[Phase]:
+    """Approach, align, insert to p3, move to the path's start, follow the tip path (N, 3),
+    return to p3, retract, withdraw. Every path point is checked inside the eye, and targets
+    along it (every 1/24 of the path and its end) for a pose, before any motion."""
+    steps = steps or Steps()
+    c = eye.port
+    for i, p in enumerate(path):
+        check_inside(eye, f"{name} point {i}", p)
+    targets = path_targets(path, c, steps)
+    for t in targets[:: max(1, len(targets) // 24)]:
+        solve_pose(robot, t)
+    solve_pose(robot, rcm_target(path[-1], c))
+    return [
+        approach_phase(robot, points.p2, steps),
+        align_phase(robot, eye, steps),
+        Phase("insert", line_targets(points.p2, points.p3, c, steps)),
+        Phase(f"to-{name}", line_targets(points.p3, path[0], c, steps)),
+        Phase(name, targets),
+        Phase(f"from-{name}", line_targets(path[-1], points.p3, c, steps)),
+        Phase("retract", line_targets(points.p3, points.p2, c, steps)),
+        approach_phase(robot, points.p1, steps, name="withdraw"),
+    ]
+
+
 def spiral(
     robot: RobotModel,
     eye: Eye,
@@ -201,22 +232,5 @@ def spiral(
     steps: Steps | None = None,
 ) -> list[Phase]:
     """Approach, align, insert to p3, move to the spiral start, trace it, return, retract."""
-    steps = steps or Steps()
     shape = shape or Spiral()
-    path = shape.path(eye, points.p3)
-    c = eye.port
-    for i, p in enumerate(path):
-        check_inside(eye, f"spiral point {i}", p)
-    targets = path_targets(path, c, steps)
-    for t in targets[:: max(1, len(targets) // 24)]:
-        solve_pose(robot, t)
-    return [
-        approach_phase(robot, points.p2, steps),
-        align_phase(robot, eye, steps),
-        Phase("insert", line_targets(points.p2, points.p3, c, steps)),
-        Phase("to-spiral", line_targets(points.p3, path[0], c, steps)),
-        Phase("spiral", targets),
-        Phase("from-spiral", line_targets(path[-1], points.p3, c, steps)),
-        Phase("retract", line_targets(points.p3, points.p2, c, steps)),
-        approach_phase(robot, points.p1, steps, name="withdraw"),
-    ]
+    return path_procedure(robot, eye, points, shape.path(eye, points.p3), steps, "spiral")
