@@ -216,3 +216,22 @@ def test_per_iteration_path_stops_like_the_reference(robot: Iramis) -> None:
         out.append(info.value)
     assert str(out[0]).split("|error|")[0] == str(out[1]).split("|error|")[0]
     assert_same_log(out[0].log, out[1].log)
+
+
+def test_a_short_job_in_auto_mode_never_loads_numba(tmp_path) -> None:
+    """Below the payoff the reference path runs and numba stays unloaded (loading it costs
+    about a second); checking a robot against the kernels must not load them either."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\n"
+        "from rcmplan.job import run_scenario\n"
+        "from rcmplan.scene.scenario import load_scenario\n"
+        "result = run_scenario(load_scenario('default'))\n"
+        "print(result.status, 'numba' in sys.modules)\n"
+    )
+    env = {"RCMPLAN_FAST": "auto", "RCMPLAN_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         check=True).stdout.split()  # fmt: skip
+    assert out == ["ok", "False"]

@@ -70,15 +70,18 @@ def fast_converge_phase(
     """
     if arm_phase.applies(controller, solver):  # any serial arm, on any plant
         return arm_phase.run_if_fast(controller, solver, targets, pid, sid)
-    if method_code(solver) is None or kernel_params(controller.robot) is None:
+    if method_code(solver) is None:
         return False
+    # Whether compiling pays is asked first: checking the robot loads the kernels.
     if getattr(controller.plant, "exact_commands", False):
-        if not fast_cache.use_fast(len(targets)):
+        if not fast_cache.use_fast(len(targets)) or kernel_params(controller.robot) is None:
             return False
         run_phase_compiled(controller, solver, targets, pid, sid)
         return True
     # A plant with dynamics needs tens of iterations per target, each a physics step.
     if not fast_cache.use_fast(DYNAMIC_ITERATIONS_PER_TARGET * len(targets)):
+        return False
+    if kernel_params(controller.robot) is None:
         return False
     if getattr(controller.plant, "compiled_physics", False):
         done = fast_cache.closed_loop().run_phase_on_mujoco(controller, solver, targets, pid, sid)
