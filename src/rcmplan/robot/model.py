@@ -217,16 +217,9 @@ class SerialArm:
     def _point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """Geometric Jacobian (6, n) of p(lambda) over all joints (eqs. 2.9-2.11)."""
         T = self._frames(q)
-        p = T[-1, :3, :3] @ self.needle.point_local(lam) + T[-1, :3, 3]
-        J = np.zeros((6, self.chain.n))
-        for k in range(self.chain.n):
-            z = T[k, :3, :3] @ self.chain.axes[k]
-            if self.chain.prismatic[k]:
-                J[:3, k] = z
-            else:
-                J[:3, k] = np.cross(z, p - T[k, :3, 3])
-                J[3:, k] = z
-        return J
+        return self.chain.point_jacobian(
+            T, T[-1, :3, :3] @ self.needle.point_local(lam) + T[-1, :3, 3]
+        )
 
     def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d(q[active], lambda), (3, m + 1) (eq. 3.10)."""
