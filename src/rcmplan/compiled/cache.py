@@ -71,8 +71,8 @@ def chain_kernels() -> ModuleType:
 
 
 def arm_loop() -> ModuleType:
-    """One compiled iteration of Algorithm 1 for a serial arm (`arm_loop`); MissingExtraError
-    without numba."""
+    """Algorithm 1 for a serial arm compiled, one iteration or a whole phase on a plant with
+    exact commands (`arm_loop`); MissingExtraError without numba."""
     require_extra("numba", "fast")
     return importlib.import_module("rcmplan.compiled.arm_loop")
 
