@@ -34,7 +34,6 @@ from rcmplan.compiled.chain_kernels import (
     needle_axis,
     needle_point,
     pinv_solve,
-    point_jacobian,
 )
 from rcmplan.compiled.kernels import axis_from_angles
 from rcmplan.compiled.loop import converged, target_frame
@@ -104,17 +103,17 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
          damping: float, s: FloatArray, lam: float, pivot: bool, e: FloatArray,
          d: FloatArray) -> None:  # fmt: skip
     """The solver's step d = (dq[active], dlambda) at joints s from its error e, at the frames
-    in W (`PinvSolver`, `DlsSolver`, `TipSolver`)."""
+    in W (`PinvSolver`, `DlsSolver`, `TipSolver`), after the singularity check, which leaves
+    d p(1) / d theta_ext in W's J rows 0..2."""
     n, m = ix[0], ix[1]
     o = 4 * (n + 1)
     if method == TIP:
-        point_jacobian(A, ix, W, 1.0, W, o)
         gram_solve(W, o, 3, m, damping, e, d)
         d[m] = 0.0
     elif method == DLS:
-        dls_solve_at(A, ix, W, lam, pivot, e, damping, d)
+        dls_solve_at(A, ix, W, lam, pivot, e, damping, d, True)
     else:
-        jacobian_at(A, ix, W, lam, method == PINV_THESIS, W, o)
+        jacobian_at(A, ix, W, lam, method == PINV_THESIS, W, o, True)
         pinv_solve(A, ix, W, s, K, gain, e, d)
 
 

@@ -198,11 +198,12 @@ def task_at(A: FloatArray, n: int, W: FloatArray, lam: float, x: FloatArray) -> 
 
 @njit(cache=True)
 def jacobian_at(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, thesis: bool,
-                J: FloatArray, r: int) -> None:  # fmt: skip
+                J: FloatArray, r: int, tip_ready: bool = False) -> None:  # fmt: skip
     """J_a (eq. 3.15; eq. 6.1's angle rows if `thesis`) at the frames in W into
-    J[r:r + 6, :m + 1]."""
+    J[r:r + 6, :m + 1]; `tip_ready`: row r already holds d p(1) / d theta_ext."""
     m = ix[1]
-    point_jacobian(A, ix, W, 1.0, J, r)  # row r kept: the tip's x; rows r + 1, 2 overwritten
+    if not tip_ready:  # row r kept: the tip's x; rows r + 1, 2 overwritten
+        point_jacobian(A, ix, W, 1.0, J, r)
     J[r, m] = 0.0  # lambda moves no tip
     angle_rows(A, ix, W, thesis, J, r + 1)
     point_jacobian(A, ix, W, lam, J, r + 3)
@@ -338,13 +339,16 @@ def pinv_step(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: fl
 
 @njit(cache=True)
 def dls_solve_at(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, pivot: bool,
-                 e: FloatArray, damping: float, d: FloatArray) -> None:  # fmt: skip
+                 e: FloatArray, damping: float, d: FloatArray,
+                 tip_ready: bool = False) -> None:  # fmt: skip
     """The `DlsSolver` step into d (m + 1,) at the frames in W for its error e (6,): the tip
     and p(lambda) (the needle base for a pivot) over (q[active], lambda),
-    d = J^T (J J^T + D^2 I)^-1 e (eqs. 2.19, 2.20)."""
+    d = J^T (J J^T + D^2 I)^-1 e (eqs. 2.19, 2.20); `tip_ready`: W's J rows 0..2 already hold
+    d p(1) / d theta_ext (`singular_gram` leaves them there)."""
     n, m = ix[0], ix[1]
     o = 4 * (n + 1)
-    point_jacobian(A, ix, W, 1.0, W, o)
+    if not tip_ready:
+        point_jacobian(A, ix, W, 1.0, W, o)
     point_jacobian(A, ix, W, 0.0 if pivot else lam, W, o + 3)
     for i in range(3):  # lambda moves no tip (and no needle base)
         W[o + i, m] = 0.0
@@ -381,11 +385,13 @@ def dls_step(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: flo
 def singular_gram(A: FloatArray, ix: IntArray, W: FloatArray) -> int:
     """M = [J_tip / l; N J_omega] (5, m) over the active joints at the frames in W, as
     `SerialArm.singularity_measure` builds it (N: the two unit normals to the needle axis), and
-    its Gram matrix G = M M^T (5, 5), into W; returns G's first row."""
+    its Gram matrix G = M M^T (5, 5), into W; returns G's first row. J_tip = d p(1) / d theta_ext
+    is left in W's J rows 0..2 for the step."""
     n, m = ix[0], ix[1]
-    r = 4 * (n + 1) + 2 * ROWS + 6
+    o = 4 * (n + 1)
+    r = o + 2 * ROWS + 6
     g = r + SING
-    point_jacobian(A, ix, W, 1.0, W, r)
+    point_jacobian(A, ix, W, 1.0, W, o)
     ax, ay, az = needle_axis(A, n, W)
     ux, uy, uz = 1.0, 0.0, 0.0  # the helper axis: the first smallest |a_i| (np.argmin)
     if abs(ay) < abs(ax):
@@ -403,7 +409,7 @@ def singular_gram(A: FloatArray, ix: IntArray, W: FloatArray) -> int:
         if ix[2 + k] == 0:
             wx, wy, wz = joint_axis(A, n, W, k)
         for i in range(3):
-            W[r + i, j] /= length
+            W[r + i, j] = W[o + i, j] / length
         W[r + 3, j] = n1x * wx + n1y * wy + n1z * wz
         W[r + 4, j] = n2x * wx + n2y * wy + n2z * wz
     for i in range(SING):
