@@ -226,33 +226,50 @@ def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam
 
 
 @njit(cache=True)
+def lu_solve(W: FloatArray, S: int, n: int, b: int) -> None:
+    """Solve M x = W[b, :n] in place for the n x n matrix M at rows S.. of W (overwritten):
+    Gaussian elimination with partial pivoting as LAPACK's getrf/getrs do it (multipliers
+    scaled by the pivot's reciprocal, back substitution dividing), the way `np.linalg.solve`
+    solves the reference's systems."""
+    for c in range(n):
+        p = c
+        for r in range(c + 1, n):
+            if abs(W[S + r, c]) > abs(W[S + p, c]):
+                p = r
+        if p != c:
+            for k in range(c, n):
+                W[S + c, k], W[S + p, k] = W[S + p, k], W[S + c, k]
+            W[b, c], W[b, p] = W[b, p], W[b, c]
+        inv = 1.0 / W[S + c, c]
+        for r in range(c + 1, n):
+            f = W[S + r, c] * inv
+            for k in range(c + 1, n):
+                W[S + r, k] -= f * W[S + c, k]
+            W[b, r] -= f * W[b, c]
+    for r in range(n - 1, -1, -1):
+        acc = W[b, r]
+        for k in range(r + 1, n):
+            acc -= W[S + r, k] * W[b, k]
+        W[b, r] = acc / W[S + r, r]
+
+
+@njit(cache=True)
 def gram_solve(W: FloatArray, j: int, rows: int, cols: int, damping: float, e: FloatArray,
                d: FloatArray) -> None:  # fmt: skip
     """d[:cols] = J^T f with (J J^T + D^2 I) f = e[:rows] for J at rows j.. of W (eqs. 2.19,
-    2.20; D = 0: the minimum-norm step), by Cholesky on W's 6 x 6 scratch (rows j + ROWS..)
-    and its F row; the factor keeps 1 / L_ii on its diagonal, so the solve multiplies (a
-    division's latency is most of a small solve's time). J at W's J rows; e may be d (read
-    before d is written)."""
+    2.20; D = 0: the minimum-norm step), solved on W's 6 x 6 scratch (rows j + ROWS..) and its
+    F row (`lu_solve`). J at W's J rows; e may be d (read before d is written)."""
     S = j + ROWS
     f = S + ROWS + F
-    for i in range(rows):  # the lower triangle of J J^T + D^2 I, then its Cholesky factor
+    for i in range(rows):
         for k in range(i + 1):
-            acc = damping * damping if i == k else 0.0
+            acc = 0.0
             for c in range(cols):
                 acc += W[j + i, c] * W[j + k, c]
-            for c in range(k):
-                acc -= W[S + i, c] * W[S + k, c]
-            W[S + i, k] = 1.0 / math.sqrt(acc) if i == k else acc * W[S + k, k]
-    for i in range(rows):  # L y = e
-        acc = e[i]
-        for c in range(i):
-            acc -= W[S + i, c] * W[f, c]
-        W[f, i] = acc * W[S + i, i]
-    for i in range(rows - 1, -1, -1):  # L^T f = y
-        acc = W[f, i]
-        for c in range(i + 1, rows):
-            acc -= W[S + c, i] * W[f, c]
-        W[f, i] = acc * W[S + i, i]
+            W[S + i, k], W[S + k, i] = acc, acc
+        W[S + i, i] += damping * damping
+        W[f, i] = e[i]
+    lu_solve(W, S, rows, f)
     for c in range(cols):
         acc = 0.0
         for i in range(rows):
@@ -262,34 +279,15 @@ def gram_solve(W: FloatArray, j: int, rows: int, cols: int, damping: float, e: F
 
 @njit(cache=True)
 def square_solve(W: FloatArray, j: int, b: int, d: FloatArray) -> None:
-    """d = J^-1 W[b] for the square J at rows j.. of W (J_a of a non-redundant arm): Gaussian
-    elimination with partial pivoting on W's 6 x 6 scratch (rows j + ROWS..), W[b] overwritten;
-    the pivots are inverted once, so the elimination multiplies."""
+    """d = J^-1 W[b] for the square J at rows j.. of W (J_a of a non-redundant arm), by
+    `lu_solve` on W's 6 x 6 scratch (rows j + ROWS..); W[b] is overwritten."""
     S = j + ROWS
     for r in range(ROWS):
         for c in range(ROWS):
             W[S + r, c] = W[j + r, c]
-    for c in range(ROWS):
-        p = c
-        for r in range(c + 1, ROWS):
-            if abs(W[S + r, c]) > abs(W[S + p, c]):
-                p = r
-        if p != c:
-            for k in range(c, ROWS):
-                W[S + c, k], W[S + p, k] = W[S + p, k], W[S + c, k]
-            W[b, c], W[b, p] = W[b, p], W[b, c]
-        inv = 1.0 / W[S + c, c]
-        W[S + c, c] = inv
-        for r in range(c + 1, ROWS):
-            f = W[S + r, c] * inv
-            for k in range(c + 1, ROWS):
-                W[S + r, k] -= f * W[S + c, k]
-            W[b, r] -= f * W[b, c]
-    for r in range(ROWS - 1, -1, -1):
-        acc = W[b, r]
-        for k in range(r + 1, ROWS):
-            acc -= W[S + r, k] * d[k]
-        d[r] = acc * W[S + r, r]
+    lu_solve(W, S, ROWS, b)
+    for r in range(ROWS):
+        d[r] = W[b, r]
 
 
 @njit(cache=True)
