@@ -33,7 +33,9 @@ from rcmplan.robot.needle import axis_from_angles
 SolverKind = Literal["rcm", "free"]
 # [m] A target tip this close to its trocar point is on it: a pivot about the tip (lambda = 1).
 # The loop's default position tolerance, so that a tip the loop left within tolerance of the
-# trocar (after the approach) counts as there.
+# trocar (after the approach) counts as there. The compiled kernels read it as a compile-time
+# constant, which numba's cache does not track: after changing it, delete the cached kernels
+# (`src/rcmplan/compiled/__pycache__/*.nbi`, `*.nbc`).
 PIVOT_DISTANCE = 1e-8
 
 
