@@ -15,10 +15,11 @@ from rcmplan import __version__
 from rcmplan.analysis.metrics import PhaseMetrics, overall, phase_metrics, slider_use
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.loop import Controller, Phase
-from rcmplan.control.methods import make_solver
+from rcmplan.control.methods import make_free_solver, make_solver
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
+from rcmplan.scene.curved_figures import curved_figures
 from rcmplan.scene.scenario import Scenario
 from rcmplan.sim.registry import make_plant
 
@@ -70,6 +71,7 @@ class RunResult:
         return {
             "scenario": self.scenario.name,
             "robot": self.robot.name,
+            "needle": self.robot.needle_kind,
             "procedure": self.scenario.procedure,
             "method": self.scenario.method,
             "plant": self.scenario.plant,
@@ -97,7 +99,8 @@ def run_scenario(
     start = time.perf_counter()
     error: RcmplanError | None = None
     controller: Controller | None = None
-    robot = robot or make_robot(scenario.robot)
+    robot = scenario.needle.fit(robot or make_robot(scenario.robot))
+    extra: dict[str, Any] = {}
     try:
         eye = scenario.eye(robot)
         scene = {"eye": eye, "points": scenario.points(eye)}
@@ -106,9 +109,13 @@ def run_scenario(
         solver = make_solver(
             scenario.method, scenario.method_settings, robot, eye=eye, dt=scenario.dt
         )
-        controller = Controller(plant, solver, settings=scenario.loop)
+        free = make_free_solver(robot)
+        controller = Controller(plant, solver, free, settings=scenario.loop)
         controller.on_phase = on_phase
-        log = controller.run(scenario.phases(robot))
+        phases = scenario.phases(robot)
+        log = controller.run(phases)
+        if scenario.needle.kind == "curved":
+            extra = curved_figures(robot, scenario, eye, log)
     except RcmplanError as exc:
         error = exc
         log = exc.log if exc.log is not None else LogBuilder().finish()
@@ -122,4 +129,5 @@ def run_scenario(
         wall_time_s=wall,
         robot=robot,
         error=error,
+        extra=extra,
     )

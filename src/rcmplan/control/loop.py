@@ -66,6 +66,7 @@ class Controller:
             f"{n}_{u}" for n, u in zip(self.robot.actuator_names, units, strict=True)
         )
         self.phase_times: dict[str, float] = {}
+        self._check_seed: FloatArray | None = None
         self.on_phase: Callable[[Phase], None] | None = None
 
     def check_targets(self, targets: FloatArray) -> None:
@@ -74,10 +75,13 @@ class Controller:
         if not self.runner.check_targets(self.robot, targets):
             from rcmplan.control.curved_targets import solve_curved_pose
 
-            solve = solve_curved_pose if targets.shape[1] == 7 else solve_pose
-            seed = None
+            curved = targets.shape[1] == 7
+            solve = solve_curved_pose if curved else solve_pose
+            # A curved needle's poses are found by Newton's method: continue from the last.
+            seed = self._check_seed if curved else None
             for target in targets:
                 seed = solve(self.robot, target, seed).q
+            self._check_seed = seed
         solver_check = getattr(self.solver, "check_targets", None)
         if solver_check is not None:
             solver_check(targets)

@@ -12,7 +12,9 @@ With alpha = 0 the tip is the shaft's end: the straight needle of length l_s.
 Default values (assumed, with their sources): R = 12 mm, the radius of the adult eye, as the
 Curved-Micro-Drainer's curve "matches the spherical ocular structure" (Biomedical Microdevices
 18:65, 2016, a 5 mm curved part); a sub-Tenon cannula curved with R = 14 mm for the same reason
-(mvupgo.com, sub-Tenon cannula). alpha = 0.4 rad gives a 4.8 mm arc, close to that 5 mm part.
+(mvupgo.com, sub-Tenon cannula). alpha = 0.25 rad gives a 3 mm arc (the drainer's curved part is
+5 mm): entering through the trocar turns the shaft by alpha about it, and a larger alpha takes
+iRAM!S's sliders beyond their assumed travel (`rcmplan.scene.curved_procedure`).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from rcmplan._validate import FloatArray, matrix, scalar
 from rcmplan.robot.needle import StraightNeedle
 
 DEFAULT_RADIUS = 12e-3  # [m] the eye's radius (see the module docstring)
-DEFAULT_ARC_ANGLE = 0.4  # [rad] a 4.8 mm arc at R = 12 mm
+DEFAULT_ARC_ANGLE = 0.25  # [rad] a 3 mm arc at R = 12 mm
 RADIUS_RANGE = (1e-3, 1.0)  # [m] tighter than 1 mm does not pass a 20G-25G trocar
 ARC_ANGLE_RANGE = (0.0, 0.5 * math.pi)  # [rad] up to a quarter circle
 
