@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from rcmplan.exceptions import InvalidInputError, ScenarioError
+from rcmplan.exceptions import InvalidInputError, ScenarioError, UnreachableTargetError
 from rcmplan.job import run_scenario
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.curved_figures import needle_polyline, port_offset
@@ -77,6 +77,12 @@ def test_bad_needle_keys_raise_naming_the_key(data, key) -> None:
 def test_a_curved_spiral_is_refused() -> None:
     sc = scenario_from_dict({"procedure": "spiral", "needle": {"kind": "curved"}})
     with pytest.raises(ScenarioError, match="needle"):
+        sc.phases(make_robot("iramis"))
+
+
+def test_an_arc_too_tight_for_the_port_is_refused_before_motion() -> None:
+    sc = scenario_from_dict({"needle": {"kind": "curved", "radius_mm": 1.0, "arc_angle_rad": 1.5}})
+    with pytest.raises(UnreachableTargetError, match=r"R >= 1.34 mm"):
         sc.phases(make_robot("iramis"))
 
 

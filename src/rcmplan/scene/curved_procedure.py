@@ -108,6 +108,26 @@ def approach_phase(robot: CurvedTipRobot, T_pre: FloatArray, steps: Steps) -> Ph
     return Phase("approach", plan, "free")
 
 
+def arc_sagitta(needle: CurvedNeedle, depth: float) -> float:
+    """Largest distance in [m] of the arc from its tangent over `depth` [m] along it: the
+    arc's offset from the port axis while it passes a port of that length."""
+    R = needle.radius
+    along = min(depth, needle.radius * math.sin(needle.arc_angle))
+    return R - math.sqrt(R * R - along * along)
+
+
+def check_arc_passes(needle: CurvedNeedle, eye: Eye) -> None:
+    """Raise UnreachableTargetError if the arc leaves the port while it passes the wall."""
+    sag = arc_sagitta(needle, eye.wall)
+    if sag > eye.trocar_radius:
+        R_min = (eye.wall**2 + eye.trocar_radius**2) / (2.0 * eye.trocar_radius)
+        raise UnreachableTargetError(
+            f"the arc (R = {1e3 * needle.radius:.3g} mm) leaves the axis by {1e3 * sag:.3f} mm "
+            f"in the {1e3 * eye.wall:.3g} mm wall; valid: within the trocar radius "
+            f"{1e3 * eye.trocar_radius:.3g} mm (R >= {1e3 * R_min:.3g} mm)"
+        )
+
+
 def curved_injection(
     robot: CurvedTipRobot,
     eye: Eye,
@@ -127,6 +147,7 @@ def curved_injection(
     """
     steps = steps or Steps()
     pts, c = points.as_dict(), eye.port
+    check_arc_passes(robot.needle, eye)
     planned = plan_lateral(robot, eye, [pts[v] for v in visits], directions, tolerance)
     bend = np.array(ENTRY_BEND)
     entry = np.array(
