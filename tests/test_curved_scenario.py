@@ -90,3 +90,9 @@ def test_one_direction_per_visit_is_required() -> None:
     sc = scenario_from_dict({"needle": {"kind": "curved"}, "lateral": {"directions": [[1, 0, 0]]}})
     with pytest.raises(InvalidInputError, match="one per visit"):
         sc.phases(make_robot("iramis"))
+
+
+def test_a_curved_needle_on_a_mujoco_plant_stops_with_a_typed_error() -> None:
+    result = run_scenario(load_scenario("curved").with_plant("mujoco"))
+    assert isinstance(result.error, InvalidInputError)
+    assert "'kinematic' for a curved needle" in result.status

@@ -16,7 +16,7 @@ from rcmplan.analysis.metrics import PhaseMetrics, overall, phase_metrics, slide
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_free_solver, make_solver
-from rcmplan.exceptions import RcmplanError
+from rcmplan.exceptions import InvalidInputError, RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.curved_figures import curved_figures
@@ -102,6 +102,8 @@ def run_scenario(
     robot = scenario.needle.fit(robot or make_robot(scenario.robot))
     extra: dict[str, Any] = {}
     try:
+        if scenario.needle.kind == "curved" and scenario.plant != "kinematic":
+            raise InvalidInputError("plant", scenario.plant, "'kinematic' for a curved needle")
         eye = scenario.eye(robot)
         scene = {"eye": eye, "points": scenario.points(eye)}
         plant = make_plant(scenario.plant, robot, scene=scene, dt=scenario.dt)
