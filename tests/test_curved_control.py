@@ -89,6 +89,25 @@ def test_pinv_and_dls_reach_a_lateral_target_holding_the_rcm(name, solver) -> No
     assert math.acos(min(1.0, float(robot.tip_direction(q) @ target.direction))) <= 1e-6
 
 
+def test_the_qp_reaches_a_lateral_target_within_its_rcm_tolerance() -> None:
+    pytest.importorskip("qpsolvers")
+    from rcmplan.control.qp import make_qp
+
+    robot = _curved("iramis")
+    start, target = _lateral(robot)
+    plant = KinematicPlant(robot)
+    plant.reset(robot.actuators_from_joints(solve_curved_pose(robot, start).q))
+    k = np.linspace(0.0, 1.0, 101)[1:, None]
+    solver = make_qp(robot)
+    assert solver.tolerance().shape == (7,)
+    ctl = Controller(plant, solver, settings=LoopSettings(rcm_bound=1e-6))
+    log = ctl.run([Phase("visit", start + k * (target.x - start))])
+    q = robot.joints_from_actuators(plant.read_actuators())
+    assert np.linalg.norm(robot.tip(q) - target.x[:3]) <= 2e-8
+    assert math.acos(min(1.0, float(robot.tip_direction(q) @ target.direction))) <= 1e-6
+    assert np.nanmax(np.linalg.norm(log.rcm_deviation(), axis=1)) <= 0.5e-6 + 1e-9
+
+
 def test_a_direction_the_needle_cannot_take_raises_naming_the_angles() -> None:
     robot = _curved("iramis")
     eye = default_eye(robot)

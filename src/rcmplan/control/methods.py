@@ -38,7 +38,7 @@ def make_solver(
     """
     cfg = settings or MethodSettings()
     if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
-        return _curved_solver(name, cfg)
+        return _curved_solver(name, cfg, robot, **context)
     if name == "pinv":
         return PinvSolver(K=cfg.K, tol=cfg.tolerance)
     if name == "pinv-thesis":
@@ -52,15 +52,19 @@ def make_solver(
     raise InvalidInputError("method", name, f"one of {METHODS}")
 
 
-def _curved_solver(name: str, cfg: MethodSettings) -> Solver:
-    """The curved needle's solvers (`rcmplan.control.curved`): pinv and DLS."""
+def _curved_solver(name: str, cfg: MethodSettings, robot: RobotModel, **context: Any) -> Solver:
+    """The curved needle's solvers (`rcmplan.control.curved`): pinv, DLS and the QP."""
     from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, gains_from_x_ext
 
     if name == "pinv":
         return CurvedPinvSolver(K=gains_from_x_ext(cfg.K), tol=cfg.tolerance)
     if name == "dls":
         return CurvedDlsSolver(damping=cfg.damping, tol=cfg.tolerance)
-    raise InvalidInputError("method", name, "'pinv' or 'dls' for a curved needle")
+    if name == "qp":
+        qp = importlib.import_module("rcmplan.control.qp")
+        solver: Solver = qp.QpSolver.from_settings(cfg, robot, **context)
+        return solver
+    raise InvalidInputError("method", name, "'pinv', 'dls' or 'qp' for a curved needle")
 
 
 def make_free_solver(robot: RobotModel) -> Solver | None:
