@@ -30,3 +30,12 @@ def test_a_curved_needle_reaches_the_retina_at_a_wider_range_of_angles() -> None
     assert s["straight_area_mm2"] > 0.0 and s["curved_area_mm2"] > 0.0
     assert s["curved_min_angle_median_rad"] < s["straight_angle_median_rad"]
     assert s["curved_angle_span_median_rad"] > 0.1
+
+
+def test_the_sweep_of_the_curved_scenario_writes_the_reach_summary(tmp_path, capsys) -> None:
+    from rcmplan.cli import main
+
+    assert main(["sweep", "--scenario", "curved", "--targets", "40", "--json",
+                 "--out", str(tmp_path)]) == 0  # fmt: skip
+    text = (tmp_path / "summary.json").read_text()
+    assert '"needle": "curved"' in text and "area_ratio" in text
