@@ -92,7 +92,7 @@ def test_one_direction_per_visit_is_required() -> None:
         sc.phases(make_robot("iramis"))
 
 
-def test_a_curved_needle_on_a_mujoco_plant_stops_with_a_typed_error() -> None:
-    result = run_scenario(load_scenario("curved").with_plant("mujoco"))
+def test_a_curved_needle_on_an_arm_in_mujoco_stops_with_a_typed_error() -> None:
+    result = run_scenario(load_scenario("curved").with_plant("mujoco").with_robot("ur5"))
     assert isinstance(result.error, InvalidInputError)
-    assert "'kinematic' for a curved needle" in result.status
+    assert "'kinematic' for a curved needle on an arm" in result.status

@@ -17,6 +17,7 @@ from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_free_solver, make_solver
 from rcmplan.exceptions import InvalidInputError, RcmplanError
+from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.curved_figures import curved_figures
@@ -86,6 +87,16 @@ class RunResult:
         }
 
 
+def check_curved_plant(robot: RobotModel, plant: str) -> RobotModel:
+    """The model a plant is built for: a curved needle's shaft (its MuJoCo model has no arc;
+    iRAM!S only), else the robot itself."""
+    if not isinstance(robot, CurvedTipRobot):
+        return robot
+    if plant != "kinematic" and robot.name != "iramis":
+        raise InvalidInputError("plant", plant, "'kinematic' for a curved needle on an arm")
+    return robot.base
+
+
 def run_scenario(
     scenario: Scenario,
     robot: RobotModel | None = None,
@@ -102,17 +113,16 @@ def run_scenario(
     robot = scenario.needle.fit(robot or make_robot(scenario.robot))
     extra: dict[str, Any] = {}
     try:
-        if scenario.needle.kind == "curved" and scenario.plant != "kinematic":
-            raise InvalidInputError("plant", scenario.plant, "'kinematic' for a curved needle")
+        shaft = check_curved_plant(robot, scenario.plant)
         eye = scenario.eye(robot)
         scene = {"eye": eye, "points": scenario.points(eye)}
-        plant = make_plant(scenario.plant, robot, scene=scene, dt=scenario.dt)
+        plant = make_plant(scenario.plant, shaft, scene=scene, dt=scenario.dt)
         plant.reset(robot.home_actuators)
         solver = make_solver(
             scenario.method, scenario.method_settings, robot, eye=eye, dt=scenario.dt
         )
         free = make_free_solver(robot)
-        controller = Controller(plant, solver, free, settings=scenario.loop)
+        controller = Controller(plant, solver, free, settings=scenario.loop, robot=robot)
         controller.on_phase = on_phase
         phases = scenario.phases(robot)
         log = controller.run(phases)

@@ -43,6 +43,8 @@ class Controller:
         settings: Loop settings.
         runner: Runs phases faster where it applies (default: the compiled runner when
             `rcmplan.compiled` is loaded, else the reference code); see `control.runner`.
+        robot: The model the controller drives, with the plant's actuators (default: the
+            plant's own; a curved needle's model on a plant built for its shaft).
     """
 
     def __init__(
@@ -52,9 +54,10 @@ class Controller:
         free_solver: Solver | None = None,
         settings: LoopSettings | None = None,
         runner: Runner | None = None,
+        robot: RobotModel | None = None,
     ) -> None:
         self.plant = plant
-        self.robot: RobotModel = plant.robot
+        self.robot: RobotModel = robot or plant.robot
         self.solver = solver
         self.free_solver: Solver = free_solver or TipSolver()
         self.settings = settings or LoopSettings()
