@@ -121,7 +121,7 @@ def run_scenario(
         solver = make_solver(
             scenario.method, scenario.method_settings, robot, eye=eye, dt=scenario.dt
         )
-        free = make_free_solver(robot)
+        free = make_free_solver(robot, scenario.method_settings)
         controller = Controller(plant, solver, free, settings=scenario.loop, robot=robot)
         controller.on_phase = on_phase
         phases = scenario.phases(robot)

@@ -67,11 +67,11 @@ def _curved_solver(name: str, cfg: MethodSettings, robot: RobotModel, **context:
     raise InvalidInputError("method", name, "'pinv', 'dls' or 'qp' for a curved needle")
 
 
-def make_free_solver(robot: RobotModel) -> Solver | None:
+def make_free_solver(robot: RobotModel, settings: MethodSettings | None = None) -> Solver | None:
     """The free-space solver for `robot`: whole poses for a curved needle (its arc must pass
     the trocar), else None (the controller's tip pseudoinverse)."""
     if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
         from rcmplan.control.curved import CurvedPoseSolver
 
-        return CurvedPoseSolver()
+        return CurvedPoseSolver(tol=(settings or MethodSettings()).tolerance)
     return None
