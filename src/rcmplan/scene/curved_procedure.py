@@ -146,24 +146,15 @@ def curved_injection(
             needle takes (`rcmplan.control.curved_targets.lateral_target`).
     """
     steps = steps or Steps()
-    pts, c = points.as_dict(), eye.port
+    pts = points.as_dict()
     check_arc_passes(robot.needle, eye)
     planned = plan_lateral(robot, eye, [pts[v] for v in visits], directions, tolerance)
     bend = np.array(ENTRY_BEND)
-    entry = np.array(
-        [pose_target(robot.needle, T) for T in entry_poses(robot.needle, eye, bend, steps)]
-    )
-    phases = [approach_phase(robot, entry_poses(robot.needle, eye, bend, steps)[0], steps),
-              Phase("enter", entry[1:], "free")]  # fmt: skip
-    T_in = entered_pose(robot.needle, eye, bend)
-    depth = float((points.p3 - c) @ eye.axis) - robot.needle.tip_local()[2] + robot.needle_length
-    if depth <= 0.0:
-        raise UnreachableTargetError(f"p3 lies within the arc's reach of the trocar ({depth:.4g})")
-    n = steps.count(depth)
-    T_deep = T_in.copy()
-    T_deep[:3, 3] += depth * eye.axis
-    x_in = _rcm_target(robot, T_in, c)
-    x_deep = _rcm_target(robot, T_deep, c)
+    poses = entry_poses(robot.needle, eye, bend, steps)
+    entry = np.array([pose_target(robot.needle, T) for T in poses])
+    phases = [approach_phase(robot, poses[0], steps), Phase("enter", entry[1:], "free")]
+    x_in, x_deep = insertion(robot, eye, points.p3, bend)
+    n = steps.count(float(np.linalg.norm(x_deep[:3] - x_in[:3])))
     phases.append(Phase("insert", interpolate(x_in, x_deep, n)))
     for name, target in zip(visits, planned, strict=True):
         check_inside(eye, name, target.x[:3])
@@ -172,6 +163,25 @@ def curved_injection(
     phases.append(Phase("retract", interpolate(x_deep, x_in, n)))
     phases.append(Phase("exit", entry[-2::-1], "free"))
     return phases
+
+
+def insertion(
+    robot: CurvedTipRobot, eye: Eye, p3: FloatArray, bend: FloatArray
+) -> tuple[FloatArray, FloatArray]:
+    """X_c targets with the shaft's end at the trocar and pushed along the axis until the tip
+    is as deep as p3 (the roll unchanged)."""
+    T_in = entered_pose(robot.needle, eye, bend)
+    tip_ahead = robot.needle.tip_local()[2] - robot.needle_length  # tip beyond the shaft's end
+    depth = float((p3 - eye.port) @ eye.axis) - tip_ahead
+    if depth <= 0.0:
+        raise UnreachableTargetError(
+            f"p3 lies {1e3 * (depth + tip_ahead):.3f} mm deep; valid: deeper than the arc's "
+            f"{1e3 * tip_ahead:.3f} mm beyond the shaft's end",
+            p3,
+        )
+    T_deep = T_in.copy()
+    T_deep[:3, 3] += depth * eye.axis
+    return _rcm_target(robot, T_in, eye.port), _rcm_target(robot, T_deep, eye.port)
 
 
 def _rcm_target(robot: CurvedTipRobot, T: FloatArray, trocar: FloatArray) -> FloatArray:
