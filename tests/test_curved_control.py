@@ -140,3 +140,17 @@ def test_a_needle_with_alpha_zero_gives_the_straight_needles_records() -> None:
         logs.append(ctl.run(injection(robot, eye, default_points(eye), visits=("p4",))))
     for key in ("sliders", "joints", "lam", "tip", "rcm", "error"):
         assert np.array_equal(getattr(logs[0], key), getattr(logs[1], key), equal_nan=True)
+
+
+def test_a_roll_beyond_the_joint_travel_is_refused_naming_the_slider_and_its_range() -> None:
+    robot = _curved("iramis")
+    start, _ = _lateral(robot)
+    pose = solve_curved_pose(robot, start)
+    q = pose.q.copy()
+    q[5] = math.pi - 1e-3  # near q5's travel end, then ask for 2 mrad more
+    target = np.array([*robot.tip(q), robot.roll(q), *start[4:]])
+    seed = solve_curved_pose(robot, target, q).q
+    beyond = target.copy()
+    beyond[3] = math.pi + 1e-3 - 2.0 * math.pi  # the same roll, 2 mrad further round
+    with pytest.raises(UnreachableTargetError, match=r"q5 = 3.142.* beyond its travel \[-3.14159"):
+        solve_curved_pose(robot, beyond, seed)
