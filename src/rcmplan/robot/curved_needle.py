@@ -13,8 +13,9 @@ Default values (assumed, with their sources): R = 12 mm, the radius of the adult
 Curved-Micro-Drainer's curve "matches the spherical ocular structure" (Biomedical Microdevices
 18:65, 2016, a 5 mm curved part); a sub-Tenon cannula curved with R = 14 mm for the same reason
 (mvupgo.com, sub-Tenon cannula). alpha = 0.25 rad gives a 3 mm arc (the drainer's curved part is
-5 mm): entering through the trocar turns the shaft by alpha about it, and a larger alpha takes
-iRAM!S's sliders beyond their assumed travel (`rcmplan.scene.curved_procedure`).
+5 mm): entering through the trocar turns the shaft by alpha about it; alpha = 0.4 rad takes
+iRAM!S's sliders beyond their assumed +-40 mm travel for each bend direction tried
+(docs/robots.md).
 """
 
 from __future__ import annotations
