@@ -10,7 +10,7 @@ The RCM lies on the shaft only: lambda in [0, 1] parametrises the shaft, p(lambd
 With alpha = 0 the tip is the shaft's end: the straight needle of length l_s.
 
 Default values (assumed, with their sources): R = 12 mm, the radius of the adult eye, as the
-Curved-Micro-Drainer's curve "matches the spherical ocular structure" (Biomedical Microdevices
+Curved-Micro-Drainer is curved to follow the spherical globe (Biomedical Microdevices
 18:65, 2016, a 5 mm curved part); a sub-Tenon cannula curved with R = 14 mm for the same reason
 (mvupgo.com, sub-Tenon cannula). alpha = 0.25 rad gives a 3 mm arc (the drainer's curved part is
 5 mm): entering through the trocar turns the shaft by alpha about it; alpha = 0.4 rad takes
