@@ -96,3 +96,17 @@ def test_a_curved_needle_on_an_arm_in_mujoco_stops_with_a_typed_error() -> None:
     result = run_scenario(load_scenario("curved").with_plant("mujoco").with_robot("ur5"))
     assert isinstance(result.error, InvalidInputError)
     assert "'kinematic' for a curved needle on an arm" in result.status
+
+
+def test_the_mujoco_scene_draws_the_arc_ending_at_the_models_tip() -> None:
+    mujoco = pytest.importorskip("mujoco")
+    from rcmplan.sim.mujoco.plant import MujocoPlant
+
+    robot = load_scenario("curved").needle.fit(make_robot("iramis"))
+    plant = MujocoPlant(robot.base, mode="kinematic", needle_arc=(12e-3, 0.25))
+    q = np.array([1e-3, 0.05, -2e-3, 0.1, 5e-3, 0.7])
+    plant.reset(robot.actuators_from_joints(q))
+    model, data = plant.scene()
+    site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "needle_arc_tip")
+    assert data.site_xpos[site] == pytest.approx(robot.tip(q), abs=1e-9)
+    assert plant.warnings() == {}

@@ -115,7 +115,7 @@ def run_scenario(
     try:
         shaft = check_curved_plant(robot, scenario.plant)
         eye = scenario.eye(robot)
-        scene = {"eye": eye, "points": scenario.points(eye)}
+        scene = {"eye": eye, "points": scenario.points(eye), "needle_arc": scenario.needle.arc()}
         plant = make_plant(scenario.plant, shaft, scene=scene, dt=scenario.dt)
         plant.reset(robot.home_actuators)
         solver = make_solver(

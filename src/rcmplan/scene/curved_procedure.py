@@ -235,6 +235,10 @@ class NeedleOptions:
         CurvedNeedle(1.0, self.radius, self.arc_angle)  # checks R and alpha
         scalar("lateral tolerance", self.tolerance, 0.0, math.pi, low_open=True)
 
+    def arc(self) -> tuple[float, float] | None:
+        """(R [m], alpha [rad]) of a curved needle's arc, None for a straight one."""
+        return (self.radius, self.arc_angle) if self.kind == "curved" else None
+
     def fit(self, robot: RobotModel) -> RobotModel:
         """`robot` holding this needle (a curved needle on the shaft it holds)."""
         if self.kind == "straight" or isinstance(robot, CurvedTipRobot):
