@@ -196,7 +196,7 @@ class DlsSolver:
         """(tip target - tip, trocar - p_rcm), both in [m] (base task for a pivot)."""
         e = np.empty(6)
         tip = tip_of_target(target)
-        e[:3] = tip - robot.needle_point(q, 1.0)
+        e[:3] = tip - robot.tip(q)
         if _is_pivot(tip, target):
             base = tip - robot.needle_length * axis_from_angles(target[1], target[2])
             e[3:] = base - robot.needle_point(q, 0.0)
@@ -247,7 +247,7 @@ class TipSolver:
 
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """Tip target minus tip, in [m]."""
-        return target[:3] - robot.needle_point(q, 1.0)
+        return target[:3] - robot.tip(q)
 
     def tolerance(self) -> FloatArray:
         """Position tolerance on x, y, z."""
