@@ -8,9 +8,11 @@ runs a single thread (forking a threaded process can deadlock) and more than one
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
 from rcmplan.exceptions import RcmplanError
@@ -31,12 +33,26 @@ def run_jobs(jobs: Sequence[Job]) -> list[Path]:
         for _, job in jobs:
             job()
         return [path for path, _ in jobs]
-    children = [(_fork(job), path) for path, job in jobs[1:]]
-    jobs[0][1]()
-    failed = [str(path) for pid, path in children if os.waitpid(pid, 0)[1] != 0]
+    children: list[tuple[int, Path]] = []
+    try:
+        for path, job in jobs[1:]:
+            children.append((_fork(job), path))
+        jobs[0][1]()
+        failed = [str(path) for pid, path in children if os.waitpid(pid, 0)[1] != 0]
+    except BaseException:  # interrupted (SIGINT, SIGTERM): stop and reap the children
+        _stop(pid for pid, _ in children)
+        raise
     if failed:
         raise RcmplanError(f"drawing {', '.join(failed)} failed (see the messages above)")
     return [path for path, _ in jobs]
+
+
+def _stop(pids: Iterable[int]) -> None:
+    """SIGTERM each child still running and reap it (no zombie, no orphan left drawing)."""
+    for pid in pids:
+        with contextlib.suppress(ChildProcessError, ProcessLookupError):
+            os.kill(pid, signal.SIGTERM)
+            os.waitpid(pid, 0)
 
 
 def _fork(job: Callable[[], object]) -> int:

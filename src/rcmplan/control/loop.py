@@ -94,8 +94,8 @@ class Controller:
                 self.run_phase(ph)
                 if self.on_phase is not None:
                     self.on_phase(ph)
-        except RcmplanError as exc:
-            exc.log = self.log.finish()
+        except (RcmplanError, KeyboardInterrupt) as exc:
+            exc.log = self.log.finish()  # type: ignore[union-attr]
             raise
         return self.log.finish()
 
@@ -124,8 +124,12 @@ class Controller:
                 if not self.runner.run_phase(self, solver, targets, pid, sid):
                     for k, target in enumerate(targets):
                         self.converge(solver, target, pid, sid, k)
-            finally:
+            except KeyboardInterrupt:
+                raise  # an interrupt is reported as such, the bound unchecked
+            except BaseException:
                 self._check_rcm_bound(phase.name, first)
+                raise
+            self._check_rcm_bound(phase.name, first)
         finally:
             spent = time.perf_counter() - start
             self.phase_times[phase.name] = self.phase_times.get(phase.name, 0.0) + spent
