@@ -42,6 +42,17 @@ class Executor(Protocol):
         ...
 
 
+def check_timeout(timeout_s: float) -> float:
+    """timeout_s as a float, or InvalidInputError unless it is positive and finite."""
+    try:
+        t = float(timeout_s)
+    except (TypeError, ValueError, OverflowError):
+        t = math.nan
+    if not (math.isfinite(t) and t > 0):
+        raise InvalidInputError("timeout", timeout_s, "a positive finite time in s")
+    return t
+
+
 def make_chunks(items: Sequence[TargetItem], workers: int, size: int | None = None) -> list[Chunk]:
     """Split items into chunks: `size` each, or about 8 chunks per worker, 1 to 50 targets."""
     if size is None:
@@ -109,6 +120,36 @@ class LocalExecutor(_ExecutorBase):
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
 
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if kind is not None and issubclass(kind, KeyboardInterrupt):
+            self.terminate()
+        self.close()
+
+    def terminate(self) -> None:
+        """Stop the pool's workers now (SIGTERM, then reaped), dropping the chunks they run:
+        an interrupted sweep waits for no chunk and leaves no worker behind. Finished chunks
+        are in the checkpoint already."""
+        pool = self._pool
+        if pool is None:
+            return
+        # CPython's pool internals: its workers, and its queue of work items, from which the
+        # cancelled ones are dropped (Python 3.11 would set an exception on them when the
+        # workers die, printing a traceback from the pool's thread).
+        pending = getattr(pool, "_pending_work_items", {})
+        for key, item in list(pending.items()):
+            if item.future.cancelled():
+                pending.pop(key, None)
+        workers = list(dict(getattr(pool, "_processes", None) or {}).values())
+        for proc in workers:
+            proc.terminate()
+        for proc in workers:
+            proc.join(timeout=5.0)
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
+
 
 class DaskExecutor(_ExecutorBase):
     """A Dask distributed cluster reached through its scheduler address.
@@ -125,7 +166,7 @@ class DaskExecutor(_ExecutorBase):
     def __init__(self, address: str, timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
         distributed = require_extra("distributed", "dist")
         self.address = address
-        self.timeout_s = float(timeout_s)
+        self.timeout_s = check_timeout(timeout_s)
         self._distributed = distributed
         self.client = self._connect(distributed)
         self.workers = len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
