@@ -15,6 +15,7 @@ import threading
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
+from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import RcmplanError
 
 Job = tuple[Path, Callable[[], object]]  # the file a job writes, and the job
@@ -56,12 +57,20 @@ def _stop(pids: Iterable[int]) -> None:
 
 
 def _fork(job: Callable[[], object]) -> int:
-    pid = os.fork()
-    if pid == 0:  # child: draw, then leave without running the parent's exit handlers
-        code = 1
-        try:
-            job()
-            code = 0
-        finally:
-            os._exit(code)
+    with signals_deferred():  # a signal inside fork's hooks would be lost
+        pid = os.fork()
+        if pid == 0:  # child: draw, then leave without running the parent's exit handlers
+            _child(job)
     return pid
+
+
+def _child(job: Callable[[], object]) -> None:
+    """Run job and exit; SIGINT and SIGTERM stop it cleanly (its half-written file removed)."""
+    code = 1
+    try:
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.default_int_handler)
+        job()
+        code = 0
+    finally:
+        os._exit(code)

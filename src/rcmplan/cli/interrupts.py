@@ -15,14 +15,25 @@ from types import FrameType
 CAUGHT = (signal.SIGINT, signal.SIGTERM)
 
 
-class Terminated(KeyboardInterrupt):
+class Interrupted(KeyboardInterrupt):
+    """SIGINT as a subclass of KeyboardInterrupt: code that handles Ctrl-C handles it. (Not
+    KeyboardInterrupt itself: CPython kills itself with SIGINT at exit, whatever the exit code,
+    once a bare KeyboardInterrupt has left code run through its C API, as some compiled
+    dependencies do, even when rcmplan caught it later.)"""
+
+    signal_name = "SIGINT"
+    signum = signal.SIGINT
+
+
+class Terminated(Interrupted):
     """SIGTERM, raised like Ctrl-C's KeyboardInterrupt so the same code handles both."""
 
     signal_name = "SIGTERM"
+    signum = signal.SIGTERM
 
 
-def _raise_terminated(signum: int, frame: FrameType | None) -> None:
-    raise Terminated()
+def _raise(signum: int, frame: FrameType | None) -> None:
+    raise Terminated() if signum == signal.SIGTERM else Interrupted()
 
 
 def signal_name(exc: BaseException) -> str:
@@ -32,19 +43,19 @@ def signal_name(exc: BaseException) -> str:
 
 def exit_code(exc: BaseException) -> int:
     """128 + the signal number: 143 for SIGTERM, 130 for SIGINT."""
-    return 128 + int(signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT)
+    return 128 + int(getattr(exc, "signum", signal.SIGINT))
 
 
 @contextlib.contextmanager
 def handled() -> Iterator[None]:
-    """SIGTERM raises Terminated and SIGINT KeyboardInterrupt inside the block (main thread
-    only; the previous handlers come back after it)."""
+    """SIGTERM raises Terminated and SIGINT Interrupted (both KeyboardInterrupt) inside the
+    block (main thread only; the previous handlers come back after it)."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     old = {s: signal.getsignal(s) for s in CAUGHT}
-    signal.signal(signal.SIGTERM, _raise_terminated)
-    signal.signal(signal.SIGINT, signal.default_int_handler)
+    for s in CAUGHT:
+        signal.signal(s, _raise)
     try:
         yield
     finally:

@@ -16,6 +16,7 @@ from collections.abc import Iterator, Sequence
 from types import TracebackType
 from typing import Any, Protocol
 
+from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import InvalidInputError, require_extra
 from rcmplan.sweep.errors import SchedulerError
 from rcmplan.sweep.settings import MotionSettings
@@ -105,8 +106,9 @@ class LocalExecutor(_ExecutorBase):
             for chunk in chunks:
                 yield run_chunk(motion, chunk)
             return
-        pool = self._get_pool()
-        futures = [pool.submit(run_chunk, motion, chunk) for chunk in chunks]
+        with signals_deferred():  # the pool starts whole: every worker it launches is tracked
+            pool = self._get_pool()
+            futures = [pool.submit(run_chunk, motion, chunk) for chunk in chunks]
         try:
             for fut in cf.as_completed(futures):
                 yield fut.result()
