@@ -39,6 +39,13 @@ class InvalidInputError(RcmplanError, ValueError):
         super().__init__(f"{name} = {_short(value)} is invalid; valid: {valid}")
 
 
+class PlanTooLargeError(InvalidInputError):
+    """A procedure would plan more targets than a run allows (step sizes far below the path's
+    length); refused before any motion and before the targets are allocated."""
+
+    status = "plan_too_large"
+
+
 class UnknownJointTypeError(InvalidInputError):
     """A DH link names a joint type other than 'revolute' or 'prismatic'."""
 

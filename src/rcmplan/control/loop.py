@@ -19,7 +19,14 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.log import LogBuilder, RunLog
-from rcmplan.control.phase import LoopSettings, Phase, TargetPlanner, interpolate, split_steps
+from rcmplan.control.phase import (
+    LoopSettings,
+    Phase,
+    TargetPlanner,
+    check_plan_size,
+    interpolate,
+    split_steps,
+)
 from rcmplan.control.plant import Plant
 from rcmplan.control.runner import Runner, default_runner
 from rcmplan.control.solvers import Solver, TipSolver
@@ -66,6 +73,7 @@ class Controller:
             f"{n}_{u}" for n, u in zip(self.robot.actuator_names, units, strict=True)
         )
         self.phase_times: dict[str, float] = {}
+        self._planned = 0  # targets planned so far in this run (at most MAX_TARGETS)
         self.on_phase: Callable[[Phase], None] | None = None
 
     def check_targets(self, targets: FloatArray) -> None:
@@ -87,6 +95,8 @@ class Controller:
         """
         self.runner.expect_job(self, phases)
         try:
+            sizes = [len(ph.targets) for ph in phases if not callable(ph.targets)]
+            self._planned = check_plan_size(sum(sizes), "targets of the run")
             for ph in phases:
                 if ph.kind == "rcm" and not callable(ph.targets):
                     self.check_targets(ph.plan(self.robot.home))
@@ -115,6 +125,9 @@ class Controller:
                 raise InvalidInputError(
                     f"targets of phase {phase.name!r}", targets.shape, f"shape (N, {width})"
                 )
+            if callable(phase.targets):
+                self._planned += len(targets)
+                check_plan_size(self._planned, "targets of the run")
             if phase.kind == "rcm":
                 if callable(phase.targets):
                     self.check_targets(targets)
