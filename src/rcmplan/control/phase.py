@@ -24,6 +24,9 @@ TargetPlanner = Callable[[FloatArray], FloatArray]
 # 800,000 records (200 MB of CSV). Step sizes that would plan more (`angle_mrad = 0.001`
 # plans about 10^6) are refused before motion and before the targets are allocated.
 MAX_TARGETS = 200_000
+# Algorithm 1's iteration cap per target may not exceed this (the scenario schema's bound):
+# a target that needs more is not converging.
+MAX_ITERATIONS = 100_000
 
 
 def check_plan_size(n: int, what: str = "targets") -> int:
@@ -87,8 +90,12 @@ class LoopSettings:
     rcm_bound: float | None = 45e-6
 
     def __post_init__(self) -> None:
-        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
-            raise InvalidInputError("max_iterations", self.max_iterations, "an integer >= 1")
+        it = self.max_iterations
+        if not isinstance(it, int) or isinstance(it, bool) or not 1 <= it <= MAX_ITERATIONS:
+            valid = f"an integer in [1, {MAX_ITERATIONS:,}]"
+            raise InvalidInputError("max_iterations", self.max_iterations, valid)
+        if not isinstance(self.drift_correction, bool):
+            raise InvalidInputError("drift_correction", self.drift_correction, "True or False")
         if self.singular_threshold is not None:
             scalar("singular_threshold", self.singular_threshold, 0.0, 1.0, high_open=True)
         if self.rcm_bound is not None:

@@ -9,11 +9,12 @@ lets every target be checked for lambda in [0, 1], reach and actuator travel bef
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, vector
+from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.exceptions import PcjmAngleError, SliderLimitError, UnreachableTargetError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis, axis_from_angles
@@ -55,8 +56,14 @@ def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:
 
 
 def pivot_target(x_tip: float, phi: float, psi: float, trocar: FloatArray) -> FloatArray:
-    """X_ext for explicit needle angles (used while lambda = 1, tip at the trocar)."""
-    return np.array([x_tip, phi, psi, *vector("trocar", trocar, 3)])
+    """X_ext for explicit needle angles (used while lambda = 1, tip at the trocar).
+
+    Raises InvalidInputError for a non-finite x_tip [m], angles outside [-pi, pi] [rad], or a
+    trocar that is not 3 finite numbers."""
+    x = scalar("x_tip", x_tip)
+    a = scalar("phi", phi, -math.pi, math.pi)
+    b = scalar("psi", psi, -math.pi, math.pi)
+    return np.array([x, a, b, *vector("trocar", trocar, 3)])
 
 
 def tip_of_target(x_ext: FloatArray) -> FloatArray:
