@@ -126,6 +126,8 @@ def split_steps(
     Raises if the step is larger than the distance to go.
     """
     start = vector("start", start)
+    if start.shape[0] not in (3, 6):
+        raise InvalidInputError("start", start, "X_ext (6,) or a tip point (3,)")
     goal = vector("goal", goal, start.shape[0])
     sp = scalar("step_position", step_position, 0.0, np.inf, low_open=True)
     sa = math.inf if step_angle is None else scalar("step_angle", step_angle, 0.0, low_open=True)

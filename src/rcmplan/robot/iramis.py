@@ -392,6 +392,10 @@ class Iramis:
 def _invalid_point(q: Any, lam: Any) -> None:
     """Raise InvalidInputError naming the argument of needle_point that is not valid."""
     vector("q", q, 6)
-    if not isinstance(lam, int | float | np.floating) or not math.isfinite(lam):
+    try:
+        ok = isinstance(lam, int | float | np.floating) and math.isfinite(lam)
+    except OverflowError:  # an int beyond float range
+        ok = False
+    if not ok:
         raise InvalidInputError("lam", lam, "a finite number (0 at the needle base, 1 at the tip)")
     raise InvalidInputError("q", q, "joints whose needle point is finite (|q| far below 1e300)")

@@ -39,7 +39,8 @@ class Steps:
 
     def count(self, distance: float, angle: float = 0.0) -> int:
         """Number of equal steps that keeps each step within both sizes (at least 1)."""
-        ratio = max(distance / self.position, angle / self.angle)
+        distance = scalar("distance", distance, 0.0)
+        ratio = max(distance / self.position, scalar("angle", angle, 0.0) / self.angle)
         return step_count(ratio - 1e-9, "steps")  # rounding noise must not add a step
 
 
