@@ -44,7 +44,7 @@ SCHEMA: dict[str, dict[str, tuple[str, float, float]]] = {
                **{f"{n}_mm": ("vec3", -500, 500) for n in POINT_NAMES}},
     "steps": {"position_mm": ("float", 1e-4, 5), "angle_mrad": ("float", 1e-3, 100)},
     "controller": {"method": ("str", 0, 0), "K": ("vec6", 1e-9, 1.999999),
-                   "damping": ("float", 1e-12, 10), "tolerance_position_m": ("float", 1e-13, 1e-4),
+                   "damping": ("float", 1e-6, 10), "tolerance_position_m": ("float", 1e-13, 1e-4),
                    "tolerance_angle_rad": ("float", 1e-13, 1e-3),
                    "max_iterations": ("int", 1, 100000), "drift_correction": ("bool", 0, 0),
                    "rcm_bound_um": ("float", 0.01, 10000),
