@@ -24,12 +24,12 @@ controllers = st.fixed_dictionaries(
         "damping": st.floats(1e-6, 1e-2),
         "tolerance_position_m": st.floats(1e-10, 1e-5),
         "tolerance_angle_rad": st.floats(1e-9, 1e-4),
-        "max_iterations": st.integers(1, 200),
+        "max_iterations": st.integers(1, 100),
         "rcm_bound_um": st.floats(0.05, 100.0),
     },
 )
 steps = st.fixed_dictionaries(
-    {}, optional={"position_mm": st.floats(0.05, 5.0), "angle_mrad": st.floats(0.5, 100.0)}
+    {}, optional={"position_mm": st.floats(0.2, 5.0), "angle_mrad": st.floats(2.0, 100.0)}
 )
 
 
