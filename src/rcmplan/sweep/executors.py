@@ -9,9 +9,11 @@ checkpoint it at once. Chunks batch several targets per task to amortise the per
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import math
 import multiprocessing
 import os
+import time
 from collections.abc import Iterator, Sequence
 from types import TracebackType
 from typing import Any, Protocol
@@ -24,6 +26,7 @@ from rcmplan.sweep.task import TargetItem, TargetResult, run_chunk
 
 Chunk = list[TargetItem]
 DEFAULT_TIMEOUT_S = 10.0
+POLL_S = 0.02  # how often a Dask sweep looks for finished chunks [s]
 
 
 class Executor(Protocol):
@@ -171,8 +174,19 @@ class DaskExecutor(_ExecutorBase):
         self.timeout_s = check_timeout(timeout_s)
         self._distributed = distributed
         self.client = self._connect(distributed)
-        self.workers = len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
-        self.label = f"dask {address} ({self.workers} workers)"
+        self._seen = self._worker_addresses()
+        self.workers = len(self._seen)
+        self.lost: set[str] = set()  # workers that left while chunks ran (their chunks re-ran)
+
+    @property
+    def label(self) -> str:
+        """Where the chunks ran: the address, the workers, and the workers lost meanwhile."""
+        lost = len(self.lost)
+        note = f", {lost} lost during the sweep (their chunks were re-run)" if lost else ""
+        return f"dask {self.address} ({self.workers} workers{note})"
+
+    def _worker_addresses(self) -> set[str]:
+        return set(self.client.scheduler_info(n_workers=-1).get("workers", {}))
 
     def _connect(self, distributed: Any) -> Any:
         t = self.timeout_s
@@ -190,23 +204,54 @@ class DaskExecutor(_ExecutorBase):
     def map_chunks(self, motion: MotionSettings, chunks: Sequence[Chunk]) -> Iterator[
         list[TargetResult]
     ]:  # fmt: skip
-        """Each chunk's results as it finishes; a chunk whose workers keep dying raises."""
+        """Each chunk's results as it finishes. A worker that dies costs only its chunks, which
+        the scheduler runs again elsewhere (`label` counts the lost workers); a chunk whose
+        workers keep dying, or no worker left for `timeout_s`, raises SchedulerError."""
         futures = [self.client.submit(run_chunk, motion, c, pure=False) for c in chunks]
+        done = self._distributed.as_completed(futures, loop=self.client.loop)
+        waited = time.monotonic()
         try:
-            for fut in self._distributed.as_completed(futures, loop=self.client.loop):
-                yield self._result(fut)
-                fut.release()
+            while not done.is_empty():
+                batch = done.next_batch(block=False)
+                for fut in batch:
+                    yield self._result(fut, done.count() + 1)
+                    fut.release()
+                if batch or time.monotonic() - waited < self.timeout_s:
+                    waited = waited if not batch else time.monotonic()
+                    time.sleep(0 if batch else POLL_S)
+                    continue
+                self._check_workers(done.count())
+                waited = time.monotonic()
         finally:
+            with contextlib.suppress(Exception):  # bookkeeping only: never mask the real error
+                self._check_workers(None)
             self.client.cancel(futures)
 
-    def _result(self, fut: Any) -> list[TargetResult]:
-        try:
-            result: list[TargetResult] = fut.result()
-        except self._distributed.KilledWorker as exc:
+    def _check_workers(self, pending: int | None) -> None:
+        """Note the workers that left; with `pending` chunks and none left, raise."""
+        now = self._worker_addresses()
+        self.lost |= self._seen - now
+        self._seen |= now
+        if pending is not None and not now:
+            t = self.timeout_s
             raise SchedulerError(
-                self.address, self.timeout_s, f"workers died running a chunk ({exc})"
-            ) from exc
-        return result
+                self.address, t, f"has no worker left ({len(self.lost)} lost) after {t:g} s; "
+                f"{pending} chunks not run (finished ones are in the checkpoint)",
+            )  # fmt: skip
+
+    def _result(self, fut: Any, pending: int) -> list[TargetResult]:
+        """The chunk's results; a result lost with its worker is waited for while workers
+        remain (the scheduler recomputes it)."""
+        while True:
+            try:
+                result: list[TargetResult] = fut.result(timeout=self.timeout_s)
+                return result
+            except self._distributed.KilledWorker as exc:
+                raise SchedulerError(
+                    self.address, self.timeout_s, f"workers died running a chunk ({exc})"
+                ) from exc
+            except TimeoutError:
+                self._check_workers(pending)
 
     def close(self) -> None:
         """Close the client (the cluster keeps running)."""
