@@ -150,7 +150,7 @@ class Iramis:
         Raises InvalidInputError unless q is 6 finite numbers."""
         try:
             c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
-            ok = len(q) == 6 and math.isfinite(q[0] + q[2] + q[4] + q[5])
+            ok = len(q) == 6 and c1 + c3 == c1 + c3  # False for NaN
         except (TypeError, ValueError, IndexError, OverflowError):
             ok = False
         if not ok:
@@ -170,7 +170,7 @@ class Iramis:
             x = p.l2 * s1 - c1 * c3 * w - p.l5 * c1 * s3
             y = p.l3 + p.l4 + q[2] - s3 * w + p.l5 * c3
             z = p.l1 + q[0] + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3
-            ok = len(q) == 6 and math.isfinite(x + y + z + q[5])
+            ok = len(q) == 6 and math.isfinite(x + y + z)  # every input but the roll q5
         except (TypeError, ValueError, IndexError, OverflowError):
             ok = False
         if not ok:
@@ -307,13 +307,13 @@ class Iramis:
 
         Raises InvalidInputError unless q is 6 finite numbers."""
         try:
-            m = min(abs(math.cos(q[1])), abs(math.cos(q[3])))
-            ok = len(q) == 6 and math.isfinite(q[0] + q[2] + q[4] + q[5])
+            c1, c3 = abs(math.cos(q[1])), abs(math.cos(q[3]))
+            ok = len(q) == 6 and c1 + c3 == c1 + c3  # False for NaN
         except (TypeError, ValueError, IndexError, OverflowError):
             ok = False
         if not ok:
             vector("q", q, 6)
-        return m
+        return min(c1, c3)
 
     @staticmethod
     def singular_terms(q: Sequence[float] | FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -327,7 +327,11 @@ class Iramis:
     ) -> None:
         """Raise SingularPoseError if the singularity measure is below the threshold."""
         thr = self.params.singular_threshold if threshold is None else threshold
-        if not (isinstance(thr, int | float) and 0.0 <= thr < 1.0):  # False for NaN
+        try:
+            ok = bool(0.0 <= thr < 1.0)  # False for NaN
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
             raise InvalidInputError("threshold", threshold, "a number in [0, 1)")
         m = self.singularity_measure(q)
         if m < thr:
