@@ -51,7 +51,8 @@ def test_unreachable_scenario_sets_status_and_exits_non_zero(tmp_path: Path, cap
     out = tmp_path / "out"
     assert main(["inject", "--scenario", str(scenario), "--out", str(out), "--no-plots"]) == 1
     s = json.loads((out / "summary.json").read_text())
-    assert s["status"].startswith("UnreachableTargetError")
+    assert s["status"] == "unreachable_target"
+    assert s["message"].startswith("UnreachableTargetError")
     assert "stopped early" in capsys.readouterr().err
 
 
@@ -63,7 +64,7 @@ def test_run_that_stops_midway_keeps_its_partial_log(tmp_path: Path) -> None:
     out = tmp_path / "out"
     assert main(["inject", "--scenario", str(scenario), "--out", str(out), "--no-plots"]) == 1
     s = json.loads((out / "summary.json").read_text())
-    assert s["status"].startswith("ConvergenceError")
+    assert s["status"] == "no_convergence" and s["message"].startswith("ConvergenceError")
     log = RunLog.load_npz(out / "log.npz")
     assert len(log) > 0 and np.all(np.isfinite(log.tip))
 
@@ -110,4 +111,5 @@ def test_malformed_scenario_file_exits_non_zero_with_status(tmp_path: Path, caps
     assert main(["inject", "--scenario", str(scenario), "--out", str(out)]) == 2
     assert "radius_mm" in capsys.readouterr().err
     s = json.loads((out / "summary.json").read_text())
-    assert s["status"].startswith("ScenarioError") and "[3, 20]" in s["status"]
+    assert s["status"] == "invalid_scenario"
+    assert s["message"].startswith("ScenarioError") and "[3, 20]" in s["message"]

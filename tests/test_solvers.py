@@ -75,7 +75,7 @@ def test_zero_or_bad_tolerances_raise(tol) -> None:
         PinvSolver(tol=tol)
 
 
-@pytest.mark.parametrize("D", [0.0, -1.0, np.inf])
-def test_damping_must_be_positive(D) -> None:
+@pytest.mark.parametrize("D", [0.0, -1.0, np.inf, 1e-12])
+def test_damping_must_be_positive_and_resolvable(D) -> None:
     with pytest.raises(InvalidInputError, match="damping"):
         DlsSolver(damping=D)

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from rcmplan.cli import sweep as sweep_cli
-from rcmplan.exceptions import RcmplanError
+from rcmplan.exceptions import InvalidInputError, RcmplanError
 from rcmplan.sweep.errors import CheckpointError, EmptyRegionError, SchedulerError
 
 
@@ -70,6 +70,9 @@ def test_gain_search_reports_the_best_settings(tmp_path: Path, capsys) -> None:
         (["--targets", "3", "--max-angle", "80"], EmptyRegionError),
         (["--targets", "0"], RcmplanError),
         (["--scheduler", f"tcp://127.0.0.1:{unused_port()}", "--timeout", "1"], SchedulerError),
+        (["--timeout", "-1"], InvalidInputError),
+        (["--timeout", "nan"], InvalidInputError),
+        (["--timeout", "inf"], InvalidInputError),
     ],
 )
 def test_bad_input_raises_a_clear_error(tmp_path: Path, argv: list[str], error: type) -> None:

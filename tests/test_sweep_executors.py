@@ -75,3 +75,56 @@ def test_chunks_cover_every_item_once() -> None:
 def test_workers_must_be_positive() -> None:
     with pytest.raises(RcmplanError):
         LocalExecutor(0)
+
+
+def kill_one_worker(cluster) -> None:
+    """SIGKILL one worker process (its nanny starts a new one, at a new address)."""
+    import os
+    import signal
+
+    nanny = next(iter(cluster.workers.values()))
+    os.kill(nanny.process.process.pid, signal.SIGKILL)
+
+
+def test_a_killed_dask_worker_costs_only_its_chunks_and_the_label_says_so(local_result) -> None:
+    import distributed
+
+    with (
+        distributed.LocalCluster(
+            n_workers=2, processes=True, threads_per_worker=1, dashboard_address=None
+        ) as cluster,
+        DaskExecutor(cluster.scheduler_address, timeout_s=30) as ex,
+    ):
+        chunks: list[int] = []
+
+        def on_chunk(results) -> None:
+            chunks.append(len(results))
+            if len(chunks) == 1:
+                kill_one_worker(cluster)
+
+        result = run_sweep(SETTINGS, ex, on_chunk=on_chunk, chunk_size=1)
+    assert identities(result) == identities(local_result)
+    assert len(ex.lost) >= 1 and "lost during the sweep" in result.executor
+
+
+def test_losing_every_dask_worker_ends_the_sweep_with_a_clear_error() -> None:
+    import distributed
+
+    with (
+        distributed.LocalCluster(
+            n_workers=1, processes=True, threads_per_worker=1, dashboard_address=None
+        ) as cluster,
+        DaskExecutor(cluster.scheduler_address, timeout_s=2) as ex,
+    ):
+
+        def on_chunk(results) -> None:
+            cluster.scale(0)
+
+        with pytest.raises(SchedulerError, match="has no worker left"):
+            run_sweep(SETTINGS, ex, on_chunk=on_chunk, chunk_size=1)
+
+
+@pytest.mark.parametrize("timeout", [-1.0, 0.0, math.nan, math.inf])
+def test_timeout_must_be_positive_and_finite(timeout: float) -> None:
+    with pytest.raises(RcmplanError, match="timeout"):
+        DaskExecutor("tcp://127.0.0.1:1", timeout_s=timeout)

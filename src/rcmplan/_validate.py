@@ -16,7 +16,7 @@ def vector(name: str, value: Any, size: int | None = None) -> FloatArray:
     """Return value as a finite 1-D float64 array of the given size, or raise."""
     try:
         arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InvalidInputError(name, value, "a sequence of real numbers") from exc
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         want = f"shape ({size},)" if size is not None else "a 1-D array"
@@ -30,7 +30,7 @@ def matrix(name: str, value: Any, shape: tuple[int, ...]) -> FloatArray:
     """Return value as a finite float64 array of exactly this shape, or raise."""
     try:
         arr = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InvalidInputError(name, value, "an array of real numbers") from exc
     if arr.shape != shape:
         raise InvalidInputError(name, value, f"shape {shape}, got shape {arr.shape}")
@@ -51,7 +51,7 @@ def scalar(
     """Return value as a finite float within [low, high] (open ends on request), or raise."""
     try:
         x = float(value)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise InvalidInputError(name, value, "a real number") from exc
     lo_bad = x <= low if low_open else x < low
     hi_bad = x >= high if high_open else x > high

@@ -13,8 +13,11 @@ class RcmplanError(Exception):
 
     Attributes:
         log: The run log up to the failure when the error stopped a run (a RunLog), else None.
+        status: The machine-readable status a run stopped by this error reports (summary.json
+            `status`; each subclass names its own, e.g. "rcm_bound_exceeded").
     """
 
+    status = "error"
     log: Any = None
 
 
@@ -27,11 +30,20 @@ class InvalidInputError(RcmplanError, ValueError):
         valid: A human-readable statement of the valid range or choices.
     """
 
+    status = "invalid_input"
+
     def __init__(self, name: str, value: Any, valid: str) -> None:
         self.name = name
         self.value = value
         self.valid = valid
         super().__init__(f"{name} = {_short(value)} is invalid; valid: {valid}")
+
+
+class PlanTooLargeError(InvalidInputError):
+    """A procedure would plan more targets than a run allows (step sizes far below the path's
+    length); refused before any motion and before the targets are allocated."""
+
+    status = "plan_too_large"
 
 
 class UnknownJointTypeError(InvalidInputError):
@@ -51,6 +63,8 @@ class ActuatorLimitError(RcmplanError):
         value: Commanded value in m or rad.
         lower, upper: The travel limits.
     """
+
+    status = "actuator_limit"
 
     def __init__(
         self, index: int, name: str, value: float, lower: float, upper: float,
@@ -81,6 +95,8 @@ class RcmBoundError(RcmplanError):
         bound: The bound in [m].
     """
 
+    status = "rcm_bound_exceeded"
+
     def __init__(self, phase: str, deviation: float, bound: float) -> None:
         self.phase = phase
         self.deviation = deviation
@@ -99,6 +115,8 @@ class SingularPoseError(RcmplanError):
         measure: min(|cos q1|, |cos q3|).
         threshold: The smallest accepted measure.
     """
+
+    status = "singular_pose"
 
     def __init__(
         self, q: Any, measure: float, threshold: float, name: str = "min(|cos q1|, |cos q3|)"
@@ -120,6 +138,8 @@ class UnreachableTargetError(RcmplanError):
         target: The target as stated by the user.
     """
 
+    status = "unreachable_target"
+
     def __init__(self, reason: str, target: Any = None) -> None:
         self.reason = reason
         self.target = target
@@ -136,6 +156,8 @@ class ConvergenceError(RcmplanError):
         tolerance: The tolerance per component.
         log: The run log up to the failure (a RunLog), or None.
     """
+
+    status = "no_convergence"
 
     def __init__(
         self, iterations: int, error: Any, tolerance: Any, log: Any = None, where: str = ""
@@ -155,6 +177,8 @@ class ConvergenceError(RcmplanError):
 class ScenarioError(InvalidInputError):
     """A scenario file is malformed: the message names the key and the allowed values."""
 
+    status = "invalid_scenario"
+
 
 class QPError(RcmplanError):
     """A QP solve failed or was infeasible.
@@ -163,6 +187,8 @@ class QPError(RcmplanError):
         problem: The QP that was solved (an rcmplan.control.qp.QPProblem).
         result: The solver's raw result, if any.
     """
+
+    status = "qp_failed"
 
     def __init__(self, message: str, problem: Any = None, result: Any = None) -> None:
         self.problem = problem
@@ -173,9 +199,13 @@ class QPError(RcmplanError):
 class SimulationError(RcmplanError):
     """A simulation became unstable (NaN, loop-closure gap or RCM deviation past a bound)."""
 
+    status = "simulation_unstable"
+
 
 class MissingExtraError(RcmplanError, ImportError):
     """An optional dependency is missing; the message names the extra to install."""
+
+    status = "missing_extra"
 
     def __init__(self, package: str, extra: str) -> None:
         self.package = package
@@ -219,6 +249,8 @@ class ModelFileError(RcmplanError):
         path: The file as given.
         reason: The parser's reason.
     """
+
+    status = "invalid_model_file"
 
     def __init__(self, path: Any, reason: str) -> None:
         self.path = path

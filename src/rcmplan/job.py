@@ -1,7 +1,9 @@
 """A run of a scenario: plant, method and phases put together, the log measured.
 
 `run_scenario` never loses work: when a run stops early it returns the partial log with
-`status` set to the error message (and keeps the exception in `error`).
+`status` set to the error's status code, `message` to its text (and keeps the exception in
+`error`). An interrupted run (KeyboardInterrupt, or the CLI's SIGTERM) re-raises the interrupt
+with the partial result attached as `result`, status "interrupted".
 """
 
 from __future__ import annotations
@@ -12,7 +14,7 @@ from typing import Any
 
 from rcmplan.analysis.metrics import phase_metrics
 from rcmplan.analysis.result import RunResult
-from rcmplan.control.log import LogBuilder
+from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_free_solver, make_solver
 from rcmplan.exceptions import InvalidInputError, RcmplanError
@@ -21,9 +23,9 @@ from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.curved_figures import curved_figures
 from rcmplan.scene.scenario import Scenario
+from rcmplan.sim.registry import make_plant
 
 __all__ = ["RunResult", "run_scenario"]
-from rcmplan.sim.registry import make_plant
 
 
 def check_curved_plant(robot: RobotModel, plant: str) -> RobotModel:
@@ -69,15 +71,31 @@ def run_scenario(
     except RcmplanError as exc:
         error = exc
         log = exc.log if exc.log is not None else LogBuilder().finish()
-    wall = time.perf_counter() - start
+    except KeyboardInterrupt as exc:
+        log = controller.log.finish() if controller is not None else LogBuilder().finish()
+        why = "interrupted by " + getattr(exc, "signal_name", "SIGINT")
+        exc.result = _result(scenario, robot, controller, log, start, "interrupted", why)  # type: ignore[attr-defined]
+        raise
+    if error is None:
+        return _result(scenario, robot, controller, log, start, "ok", "", extra=extra)
+    message = " ".join(f"{type(error).__name__}: {error}".split())
+    return _result(scenario, robot, controller, log, start, error.status, message, error, extra)
+
+
+def _result(
+    scenario: Scenario, robot: RobotModel, controller: Controller | None, log: RunLog,
+    start: float, status: str, message: str, error: RcmplanError | None = None,
+    extra: dict[str, Any] | None = None,
+) -> RunResult:  # fmt: skip
     times = controller.phase_times if controller is not None else {}
     return RunResult(
         scenario=scenario,
         log=log,
         phases=phase_metrics(log, times),
-        status="ok" if error is None else f"{type(error).__name__}: {error}",
-        wall_time_s=wall,
+        status=status,
+        wall_time_s=time.perf_counter() - start,
         robot=robot,
         error=error,
-        extra=extra,
+        message=message,
+        extra=extra or {},
     )

@@ -8,11 +8,14 @@ runs a single thread (forking a threaded process can deadlock) and more than one
 
 from __future__ import annotations
 
+import contextlib
 import os
+import signal
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
+from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import RcmplanError
 
 Job = tuple[Path, Callable[[], object]]  # the file a job writes, and the job
@@ -31,21 +34,43 @@ def run_jobs(jobs: Sequence[Job]) -> list[Path]:
         for _, job in jobs:
             job()
         return [path for path, _ in jobs]
-    children = [(_fork(job), path) for path, job in jobs[1:]]
-    jobs[0][1]()
-    failed = [str(path) for pid, path in children if os.waitpid(pid, 0)[1] != 0]
+    children: list[tuple[int, Path]] = []
+    try:
+        for path, job in jobs[1:]:
+            children.append((_fork(job), path))
+        jobs[0][1]()
+        failed = [str(path) for pid, path in children if os.waitpid(pid, 0)[1] != 0]
+    except BaseException:  # interrupted (SIGINT, SIGTERM): stop and reap the children
+        _stop(pid for pid, _ in children)
+        raise
     if failed:
         raise RcmplanError(f"drawing {', '.join(failed)} failed (see the messages above)")
     return [path for path, _ in jobs]
 
 
+def _stop(pids: Iterable[int]) -> None:
+    """SIGTERM each child still running and reap it (no zombie, no orphan left drawing)."""
+    for pid in pids:
+        with contextlib.suppress(ChildProcessError, ProcessLookupError):
+            os.kill(pid, signal.SIGTERM)
+            os.waitpid(pid, 0)
+
+
 def _fork(job: Callable[[], object]) -> int:
-    pid = os.fork()
-    if pid == 0:  # child: draw, then leave without running the parent's exit handlers
-        code = 1
-        try:
-            job()
-            code = 0
-        finally:
-            os._exit(code)
+    with signals_deferred():  # a signal inside fork's hooks would be lost
+        pid = os.fork()
+        if pid == 0:  # child: draw, then leave without running the parent's exit handlers
+            _child(job)
     return pid
+
+
+def _child(job: Callable[[], object]) -> None:
+    """Run job and exit; SIGINT and SIGTERM stop it cleanly (its half-written file removed)."""
+    code = 1
+    try:
+        for s in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(s, signal.default_int_handler)
+        job()
+        code = 0
+    finally:
+        os._exit(code)

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from rcmplan._atomic import write_text
 from rcmplan.analysis import plots
 from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import RunLog
@@ -33,9 +34,7 @@ def write_summary(result: RunResult, out: Path) -> Path:
     """summary.json (and the log files) first, so an early stop still leaves them."""
     result.log.save_npz(out / "log.npz")
     result.log.save_csv(out / "log.csv")
-    path = out / "summary.json"
-    path.write_text(json.dumps(jsonable(summary_json(result)), indent=2))
-    return path
+    return write_text(out / "summary.json", json.dumps(jsonable(summary_json(result)), indent=2))
 
 
 def summary_json(result: RunResult) -> dict[str, Any]:
@@ -121,9 +120,8 @@ def write_report(
     """report.html with the figures embedded, the tables, the settings and the scenario."""
     from rcmplan.analysis.report_html import render
 
-    path = out / "report.html"
-    path.write_text(render(result, summary_json(result), figures, scenario_text))
-    return path
+    html = render(result, summary_json(result), figures, scenario_text)
+    return write_text(out / "report.html", html)
 
 
 def write_outputs(

@@ -22,7 +22,9 @@ class RunResult:
         scenario: The scenario that ran.
         log: The run log (partial when the run stopped early).
         phases: Metrics per phase.
-        status: "ok" or the error message.
+        status: "ok", "interrupted" (SIGINT, SIGTERM) or the `status` of the error that stopped
+            the run ("rcm_bound_exceeded", "unreachable_target", "no_convergence", ...).
+        message: Why the run stopped, on one line ("" for a finished run).
         error: The exception that stopped the run, if any.
         wall_time_s: Wall time of the whole run (planning, control, measuring) in [s].
     """
@@ -34,6 +36,7 @@ class RunResult:
     wall_time_s: float
     robot: RobotModel
     error: RcmplanError | None = None
+    message: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -66,6 +69,7 @@ class RunResult:
             "method": self.scenario.method,
             "plant": self.scenario.plant,
             "status": self.status,
+            "message": self.message,
             "phases": phases,
             **overall(self.phases),
             "iterations": len(self.log),

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from rcmplan._atomic import atomic_path
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import require_extra
 
@@ -43,11 +44,14 @@ def plt() -> Any:
 
 
 def save(fig: Any, path: Path) -> Path:
-    """Write the figure as PNG (110 dpi) and close it."""
+    """Write the figure as PNG (110 dpi, atomically) and close it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt().close(fig)
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=110)
+    finally:
+        plt().close(fig)
     return path
 
 

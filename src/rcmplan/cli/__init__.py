@@ -8,6 +8,7 @@ import os
 import sys
 from collections.abc import Sequence
 
+from rcmplan.cli import interrupts
 from rcmplan.exceptions import RcmplanError
 
 COMMANDS = ("compare", "inject", "render", "reproduce", "robot", "scenario", "sweep")
@@ -33,11 +34,23 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     Errors print as one line on stderr (exit 2). A reader that closes the pipe early
     (`rcmplan inject | head`) ends the command quietly, as other command-line tools do.
+    SIGINT and SIGTERM stop a command after it writes its partial outputs with status
+    "interrupted" (exit 130 and 143).
     """
+    with interrupts.handled():
+        return _main(argv)
+
+
+def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
     try:
         code: int = args.run(args)
         sys.stdout.flush()
+    except KeyboardInterrupt as exc:
+        with interrupts.shielded():
+            name = interrupts.signal_name(exc)
+            print(f"rcmplan {args.command}: interrupted by {name}", file=sys.stderr)
+        return interrupts.exit_code(exc)
     except RcmplanError as exc:
         print(f"rcmplan {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2

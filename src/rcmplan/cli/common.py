@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from rcmplan.analysis.result import RunResult
+from rcmplan.cli import interrupts
 from rcmplan.control.loop import Phase
 from rcmplan.control.methods import METHODS
 from rcmplan.robot.registry import ROBOTS
@@ -99,6 +100,31 @@ def progress(label: str, total: int | None = None) -> Iterator[Any]:
         bar.close()
 
 
+def write_stopped(
+    out: Path, scenario: str, status: str, message: str, result: RunResult | None = None
+) -> None:
+    """Outputs of a command stopped before it finished (interrupted, or a bad scenario): the
+    partial log and summary.json with `status` and `message` when a result exists, else
+    summary.json alone (and no log of an earlier run left beside it). Signals are ignored
+    meanwhile, and every file is written atomically."""
+    from rcmplan._atomic import write_text
+    from rcmplan.analysis.report import write_summary
+
+    with interrupts.shielded():
+        if result is not None:
+            write_summary(replace(result, status=status, message=message), out)
+            return
+        for name in ("log.npz", "log.csv", "report.html"):
+            (out / name).unlink(missing_ok=True)
+        doc = {"scenario": scenario, "status": status, "message": one_line(message)}
+        write_text(out / "summary.json", json.dumps(doc, indent=2))
+
+
+def interrupted_message(exc: BaseException, where: str) -> str:
+    """ "interrupted by SIGTERM <where>"."""
+    return f"interrupted by {interrupts.signal_name(exc)} {where}".strip()
+
+
 def print_summary(result: RunResult) -> None:
     """A per-phase table of the run's figures."""
     from rcmplan.analysis.report_html import PHASE_HEAD, phase_rows
@@ -106,7 +132,7 @@ def print_summary(result: RunResult) -> None:
 
     s = result.summary()
     print(f"scenario {s['scenario']}  procedure {s['procedure']}  method {s['method']}  "
-          f"plant {s['plant']}  status {one_line(s['status'])}")  # fmt: skip
+          f"plant {s['plant']}  status {s['status']}")  # fmt: skip
     print(table(list(PHASE_HEAD), phase_rows(s)))
     print(
         f"inside the eye: max RCM deviation {fmt(s['max_rcm_deviation_m'], 'um')} um, "

@@ -11,15 +11,17 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from pathlib import Path
 from typing import Any
 
+from rcmplan.cli import interrupts
 from rcmplan.cli.common import add_run_options, one_line, print_json, scenario_from_args
 from rcmplan.control.methods import METHODS
 from rcmplan.exceptions import MissingExtraError
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import Scenario
 
-COLUMNS = ("method", "status", "max_rcm_deviation_m", "max_tip_error_m", "iterations",
+COLUMNS = ("method", "status", "message", "max_rcm_deviation_m", "max_tip_error_m", "iterations",
            "wall_time_s")  # fmt: skip
 HEAD = ["method", "max RCM dev. [um]", "max tip error [um]", "iterations", "wall [ms]",
         "wall per iteration [us]", "path", "status"]  # fmt: skip
@@ -64,24 +66,24 @@ def measure(scenario: Scenario, pinned: str) -> dict[str, Any]:
     return row
 
 
-def compare_rows(args: argparse.Namespace) -> tuple[list[dict[str, Any]], str]:
-    """Run the scenario once per method on one pinned path; a method whose extra is missing is
-    reported, not run. Returns the rows and the path ("on": compiled, "off": reference)."""
+def compare_rows(args: argparse.Namespace, rows: list[dict[str, Any]]) -> str:
+    """Run the scenario once per method on one pinned path, appending a row to `rows` as each
+    method finishes; a method whose extra is missing is reported, not run. Returns the path."""
     from rcmplan.compiled import cache as fast_cache
 
     base = scenario_from_args(argparse.Namespace(**{**vars(args), "method": None}))
-    rows = []
     with fast_cache.pinned() as path:
         for method in args.method or METHODS:
             try:
                 rows.append(measure(base.with_method(method), path))
             except MissingExtraError as exc:
-                rows.append({"method": method, "status": f"MissingExtraError: {exc}",
+                rows.append({"method": method, "status": exc.status,
+                             "message": f"MissingExtraError: {exc}",
                              "max_rcm_deviation_m": None, "max_tip_error_m": None,
                              "iterations": 0, "wall_time_s": None,
                              "wall_time_per_iteration_s": None,
                              "execution_path": None})  # fmt: skip
-    return rows, "compiled where a method has a kernel" if path == "on" else "reference"
+    return "compiled where a method has a kernel" if path == "on" else "reference"
 
 
 def print_table(rows: list[dict[str, Any]], path: str) -> None:
@@ -93,7 +95,7 @@ def print_table(rows: list[dict[str, Any]], path: str) -> None:
         [r["method"], fmt(r["max_rcm_deviation_m"], "um"), fmt(r["max_tip_error_m"], "um"),
          f"{r['iterations']:,}", fmt(r["wall_time_s"], "ms"),
          fmt(r["wall_time_per_iteration_s"], "us"), r["execution_path"] or "-",
-         one_line(r["status"])[:60]]
+         one_line(r["message"] or r["status"])[:60]]
         for r in rows
     ]  # fmt: skip
     print(table(HEAD, body))
@@ -102,17 +104,29 @@ def print_table(rows: list[dict[str, Any]], path: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the comparison table; write compare.json and the chart."""
-    from rcmplan.analysis.report import jsonable, prepare_folder
+    """Print the comparison table; write compare.json and the chart.
+
+    Interrupted (SIGINT, SIGTERM), it writes compare.json with status "interrupted" and the
+    rows of the methods that finished, then re-raises (exit 130 or 143).
+    """
+    from rcmplan.analysis.report import prepare_folder
 
     out = prepare_folder(args.out or args.out_default)
-    rows, path = compare_rows(args)
-    doc = {"execution_path": path, "methods": rows}
-    (out / "compare.json").write_text(json.dumps(jsonable(doc), indent=2))
-    if not args.no_plots:
-        from rcmplan.analysis.plots_compare import method_comparison
+    rows: list[dict[str, Any]] = []
+    try:
+        path = compare_rows(args, rows)
+        doc = {"status": "ok", "message": "", "execution_path": path, "methods": rows}
+        write_json(out / "compare.json", doc)
+        if not args.no_plots:
+            from rcmplan.analysis.plots_compare import method_comparison
 
-        method_comparison(rows, out / "compare.png")
+            method_comparison(rows, out / "compare.png")
+    except KeyboardInterrupt as exc:
+        with interrupts.shielded():
+            message = f"interrupted by {interrupts.signal_name(exc)} after {len(rows)} methods"
+            write_json(out / "compare.json", {"status": "interrupted", "message": message,
+                                              "methods": rows})  # fmt: skip
+        raise
     if args.json:
         print_json(doc)
     else:
@@ -124,3 +138,11 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)  # fmt: skip
         return 1
     return 0
+
+
+def write_json(path: Path, doc: dict[str, Any]) -> None:
+    """doc as strict JSON, written atomically."""
+    from rcmplan._atomic import write_text
+    from rcmplan.analysis.report import jsonable
+
+    write_text(path, json.dumps(jsonable(doc), indent=2))

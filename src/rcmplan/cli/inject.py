@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from rcmplan.cli.common import (
     add_run_options,
-    one_line,
+    interrupted_message,
     print_json,
     print_summary,
     progress,
     scenario_from_args,
     scenario_text,
+    write_stopped,
 )
 from rcmplan.exceptions import RcmplanError
 from rcmplan.job import run_scenario
@@ -65,32 +65,43 @@ def scenario_for(args: argparse.Namespace) -> Scenario:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the scenario, write the outputs, print the summary; exit 1 if the run stopped early."""
+    """Run the scenario, write the outputs, print the summary; exit 1 if the run stopped early.
+
+    Interrupted (SIGINT, SIGTERM) at any point, it writes what it has with status
+    "interrupted" and re-raises the interrupt (the exit code is the CLI's, 130 or 143).
+    """
     from rcmplan.analysis.report import prepare_folder, summary_json, write_outputs
 
     out = prepare_folder(args.out or args.out_default)
+    result = None
     try:
         scenario = scenario_for(args)
-    except RcmplanError as exc:
-        status = f"{type(exc).__name__}: {exc}"
-        (out / "summary.json").write_text(json.dumps({"scenario": args.scenario, "status": status}))
-        raise
-    with progress(args.command) as tick:
-        result = run_scenario(scenario, on_phase=tick)
-    try:
+        with progress(args.command) as tick:
+            result = run_scenario(scenario, on_phase=tick)
         write_outputs(
             result, out, figures=not args.no_plots, scenario_text=scenario_text(args.scenario)
         )
     except RcmplanError as exc:
+        if result is None:
+            message = f"{type(exc).__name__}: {exc}"
+            write_stopped(out, args.scenario, exc.status, message)
+            raise
         print(f"rcmplan {args.command}: could not write all outputs: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt as exc:
+        if result is None:
+            result = getattr(exc, "result", None)
+            where = "during the run" if result is not None else "before the run"
+        else:
+            where = f"while writing the outputs (the run ended with status {result.status!r})"
+        write_stopped(out, args.scenario, "interrupted", interrupted_message(exc, where), result)
+        raise
     if args.json:
         print_json(summary_json(result))
     else:
         print_summary(result)
         print(f"outputs in {out}/")
     if not result.ok:
-        print(f"rcmplan {args.command}: run stopped early: {one_line(result.status)}",
-              file=sys.stderr)  # fmt: skip
+        print(f"rcmplan {args.command}: run stopped early: {result.message}", file=sys.stderr)
         return 1
     return 0

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from rcmplan.control.methods import METHODS
+from rcmplan.exceptions import RcmplanError
 from rcmplan.sim.registry import PLANTS
 from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 from rcmplan.sweep.settings import SAMPLINGS, MotionSettings, Region, SweepSettings
@@ -59,7 +60,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--timeout",
         type=float,
         default=DEFAULT_TIMEOUT_S,
-        help=f"scheduler connection timeout [s] ({DEFAULT_TIMEOUT_S:g})",
+        help=f"Dask: time [s] to connect, and to wait for a worker when none is left "
+        f"(positive, finite; {DEFAULT_TIMEOUT_S:g})",
     )
     p.add_argument("--checkpoint", metavar="PATH", help="checkpoint folder (OUT/checkpoint)")
     p.add_argument("--resume", action="store_true", help="continue an existing checkpoint")
@@ -161,13 +163,14 @@ def write_outputs(
     args: argparse.Namespace, out: Path, result: SweepResult, gains: GainSearchResult | None
 ) -> dict[str, Any]:
     """summary.json, targets.csv, gains.json and the figures; returns the summary."""
+    from rcmplan._atomic import write_text
     from rcmplan.analysis.report import jsonable
     from rcmplan.sweep import report
 
-    s = report.summary(result)
+    s = {"status": "ok", "message": "", **report.summary(result)}
     if gains is not None:
         s["gain_search"] = report.gain_summary(gains)
-    (out / "summary.json").write_text(json.dumps(jsonable(s), indent=2))
+    write_text(out / "summary.json", json.dumps(jsonable(s), indent=2))
     report.write_targets_csv(result, out / "targets.csv")
     if not args.no_plots:
         from rcmplan.sweep import maps
@@ -248,10 +251,16 @@ def run_curved_reach(args: argparse.Namespace, out: Path) -> int | None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the sweep (and the gain search), write the outputs, print the tables."""
-    from rcmplan.analysis.report import prepare_folder
-    from rcmplan.sweep.executors import make_executor
+    """Run the sweep (and the gain search), write the outputs, print the tables.
 
+    Interrupted (SIGINT, SIGTERM), it stops the workers, writes summary.json with status
+    "interrupted" (the finished results stay in the checkpoint for --resume) and re-raises
+    the interrupt (exit 130 or 143).
+    """
+    from rcmplan.analysis.report import prepare_folder
+    from rcmplan.sweep.executors import check_timeout, make_executor
+
+    check_timeout(args.timeout)
     out = prepare_folder(args.out)
     reach = run_curved_reach(args, out)
     if reach is not None:
@@ -263,11 +272,10 @@ def run(args: argparse.Namespace) -> int:
             result = run_main(args, settings, checkpoint, executor)
             gains = None if args.gain_search == "none" else run_gains(args, result, checkpoint,
                                                                         executor)  # fmt: skip
-    except KeyboardInterrupt:
-        print(f"rcmplan sweep: interrupted; finished results are kept in {checkpoint.path}; "
-              "rerun with --resume to continue", file=sys.stderr)  # fmt: skip
-        return 130
-    s = write_outputs(args, out, result, gains)
+        s = write_outputs(args, out, result, gains)
+    except KeyboardInterrupt as exc:
+        write_interrupted(out, checkpoint, exc)
+        raise
     if args.json:
         from rcmplan.cli.common import print_json
 
@@ -276,3 +284,22 @@ def run(args: argparse.Namespace) -> int:
         print_tables(s, gains)
         print(f"outputs in {out}/")
     return 0
+
+
+def write_interrupted(out: Path, checkpoint: Checkpoint, exc: BaseException) -> None:
+    """summary.json of an interrupted sweep: status, why, and the results kept for --resume."""
+    from rcmplan._atomic import write_text
+    from rcmplan.cli import interrupts
+
+    with interrupts.shielded():
+        try:
+            kept = len(checkpoint.load())
+        except RcmplanError:
+            kept = 0
+        name = interrupts.signal_name(exc)
+        message = (f"interrupted by {name}; {kept} finished results are kept in "
+                   f"{checkpoint.path}; rerun with --resume to continue")  # fmt: skip
+        doc = {"status": "interrupted", "message": message, "checkpoint": str(checkpoint.path),
+               "results_kept": kept}  # fmt: skip
+        write_text(out / "summary.json", json.dumps(doc, indent=2))
+        print(f"rcmplan sweep: {message}", file=sys.stderr)

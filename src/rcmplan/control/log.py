@@ -11,10 +11,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
+from rcmplan._atomic import atomic_path
 from rcmplan._validate import FloatArray
 
 FIELDS_3 = ("tip", "rcm", "trocar", "base", "target_tip")
@@ -64,15 +66,20 @@ class RunLog:
                       actuator_labels=self.actuator_labels)  # fmt: skip
 
     def save_npz(self, path: str | Path) -> None:
-        """Write every array and the names to an NPZ file."""
+        """Write every array and the names to an NPZ file (atomically: never half-written)."""
         arrays = {k: getattr(self, k) for k in ARRAY_FIELDS}
-        np.savez_compressed(
-            path,
-            **arrays,
-            phase_names=np.array(self.phase_names, dtype=str),
-            solver_names=np.array(self.solver_names, dtype=str),
-            actuator_labels=np.array(self.actuator_labels, dtype=str),
-        )
+        with atomic_path(path) as tmp:
+            self._savez(tmp, arrays)
+
+    def _savez(self, path: Path, arrays: dict[str, Any]) -> None:
+        with open(path, "wb") as fh:
+            np.savez_compressed(
+                fh,
+                **arrays,
+                phase_names=np.array(self.phase_names, dtype=str),
+                solver_names=np.array(self.solver_names, dtype=str),
+                actuator_labels=np.array(self.actuator_labels, dtype=str),
+            )
 
     @staticmethod
     def load_npz(path: str | Path) -> RunLog:
@@ -87,7 +94,12 @@ class RunLog:
             )
 
     def save_csv(self, path: str | Path) -> None:
-        """Write one CSV row per record, SI units in the column names (floats to 17 digits)."""
+        """Write one CSV row per record, SI units in the column names (floats to 17 digits),
+        atomically: a reader never sees a truncated file."""
+        with atomic_path(path) as tmp:
+            self._write_csv(tmp)
+
+    def _write_csv(self, path: Path) -> None:
         header = ["time_s", "phase", "solver", "step", "iteration", "lambda"]
         n_act = self.sliders.shape[1]
         labels = self.actuator_labels or tuple(f"{i}" for i in range(n_act))
@@ -172,12 +184,21 @@ class LogBuilder:
         self._n_blocks += n
 
     def _flush(self) -> None:
-        n = len(self._rows["time"])
+        # An interrupt (SIGINT, SIGTERM) can land inside `append` or `extend`: keep only whole
+        # records, so the partial log of an interrupted run stays consistent.
+        n = min(len(v) for v in self._rows.values())
+        blocks = [len(v) for v in self._blocks.values()]
+        if min(blocks) != max(blocks):
+            for k in ARRAY_FIELDS:
+                del self._blocks[k][min(blocks) :]
+            self._n_blocks = sum(b.shape[0] for b in self._blocks["time"])
         if n:
             for k in ARRAY_FIELDS:
-                self._blocks[k].append(_column(k, self._rows[k], n))
+                self._blocks[k].append(_column(k, self._rows[k][:n], n))
                 self._rows[k] = []
             self._n_blocks += n
+        else:
+            self._rows = {k: [] for k in ARRAY_FIELDS}
 
     def __len__(self) -> int:
         return self._n_blocks + len(self._rows["time"])

@@ -19,7 +19,14 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.log import LogBuilder, RunLog
-from rcmplan.control.phase import LoopSettings, Phase, TargetPlanner, interpolate, split_steps
+from rcmplan.control.phase import (
+    LoopSettings,
+    Phase,
+    TargetPlanner,
+    check_plan_size,
+    interpolate,
+    split_steps,
+)
 from rcmplan.control.plant import Plant
 from rcmplan.control.runner import Runner, default_runner
 from rcmplan.control.solvers import Solver, TipSolver
@@ -70,6 +77,7 @@ class Controller:
         )
         self.phase_times: dict[str, float] = {}
         self._check_seed: FloatArray | None = None
+        self._planned = 0  # targets planned so far in this run (at most MAX_TARGETS)
         self.on_phase: Callable[[Phase], None] | None = None
 
     def check_targets(self, targets: FloatArray) -> None:
@@ -97,6 +105,8 @@ class Controller:
         """
         self.runner.expect_job(self, phases)
         try:
+            sizes = [len(ph.targets) for ph in phases if not callable(ph.targets)]
+            self._planned = check_plan_size(sum(sizes), "targets of the run")
             for ph in phases:
                 if ph.kind == "rcm" and not callable(ph.targets):
                     self.check_targets(ph.plan(self.robot.home))
@@ -104,8 +114,8 @@ class Controller:
                 self.run_phase(ph)
                 if self.on_phase is not None:
                     self.on_phase(ph)
-        except RcmplanError as exc:
-            exc.log = self.log.finish()
+        except (RcmplanError, KeyboardInterrupt) as exc:
+            exc.log = self.log.finish()  # type: ignore[union-attr]
             raise
         return self.log.finish()
 
@@ -125,6 +135,9 @@ class Controller:
                 raise InvalidInputError(
                     f"targets of phase {phase.name!r}", targets.shape, f"shape (N, {width})"
                 )
+            if callable(phase.targets):
+                self._planned += len(targets)
+                check_plan_size(self._planned, "targets of the run")
             if phase.kind == "rcm":
                 if callable(phase.targets):
                     self.check_targets(targets)
@@ -134,8 +147,12 @@ class Controller:
                 if not self.runner.run_phase(self, solver, targets, pid, sid):
                     for k, target in enumerate(targets):
                         self.converge(solver, target, pid, sid, k)
-            finally:
+            except KeyboardInterrupt:
+                raise  # an interrupt is reported as such, the bound unchecked
+            except BaseException:
                 self._check_rcm_bound(phase.name, first)
+                raise
+            self._check_rcm_bound(phase.name, first)
         finally:
             spent = time.perf_counter() - start
             self.phase_times[phase.name] = self.phase_times.get(phase.name, 0.0) + spent

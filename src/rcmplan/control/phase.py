@@ -14,9 +14,39 @@ from typing import NamedTuple
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
-from rcmplan.exceptions import InvalidInputError
+from rcmplan.exceptions import InvalidInputError, PlanTooLargeError
 
 TargetPlanner = Callable[[FloatArray], FloatArray]
+
+# The most targets one run may plan (all phases together), and so one split. The default
+# injection plans about 700 targets; the compiled loop runs about 25,000 targets per second
+# with about 4 iterations each, so 200,000 targets already run for about 10 s and log about
+# 800,000 records (200 MB of CSV). Step sizes that would plan more (`angle_mrad = 0.001`
+# plans about 10^6) are refused before motion and before the targets are allocated.
+MAX_TARGETS = 200_000
+# Algorithm 1's iteration cap per target may not exceed this (the scenario schema's bound):
+# a target that needs more is not converging.
+MAX_ITERATIONS = 100_000
+
+
+def check_plan_size(n: int, what: str = "targets") -> int:
+    """n, or PlanTooLargeError when a run would plan more than MAX_TARGETS targets."""
+    if n > MAX_TARGETS:
+        valid = f"at most {MAX_TARGETS:,} targets per run (coarser step sizes)"
+        raise PlanTooLargeError(what, n, valid)
+    return n
+
+
+def step_count(ratio: float, what: str = "steps") -> int:
+    """Algorithm 2's number of equal steps, ceil(ratio) (at least 1), for ratio = the largest
+    distance to go over its step size; PlanTooLargeError beyond MAX_TARGETS, InvalidInputError
+    when ratio is not a finite number."""
+    if not (isinstance(ratio, int | float) and math.isfinite(ratio)):
+        raise InvalidInputError(what, ratio, "a finite ratio of distance to step size")
+    if ratio > MAX_TARGETS:
+        valid = f"at most {MAX_TARGETS:,} targets per run (coarser step sizes)"
+        raise PlanTooLargeError(what, ratio, valid)
+    return max(1, math.ceil(ratio))
 
 
 class Phase(NamedTuple):
@@ -60,8 +90,12 @@ class LoopSettings:
     rcm_bound: float | None = 45e-6
 
     def __post_init__(self) -> None:
-        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
-            raise InvalidInputError("max_iterations", self.max_iterations, "an integer >= 1")
+        it = self.max_iterations
+        if not isinstance(it, int) or isinstance(it, bool) or not 1 <= it <= MAX_ITERATIONS:
+            valid = f"an integer in [1, {MAX_ITERATIONS:,}]"
+            raise InvalidInputError("max_iterations", self.max_iterations, valid)
+        if not isinstance(self.drift_correction, bool):
+            raise InvalidInputError("drift_correction", self.drift_correction, "True or False")
         if self.singular_threshold is not None:
             scalar("singular_threshold", self.singular_threshold, 0.0, 1.0, high_open=True)
         if self.rcm_bound is not None:
@@ -69,7 +103,16 @@ class LoopSettings:
 
 
 def interpolate(start: FloatArray, goal: FloatArray, n: int) -> FloatArray:
-    """n equal steps from start to goal: rows start + k/n (goal - start), k = 1..n."""
+    """n equal steps from start to goal: rows start + k/n (goal - start), k = 1..n.
+
+    Raises InvalidInputError for start and goal of other shapes or not finite, and for n not
+    an integer in [1, MAX_TARGETS] (PlanTooLargeError above it)."""
+    start = vector("start", start)
+    goal = vector("goal", goal, start.shape[0])
+    if not isinstance(n, int | np.integer) or isinstance(n, bool) or n < 1:
+        raise InvalidInputError("n", n, f"an integer in [1, {MAX_TARGETS:,}]")
+    if n > MAX_TARGETS:
+        raise PlanTooLargeError("n", n, f"an integer in [1, {MAX_TARGETS:,}]")
     k = np.arange(1, n + 1)[:, None] / n
     return start[None, :] + k * (goal - start)[None, :]
 
@@ -83,6 +126,8 @@ def split_steps(
     Raises if the step is larger than the distance to go.
     """
     start = vector("start", start)
+    if start.shape[0] not in (3, 6):
+        raise InvalidInputError("start", start, "X_ext (6,) or a tip point (3,)")
     goal = vector("goal", goal, start.shape[0])
     sp = scalar("step_position", step_position, 0.0, np.inf, low_open=True)
     sa = math.inf if step_angle is None else scalar("step_angle", step_angle, 0.0, low_open=True)
@@ -97,4 +142,4 @@ def split_steps(
             (step_position, step_angle),
             f"at most the distance to go (|delta| = {delta.tolist()})",
         )
-    return interpolate(start, goal, math.ceil(ratio))
+    return interpolate(start, goal, step_count(ratio, "split steps"))

@@ -90,7 +90,7 @@ class QpLimits:
         kwargs: dict[str, Any] = {}
         for key, value in extra.items():
             if key == "contacts_mm":
-                kwargs["contacts"] = tuple(tuple(1e-3 * np.asarray(c, float)) for c in value)
+                kwargs["contacts"] = _contacts(value)
             elif key in EXTRA_KEYS:
                 name, factor = EXTRA_KEYS[key]
                 kwargs[name] = scalar(key, value) * factor
@@ -117,6 +117,17 @@ class QpLimits:
         if eye is not None:
             check_eye_limits(self, eye)
         return self
+
+
+MAX_CONTACTS = 100
+
+
+def _contacts(value: Any) -> tuple[tuple[float, ...], ...]:
+    """`contacts_mm` (a list of up to MAX_CONTACTS points in [mm]) in [m]."""
+    valid = f"a list of up to {MAX_CONTACTS} points [x, y, z] in mm"
+    if not isinstance(value, list | tuple) or len(value) > MAX_CONTACTS:
+        raise InvalidInputError("contacts_mm", value, valid)
+    return tuple(tuple(1e-3 * vector(f"contacts_mm[{i}]", c, 3)) for i, c in enumerate(value))
 
 
 def check_robot_limits(robot: RobotModel, margin: float) -> None:

@@ -102,9 +102,17 @@ def check_gains(K: object) -> FloatArray:
     return k
 
 
+# DLS regularises a rank-deficient task only through D^2: in a pivot about the tip (lambda = 1)
+# lambda moves neither the tip nor the base, so J J^T (entries about 1: the prismatic joints)
+# is singular and J J^T + D^2 I must stay resolvable in floating point. D >= 1e-6 keeps D^2
+# four orders above the 1e-16 resolution; with D = 1e-12 the reference solve raised LinAlgError
+# and the compiled one took an 807 um step.
+MIN_DAMPING = 1e-6
+
+
 def check_damping(D: float) -> float:
-    """Return the damping constant if positive and finite, else raise."""
-    return scalar("damping", D, 0.0, np.inf, low_open=True, high_open=True)
+    """Return the damping constant in [m] if finite and at least MIN_DAMPING, else raise."""
+    return scalar("damping", D, MIN_DAMPING, np.inf, high_open=True)
 
 
 @dataclass(frozen=True)

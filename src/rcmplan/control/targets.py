@@ -9,12 +9,18 @@ lets every target be checked for lambda in [0, 1], reach and actuator travel bef
 
 from __future__ import annotations
 
-from typing import NamedTuple
+import math
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, vector
-from rcmplan.exceptions import PcjmAngleError, SliderLimitError, UnreachableTargetError
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.exceptions import (
+    InvalidInputError,
+    PcjmAngleError,
+    SliderLimitError,
+    UnreachableTargetError,
+)
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis, axis_from_angles
 
@@ -27,14 +33,26 @@ class Pose(NamedTuple):
 
 
 def rcm_target(tip: FloatArray, trocar: FloatArray) -> FloatArray:
-    """X_ext of "tip at `tip` while the RCM stays at `trocar`" (both (3,) in [m])."""
-    x = rcm_targets(vector("tip", tip, 3)[None, :], vector("trocar", trocar, 3))[0]
+    """X_ext of "tip at `tip` while the RCM stays at `trocar`" (both (3,) in [m], each
+    coordinate within WORKSPACE_M of the base, else InvalidInputError)."""
+    tip, trocar = _in_workspace("tip", tip), _in_workspace("trocar", trocar)
+    x = rcm_targets(tip[None, :], trocar)[0]
     if not np.isfinite(x[1]):
         # RCM at the tip (lambda = 1): the needle direction is free; callers pass angles instead.
         raise UnreachableTargetError(
             "the tip coincides with the trocar: the needle axis is undefined"
         )
     return x
+
+
+WORKSPACE_M = 10.0  # a bound on any point a needle robot is asked to reach, in [m]
+
+
+def _in_workspace(name: str, point: Any) -> FloatArray:
+    p = vector(name, point, 3)
+    if np.any(np.abs(p) > WORKSPACE_M):
+        raise InvalidInputError(name, p, f"coordinates within +-{WORKSPACE_M:g} m of the base")
+    return p
 
 
 def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:
@@ -55,8 +73,16 @@ def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:
 
 
 def pivot_target(x_tip: float, phi: float, psi: float, trocar: FloatArray) -> FloatArray:
-    """X_ext for explicit needle angles (used while lambda = 1, tip at the trocar)."""
-    return np.array([x_tip, phi, psi, *vector("trocar", trocar, 3)])
+    """X_ext for explicit needle angles (used while lambda = 1, tip at the trocar).
+
+    Raises InvalidInputError for a non-finite x_tip [m], angles outside [-pi, pi] [rad], or a
+    trocar that is not 3 finite numbers."""
+    x = scalar("x_tip", x_tip)
+    a = scalar("phi", phi, -math.pi, math.pi)
+    b = scalar("psi", psi, -math.pi, math.pi)
+    if abs(x) > WORKSPACE_M:
+        raise InvalidInputError("x_tip", x_tip, f"within +-{WORKSPACE_M:g} m of the base")
+    return np.array([x, a, b, *_in_workspace("trocar", trocar)])
 
 
 def tip_of_target(x_ext: FloatArray) -> FloatArray:

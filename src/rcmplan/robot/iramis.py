@@ -13,11 +13,17 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.exceptions import SingularPoseError, SliderLimitError, UnreachableTargetError
+from rcmplan.exceptions import (
+    InvalidInputError,
+    SingularPoseError,
+    SliderLimitError,
+    UnreachableTargetError,
+)
 from rcmplan.robot.dh import DHChain, DHLink
 from rcmplan.robot.pcjm import Pcjm
 
@@ -141,22 +147,37 @@ class Iramis:
         return T
 
     def needle_axis(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """Unit needle axis a(q) from base to tip, base frame."""
-        c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+        """Unit needle axis a(q) from base to tip, base frame.
+
+        Raises InvalidInputError unless q is 6 finite numbers."""
+        try:
+            c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+            ok = len(q) == 6 and c1 + c3 == c1 + c3  # False for NaN
+        except (TypeError, ValueError, IndexError, OverflowError):
+            ok = False
+        if not ok:
+            vector("q", q, 6)
         return np.array([-c1 * c3, -s3, s1 * c3])
 
     def needle_point(self, q: Sequence[float] | FloatArray, lam: float) -> FloatArray:
-        """p(lambda) = p_base + lambda (p_tip - p_base) in [m], base frame (eqs. 2.7, 3.7)."""
+        """p(lambda) = p_base + lambda (p_tip - p_base) in [m], base frame (eqs. 2.7, 3.7).
+
+        Raises InvalidInputError unless q is 6 finite numbers and lam a finite number. (The
+        check is one sum tested for finiteness: the controller calls this thousands of times.)
+        """
         p = self.params
-        c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
-        w = q[4] + lam * p.l6
-        return np.array(
-            [
-                p.l2 * s1 - c1 * c3 * w - p.l5 * c1 * s3,
-                p.l3 + p.l4 + q[2] - s3 * w + p.l5 * c3,
-                p.l1 + q[0] + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3,
-            ]
-        )
+        try:
+            c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
+            w = q[4] + lam * p.l6
+            x = p.l2 * s1 - c1 * c3 * w - p.l5 * c1 * s3
+            y = p.l3 + p.l4 + q[2] - s3 * w + p.l5 * c3
+            z = p.l1 + q[0] + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3
+            ok = len(q) == 6 and math.isfinite(x + y + z)  # every input but the roll q5
+        except (TypeError, ValueError, IndexError, OverflowError):
+            ok = False
+        if not ok:
+            _invalid_point(q, lam)
+        return np.array([x, y, z])
 
     def tip(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """Needle tip position O_6(q) in [m]."""
@@ -299,13 +320,22 @@ class Iramis:
 
     def actuator_margin(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """Distance of each slider to its nearer travel limit (negative when beyond)."""
-        s = np.asarray(s, dtype=float)
+        s = vector("s", s, 6)
         return np.minimum(s - self.lower, self.upper - s)
 
     @staticmethod
     def singularity_measure(q: Sequence[float] | FloatArray) -> float:
-        """min(|cos q1|, |cos q3|): zero exactly on the singular set of J_a and J_0^5 (NOTES.md)."""
-        return min(abs(math.cos(q[1])), abs(math.cos(q[3])))
+        """min(|cos q1|, |cos q3|): zero exactly on the singular set of J_a and J_0^5 (NOTES.md).
+
+        Raises InvalidInputError unless q is 6 finite numbers."""
+        try:
+            c1, c3 = abs(math.cos(q[1])), abs(math.cos(q[3]))
+            ok = len(q) == 6 and c1 + c3 == c1 + c3  # False for NaN
+        except (TypeError, ValueError, IndexError, OverflowError):
+            ok = False
+        if not ok:
+            vector("q", q, 6)
+        return min(c1, c3)
 
     @staticmethod
     def singular_terms(q: Sequence[float] | FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -319,6 +349,12 @@ class Iramis:
     ) -> None:
         """Raise SingularPoseError if the singularity measure is below the threshold."""
         thr = self.params.singular_threshold if threshold is None else threshold
+        try:
+            ok = bool(0.0 <= thr < 1.0)  # False for NaN
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise InvalidInputError("threshold", threshold, "a number in [0, 1)")
         m = self.singularity_measure(q)
         if m < thr:
             raise SingularPoseError(np.asarray(q), m, thr)
@@ -377,3 +413,15 @@ class Iramis:
                 p.sources["singular_threshold"],
             ),
         ]
+
+
+def _invalid_point(q: Any, lam: Any) -> None:
+    """Raise InvalidInputError naming the argument of needle_point that is not valid."""
+    vector("q", q, 6)
+    try:
+        ok = isinstance(lam, int | float | np.floating) and math.isfinite(lam)
+    except OverflowError:  # an int beyond float range
+        ok = False
+    if not ok:
+        raise InvalidInputError("lam", lam, "a finite number (0 at the needle base, 1 at the tip)")
+    raise InvalidInputError("q", q, "joints whose needle point is finite (|q| far below 1e300)")

@@ -16,6 +16,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.loop import Phase, interpolate
+from rcmplan.control.phase import check_plan_size, step_count
 from rcmplan.control.targets import pivot_target, rcm_target, rcm_targets, solve_pose
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.model import RobotModel
@@ -38,8 +39,9 @@ class Steps:
 
     def count(self, distance: float, angle: float = 0.0) -> int:
         """Number of equal steps that keeps each step within both sizes (at least 1)."""
-        ratio = max(distance / self.position, angle / self.angle)
-        return max(1, math.ceil(ratio - 1e-9))  # rounding noise must not add a step
+        distance = scalar("distance", distance, 0.0)
+        ratio = max(distance / self.position, scalar("angle", angle, 0.0) / self.angle)
+        return step_count(ratio - 1e-9, "steps")  # rounding noise must not add a step
 
 
 def _angle_between(a: FloatArray, b: FloatArray) -> float:
@@ -53,11 +55,14 @@ def _angle_between(a: FloatArray, b: FloatArray) -> float:
 def densify(path: FloatArray, trocar: FloatArray, steps: Steps) -> FloatArray:
     """Resample a tip path (N, 3) so that each step moves the tip at most `steps.position` and
     turns the needle about the trocar at most `steps.angle`; the first point is left out."""
-    out = []
-    for a, b in itertools.pairwise(path):
-        n = steps.count(float(np.linalg.norm(b - a)), _angle_between(a - trocar, b - trocar))
-        out.append(interpolate(a, b, n))
-    return np.concatenate(out)
+    counts = [
+        steps.count(float(np.linalg.norm(b - a)), _angle_between(a - trocar, b - trocar))
+        for a, b in itertools.pairwise(path)
+    ]
+    check_plan_size(sum(counts) + len(path), "targets of the path")
+    return np.concatenate(
+        [interpolate(a, b, n) for (a, b), n in zip(itertools.pairwise(path), counts, strict=True)]
+    )
 
 
 def path_targets(path: FloatArray, trocar: FloatArray, steps: Steps) -> FloatArray:

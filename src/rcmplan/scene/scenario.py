@@ -8,6 +8,7 @@ are registered by name (`rcmplan.scene.scenario.SCENARIOS`): `default` (the inje
 
 from __future__ import annotations
 
+import math
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
@@ -45,7 +46,7 @@ SCHEMA: dict[str, dict[str, tuple[str, float, float]]] = {
                **{f"{n}_mm": ("vec3", -500, 500) for n in POINT_NAMES}},
     "steps": {"position_mm": ("float", 1e-4, 5), "angle_mrad": ("float", 1e-3, 100)},
     "controller": {"method": ("str", 0, 0), "K": ("vec6", 1e-9, 1.999999),
-                   "damping": ("float", 1e-12, 10), "tolerance_position_m": ("float", 1e-13, 1e-4),
+                   "damping": ("float", 1e-6, 10), "tolerance_position_m": ("float", 1e-13, 1e-4),
                    "tolerance_angle_rad": ("float", 1e-13, 1e-3),
                    "max_iterations": ("int", 1, 100000), "drift_correction": ("bool", 0, 0),
                    "rcm_bound_um": ("float", 0.01, 10000),
@@ -163,19 +164,34 @@ def _check(section: str, key: str, value: Any) -> Any:
 
 def _check_vec(where: str, value: Any, n: int, lo: float, hi: float) -> tuple[float, ...]:
     """n numbers in [lo, hi] as a tuple of floats, else ScenarioError."""
-    arr = np.atleast_1d(np.asarray(value, dtype=object))
-    ok = arr.shape == (n,) and all(
-        isinstance(v, int | float) and not isinstance(v, bool) for v in arr
-    )
-    if not ok or not np.all(np.isfinite(arr.astype(float))):
+    items = value if isinstance(value, list) and n > 1 else [value]
+    numbers = len(items) == n and all(
+        (isinstance(v, int) and not isinstance(v, bool))
+        or (isinstance(v, float) and math.isfinite(v))
+        for v in items
+    )  # ints of any size are finite, and compare exactly with the bounds below
+    if not numbers:
         want = "a number" if n == 1 else f"a list of {n} numbers"
         raise ScenarioError(where, value, f"{want} in [{lo:g}, {hi:g}]")
-    vals = arr.astype(float)
-    if np.any(vals < lo) or np.any(vals > hi):
+    if any(not lo <= v <= hi for v in items):  # compared before any int becomes a float
         raise ScenarioError(
             where, value, f"{'a number' if n == 1 else 'numbers'} in [{lo:g}, {hi:g}]"
         )
-    return tuple(float(v) for v in vals)
+    return tuple(float(v) for v in items)
+
+
+def _check_qp(key: str, value: Any) -> Any:
+    """Validate one [qp] option as the QP controller will read it."""
+    from rcmplan.control.qp_backends import check_backend
+    from rcmplan.control.qp_limits import QpLimits
+
+    try:
+        if key == "solver":
+            return check_backend(value)
+        QpLimits.from_extra({key: value})
+    except InvalidInputError as exc:
+        raise ScenarioError(f"[qp] {key}", value, exc.valid) from exc
+    return value
 
 
 def _sections(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
@@ -187,7 +203,7 @@ def _sections(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
                 raise ScenarioError("section", key, f"one of {sorted(k for k in SCHEMA if k)}")
             for k, v in value.items():
                 if key == "qp":
-                    out["qp"][k] = v
+                    out["qp"][k] = _check_qp(k, v)
                     continue
                 if k not in SCHEMA[key]:
                     raise ScenarioError(f"[{key}] key", k, f"one of {sorted(SCHEMA[key])}")
@@ -290,7 +306,12 @@ def load_scenario(source: str | Path) -> Scenario:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ScenarioError("scenario file", str(source), f"valid TOML ({exc})") from exc
+    except RecursionError as exc:  # arrays or tables nested thousands deep
+        raise ScenarioError("scenario file", str(source), "TOML nested less deeply") from exc
     return scenario_from_dict(data)
+
+
+MAX_FILE_BYTES = 1 << 20  # a scenario is a few hundred bytes; the shipped ones are under 2 KiB
 
 
 def _read(source: str | Path) -> str:
@@ -300,7 +321,19 @@ def _read(source: str | Path) -> str:
     path = Path(source)
     if not path.is_file():
         raise ScenarioError("scenario", name, f"a TOML file or one of {scenario_names()}")
-    return path.read_text()
+    try:
+        with open(path, "rb") as fh:
+            data = fh.read(MAX_FILE_BYTES + 1)
+    except OSError as exc:
+        raise ScenarioError("scenario file", name, f"a readable file ({exc.strerror})") from exc
+    if len(data) > MAX_FILE_BYTES:
+        raise ScenarioError("scenario file", name, f"at most {MAX_FILE_BYTES:,} bytes")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        byte = data[exc.start : exc.start + 1].hex()
+        valid = f"UTF-8 text (byte 0x{byte} at offset {exc.start} is not)"
+        raise ScenarioError("scenario file", name, valid) from exc
 
 
 def scenario_names() -> list[str]:

@@ -9,13 +9,16 @@ checkpoint it at once. Chunks batch several targets per task to amortise the per
 from __future__ import annotations
 
 import concurrent.futures as cf
+import contextlib
 import math
 import multiprocessing
 import os
+import time
 from collections.abc import Iterator, Sequence
 from types import TracebackType
 from typing import Any, Protocol
 
+from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import InvalidInputError, require_extra
 from rcmplan.sweep.errors import SchedulerError
 from rcmplan.sweep.settings import MotionSettings
@@ -23,6 +26,7 @@ from rcmplan.sweep.task import TargetItem, TargetResult, run_chunk
 
 Chunk = list[TargetItem]
 DEFAULT_TIMEOUT_S = 10.0
+POLL_S = 0.02  # how often a Dask sweep looks for finished chunks [s]
 
 
 class Executor(Protocol):
@@ -40,6 +44,17 @@ class Executor(Protocol):
     def close(self) -> None:
         """Release processes or the cluster connection."""
         ...
+
+
+def check_timeout(timeout_s: float) -> float:
+    """timeout_s as a float, or InvalidInputError unless it is positive and finite."""
+    try:
+        t = float(timeout_s)
+    except (TypeError, ValueError, OverflowError):
+        t = math.nan
+    if not (math.isfinite(t) and t > 0):
+        raise InvalidInputError("timeout", timeout_s, "a positive finite time in s")
+    return t
 
 
 def make_chunks(items: Sequence[TargetItem], workers: int, size: int | None = None) -> list[Chunk]:
@@ -94,8 +109,9 @@ class LocalExecutor(_ExecutorBase):
             for chunk in chunks:
                 yield run_chunk(motion, chunk)
             return
-        pool = self._get_pool()
-        futures = [pool.submit(run_chunk, motion, chunk) for chunk in chunks]
+        with signals_deferred():  # the pool starts whole: every worker it launches is tracked
+            pool = self._get_pool()
+            futures = [pool.submit(run_chunk, motion, chunk) for chunk in chunks]
         try:
             for fut in cf.as_completed(futures):
                 yield fut.result()
@@ -108,6 +124,36 @@ class LocalExecutor(_ExecutorBase):
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+
+    def __exit__(
+        self, kind: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if kind is not None and issubclass(kind, KeyboardInterrupt):
+            self.terminate()
+        self.close()
+
+    def terminate(self) -> None:
+        """Stop the pool's workers now (SIGTERM, then reaped), dropping the chunks they run:
+        an interrupted sweep waits for no chunk and leaves no worker behind. Finished chunks
+        are in the checkpoint already."""
+        pool = self._pool
+        if pool is None:
+            return
+        # CPython's pool internals: its workers, and its queue of work items, from which the
+        # cancelled ones are dropped (Python 3.11 would set an exception on them when the
+        # workers die, printing a traceback from the pool's thread).
+        pending = getattr(pool, "_pending_work_items", {})
+        for key, item in list(pending.items()):
+            if item.future.cancelled():
+                pending.pop(key, None)
+        workers = list(dict(getattr(pool, "_processes", None) or {}).values())
+        for proc in workers:
+            proc.terminate()
+        for proc in workers:
+            proc.join(timeout=5.0)
+            if proc.is_alive():
+                proc.kill()
+                proc.join()
 
 
 class DaskExecutor(_ExecutorBase):
@@ -125,11 +171,22 @@ class DaskExecutor(_ExecutorBase):
     def __init__(self, address: str, timeout_s: float = DEFAULT_TIMEOUT_S) -> None:
         distributed = require_extra("distributed", "dist")
         self.address = address
-        self.timeout_s = float(timeout_s)
+        self.timeout_s = check_timeout(timeout_s)
         self._distributed = distributed
         self.client = self._connect(distributed)
-        self.workers = len(self.client.scheduler_info(n_workers=-1).get("workers", {}))
-        self.label = f"dask {address} ({self.workers} workers)"
+        self._seen = self._worker_addresses()
+        self.workers = len(self._seen)
+        self.lost: set[str] = set()  # workers that left while chunks ran (their chunks re-ran)
+
+    @property
+    def label(self) -> str:
+        """Where the chunks ran: the address, the workers, and the workers lost meanwhile."""
+        lost = len(self.lost)
+        note = f", {lost} lost during the sweep (their chunks were re-run)" if lost else ""
+        return f"dask {self.address} ({self.workers} workers{note})"
+
+    def _worker_addresses(self) -> set[str]:
+        return set(self.client.scheduler_info(n_workers=-1).get("workers", {}))
 
     def _connect(self, distributed: Any) -> Any:
         t = self.timeout_s
@@ -147,23 +204,54 @@ class DaskExecutor(_ExecutorBase):
     def map_chunks(self, motion: MotionSettings, chunks: Sequence[Chunk]) -> Iterator[
         list[TargetResult]
     ]:  # fmt: skip
-        """Each chunk's results as it finishes; a chunk whose workers keep dying raises."""
+        """Each chunk's results as it finishes. A worker that dies costs only its chunks, which
+        the scheduler runs again elsewhere (`label` counts the lost workers); a chunk whose
+        workers keep dying, or no worker left for `timeout_s`, raises SchedulerError."""
         futures = [self.client.submit(run_chunk, motion, c, pure=False) for c in chunks]
+        done = self._distributed.as_completed(futures, loop=self.client.loop)
+        waited = time.monotonic()
         try:
-            for fut in self._distributed.as_completed(futures, loop=self.client.loop):
-                yield self._result(fut)
-                fut.release()
+            while not done.is_empty():
+                batch = done.next_batch(block=False)
+                for fut in batch:
+                    yield self._result(fut, done.count() + 1)
+                    fut.release()
+                if batch or time.monotonic() - waited < self.timeout_s:
+                    waited = waited if not batch else time.monotonic()
+                    time.sleep(0 if batch else POLL_S)
+                    continue
+                self._check_workers(done.count())
+                waited = time.monotonic()
         finally:
+            with contextlib.suppress(Exception):  # bookkeeping only: never mask the real error
+                self._check_workers(None)
             self.client.cancel(futures)
 
-    def _result(self, fut: Any) -> list[TargetResult]:
-        try:
-            result: list[TargetResult] = fut.result()
-        except self._distributed.KilledWorker as exc:
+    def _check_workers(self, pending: int | None) -> None:
+        """Note the workers that left; with `pending` chunks and none left, raise."""
+        now = self._worker_addresses()
+        self.lost |= self._seen - now
+        self._seen |= now
+        if pending is not None and not now:
+            t = self.timeout_s
             raise SchedulerError(
-                self.address, self.timeout_s, f"workers died running a chunk ({exc})"
-            ) from exc
-        return result
+                self.address, t, f"has no worker left ({len(self.lost)} lost) after {t:g} s; "
+                f"{pending} chunks not run (finished ones are in the checkpoint)",
+            )  # fmt: skip
+
+    def _result(self, fut: Any, pending: int) -> list[TargetResult]:
+        """The chunk's results; a result lost with its worker is waited for while workers
+        remain (the scheduler recomputes it)."""
+        while True:
+            try:
+                result: list[TargetResult] = fut.result(timeout=self.timeout_s)
+                return result
+            except self._distributed.KilledWorker as exc:
+                raise SchedulerError(
+                    self.address, self.timeout_s, f"workers died running a chunk ({exc})"
+                ) from exc
+            except TimeoutError:
+                self._check_workers(pending)
 
     def close(self) -> None:
         """Close the client (the cluster keeps running)."""

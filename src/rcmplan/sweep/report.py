@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from rcmplan._atomic import atomic_path
 from rcmplan.sweep.gains import Evaluation, GainSearchResult
 from rcmplan.sweep.runner import SweepResult
 from rcmplan.sweep.sampling import STATUS_NAMES
@@ -143,7 +144,7 @@ def write_targets_csv(result: SweepResult, path: Path) -> Path:
     sample = result.sample
     head = ["id", "tilt_e1_deg", "tilt_e2_deg", "x_m", "y_m", "z_m", "reachability", "status",
             "iterations", "max_rcm_deviation_m", "tip_error_m", "wall_time_s"]  # fmt: skip
-    with open(path, "w", newline="") as fh:
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.writer(fh)
         w.writerow(head)
         for i in range(len(sample)):

@@ -1,0 +1,164 @@
+"""SIGINT and SIGTERM sent to real `rcmplan` processes at seeded random points: each leaves a
+complete summary.json saying why it stopped, exits 130 / 143 (or 0 when the signal came after
+the end), leaves a loadable log or none, no temporary file, and no process of its own behind."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rcmplan.control.log import RunLog
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+COMMANDS = {  # command line, and the span [s] after start-up in which the signal lands (None:
+    # the duration of an uninterrupted run on this machine, measured first)
+    "inject": (["inject"], None),
+    "spiral": (["spiral"], None),
+    "compare": (["compare", "--method", "pinv", "--method", "dls"], None),
+    "sweep": (["sweep", "--targets", "30000", "--workers", "2", "--no-plots"], 3.0),
+}
+SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def children_of(pid: int) -> set[int]:
+    """Every live descendant of pid (read from /proc)."""
+    parents: dict[int, int] = {}
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
+    found, frontier = set(), {pid}
+    while frontier:
+        frontier = {c for c, p in parents.items() if p in frontier} - found
+        found |= frontier
+    return found
+
+
+def alive(pid: int) -> bool:
+    """True while pid runs (a zombie counts as gone)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def interrupt(
+    argv: list[str], out: Path, sig: int | None, delay: float
+) -> tuple[int, set[int], float]:
+    """Start `rcmplan argv --out out`, wait until it made its output folder, then `delay` s,
+    send sig (none if None); returns the exit code, the processes it had started by then, and
+    the time [s] from its output folder to its end."""
+    env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rcmplan", *argv, "--out", str(out)],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    while not out.exists() and proc.poll() is None:
+        time.sleep(0.01)
+    start = time.perf_counter()
+    time.sleep(delay)
+    kids = children_of(proc.pid)
+    if sig is not None:
+        proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert not our_tracebacks(err.decode()), err.decode()
+    return proc.returncode, kids, time.perf_counter() - start
+
+
+def our_tracebacks(err: str) -> list[str]:
+    """Tracebacks on stderr other than "Exception ignored" notes of third-party finalizers
+    (llvmlite's, when numba's compiling is cut)."""
+    lines = err.splitlines()
+    return [
+        lines[i - 1] if i else ""
+        for i, line in enumerate(lines)
+        if line.startswith("Traceback") and not (i and lines[i - 1].startswith("Exception ignored"))
+    ]
+
+
+def check_log(out: Path) -> None:
+    """A log, if any, loads whole: NPZ arrays of one length, CSV rows as wide as its header."""
+    if (out / "log.npz").exists():
+        log = RunLog.load_npz(out / "log.npz")
+        assert all(getattr(log, k).shape[0] == len(log) for k in ("tip", "rcm", "phase"))
+        assert np.all(np.isfinite(log.tip))
+    if (out / "log.csv").exists():
+        with open(out / "log.csv", newline="") as fh:
+            rows = list(csv.reader(fh))
+        assert rows and all(len(r) == len(rows[0]) for r in rows)
+
+
+def check_left(out: Path, command: str, code: int, sig: int) -> None:
+    """What the command left in out, for its exit code: 128 + sig when interrupted; 0, or
+    killed by sig (-sig) when the signal came after the command had finished its work."""
+    assert code in (0, -sig, 128 + sig)
+    name = "compare.json" if command == "compare" else "summary.json"
+    doc = json.loads((out / name).read_text())
+    assert doc["status"] == ("interrupted" if code == 128 + sig else "ok")
+    if code == 128 + sig:
+        assert signal.Signals(sig).name in doc["message"]
+    check_log(out)
+    assert not [p.name for p in out.rglob("*") if ".tmp" in p.name]
+
+
+@pytest.mark.parametrize("command", sorted(COMMANDS))
+def test_signals_at_random_points_leave_a_summary_a_loadable_log_and_no_process(
+    command: str, tmp_path: Path
+) -> None:
+    argv, span = COMMANDS[command]
+    if span is None:
+        code, _, span = interrupt(argv, tmp_path / "whole", None, 0.0)
+        assert code in (0, 1)
+    rng = random.Random(18 + sorted(COMMANDS).index(command))
+    interrupted = 0
+    for k in range(4):
+        sig, delay = SIGNALS[k % 2], rng.uniform(0.0, 0.9 * span)
+        out = tmp_path / f"run{k}"
+        code, kids, _ = interrupt(argv, out, sig, delay)
+        check_left(out, command, code, sig)
+        for _ in range(500):  # the workers' last exits may trail the parent's by a moment
+            if not any(alive(p) for p in kids):
+                break
+            time.sleep(0.02)
+        assert not [p for p in kids if alive(p)], f"{command} left processes {kids}"
+        interrupted += code == 128 + sig
+    assert interrupted >= 1  # points land inside the run, so the test checks something
+
+
+def test_an_interrupted_sweep_resumes_to_the_results_of_an_uninterrupted_one(
+    tmp_path: Path,
+) -> None:
+    argv = ["sweep", "--targets", "4000", "--workers", "2", "--no-plots"]
+    code, _, _ = interrupt(argv, tmp_path / "cut", signal.SIGTERM, 1.0)
+    assert code == 143
+    kept = json.loads((tmp_path / "cut" / "summary.json").read_text())["results_kept"]
+    env = {**os.environ, "PYTHONPATH": SRC}
+    for out, extra in (("cut", ["--resume"]), ("whole", [])):
+        subprocess.run([sys.executable, "-m", "rcmplan", *argv, *extra, "--out",
+                        str(tmp_path / out)], env=env, check=True,
+                       stdout=subprocess.DEVNULL)  # fmt: skip
+    resumed = json.loads((tmp_path / "cut" / "summary.json").read_text())
+    assert resumed["status"] == "ok" and resumed["targets"]["resumed_from_checkpoint"] == kept
+    assert without_wall_time(tmp_path / "cut") == without_wall_time(tmp_path / "whole")
+
+
+def without_wall_time(out: Path) -> list[list[str]]:
+    """targets.csv without its wall-time column."""
+    with open(out / "targets.csv", newline="") as fh:
+        return [row[:-1] for row in csv.reader(fh)]
