@@ -11,22 +11,34 @@ target. Times are medians per call from Python (`_common.per_call`).
 - pinocchio: `forwardKinematics` + `computeFrameJacobian` (LOCAL_WORLD_ALIGNED) of the flange
   frame, on a model built from the same URDF file (the Panda's finger joints locked), checked
   against the rcmplan chain to 1e-10 first.
-- Phase per record: the UR5's p3-p4 phase of the default injection from p3 on the kinematic
-  plant (`Controller.phase_times`), the compiled arm loop (one compiled call per iteration, the
-  plant in Python) against the reference loop.
+- Loop per iteration: the p3-p4 phase of the default injection from p3 (50 targets, about 150
+  records) on the kinematic plant with `PinvSolver`, per record (one record per control step
+  taken), median over repeats. "kernel": `arm_loop.run_arm_targets` alone, the whole Algorithm 1
+  loop in numba (the <= 1.5 us floor is for the 7-DOF arm); "phase": the same through
+  `arm_phase.run_arm_phase_exact` from Python (setup, log, plant state); both against the
+  reference loop (`Controller.converge` per target, no target check).
+- Phase per record: the UR5's p3-p4 phase through `Controller.run` (`Controller.phase_times`:
+  planning, the loop and the RCM bound check; its fixed targets are checked before the phases,
+  outside this time), fast path on against off.
+- Target screen per target: `arm.check_arm_targets` (compiled Newton IK along the path) against
+  the reference check (`solve_pose` per target seeded with the previous joints) on the same
+  phase's 50 targets planned from home.
 """
 
 from __future__ import annotations
 
 import math
+import statistics
+import time
 from itertools import cycle
 from typing import Any
 
 import numpy as np
 
 from _common import per_call, quick, row
+from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.arm import FastArm
+from rcmplan.compiled.arm import FastArm, check_arm_targets
 from rcmplan.control import Controller, PinvSolver, extended_task, rcm_target, solve_pose
 from rcmplan.robot.arms import shipped_arm
 from rcmplan.robot.library import robot_chain, robot_file
@@ -37,6 +49,7 @@ from rcmplan.sim import KinematicPlant
 SEED = 20180507
 ARMS = {"panda": ("Panda (7 joints)", "panda_link8"), "ur5": ("UR5 (6 joints)", "tool0")}
 FLOOR_US = 3.0  # the compiled 7-DOF step from Python, median
+LOOP_FLOOR_US = 1.5  # the compiled 7-DOF loop per iteration
 
 
 def problem(name: str) -> tuple[Any, np.ndarray, float, np.ndarray]:
@@ -118,13 +131,19 @@ def arm_rows(name: str) -> list[dict[str, Any]]:
     return rows
 
 
-def phase_us(arm: Any, mode: str) -> float:
-    """Time in the p3-p4 phase per record in [us], with the fast path `mode` ("on", "off")."""
+def p3_p4(arm: Any) -> tuple[Any, np.ndarray]:
+    """The p3-p4 phase of the default injection and the joints at p3."""
     eye = default_eye(arm)
     points = default_points(eye)
     phase = next(ph for ph in injection(arm, eye, points) if ph.name == "p3-p4")
+    return phase, solve_pose(arm, rcm_target(points.p3, eye.port)).q
+
+
+def phase_us(arm: Any, mode: str) -> float:
+    """Time in the p3-p4 phase per record in [us], with the fast path `mode` ("on", "off")."""
+    phase, q0 = p3_p4(arm)
     plant = KinematicPlant(arm)
-    plant.reset(solve_pose(arm, rcm_target(points.p3, eye.port)).q)
+    plant.reset(q0)
     ctl = Controller(plant, PinvSolver())
     fast_cache.set_mode(mode)
     try:
@@ -134,13 +153,92 @@ def phase_us(arm: Any, mode: str) -> float:
     return 1e6 * ctl.phase_times[phase.name] / len(log)
 
 
+def median_us(fn: Any, repeat: int) -> float:
+    """Median of `repeat` calls of fn, each returning (seconds, count), in [us] per count."""
+    fn()
+    runs = [fn() for _ in range(repeat)]
+    return 1e6 * statistics.median(t / c for t, c in runs)
+
+
+def loop_rows(name: str) -> list[dict[str, Any]]:
+    """The compiled arm loop per record (kernel alone; from Python) against the reference loop,
+    and the target screen per target against the Python check, on one arm's p3-p4 phase."""
+    arm = shipped_arm(name)
+    label, many = ARMS[name][0], not quick()
+    phase, q0 = p3_p4(arm)
+    targets = np.ascontiguousarray(phase.plan(q0))
+
+    def controller() -> Controller:
+        plant = KinematicPlant(arm)
+        plant.reset(q0)
+        ctl = Controller(plant, PinvSolver())
+        ctl.lam = ctl._closest_lambda(q0, targets[0][3:])
+        return ctl
+
+    def loop(run: Any) -> tuple[float, int]:
+        ctl = controller()
+        pid = ctl.log.phase_id(phase.name)
+        t = time.perf_counter()
+        run(ctl, pid)
+        return time.perf_counter() - t, len(ctl.log)
+
+    def reference(ctl: Controller, pid: int) -> None:
+        for k, target in enumerate(targets):
+            ctl.converge(ctl.solver, target, pid, 0, k)
+
+    def exact(ctl: Controller, pid: int) -> None:
+        arm_phase.run_arm_phase_exact(ctl, ctl.solver, targets, pid, 0)
+
+    ctl = controller()
+    setup = arm_phase._Setup(ctl, ctl.solver)
+    rec = np.empty((4 * len(targets) + 100, 2 * arm.chain.n + 23))
+    irec, info = np.empty((rec.shape[0], 2), dtype=np.int64), np.zeros(4, dtype=np.int64)
+    bounds = (np.ascontiguousarray(arm.lower), np.ascontiguousarray(arm.upper), targets, 0)
+    kernel = fast_cache.arm_loop().run_arm_targets
+
+    def kernel_run() -> tuple[float, int]:
+        s, state = q0.copy(), np.array([ctl.lam, 0.0, 1e-3])
+        t = time.perf_counter()
+        kernel(*setup.args, *bounds, s, state, rec, irec, info, setup.fail, setup.W, setup.d)
+        return time.perf_counter() - t, int(info[0])
+
+    ref_us = median_us(lambda: loop(reference), 5 if many else 2)
+    target = f"<= {LOOP_FLOOR_US:g} us" if name == "panda" else ""
+    free = np.ascontiguousarray(phase.plan(arm.home))
+
+    def screen() -> tuple[float, int]:
+        t = time.perf_counter()
+        check_arm_targets(arm, free)
+        return time.perf_counter() - t, len(free)
+
+    def python_check() -> tuple[float, int]:
+        t, seed = time.perf_counter(), None
+        for x in free:
+            seed = solve_pose(arm, x, seed).q
+        return time.perf_counter() - t, len(free)
+
+    return [
+        row(f"{label} p3-p4 loop per record, compiled (kernel)",
+            median_us(kernel_run, 201 if many else 21), "us", "rcmplan reference loop", ref_us,
+            target),
+        row(f"{label} p3-p4 loop per record, compiled (from Python, log included)",
+            median_us(lambda: loop(exact), 51 if many else 5), "us", "rcmplan reference loop",
+            ref_us),
+        row(f"{label} target screen per target, compiled Newton IK",
+            median_us(screen, 51 if many else 5), "us", "rcmplan solve_pose (Python Newton IK)",
+            median_us(python_check, 5 if many else 2), "ratio <= 1"),
+    ]  # fmt: skip
+
+
 def rows() -> list[dict[str, Any]]:
-    """The Panda's and the UR5's rows, then the UR5's p3-p4 phase."""
+    """The Panda's and the UR5's step rows, their p3-p4 loops and target screens, then the UR5's
+    p3-p4 phase through the controller."""
     ur5 = shipped_arm("ur5")
     phase_us(ur5, "on")  # load the compiled loop and probe the arm (once per robot object)
-    loop = row("UR5 p3-p4 phase per record, compiled arm loop", phase_us(ur5, "on"), "us",
-               "rcmplan reference loop", phase_us(ur5, "off"), "ratio <= 1")  # fmt: skip
-    return [*arm_rows("panda"), *arm_rows("ur5"), loop]
+    loop = row("UR5 p3-p4 phase per record through Controller.run (Controller.phase_times)",
+               phase_us(ur5, "on"), "us", "rcmplan reference loop", phase_us(ur5, "off"),
+               "ratio <= 1")  # fmt: skip
+    return [*arm_rows("panda"), *arm_rows("ur5"), *loop_rows("panda"), *loop_rows("ur5"), loop]
 
 
 if __name__ == "__main__":

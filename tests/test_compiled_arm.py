@@ -1,4 +1,5 @@
-"""The compiled kernels of any serial arm equal the Python model: X_ext, J_a, pinv and DLS steps."""
+"""The compiled kernels of any serial arm equal the Python model: X_ext, J_a, pinv and DLS steps,
+the singularity measure."""
 
 from __future__ import annotations
 
@@ -7,7 +8,9 @@ import numpy as np
 import pytest
 
 from rcmplan import Iramis
+from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm, arm_supported
+from rcmplan.compiled.records import REC_COLUMNS, REC_WIDTH, record_columns, record_width
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.solvers import DlsSolver, PinvSolver
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
@@ -128,3 +131,31 @@ def test_a_subclass_overriding_needle_point_is_unsupported() -> None:
 
 def test_iramis_in_closed_form_is_not_an_arm_for_these_kernels() -> None:
     assert not arm_supported(Iramis())
+
+
+def test_singularity_measure_equals_the_model(arm: SerialArm, fast: FastArm) -> None:
+    k = fast_cache.chain_kernels()
+    rng = np.random.default_rng(13)
+    for _ in range(N_CONFIGS):
+        q = arm.home + rng.uniform(-0.5, 0.5, arm.chain.n)
+        k.frames(fast.A, fast.ix, q, fast.W)
+        ref = arm.singularity_measure(q)
+        assert k.singularity_measure(fast.A, fast.ix, fast.W) == pytest.approx(ref, rel=1e-9)
+        for thr in (0.5 * ref, 0.999 * ref, 1.001 * ref, 2.0 * ref):
+            assert k.is_singular(fast.A, fast.ix, fast.W, thr) == (ref < thr)
+
+
+def test_a_pose_on_a_singularity_is_singular_for_any_positive_threshold() -> None:
+    ur5 = make_arm("ur5")
+    fast, k = FastArm(ur5), fast_cache.chain_kernels()
+    q = ur5.home.copy()
+    q[2] = 0.0  # elbow stretched: the tip loses its radial direction
+    k.frames(fast.A, fast.ix, q, fast.W)
+    assert ur5.singularity_measure(q) < 1e-9
+    assert k.is_singular(fast.A, fast.ix, fast.W, 1e-6)
+
+
+def test_the_record_layout_for_six_joints_is_the_iramis_layout() -> None:
+    assert record_columns(6) == REC_COLUMNS
+    assert record_width(6) == REC_WIDTH == max(b for _, b in REC_COLUMNS.values())
+    assert record_width(7) == max(b for _, b in record_columns(7).values())

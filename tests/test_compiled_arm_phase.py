@@ -1,4 +1,5 @@
-"""The compiled arm loop behind the runner seam gives the reference loop's log and exceptions."""
+"""The compiled arm loops behind the runner seam give the reference loop's log and exceptions: the
+whole loop compiled on the kinematic plant, one compiled call per iteration on other plants."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from rcmplan.control import Controller, DlsSolver, LoopSettings, Phase, PinvSolv
 from rcmplan.control.log import ARRAY_FIELDS, RunLog
 from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import rcm_target, solve_pose
-from rcmplan.exceptions import ConvergenceError
+from rcmplan.exceptions import ConvergenceError, RcmBoundError, SingularPoseError, SliderLimitError
 from rcmplan.robot.arms import shipped_arm
 from rcmplan.robot.model import SerialArm
 from rcmplan.scene.eye import default_eye, default_points
@@ -57,10 +58,17 @@ def injection_phase(robot: SerialArm, name: str) -> tuple[Phase, np.ndarray]:
     return phase, solve_pose(robot, rcm_target(points.p3, eye.port)).q
 
 
+class SteppedPlant(KinematicPlant):
+    """The kinematic plant, stating no exact commands: the per-iteration path."""
+
+    exact_commands = False
+
+
 def run(mode: str, robot: SerialArm, solver: Solver, phase: Phase, q0: np.ndarray,
-        settings: LoopSettings | None = None) -> tuple[Controller, RunLog]:  # fmt: skip
+        settings: LoopSettings | None = None,
+        plant_type: type[KinematicPlant] = KinematicPlant) -> tuple[Controller, RunLog]:  # fmt: skip
     fast_cache.set_mode(mode)
-    plant = KinematicPlant(robot)
+    plant = plant_type(robot)
     plant.reset(robot.actuators_from_joints(q0))
     ctl = Controller(plant, solver, settings=settings)
     return ctl, ctl.run([phase])
@@ -92,24 +100,117 @@ def test_a_free_space_approach_gives_the_reference_log(ur5: SerialArm) -> None:
                     run("off", ur5, PinvSolver(), phase, q0)[1])  # fmt: skip
 
 
-def test_the_compiled_path_runs_the_arm_phase(ur5: SerialArm, monkeypatch) -> None:
-    calls = []
-    monkeypatch.setattr(arm_phase, "run_arm_phase", lambda *a: calls.append(a))
+def assert_same_plant(ctl: Controller, ref: Controller) -> None:
+    assert ctl.lam == pytest.approx(ref.lam, abs=TOL)
+    np.testing.assert_allclose(ctl.plant.read_actuators(), ref.plant.read_actuators(), 0, TOL)
+    assert ctl.plant.time == ref.plant.time
+
+
+def test_the_kinematic_plant_runs_the_whole_loop_compiled(ur5: SerialArm, monkeypatch) -> None:
+    calls: list[str] = []
+    monkeypatch.setattr(arm_phase, "run_arm_phase_exact", lambda *a: calls.append("exact"))
+    monkeypatch.setattr(arm_phase, "run_arm_phase", lambda *a: calls.append("per-iteration"))
     phase, q0 = injection_phase(ur5, "p3-p4")
     run("on", ur5, PinvSolver(), phase, q0)
-    assert len(calls) == 1
+    run("on", ur5, PinvSolver(), phase, q0, plant_type=SteppedPlant)
+    assert calls == ["exact", "per-iteration"]
 
 
-def test_a_stop_raises_the_reference_error_and_keeps_the_partial_log(ur5: SerialArm) -> None:
+@pytest.mark.parametrize("solver", [PinvSolver(), DlsSolver()], ids=lambda s: s.name)
+def test_a_plant_without_exact_commands_steps_in_python_with_the_reference_log(
+    ur5: SerialArm, solver: Solver
+) -> None:
     phase, q0 = injection_phase(ur5, "p3-p4")
-    settings = LoopSettings(max_iterations=1)
-    errors = []
+    ref_ctl, ref = run("off", ur5, solver, phase, q0, plant_type=SteppedPlant)
+    ctl, log = run("on", ur5, solver, phase, q0, plant_type=SteppedPlant)
+    assert_same_log(log, ref)
+    assert_same_plant(ctl, ref_ctl)
+
+
+def test_the_free_approach_with_the_damped_tip_solver_gives_the_reference_log(
+    ur5: SerialArm,
+) -> None:
+    phase, _ = injection_phase(ur5, "approach")  # from home
+    tip_dls = TipSolver(damping=1e-3)
+    logs = []
     for mode in ("off", "on"):
-        with pytest.raises(ConvergenceError) as info:
-            run(mode, ur5, PinvSolver(K=(0.2,) * 6), phase, q0, settings)
-        errors.append(info.value)
-    assert str(errors[1]) == str(errors[0])
-    assert_same_log(errors[1].log, errors[0].log)
+        fast_cache.set_mode(mode)
+        plant = KinematicPlant(ur5)
+        ctl = Controller(plant, PinvSolver(), free_solver=tip_dls)
+        logs.append((ctl, ctl.run([phase])))
+    assert_same_log(logs[1][1], logs[0][1])
+    assert_same_plant(logs[1][0], logs[0][0])
+
+
+def stops(robot: SerialArm, solver: Solver, phase: Phase, q0: np.ndarray, error: type[Exception],
+          settings: LoopSettings | None = None,
+          plant_type: type[KinematicPlant] = KinematicPlant) -> None:  # fmt: skip
+    """Both paths raise `error` with the same message, log, plant state and lambda."""
+    got = []
+    for mode in ("off", "on"):
+        fast_cache.set_mode(mode)
+        plant = plant_type(robot)
+        plant.reset(robot.actuators_from_joints(q0))
+        ctl = Controller(plant, solver, settings=settings)
+        with pytest.raises(error) as info:
+            ctl.run([phase])
+        got.append((ctl, info.value))
+    (ref_ctl, ref), (ctl, exc) = got
+    assert str(exc) == str(ref)
+    if len(ref.log) or len(exc.log):
+        assert_same_log(exc.log, ref.log)
+    assert_same_plant(ctl, ref_ctl)
+
+
+@pytest.mark.parametrize("plant_type", [KinematicPlant, SteppedPlant], ids=["exact", "stepped"])
+def test_a_convergence_stop_raises_the_reference_error_and_keeps_the_partial_log(
+    ur5: SerialArm, plant_type: type[KinematicPlant]
+) -> None:
+    phase, q0 = injection_phase(ur5, "p3-p4")
+    stops(ur5, PinvSolver(K=(0.2,) * 6), phase, q0, ConvergenceError,
+          LoopSettings(max_iterations=1), plant_type)  # fmt: skip
+
+
+def test_a_phase_beyond_the_rcm_bound_raises_the_reference_error() -> None:
+    panda = shipped_arm("panda")
+    phase, q0 = injection_phase(panda, "p3-p4")
+    ref = run("off", panda, PinvSolver(), phase, q0, LoopSettings(rcm_bound=None))[1]
+    bound = 0.5 * float(np.nanmax(np.linalg.norm(ref.rcm_deviation(), axis=1)))  # half the phase's
+    stops(panda, PinvSolver(), phase, q0, RcmBoundError, LoopSettings(rcm_bound=bound))
+
+
+@pytest.mark.parametrize("plant_type", [KinematicPlant, SteppedPlant], ids=["exact", "stepped"])
+def test_a_singular_pose_raises_the_reference_error(
+    ur5: SerialArm, plant_type: type[KinematicPlant]
+) -> None:
+    phase, q0 = injection_phase(ur5, "p3-p4")  # the measure is about 0.05 on this phase
+    stops(ur5, PinvSolver(), phase, q0, SingularPoseError, LoopSettings(singular_threshold=0.3),
+          plant_type)  # fmt: skip
+
+
+@pytest.mark.parametrize("plant_type", [KinematicPlant, SteppedPlant], ids=["exact", "stepped"])
+def test_a_joint_leaving_its_travel_raises_the_reference_error(
+    plant_type: type[KinematicPlant],
+) -> None:
+    ur5 = shipped_arm("ur5")  # a fresh model: its travel is narrowed below
+    phase, q0 = injection_phase(ur5, "p3-p4")
+    joints = run("off", ur5, PinvSolver(), phase, q0)[1].joints
+    j = int(np.argmax(joints.max(axis=0) - q0))  # the joint that moves furthest up
+    ur5.upper[j] = q0[j] + 0.5 * (joints[:, j].max() - q0[j])
+    fixed = Phase(phase.name, phase.plan(q0))  # run_phase checks no fixed targets (run does)
+    got = []
+    for mode in ("off", "on"):
+        fast_cache.set_mode(mode)
+        plant = plant_type(ur5)
+        plant.reset(q0)
+        ctl = Controller(plant, PinvSolver())
+        with pytest.raises(SliderLimitError) as info:
+            ctl.run_phase(fixed)
+        got.append((ctl, info.value))
+    (ref_ctl, ref), (ctl, exc) = got
+    assert str(exc) == str(ref) and exc.index == ref.index
+    assert_same_log(ctl.log.finish(), ref_ctl.log.finish())
+    assert_same_plant(ctl, ref_ctl)
 
 
 def test_a_subclass_of_serial_arm_runs_on_the_reference_path(ur5: SerialArm) -> None:

@@ -10,19 +10,32 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import Any
 
 from rcmplan.analysis.metrics import phase_metrics
 from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.loop import Controller, Phase
-from rcmplan.control.methods import make_solver
-from rcmplan.exceptions import RcmplanError
+from rcmplan.control.methods import make_free_solver, make_solver
+from rcmplan.exceptions import InvalidInputError, RcmplanError
+from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
+from rcmplan.scene.curved_figures import curved_figures
 from rcmplan.scene.scenario import Scenario
 
 __all__ = ["RunResult", "run_scenario"]
 from rcmplan.sim.registry import make_plant
+
+
+def check_curved_plant(robot: RobotModel, plant: str) -> RobotModel:
+    """The model a plant is built for: a curved needle's shaft (its MuJoCo model has no arc;
+    iRAM!S only), else the robot itself."""
+    if not isinstance(robot, CurvedTipRobot):
+        return robot
+    if plant != "kinematic" and robot.name != "iramis":
+        raise InvalidInputError("plant", plant, "'kinematic' for a curved needle on an arm")
+    return robot.base
 
 
 def run_scenario(
@@ -38,18 +51,23 @@ def run_scenario(
     start = time.perf_counter()
     error: RcmplanError | None = None
     controller: Controller | None = None
-    robot = robot or make_robot(scenario.robot)
+    robot = scenario.needle.fit(robot or make_robot(scenario.robot))
+    extra: dict[str, Any] = {}
     try:
+        shaft = check_curved_plant(robot, scenario.plant)
         eye = scenario.eye(robot)
-        scene = {"eye": eye, "points": scenario.points(eye)}
-        plant = make_plant(scenario.plant, robot, scene=scene, dt=scenario.dt)
+        scene = {"eye": eye, "points": scenario.points(eye), "needle_arc": scenario.needle.arc()}
+        plant = make_plant(scenario.plant, shaft, scene=scene, dt=scenario.dt)
         plant.reset(robot.home_actuators)
         solver = make_solver(
             scenario.method, scenario.method_settings, robot, eye=eye, dt=scenario.dt
         )
-        controller = Controller(plant, solver, settings=scenario.loop)
+        free = make_free_solver(robot, scenario.method_settings)
+        controller = Controller(plant, solver, free, settings=scenario.loop, robot=robot)
         controller.on_phase = on_phase
         log = controller.run(scenario.phases(robot))
+        if scenario.needle.kind == "curved":
+            extra = curved_figures(robot, scenario, eye, log)
     except RcmplanError as exc:
         error = exc
         log = exc.log if exc.log is not None else LogBuilder().finish()
@@ -59,14 +77,15 @@ def run_scenario(
         exc.result = _result(scenario, robot, controller, log, start, "interrupted", why)  # type: ignore[attr-defined]
         raise
     if error is None:
-        return _result(scenario, robot, controller, log, start, "ok", "")
+        return _result(scenario, robot, controller, log, start, "ok", "", extra=extra)
     message = " ".join(f"{type(error).__name__}: {error}".split())
-    return _result(scenario, robot, controller, log, start, error.status, message, error)
+    return _result(scenario, robot, controller, log, start, error.status, message, error, extra)
 
 
 def _result(
     scenario: Scenario, robot: RobotModel, controller: Controller | None, log: RunLog,
     start: float, status: str, message: str, error: RcmplanError | None = None,
+    extra: dict[str, Any] | None = None,
 ) -> RunResult:  # fmt: skip
     times = controller.phase_times if controller is not None else {}
     return RunResult(
@@ -78,4 +97,5 @@ def _result(
         robot=robot,
         error=error,
         message=message,
+        extra=extra or {},
     )

@@ -64,6 +64,7 @@ class RunResult:
         return {
             "scenario": self.scenario.name,
             "robot": self.robot.name,
+            "needle": self.robot.needle_kind,
             "procedure": self.scenario.procedure,
             "method": self.scenario.method,
             "plant": self.scenario.plant,

@@ -51,18 +51,21 @@ def demo_trajectory(robot: Iramis, n: int = 240) -> FloatArray:
     return robot.home_actuators + insert + tilt
 
 
-def scenario_trajectory(args: argparse.Namespace, robot: Iramis) -> tuple[FloatArray, EyePhantom]:
-    """Run the scenario and return its logged sliders and the eye as a scene phantom."""
+def scenario_trajectory(
+    args: argparse.Namespace, robot: Iramis
+) -> tuple[FloatArray, EyePhantom, tuple[float, float] | None]:
+    """Run the scenario; its logged sliders, the eye as a scene phantom and the needle's arc."""
     from rcmplan.job import run_scenario
     from rcmplan.scene.scenario import load_scenario
 
     scenario = load_scenario(args.scenario).with_plant(args.plant)
     result = run_scenario(scenario)
     if not result.ok:
-        print(f"rcmplan render: run stopped early ({result.status}); animating the partial log")
+        print(f"rcmplan render: run stopped early ({result.message}); animating the partial log")
     eye = scenario.eye(robot)
     phantom = phantom_of(eye, scenario.points(eye))
-    return np.vstack([robot.home_actuators, result.log.sliders]), phantom
+    sliders = np.vstack([robot.home_actuators, result.log.sliders])
+    return sliders, phantom, scenario.needle.arc()
 
 
 def run(args: argparse.Namespace) -> int:
@@ -73,11 +76,11 @@ def run(args: argparse.Namespace) -> int:
     robot = Iramis()
     out = Path(args.out)
     if args.demo:
-        sliders, eye, name = demo_trajectory(robot), None, "demo"
+        sliders, eye, name, arc = demo_trajectory(robot), None, "demo", None
     else:
-        sliders, phantom = scenario_trajectory(args, robot)
+        sliders, phantom, arc = scenario_trajectory(args, robot)
         eye, name = phantom, args.scenario
-    plant = MujocoPlant(robot, mode="kinematic", eye=eye)
+    plant = MujocoPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
     renderer = SceneRenderer(plant.scene()[0], args.width, args.height)
     written = [
         save_png(out / f"home_{cam}.png", renderer.render(plant.scene()[1], cam))

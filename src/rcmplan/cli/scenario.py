@@ -44,6 +44,14 @@ DESCRIPTIONS: dict[Key, str] = {
     ("controller", "dt_s"): "control period",
     ("controller", "rcm_bound_um"): "largest RCM distance from the trocar; a phase beyond it "
     "ends the run (RcmBoundError)",
+    ("needle", "kind"): "`straight`, or `curved`: a shaft then an arc (the roll joins the "
+    "controlled joints; the injection enters along the arc and visits lateral targets)",
+    ("needle", "radius_mm"): "arc radius R of a curved needle",
+    ("needle", "arc_angle_rad"): "arc angle alpha of a curved needle (0: straight)",
+    ("lateral", "directions"): "requested tip direction per visit, base frame (default: the "
+    "retina's outward normal); the needle takes the nearest it can",
+    ("lateral", "tolerance_mrad"): "largest angle between a requested direction and the one the "
+    "needle takes; beyond it the target is refused before motion",
     ("spiral", "offset_mm"): "spiral centre from p3 along (e1, e2), normal to the trocar axis",
     ("spiral", "radius_mm"): "final radius (grows linearly from 0)",
     ("spiral", "turns"): "number of turns",
@@ -83,6 +91,9 @@ def _defaults(sc: Scenario) -> dict[Key, Any]:
         ("controller", "drift_correction"): sc.loop.drift_correction,
         ("controller", "dt_s"): sc.dt,
         ("controller", "rcm_bound_um"): sc.loop.rcm_bound * 1e6 if sc.loop.rcm_bound else None,
+        ("needle", "kind"): sc.needle.kind, ("needle", "radius_mm"): mm(sc.needle.radius),
+        ("needle", "arc_angle_rad"): sc.needle.arc_angle,
+        ("lateral", "tolerance_mrad"): sc.needle.tolerance * 1e3,
         ("spiral", "offset_mm"): mm(sc.spiral.offset),
         ("spiral", "radius_mm"): mm(sc.spiral.radius),
         ("spiral", "turns"): sc.spiral.turns, ("spiral", "pitch_mm"): mm(sc.spiral.pitch),
@@ -96,6 +107,8 @@ def _kind(kind: str, lo: float, hi: float) -> tuple[str, str]:
         return {"str": "string", "bool": "true / false"}[kind], ""
     if kind == "strlist":
         return "list of point names", ""
+    if kind == "vec3list":
+        return "list of [x, y, z] lists", f"each in [{lo:g}, {hi:g}]"
     if kind.startswith("vec"):
         return f"list of {kind[3:]} numbers", f"each in [{lo:g}, {hi:g}]"
     return {"float": "number", "int": "integer"}[kind], f"[{lo:g}, {hi:g}]"

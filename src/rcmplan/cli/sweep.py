@@ -218,6 +218,38 @@ def open_checkpoint(path: Path, settings: SweepSettings, args: argparse.Namespac
         raise CheckpointError(exc.path, exc.problem + hint) from exc
 
 
+REACH_ROLLS = 12  # needle rolls tried per retina point by the curved needle's reach map
+
+
+def run_curved_reach(args: argparse.Namespace, out: Path) -> int | None:
+    """A curved needle's scenario: the reach map from poses (`rcmplan.scene.reach`, --targets
+    points over the retinal sphere) beside the straight shaft's; None for a straight needle."""
+    import json
+
+    from rcmplan.control.curved import curved
+    from rcmplan.robot.registry import make_robot
+    from rcmplan.scene.reach import reach_map
+    from rcmplan.scene.scenario import load_scenario
+
+    sc = load_scenario(args.scenario)
+    if sc.needle.kind != "curved":
+        return None
+    robot = curved(sc.needle.fit(make_robot(sc.robot)))
+    m = reach_map(robot, sc.eye(robot), n=args.targets, rolls=REACH_ROLLS)
+    s = {"scenario": sc.name, "robot": robot.name, "needle": "curved",
+         "radius_m": sc.needle.radius, "arc_angle_rad": sc.needle.arc_angle,
+         "lattice_points": args.targets, "rolls": REACH_ROLLS, **m.summary()}  # fmt: skip
+    (out / "summary.json").write_text(json.dumps(s, indent=2))
+    if args.json:
+        from rcmplan.cli.common import print_json
+
+        print_json(s)
+    else:
+        for key, value in s.items():
+            print(f"{key:32s} {value:.4g}" if isinstance(value, float) else f"{key:32s} {value}")
+    return 0
+
+
 def run(args: argparse.Namespace) -> int:
     """Run the sweep (and the gain search), write the outputs, print the tables.
 
@@ -230,6 +262,9 @@ def run(args: argparse.Namespace) -> int:
 
     check_timeout(args.timeout)
     out = prepare_folder(args.out)
+    reach = run_curved_reach(args, out)
+    if reach is not None:
+        return reach
     settings = settings_from_args(args)
     checkpoint = open_checkpoint(Path(args.checkpoint or out / "checkpoint"), settings, args)
     try:

@@ -5,7 +5,8 @@ robot model: it must look like a `SerialArm` (a `JointChain` `chain`, a `Straigh
 `needle`, at least five active joints) and the kernels must give its own X_ext and J_a (both
 angle-row variants) within 1e-12 at three probe configurations near home, so a subclass with
 other geometry is refused. `FastArm` wraps the kernels with argument checks outside the hot
-`step`. Needs numba (the `fast` extra).
+`step`. `check_arm_targets` screens a path of X_ext targets in compiled code before motion, as
+`Controller.check_targets` does with `solve_pose`. Needs numba (the `fast` extra).
 """
 
 from __future__ import annotations
@@ -20,14 +21,18 @@ from numpy.typing import NDArray
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.control.augmented import augmented_jacobian, extended_task
+from rcmplan.control.targets import solve_pose
 from rcmplan.control.tasks import VARIANTS, JacobianVariant
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.chain import JointChain
-from rcmplan.robot.model import RobotModel
+from rcmplan.robot.model import IK_ITERATIONS, IK_TOLERANCE, RobotModel, SerialArm
 from rcmplan.robot.needle import StraightNeedle
 
 ArmArrays = tuple[FloatArray, NDArray[np.int64]]
 PROBE_TOL = 1e-12
+# Newton steps within which the screen clears a target: the shipped arms' injection paths need
+# at most 5 of the IK_ITERATIONS; a slower solve might end otherwise in the reference
+CLEAR_ITERATIONS = IK_ITERATIONS // 4
 _PROBE_PHASES = (0.3, 1.9, 4.1)  # [rad]: probe k is home + 0.1 sin(1.3 j + phase_k) per joint
 _checked: weakref.WeakKeyDictionary[object, ArmArrays | None] = weakref.WeakKeyDictionary()
 
@@ -94,6 +99,35 @@ def arm_arrays(robot: RobotModel) -> ArmArrays | None:
 def arm_supported(robot: RobotModel) -> bool:
     """True if the chain kernels reproduce `robot` (see `arm_arrays`)."""
     return arm_arrays(robot) is not None
+
+
+def check_arm_targets(robot: RobotModel, targets: FloatArray) -> bool:
+    """`solve_pose` on every X_ext target (N, 6) of a path, screened in compiled code, for a
+    SerialArm itself whose kinematics the kernels reproduce; False (nothing done) otherwise.
+
+    The kernel runs `needle_pose`'s Newton method (the same cap and tolerance, each target
+    seeded with the previous one's joints, the first with home) and flags every target that
+    might fail (`chain_kernels.screen_targets`). Where it flags any, the reference check runs
+    from the first target through the last flagged one, so that each flagged target gets the
+    reference's seed and raises the reference's exception, message and all.
+    """
+    packed = arm_arrays(robot) if type(robot) is SerialArm else None
+    if packed is None:
+        return False
+    k, (A, ix) = fast_cache.chain_kernels(), packed
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    flags = np.zeros(targets.shape[0], dtype=np.bool_)
+    W = np.empty(k.work_shape(int(ix[0]), int(ix[1])))
+    bounds = (np.ascontiguousarray(robot.lower, dtype=np.float64),
+              np.ascontiguousarray(robot.upper, dtype=np.float64),
+              np.ascontiguousarray(robot.home, dtype=np.float64))  # fmt: skip
+    k.screen_targets(A, ix, W, *bounds, IK_ITERATIONS, CLEAR_ITERATIONS, IK_TOLERANCE, targets,
+                     flags)  # fmt: skip
+    flagged = np.flatnonzero(flags)
+    seed = None
+    for target in targets[: flagged[-1] + 1 if flagged.size else 0]:
+        seed = solve_pose(robot, target, seed).q
+    return True
 
 
 def _thesis(variant: JacobianVariant) -> bool:

@@ -1,14 +1,18 @@
-"""One iteration of Algorithm 1 for a serial arm, compiled: what `Controller.converge` does
-between reading the plant and commanding it, in the same order.
+"""Algorithm 1 for a serial arm, compiled: one iteration (`arm_iterate`), and a whole phase on a
+plant that reaches its commands exactly (`run_arm_targets`).
 
-From the joints q = s (an arm's actuators are its joints): frames, drift correction (lambda of
-the needle point closest to the trocar), the solver's task error, the record (from the second
-iteration on), the per-component tolerance check, the iteration cap, the singularity check
-(`SerialArm.singularity_measure`) and the solver's step (`chain_kernels`). The plant, the
-actuator map and their checks stay in Python (`rcmplan.compiled.arm_phase`). Imports numba.
+An iteration does what `Controller.converge` does between reading the plant and commanding it,
+in the same order, from the joints q = s (an arm's actuators are its joints): frames (once),
+drift correction (lambda of the needle point closest to the trocar), the solver's task error,
+the record (from the second iteration on), the per-component tolerance check, the iteration
+cap, the singularity check (`chain_kernels.is_singular`) and the solver's step, every quantity
+read from the frames of that one pass. `run_arm_targets` adds what the kinematic plant does:
+the command's checks (finite, within travel) and the joints reaching it, time moving on by dt.
+Other plants step in Python around `arm_iterate` (`rcmplan.compiled.arm_phase`). Imports numba.
 
-Record row (`record_width(n)` columns): time [s], sliders (n,), joints (n,), lambda, tip, rcm,
-trocar, base, target tip (3 each) [m], error (6,) NaN-padded; see `arm_phase.arm_columns`.
+Records go to preallocated rows in the `records.record_columns(n)` layout: time [s],
+sliders (n,), joints (n,), lambda, tip, rcm, trocar, base, target tip (3 each) [m], error (6,)
+NaN-padded. Stops return the status codes of `rcmplan.compiled.records`.
 """
 
 from __future__ import annotations
@@ -22,53 +26,30 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled.chain_kernels import (
     ROWS,
     IntArray,
-    dls_step,
+    dls_solve_at,
     frames,
-    joint_axis,
+    gram_solve,
+    is_singular,
+    jacobian_at,
     needle_axis,
     needle_point,
-    pinv_step,
-    point_jacobian,
+    pinv_solve,
 )
-from rcmplan.compiled.kernels import axis_from_angles, dls_solve
-from rcmplan.compiled.loop import converged
-from rcmplan.compiled.records import DLS, DONE, NO_CONVERGENCE, PINV_THESIS, SINGULAR, STEPPED, TIP
-
-
-def record_width(n: int) -> int:
-    """Columns of a record row for n joints."""
-    return 2 * n + 23
-
-
-@njit(cache=True)
-def singularity_measure(A: FloatArray, ix: IntArray, W: FloatArray) -> float:
-    """Inverse condition number of [J_tip / l; N J_omega] over the active joints (frames in W),
-    as `SerialArm.singularity_measure` (N: the two unit normals to the needle axis)."""
-    n, m = ix[0], ix[1]
-    J = W[4 * (n + 1) :]
-    point_jacobian(A, ix, W, 1.0, J, 0)
-    a = needle_axis(A, n, W)
-    h = 0
-    for i in range(1, 3):
-        if abs(a[i]) < abs(a[h]):
-            h = i
-    u = np.zeros(3)
-    u[h] = 1.0
-    n1 = np.array([a[1] * u[2] - a[2] * u[1], a[2] * u[0] - a[0] * u[2], a[0] * u[1] - a[1] * u[0]])
-    n1 /= math.sqrt(n1[0] ** 2 + n1[1] ** 2 + n1[2] ** 2)
-    n2 = np.array([a[1] * n1[2] - a[2] * n1[1], a[2] * n1[0] - a[0] * n1[2],
-                   a[0] * n1[1] - a[1] * n1[0]])  # fmt: skip
-    M = np.empty((5, m))
-    length = A[5 * n + 12, 0]
-    for j in range(m):
-        k = ix[2 + n + j]
-        w = (0.0, 0.0, 0.0) if ix[2 + k] != 0 else joint_axis(A, n, W, k)
-        for i in range(3):
-            M[i, j] = J[i, j] / length
-        M[3, j] = n1[0] * w[0] + n1[1] * w[1] + n1[2] * w[2]
-        M[4, j] = n2[0] * w[0] + n2[1] * w[1] + n2[2] * w[2]
-    sv = np.linalg.svd(M)[1]
-    return sv[-1] / sv[0] if sv[0] > 0 else 0.0
+from rcmplan.compiled.kernels import axis_from_angles
+from rcmplan.compiled.loop import converged, target_frame
+from rcmplan.compiled.records import (
+    BAD_JOINTS,
+    DLS,
+    DONE,
+    NO_CONVERGENCE,
+    NO_TIP,
+    PAUSED,
+    PINV_THESIS,
+    SINGULAR,
+    SLIDER_LIMIT,
+    STEPPED,
+    TIP,
+)
 
 
 @njit(cache=True)
@@ -102,7 +83,7 @@ def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: flo
 def record(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float, s: FloatArray,
            lam: float, trocar: FloatArray, tip_t: FloatArray, e: FloatArray,
            ne: int) -> None:  # fmt: skip
-    """One record into row (record_width(n),); see the module docstring."""
+    """One record into row (`record_width(n)`,); see the module docstring."""
     base, tip = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
     row[0] = t
     for i in range(n):
@@ -119,37 +100,39 @@ def record(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float, s: F
 
 @njit(cache=True)
 def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray, gain: float,
-         damping: float, s: FloatArray, lam: float, target: FloatArray, e: FloatArray,
+         damping: float, s: FloatArray, lam: float, pivot: bool, e: FloatArray,
          d: FloatArray) -> None:  # fmt: skip
-    """The solver's step d = (dq[active], dlambda) at joints s (frames in W for TIP)."""
+    """The solver's step d = (dq[active], dlambda) at joints s from its error e, at the frames
+    in W (`PinvSolver`, `DlsSolver`, `TipSolver`), after the singularity check, which leaves
+    d p(1) / d theta_ext in W's J rows 0..2."""
     n, m = ix[0], ix[1]
+    o = 4 * (n + 1)
     if method == TIP:
-        o = 4 * (n + 1)
-        J = W[o:]
-        point_jacobian(A, ix, W, 1.0, J, 0)
-        dls_solve(J, e, damping, 3, m, W[o + ROWS :], W[o + 2 * ROWS], d)
+        gram_solve(W, o, 3, m, damping, e, d)
         d[m] = 0.0
     elif method == DLS:
-        dls_step(A, ix, W, s, lam, target, damping, d)
+        dls_solve_at(A, ix, W, lam, pivot, e, damping, d, True)
     else:
-        pinv_step(A, ix, W, s, lam, target, K, gain, method == PINV_THESIS, d)
+        jacobian_at(A, ix, W, lam, method == PINV_THESIS, W, o, True)
+        pinv_solve(A, ix, W, s, K, gain, e, d)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # inlined into run_arm_targets: a call costs ~0.2 us
 def arm_iterate(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
     tol: FloatArray, max_it: int, drift: bool, thr: float, target: FloatArray, pivot: bool,
     tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
-    row: FloatArray, fail: FloatArray, W: FloatArray, d: FloatArray,
+    row: FloatArray, fail: FloatArray, W: FloatArray, d: FloatArray, framed: bool = False,
 ) -> int:  # fmt: skip
     """One iteration from joints s (n,). Returns DONE, STEPPED (the next joints in fail[n:2n]),
-    NO_CONVERGENCE or SINGULAR. state = (lambda, time [s]); lambda is updated. fail holds
-    (q (n,), q_new (n,), error (6,))."""
+    NO_CONVERGENCE or SINGULAR. state = (lambda, time [s], ...); lambda is updated. fail holds
+    (q (n,), q_new (n,), error (6,)). `framed`: W already holds the frames of s."""
     n, m = ix[0], ix[1]
     e = fail[2 * n : 2 * n + 6]
     for i in range(n):
         fail[i] = s[i]
-    frames(A, ix, s, W)
+    if not framed:
+        frames(A, ix, s, W)
     if method != TIP and drift:
         base, tip = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
         num, den = 0.0, 0.0
@@ -165,12 +148,76 @@ def arm_iterate(
         return DONE
     if it == max_it:
         return NO_CONVERGENCE
-    if singularity_measure(A, ix, W) < thr:
+    if is_singular(A, ix, W, thr):
         return SINGULAR
-    step(A, ix, W, method, K, gain, damping, s, state[0], target, e, d)
+    step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
     for i in range(n):
         fail[n + i] = s[i]
     for j in range(m):
         fail[n + ix[2 + n + j]] += d[j]
     state[0] += d[m]
     return STEPPED
+
+
+@njit(cache=True)
+def command_status(fail: FloatArray, n: int, lower: FloatArray, upper: FloatArray,
+                   info: IntArray) -> int:  # fmt: skip
+    """STEPPED if the command q_new = fail[n:2n] is finite and within [lower, upper] (what the
+    kinematic plant checks), else BAD_JOINTS, or SLIDER_LIMIT with the first joint beyond
+    travel in info[2]."""
+    for i in range(n):
+        if not math.isfinite(fail[n + i]):
+            return BAD_JOINTS
+    for i in range(n):
+        if fail[n + i] < lower[i] or fail[n + i] > upper[i]:
+            info[2] = i
+            return SLIDER_LIMIT
+    return STEPPED
+
+
+@njit(cache=True)
+def run_arm_targets(
+    A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
+    tol: FloatArray, max_it: int, drift: bool, thr: float, lower: FloatArray, upper: FloatArray,
+    targets: FloatArray, k0: int, s: FloatArray, state: FloatArray, rec: FloatArray,
+    irec: IntArray, info: IntArray, fail: FloatArray, W: FloatArray, d: FloatArray,
+) -> int:  # fmt: skip
+    """Algorithm 1 on targets[k0:] from joints s, on a plant that reaches every command
+    exactly; returns a status.
+
+    s and state = (lambda, time [s], dt [s]) are updated in place. On return info holds
+    (records written, target index reached, joint index for SLIDER_LIMIT, steps taken) and
+    fail holds (q (n,), q_new (n,), error (6,)) of the last iteration. PAUSED means the record
+    buffer could not hold another target: call again from info[1].
+    """
+    n = ix[0]
+    w, tip_t, trocar = np.empty(6), np.empty(3), np.full(3, np.nan)
+    count, cap = 0, rec.shape[0]
+    for k in range(k0, targets.shape[0]):
+        info[0], info[1] = count, k
+        if count + max_it > cap:
+            return PAUSED
+        target = targets[k]
+        kind = target_frame(target, method != TIP, w, tip_t, trocar)
+        if kind < 0:
+            return NO_TIP
+        for it in range(max_it + 1):  # the first reuses the last target's final frames
+            status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, thr,
+                                 target, kind == 1, tip_t, trocar, s, state, it, rec[count],
+                                 fail, W, d, it == 0 and k > k0)  # fmt: skip
+            if it > 0:
+                irec[count, 0], irec[count, 1] = k, it
+                count += 1
+                info[0] = count
+            if status == DONE:
+                break
+            if status == STEPPED:
+                status = command_status(fail, n, lower, upper, info)
+            if status != STEPPED:
+                return status
+            for i in range(n):  # the plant reaches the command
+                s[i] = fail[n + i]
+            state[1] += state[2]
+            info[3] += 1
+    info[0], info[1] = count, targets.shape[0]
+    return DONE

@@ -1,12 +1,14 @@
-"""One phase of Algorithm 1 for a serial arm on any plant: the plant steps in Python, each
-iteration's kinematics, error, record and step are one compiled call (`arm_loop.arm_iterate`).
+"""One phase of Algorithm 1 for a serial arm, compiled: the whole loop on a plant that reaches
+its commands exactly (`exact_commands`, the kinematic plant: `arm_loop.run_arm_targets`), else
+one compiled call per iteration with the plant stepping in Python (`arm_loop.arm_iterate`).
 
 Applies to a `SerialArm` itself (exact type: a subclass may change its actuator map) whose
 kinematics the chain kernels reproduce (`arm.arm_arrays`), with a solver the kernels implement
 (exact types, `records.method_code`). The side effects are the reference loop's: records go to
 the controller's log, the plant and controller.lam end where `Controller.converge` leaves them,
-and a stop raises the reference exception with the partial log kept (commands go through the
-robot's `actuators_from_joints` and the plant's own checks, as in the reference loop).
+and a stop raises the reference exception with the partial log kept (`records.raise_arm_stop`
+repeats the failing check with the reference function: the plant's own command checks, the
+robot's singularity check).
 """
 
 from __future__ import annotations
@@ -14,24 +16,26 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.arm import FastArm, arm_arrays
+from rcmplan.compiled.arm import FastArm, arm_arrays, check_arm_targets
 from rcmplan.compiled.records import (
     BLOCK,
     DONE,
-    NO_CONVERGENCE,
+    NO_TIP,
+    PAUSED,
     STEPPED,
+    TIP,
+    append_rows,
     method_code,
+    raise_arm_stop,
+    record_width,
     singular_threshold,
     solver_arrays,
 )
-from rcmplan.control.log import LogBuilder
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
-from rcmplan.control.targets import rcm_target, tip_of_target
-from rcmplan.exceptions import ConvergenceError, RcmplanError
+from rcmplan.control.targets import rcm_target
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import SerialArm
@@ -53,30 +57,80 @@ def run_if_fast(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
     """Run the phase compiled if the fast path is on for it (`cache.use_fast`) and the kernels
-    reproduce the arm; False (nothing done) otherwise."""
+    reproduce the arm (the whole loop compiled on a plant with `exact_commands`); False
+    (nothing done) otherwise."""
     if not fast_cache.use_fast(ITERATIONS_PER_TARGET * len(targets)):
         return False
     if arm_arrays(controller.robot) is None:
         return False
-    run_arm_phase(controller, solver, targets, pid, sid)
+    if getattr(controller.plant, "exact_commands", False):
+        run_arm_phase_exact(controller, solver, targets, pid, sid)
+    else:
+        run_arm_phase(controller, solver, targets, pid, sid)
     return True
 
 
-def arm_columns(n: int) -> dict[str, tuple[int, int]]:
-    """Record columns of `arm_loop` rows for n joints: field -> (first, end)."""
-    widths = {"time": 1, "sliders": n, "joints": n, "lam": 1, "tip": 3, "rcm": 3, "trocar": 3,
-              "base": 3, "target_tip": 3, "error": 6}  # fmt: skip
-    ends = np.cumsum(list(widths.values()))
-    return {k: (int(e - w), int(e)) for (k, w), e in zip(widths.items(), ends, strict=True)}
+class _Setup:
+    """What both arm loops pass to the kernels for one phase: the arm's arrays, the solver's
+    code and constants, the loop settings, and work arrays."""
+
+    def __init__(self, controller: Controller, solver: Solver) -> None:
+        cfg = controller.settings
+        A, ix = arm_arrays(controller.robot)  # type: ignore[misc]
+        self.n, m = int(ix[0]), int(ix[1])
+        code, (K, damping, tol) = method_code(solver), solver_arrays(solver)
+        self.code, self.tol = int(code), tol  # type: ignore[arg-type]
+        gain = float(getattr(solver, "posture_gain", 0.0))
+        self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
+                     bool(cfg.drift_correction), float(singular_threshold(controller)))  # fmt: skip
+        self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
+        self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)
+
+    def stop(self, controller: Controller, solver: Solver, status: int, target: FloatArray,
+             where: str) -> None:  # fmt: skip
+        """Raise the reference exception for a stop status."""
+        tol = self.tol[: solver.tolerance().shape[0]]
+        raise_arm_stop(controller, status, target, self.fail, self.n, tol, where)
 
 
-def append_rows(log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n_rec: int, n: int,
-                pid: int, sid: int) -> None:  # fmt: skip
-    """Append the first n_rec rows of rec (and their (step, iteration) in irec) to the log."""
-    cols = {k: rec[:n_rec, a:b] for k, (a, b) in arm_columns(n).items()}
-    cols["time"], cols["lam"] = cols["time"][:, 0], cols["lam"][:, 0]
-    log.extend(n_rec, step=irec[:n_rec, 0], iteration=irec[:n_rec, 1], solver=sid, phase=pid,
-               **cols)  # fmt: skip
+def _where(controller: Controller, pid: int, k: int) -> str:
+    return f"phase {controller.log.phase_names[pid]!r} step {k}"
+
+
+def run_arm_phase_exact(
+    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
+) -> None:
+    """Algorithm 1 on each target in turn, the whole loop compiled, on a plant whose commands
+    are reached exactly: the plant ends at the last command with its time advanced by dt per
+    step, as the reference loop leaves it."""
+    plant, cfg, run = controller.plant, controller.settings, fast_cache.arm_loop().run_arm_targets
+    setup = _Setup(controller, solver)
+    robot = controller.robot
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
+    state = np.array([controller.lam, plant.time, plant.dt], dtype=np.float64)
+    cap = (ITERATIONS_PER_TARGET + 1) * targets.shape[0] + cfg.max_iterations
+    rec = np.empty((min(cap, 4 * BLOCK + cfg.max_iterations), record_width(setup.n)))
+    irec = np.empty((rec.shape[0], 2), dtype=np.int64)
+    info = np.zeros(4, dtype=np.int64)
+    lower = np.ascontiguousarray(robot.lower, dtype=np.float64)
+    upper = np.ascontiguousarray(robot.upper, dtype=np.float64)
+    status, k0 = PAUSED, 0
+    try:
+        while status == PAUSED:
+            status = run(*setup.args, lower, upper, targets, k0, s, state, rec, irec, info,
+                         setup.fail, setup.W, setup.d)  # fmt: skip
+            append_rows(controller.log, rec, irec, int(info[0]), setup.n, pid, sid)
+            k0 = int(info[1])
+    finally:
+        if info[3] > 0:  # the plant where the reference loop leaves it
+            plant.command_actuators(robot.actuators_from_joints(s))
+            plant.advance()
+            plant.time = float(state[1])
+        controller.lam = float(state[0])
+    if status != DONE:
+        k = int(info[1])
+        setup.stop(controller, solver, status, targets[k], _where(controller, pid, k))
 
 
 class _Buffer:
@@ -84,7 +138,7 @@ class _Buffer:
 
     def __init__(self, controller: Controller, n: int, pid: int, sid: int) -> None:
         self.log, self.n, self.pid, self.sid = controller.log, n, pid, sid
-        self.rec = np.empty((BLOCK, fast_cache.arm_loop().record_width(n)))
+        self.rec = np.empty((BLOCK, record_width(n)))
         self.irec = np.empty((BLOCK, 2), dtype=np.int64)
         self.count = 0
 
@@ -103,58 +157,45 @@ class _Buffer:
 def run_arm_phase(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> None:
-    """Algorithm 1 on each target in turn (see the module docstring)."""
+    """Algorithm 1 on each target in turn on any plant: the plant steps in Python, each
+    iteration's control work is one compiled call."""
     robot, plant, cfg = controller.robot, controller.plant, controller.settings
-    loop, frame = fast_cache.arm_loop(), fast_cache.loop_kernels().target_frame
-    A, ix = arm_arrays(robot)  # type: ignore[misc]
-    n, m = int(ix[0]), int(ix[1])
-    code, (K, damping, tol) = method_code(solver), solver_arrays(solver)
-    gain = float(getattr(solver, "posture_gain", 0.0))
-    args = (A, ix, code, K, gain, damping, tol, cfg.max_iterations, cfg.drift_correction,
-            singular_threshold(controller))  # fmt: skip
-    W = np.empty(fast_cache.chain_kernels().work_shape(n, m))
-    state, fail, d = np.array([controller.lam, plant.time]), np.empty(2 * n + 6), np.empty(m + 1)
+    iterate, frame = fast_cache.arm_loop().arm_iterate, fast_cache.loop_kernels().target_frame
+    setup = _Setup(controller, solver)
+    n, fail = setup.n, setup.fail
+    state = np.array([controller.lam, plant.time, plant.dt], dtype=np.float64)
     w, tip_t, trocar = np.empty(6), np.empty(3), np.full(3, np.nan)
     buf = _Buffer(controller, n, pid, sid)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     try:
         for k in range(targets.shape[0]):
-            kind = frame(targets[k], code != 3, w, tip_t, trocar)
+            where = _where(controller, pid, k)
+            kind = frame(targets[k], setup.code != TIP, w, tip_t, trocar)
             if kind < 0:
-                tip_of_target(targets[k])  # raises the reference exception
+                setup.stop(controller, solver, NO_TIP, targets[k], where)
+            pivot = bool(kind == 1)
             for it in range(cfg.max_iterations + 1):
                 state[1] = plant.time
                 s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
-                status = loop.arm_iterate(*args, targets[k], kind == 1, tip_t, trocar, s, state,
-                                          it, buf.rec[buf.count], fail, W, d)  # fmt: skip
+                status = iterate(*setup.args, targets[k], pivot, tip_t, trocar, s, state, it,
+                                 buf.rec[buf.count], fail, setup.W, setup.d)  # fmt: skip
                 if it > 0:
                     buf.keep(k, it)
                 controller.lam = float(state[0])
                 if status == DONE:
                     break
                 if status != STEPPED:
-                    _stop(controller, solver, status, f"phase {controller.log.phase_names[pid]!r} "
-                          f"step {k}", fail, n)  # fmt: skip
+                    setup.stop(controller, solver, status, targets[k], where)
                 plant.command_actuators(robot.actuators_from_joints(fail[n : 2 * n].copy()))
                 plant.advance()
     finally:  # also on a stop: the partial log keeps every record so far
         buf.flush()
 
 
-def _stop(controller: Controller, solver: Solver, status: int, where: str, fail: FloatArray,
-          n: int) -> None:  # fmt: skip
-    """Raise what the reference loop raises for a compiled stop (fail: q, q_new, error)."""
-    tol = solver.tolerance()
-    if status == NO_CONVERGENCE:
-        e = np.abs(fail[2 * n : 2 * n + tol.shape[0]])
-        raise ConvergenceError(controller.settings.max_iterations, e, tol, where=where)
-    controller.robot.check_singularity(fail[:n].copy(), controller.settings.singular_threshold)
-    raise RcmplanError(f"compiled arm loop stopped with status {status} at {where}")
-
-
 def compile_arm_kernels() -> None:
-    """Compile (or load from numba's cache) the arm kernels and loop with the argument types
-    used here, on iRAM!S's DH chain holding its needle (no robot package needed)."""
+    """Compile (or load from numba's cache) the arm kernels, both loops and the target screen
+    with the argument types used here, on iRAM!S's DH chain holding its needle (no robot
+    package needed)."""
     from rcmplan.control.loop import Controller
     from rcmplan.sim.kinematic import KinematicPlant
 
@@ -170,11 +211,13 @@ def compile_arm_kernels() -> None:
     fast.dls_step(q, 0.5, x, 1e-4, np.empty(6))
     tip, trocar = arm.tip(q), arm.needle_point(q, 0.5)
     rcm = np.array([rcm_target(tip - 1e-4 * arm.needle_axis(q), trocar)])  # insert 0.1 mm
+    check_arm_targets(arm, rcm)
     jobs: list[tuple[Solver, FloatArray]] = [
         (PinvSolver(), rcm), (PinvSolver(variant="thesis"), rcm), (DlsSolver(), rcm),
         (TipSolver(), tip[None, :] + 1e-5),
     ]  # fmt: skip
     for solver, targets in jobs:
-        ctl = Controller(KinematicPlant(arm), solver)
-        ctl.lam = 0.5
-        run_arm_phase(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
+        for run in (run_arm_phase_exact, run_arm_phase):
+            ctl = Controller(KinematicPlant(arm), solver)
+            ctl.lam = 0.5
+            run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)

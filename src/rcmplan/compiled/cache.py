@@ -71,8 +71,8 @@ def chain_kernels() -> ModuleType:
 
 
 def arm_loop() -> ModuleType:
-    """One compiled iteration of Algorithm 1 for a serial arm (`arm_loop`); MissingExtraError
-    without numba."""
+    """Algorithm 1 for a serial arm compiled, one iteration or a whole phase on a plant with
+    exact commands (`arm_loop`); MissingExtraError without numba."""
     require_extra("numba", "fast")
     return importlib.import_module("rcmplan.compiled.arm_loop")
 
@@ -95,9 +95,10 @@ def stamp_path() -> Path:
     """The file that marks numba's cache as holding every kernel of this source and numba."""
     here = Path(__file__).parent
     key = hashlib.sha256()
-    for path in (here / "kernels.py", here / "chain_kernels.py", here / "arm_loop.py",
-                 here / "loop.py", here / "mujoco_loop.py",
-                 here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
+    kernels = ("kernels", "chain_kinematics", "chain_solve", "chain_checks", "arm_loop", "loop",
+               "mujoco_loop")  # fmt: skip
+    files = [here / f"{name}.py" for name in kernels]
+    for path in (*files, here.parent / "sim" / "mujoco" / "compiled.py"):
         key.update(path.read_bytes())
     key.update(metadata.version("numba").encode())
     key.update(sys.version.encode())

@@ -35,6 +35,20 @@ REC_WIDTH = 35
 VECTORS = tuple(k for k, (a, b) in REC_COLUMNS.items() if b - a > 1)
 
 
+def record_columns(n: int) -> dict[str, tuple[int, int]]:
+    """The record layout for a robot with n joints (actuators): field -> (first, end) column.
+    The same fields in the same order as REC_COLUMNS, which is this layout for n = 6."""
+    widths = {"time": 1, "sliders": n, "joints": n, "lam": 1, "tip": 3, "rcm": 3, "trocar": 3,
+              "base": 3, "target_tip": 3, "error": 6}  # fmt: skip
+    ends = np.cumsum(list(widths.values()))
+    return {k: (int(e - w), int(e)) for (k, w), e in zip(widths.items(), ends, strict=True)}
+
+
+def record_width(n: int) -> int:
+    """Columns of a record row for n joints (REC_WIDTH for n = 6)."""
+    return 2 * n + 23
+
+
 def robot_params(robot: RobotModel) -> FloatArray:
     """The parameter vector P of the kernels: l1..l6 [m], PCJM spacing d [m], travel (6 + 6)."""
     if not isinstance(robot, Iramis):
@@ -81,6 +95,17 @@ def append_records(
     )  # fmt: skip
 
 
+def append_rows(
+    log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], count: int, n: int, pid: int,
+    sid: int,
+) -> None:  # fmt: skip
+    """Append the first `count` records of an n-joint layout (`record_columns`) to a log."""
+    cols = {k: rec[:count, a:b] for k, (a, b) in record_columns(n).items()}
+    cols["time"], cols["lam"] = cols["time"][:, 0], cols["lam"][:, 0]
+    log.extend(count, step=irec[:count, 0], iteration=irec[:count, 1], solver=sid, phase=pid,
+               **cols)  # fmt: skip
+
+
 def raise_stop(
     controller: Controller, status: int, k: int, targets: FloatArray, fail: FloatArray,
     tol: FloatArray, where: str,
@@ -98,3 +123,28 @@ def raise_stop(
     }
     checks[status]()
     raise RcmplanError(f"compiled loop stopped with status {status} at target {k}")
+
+
+def raise_arm_stop(
+    controller: Controller, status: int, target: FloatArray, fail: FloatArray, n: int,
+    tol: FloatArray, where: str,
+) -> None:  # fmt: skip
+    """Raise the exception the reference loop raises for a compiled arm loop's early stop.
+
+    fail holds (q (n,), q_new (n,), error (6,)) of the last iteration. The failing check is
+    repeated with the reference function (the plant's command for BAD_JOINTS and SLIDER_LIMIT),
+    which raises the same exception with the same message.
+    """
+    robot, cfg = controller.robot, controller.settings
+    q, qn = fail[:n].copy(), fail[n : 2 * n].copy()
+    if status == NO_CONVERGENCE:
+        e = np.abs(fail[2 * n : 2 * n + tol.shape[0]])
+        raise ConvergenceError(cfg.max_iterations, e, tol, where=where)
+    checks: dict[int, Any] = {
+        SINGULAR: lambda: robot.check_singularity(q, cfg.singular_threshold),
+        BAD_JOINTS: lambda: controller.plant.command_actuators(robot.actuators_from_joints(qn)),
+        SLIDER_LIMIT: lambda: controller.plant.command_actuators(robot.actuators_from_joints(qn)),
+        NO_TIP: lambda: tip_of_target(target),
+    }
+    checks[status]()
+    raise RcmplanError(f"compiled arm loop stopped with status {status} at {where}")

@@ -27,6 +27,7 @@ import numpy as np
 from rcmplan._validate import FloatArray, vector
 from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.arm import check_arm_targets
 from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
 from rcmplan.compiled.records import method_code, robot_params
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
@@ -34,7 +35,7 @@ from rcmplan.control.targets import solve_pose
 from rcmplan.control.tasks import VARIANTS, JacobianVariant
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
-from rcmplan.robot.model import RobotModel
+from rcmplan.robot.model import RobotModel, SerialArm
 from rcmplan.sim.kinematic import KinematicPlant
 
 if TYPE_CHECKING:
@@ -137,11 +138,14 @@ def fast_check_targets(robot: RobotModel, targets: FloatArray) -> bool:
     """`solve_pose` on every X_ext target, screened in compiled code; False if not enabled.
 
     The kernel flags every target that might fail (same formulas, margin 1e-12); flagged
-    targets go through `solve_pose` in order, which raises the reference exception.
+    targets go through `solve_pose` in order, which raises the reference exception. A serial
+    arm is screened by `arm.check_arm_targets` (Newton's method compiled).
     """
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     if targets.ndim != 2 or targets.shape[1] != 6 or not fast_cache.use_fast(len(targets)):
         return False
+    if isinstance(robot, SerialArm):
+        return check_arm_targets(robot, targets)
     if kernel_params(robot) is None:
         return False
     flags = np.zeros(targets.shape[0], dtype=np.bool_)

@@ -30,7 +30,7 @@ from rcmplan.control.phase import (
 from rcmplan.control.plant import Plant
 from rcmplan.control.runner import Runner, default_runner
 from rcmplan.control.solvers import Solver, TipSolver
-from rcmplan.control.targets import solve_pose, tip_of_target
+from rcmplan.control.targets import solve_pose, target_tip
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmBoundError, RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import closest_lambda
@@ -50,6 +50,8 @@ class Controller:
         settings: Loop settings.
         runner: Runs phases faster where it applies (default: the compiled runner when
             `rcmplan.compiled` is loaded, else the reference code); see `control.runner`.
+        robot: The model the controller drives, with the plant's actuators (default: the
+            plant's own; a curved needle's model on a plant built for its shaft).
     """
 
     def __init__(
@@ -59,9 +61,10 @@ class Controller:
         free_solver: Solver | None = None,
         settings: LoopSettings | None = None,
         runner: Runner | None = None,
+        robot: RobotModel | None = None,
     ) -> None:
         self.plant = plant
-        self.robot: RobotModel = plant.robot
+        self.robot: RobotModel = robot or plant.robot
         self.solver = solver
         self.free_solver: Solver = free_solver or TipSolver()
         self.settings = settings or LoopSettings()
@@ -74,15 +77,22 @@ class Controller:
         )
         self.phase_times: dict[str, float] = {}
         self._planned = 0  # targets planned so far in this run (at most MAX_TARGETS)
+        self._check_seed: FloatArray | None = None
         self.on_phase: Callable[[Phase], None] | None = None
 
     def check_targets(self, targets: FloatArray) -> None:
         """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose), and
         those the solver's own limits refuse (a solver may define `check_targets`)."""
         if not self.runner.check_targets(self.robot, targets):
-            seed = None
+            from rcmplan.control.curved_targets import solve_curved_pose
+
+            curved = targets.shape[1] == 7
+            solve = solve_curved_pose if curved else solve_pose
+            # A curved needle's poses are found by Newton's method: continue from the last.
+            seed = self._check_seed if curved else None
             for target in targets:
-                seed = solve_pose(self.robot, target, seed).q
+                seed = solve(self.robot, target, seed).q
+            self._check_seed = seed
         solver_check = getattr(self.solver, "check_targets", None)
         if solver_check is not None:
             solver_check(targets)
@@ -120,7 +130,7 @@ class Controller:
         try:
             q = self.robot.joints_from_actuators(self.plant.read_actuators())
             targets = phase.plan(q)
-            width = 6 if phase.kind == "rcm" else 3
+            width = getattr(solver, "target_width", 6 if phase.kind == "rcm" else 3)
             if targets.ndim != 2 or targets.shape[1] != width:
                 raise InvalidInputError(
                     f"targets of phase {phase.name!r}", targets.shape, f"shape (N, {width})"
@@ -131,7 +141,7 @@ class Controller:
             if phase.kind == "rcm":
                 if callable(phase.targets):
                     self.check_targets(targets)
-                self.lam = self._closest_lambda(q, targets[0][3:])
+                self.lam = self._closest_lambda(q, targets[0][-3:])
             first = len(self.log)
             try:
                 if not self.runner.run_phase(self, solver, targets, pid, sid):
@@ -167,18 +177,18 @@ class Controller:
         robot, plant, cfg = self.robot, self.plant, self.settings
         tol = solver.tolerance()
         rcm = solver.kind == "rcm"
-        trocar = target[3:] if rcm else NAN3
-        target_tip = tip_of_target(target) if rcm else target
+        trocar = target[-3:] if rcm else NAN3
+        goal_tip = target_tip(target, solver.kind)
         active = list(robot.active)
         for it in range(cfg.max_iterations + 1):
             s = plant.read_actuators()
             q = robot.joints_from_actuators(s)
-            base, tip = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
+            base, end = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
             if rcm and cfg.drift_correction:
-                self.lam = closest_lambda(base, tip, trocar)
+                self.lam = closest_lambda(base, end, trocar)
             e = solver.error(robot, q, self.lam, target)
             if it > 0:
-                self._record(s, q, base, tip, trocar, target_tip, e, step, it, sid, pid)
+                self._record(s, q, base, end, trocar, goal_tip, e, step, it, sid, pid)
             if (np.abs(e) <= tol).all():
                 return it
             if it == cfg.max_iterations:
@@ -198,14 +208,16 @@ class Controller:
         )
 
     def _record(
-        self, s: FloatArray, q: FloatArray, base: FloatArray, tip: FloatArray,
+        self, s: FloatArray, q: FloatArray, base: FloatArray, end: FloatArray,
         trocar: FloatArray, target_tip: FloatArray, e: FloatArray,
         step: int, it: int, sid: int, pid: int,
     ) -> None:  # fmt: skip
+        """One record; `end` is the needle's (shaft's) end, the tip comes from the model. A
+        curved needle's roll error (its fourth task row) is not kept: the log holds six."""
         err = np.full(6, np.nan)
-        err[: e.shape[0]] = e
+        err[: min(6, e.shape[0])] = e[:6] if e.shape[0] != 7 else np.delete(e, 3)
         self.log.append(
-            time=self.plant.time, sliders=s, joints=q, lam=self.lam, tip=tip,
-            rcm=base + self.lam * (tip - base), trocar=trocar, base=base,
+            time=self.plant.time, sliders=s, joints=q, lam=self.lam, tip=self.robot.tip(q),
+            rcm=base + self.lam * (end - base), trocar=trocar, base=base,
             target_tip=target_tip, error=err, step=step, iteration=it, solver=sid, phase=pid,
         )  # fmt: skip

@@ -12,6 +12,7 @@ from typing import Any
 from rcmplan.control.method_settings import MethodSettings
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 
@@ -36,6 +37,8 @@ def make_solver(
         context: Scene context for constrained methods (eye, control period dt, ...).
     """
     cfg = settings or MethodSettings()
+    if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
+        return _curved_solver(name, cfg, robot, **context)
     if name == "pinv":
         return PinvSolver(K=cfg.K, tol=cfg.tolerance)
     if name == "pinv-thesis":
@@ -47,3 +50,28 @@ def make_solver(
         solver: Solver = qp.QpSolver.from_settings(cfg, robot or Iramis(), **context)
         return solver
     raise InvalidInputError("method", name, f"one of {METHODS}")
+
+
+def _curved_solver(name: str, cfg: MethodSettings, robot: RobotModel, **context: Any) -> Solver:
+    """The curved needle's solvers (`rcmplan.control.curved`): pinv, DLS and the QP."""
+    from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, gains_from_x_ext
+
+    if name == "pinv":
+        return CurvedPinvSolver(K=gains_from_x_ext(cfg.K), tol=cfg.tolerance)
+    if name == "dls":
+        return CurvedDlsSolver(damping=cfg.damping, tol=cfg.tolerance)
+    if name == "qp":
+        qp = importlib.import_module("rcmplan.control.qp")
+        solver: Solver = qp.QpSolver.from_settings(cfg, robot, **context)
+        return solver
+    raise InvalidInputError("method", name, "'pinv', 'dls' or 'qp' for a curved needle")
+
+
+def make_free_solver(robot: RobotModel, settings: MethodSettings | None = None) -> Solver | None:
+    """The free-space solver for `robot`: whole poses for a curved needle (its arc must pass
+    the trocar), else None (the controller's tip pseudoinverse)."""
+    if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
+        from rcmplan.control.curved import CurvedPoseSolver
+
+        return CurvedPoseSolver(tol=(settings or MethodSettings()).tolerance)
+    return None

@@ -22,13 +22,17 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.augmented import extended_task
+from rcmplan.control.curved import CURVED_TASKS, check_gains7, gains_from_x_ext
+from rcmplan.control.curved import task_error as curved_error
+from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
-from rcmplan.control.targets import solve_pose, tip_of_target
+from rcmplan.control.targets import solve_pose, target_tip
 from rcmplan.exceptions import UnreachableTargetError
+from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 
 
@@ -63,7 +67,14 @@ class QpSolver:
         self.robot = robot
         self.eye = eye
         self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
-        self.K = check_gains(K)
+        # A curved needle: X_c (7 rows, `rcmplan.control.curved`), gains from X_ext's.
+        self.curved = isinstance(robot, CurvedTipRobot) and robot.needle.curved
+        if self.curved:
+            self.K = check_gains7(gains_from_x_ext(K) if len(K) == 6 else K)
+        else:
+            self.K = check_gains(K)
+        self.target_width = 7 if self.curved else 6
+        self._seed: FloatArray | None = None
         self.damping = check_damping(damping)
         self.tol = (tol or Tolerance()).checked()
         self.limits = (limits or QpLimits()).check(robot, eye)
@@ -95,7 +106,10 @@ class QpSolver:
         return np.asarray(step.task @ result.x / self.K, dtype=float)
 
     def tolerance(self) -> FloatArray:
-        """(position, angle, angle, position x3)."""
+        """(position, angle, angle, position x3); curved: (position x3, angle, position x3)."""
+        if self.curved:
+            p, a = self.tol
+            return np.array([p, p, p, a, p, p, p])
         return self.tol.x_ext()
 
     def step(
@@ -114,7 +128,9 @@ class QpSolver:
     def task_error(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray
     ) -> FloatArray:
-        """The plain X_ext error, target minus X_ext now."""
+        """The plain X_ext (or X_c) error, target minus its value now."""
+        if self.curved:
+            return curved_error(CURVED_TASKS, robot, q, lam, target)
         return np.asarray(target - extended_task(robot, q, lam), dtype=float)
 
     def _solve(
@@ -140,9 +156,12 @@ class QpSolver:
         key = target.tobytes()
         if key == self._checked:
             return
-        solve_pose(self.robot, target)
+        if self.curved:
+            self._seed = solve_curved_pose(self.robot, target, self._seed).q
+        else:
+            solve_pose(self.robot, target)
         if self.eye is not None:
-            tip = tip_of_target(target)
+            tip = target_tip(target)
             depth = self.eye.distance_to_retina(tip)
             if depth < -self.limits.contact_tolerance and not self._in_port(tip):
                 raise UnreachableTargetError(

@@ -30,6 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.control.curved import CURVED_TASKS
+from rcmplan.control.curved import task_jacobian as curved_task_jacobian
 from rcmplan.control.limits import (
     ActuatorLimit,
     Limit,
@@ -40,7 +42,7 @@ from rcmplan.control.limits import (
     is_contact,
 )
 from rcmplan.control.limits.base import SCALE, Kinematics, kinematics, variable_map
-from rcmplan.control.targets import tip_of_target
+from rcmplan.control.targets import target_tip
 from rcmplan.robot.model import RobotModel
 
 __all__ = ["SCALE", "QPProblem", "StepInput", "StepQP", "build_step", "kinematics",
@@ -94,7 +96,10 @@ def task_jacobian(kin: Kinematics, J_angles: FloatArray) -> FloatArray:
 def cost(task: FloatArray, inp: StepInput) -> tuple[FloatArray, FloatArray]:
     """P and q of the weighted task error plus damping."""
     lim = inp.limits
-    w = np.array([1.0, lim.angle_weight, lim.angle_weight, *(3 * (lim.rcm_weight,))])
+    if task.shape[0] == 7:  # X_c = (tip x3, roll, RCM x3)
+        w = np.array([1.0, 1.0, 1.0, lim.angle_weight, *(3 * (lim.rcm_weight,))])
+    else:
+        w = np.array([1.0, lim.angle_weight, lim.angle_weight, *(3 * (lim.rcm_weight,))])
     Aw = w[:, None] * task
     bw = w * inp.K * inp.error / SCALE
     P = Aw.T @ Aw
@@ -105,7 +110,10 @@ def cost(task: FloatArray, inp: StepInput) -> tuple[FloatArray, FloatArray]:
 def build_step(robot: RobotModel, inp: StepInput, limits: tuple[Limit, ...] = LIMITS) -> StepQP:
     """The QP of one control step (see module docstring), its rows from `limits`."""
     kin = kinematics(robot, inp.q, inp.lam)
-    task = task_jacobian(kin, robot.needle_angles_jacobian(inp.q))
+    if inp.target.shape[0] == 7:  # a curved needle's X_c (`rcmplan.control.curved`)
+        task = curved_task_jacobian(CURVED_TASKS, robot, inp.q, inp.lam) @ kin.T
+    else:
+        task = task_jacobian(kin, robot.needle_angles_jacobian(inp.q))
     P, qv = cost(task, inp)
     lb, ub = ActuatorLimit().bounds(robot, inp, kin)
     rows = [lim.constraint(robot, inp, kin) for lim in limits]
@@ -117,5 +125,5 @@ def build_step(robot: RobotModel, inp: StepInput, limits: tuple[Limit, ...] = LI
     A = np.vstack([c.G for c in eq]) if eq else np.zeros((0, width))
     b = np.concatenate([c.h for c in eq]) if eq else np.zeros(0)
     eye = inp.eye
-    contact = eye is not None and is_contact(eye, inp.limits, tip_of_target(inp.target))
+    contact = eye is not None and is_contact(eye, inp.limits, target_tip(inp.target))
     return StepQP(QPProblem(P, qv, G, h, A, b, lb, ub), task * SCALE, kin.s, contact)

@@ -33,7 +33,9 @@ from rcmplan.robot.needle import axis_from_angles
 SolverKind = Literal["rcm", "free"]
 # [m] A target tip this close to its trocar point is on it: a pivot about the tip (lambda = 1).
 # The loop's default position tolerance, so that a tip the loop left within tolerance of the
-# trocar (after the approach) counts as there.
+# trocar (after the approach) counts as there. The compiled kernels read it as a compile-time
+# constant, which numba's cache does not track: after changing it, delete the cached kernels
+# (`src/rcmplan/compiled/__pycache__/*.nbi`, `*.nbc`).
 PIVOT_DISTANCE = 1e-8
 
 
@@ -202,7 +204,7 @@ class DlsSolver:
         """(tip target - tip, trocar - p_rcm), both in [m] (base task for a pivot)."""
         e = np.empty(6)
         tip = tip_of_target(target)
-        e[:3] = tip - robot.needle_point(q, 1.0)
+        e[:3] = tip - robot.tip(q)
         if _is_pivot(tip, target):
             base = tip - robot.needle_length * axis_from_angles(target[1], target[2])
             e[3:] = base - robot.needle_point(q, 0.0)
@@ -253,7 +255,7 @@ class TipSolver:
 
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """Tip target minus tip, in [m]."""
-        return target[:3] - robot.needle_point(q, 1.0)
+        return target[:3] - robot.tip(q)
 
     def tolerance(self) -> FloatArray:
         """Position tolerance on x, y, z."""

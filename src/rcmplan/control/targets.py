@@ -94,6 +94,14 @@ def tip_of_target(x_ext: FloatArray) -> FloatArray:
     return x_ext[3:] + t * axis
 
 
+def target_tip(target: FloatArray, kind: str = "rcm") -> FloatArray:
+    """The tip point a target asks for: a tip point (3,) itself, the first three entries of a
+    curved needle's target (7,) (`rcmplan.control.curved`), the tip X_ext (6,) implies."""
+    if kind == "free" or target.shape[0] == 7:
+        return np.asarray(target[:3], dtype=float)
+    return tip_of_target(target)
+
+
 def solve_pose(robot: RobotModel, x_ext: FloatArray, seed: FloatArray | None = None) -> Pose:
     """A configuration (q, lambda) that realises X_ext exactly, or raise.
 

@@ -46,9 +46,7 @@ class TipPosition:
 
     def jacobian(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
         """Rows of d p_tip / d theta_ext with a zero lambda column."""
-        J = robot.needle_point_jacobian(q, 1.0)[list(self.axes)]
-        J[:, -1] = 0.0
-        return J
+        return robot.tip_jacobian(q)[list(self.axes)]
 
 
 @dataclass(frozen=True)

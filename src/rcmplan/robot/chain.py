@@ -143,7 +143,11 @@ class JointChain:
         """
         T = self.frames(q)
         local = np.zeros(3) if point is None else vector("point", point, 3)
-        p = T[-1, :3, :3] @ local + T[-1, :3, 3]
+        return self.point_jacobian(T, T[-1, :3, :3] @ local + T[-1, :3, 3])
+
+    def point_jacobian(self, T: FloatArray, p: FloatArray) -> FloatArray:
+        """Geometric Jacobian (6, n) of the world point p (3,) moving with the end frame, given
+        the frames T (n + 1, 4, 4) of `frames` (eqs. 2.9-2.11)."""
         J = np.zeros((6, self.n))
         for k in range(self.n):
             z = T[k, :3, :3] @ self.axes[k]

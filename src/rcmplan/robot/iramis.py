@@ -95,6 +95,8 @@ class Iramis:
     actuator_names: tuple[str, ...] = SLIDER_NAMES
     actuator_units: tuple[str, ...] = ("m", "m", "m", "m", "m", "rad")
     active: tuple[int, ...] = (0, 1, 2, 3, 4)
+    roll_joint: int = 5
+    needle_kind: str = "straight"
 
     def __init__(self, params: IramisParameters | None = None) -> None:
         self.params = params or IramisParameters()
@@ -222,6 +224,26 @@ class Iramis:
         J[3:, 1] = (0.0, 1.0, 0.0)  # z_1 of frame 1
         J[3:, 3] = (math.sin(q[1]), 0.0, math.cos(q[1]))  # z_3
         J[3:, 5] = self.needle_axis(q)  # z_5: the needle axis
+        return J
+
+    def tip_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """d p_tip / d(q0..q4, lambda), (3, 6), zero lambda column."""
+        J = self.needle_point_jacobian(q, 1.0)
+        J[:, -1] = 0.0
+        return J
+
+    def tool_pose(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """(4, 4) pose of the needle base frame: the tip frame's axes (eq. 2.7) at the base."""
+        T = self.forward_kinematics(q)
+        T[:3, 3] = self.needle_base(q)
+        return T
+
+    def tool_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
+        """Geometric Jacobian (6, 6) of the needle base frame over q0..q5 (eq. 2.12 with
+        l6 = 0; q5 turns about the needle axis, so it moves no point of it)."""
+        J = self.jacobian(q)
+        J[:3, :5] = self.needle_point_jacobian(q, 0.0)[:, :5]
+        J[:3, 5] = 0.0
         return J
 
     def needle_angular_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:

@@ -44,6 +44,7 @@ class RobotModel(Protocol):
     """
 
     name: str
+    needle_kind: str
     joint_names: tuple[str, ...]
     actuator_names: tuple[str, ...]
     actuator_units: tuple[str, ...]
@@ -70,6 +71,10 @@ class RobotModel(Protocol):
     def tip(self, q: FloatArray) -> FloatArray: ...
     def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d theta_ext, (3, m + 1)."""
+        ...
+
+    def tip_jacobian(self, q: FloatArray) -> FloatArray:
+        """d p_tip / d theta_ext, (3, m + 1), zero lambda column."""
         ...
 
     def needle_angular_jacobian(self, q: FloatArray) -> FloatArray:
@@ -120,6 +125,7 @@ class SerialArm:
         resolution: float = 1e-9,
     ) -> None:
         self.chain, self.needle, self.name = chain, needle, name
+        self.needle_kind = needle.name
         n = chain.n
         self.joint_names = self.actuator_names = chain.joint_names
         self.actuator_units = tuple("m" if p else "rad" for p in chain.prismatic)
@@ -130,6 +136,7 @@ class SerialArm:
         self.resolution = scalar("resolution", resolution, 0.0, 1e-3, low_open=True)
         if roll_joint is not None and not 0 <= roll_joint < n:
             raise InvalidInputError("roll_joint", roll_joint, f"a joint index in [0, {n - 1}]")
+        self.roll_joint = roll_joint
         self.active = tuple(i for i in range(n) if i != roll_joint)
         self.home = self.check_actuators(vector("home", home, n)).copy()
         self.home_actuators = self.home.copy()
@@ -217,16 +224,9 @@ class SerialArm:
     def _point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """Geometric Jacobian (6, n) of p(lambda) over all joints (eqs. 2.9-2.11)."""
         T = self._frames(q)
-        p = T[-1, :3, :3] @ self.needle.point_local(lam) + T[-1, :3, 3]
-        J = np.zeros((6, self.chain.n))
-        for k in range(self.chain.n):
-            z = T[k, :3, :3] @ self.chain.axes[k]
-            if self.chain.prismatic[k]:
-                J[:3, k] = z
-            else:
-                J[:3, k] = np.cross(z, p - T[k, :3, 3])
-                J[3:, k] = z
-        return J
+        return self.chain.point_jacobian(
+            T, T[-1, :3, :3] @ self.needle.point_local(lam) + T[-1, :3, 3]
+        )
 
     def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d(q[active], lambda), (3, m + 1) (eq. 3.10)."""
@@ -234,6 +234,21 @@ class SerialArm:
         out[:, :-1] = self._point_jacobian(q, lam)[:3, list(self.active)]
         out[:, -1] = self.needle_length * self.needle_axis(q)
         return out
+
+    def tip_jacobian(self, q: FloatArray) -> FloatArray:
+        """d p_tip / d(q[active], lambda), (3, m + 1), zero lambda column."""
+        J = self.needle_point_jacobian(q, 1.0)
+        J[:, -1] = 0.0
+        return J
+
+    def tool_pose(self, q: FloatArray) -> FloatArray:
+        """(4, 4) pose of the needle base frame (the mount) in the world."""
+        out: FloatArray = self._frames(q)[-1] @ self.needle.mount
+        return out
+
+    def tool_jacobian(self, q: FloatArray) -> FloatArray:
+        """Geometric Jacobian (6, n) of the needle base frame over all joints."""
+        return self._point_jacobian(q, 0.0)
 
     def needle_angular_jacobian(self, q: FloatArray) -> FloatArray:
         """Angular velocity of the needle per (q[active], lambda), (3, m + 1)."""

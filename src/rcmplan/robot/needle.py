@@ -90,3 +90,30 @@ def angles_jacobian(axis: FloatArray, J_omega: FloatArray) -> FloatArray:
     out[0] = (az * da[0] - ax * da[2]) / h2
     out[1] = -h * da[1] + ay * (ax * da[0] + az * da[2]) / h
     return out
+
+
+def roll_from_axes(axis: FloatArray, bend: FloatArray) -> float:
+    """The needle roll rho in [rad]: the angle of a direction `bend` normal to the unit `axis`
+    about the axis, measured in the frame the needle angles define.
+
+    With (phi, psi) = angles_from_axis(axis), e1 = (sin phi, 0, cos phi) = (d a / d phi) / cos psi
+    and e2 = d a / d psi = (cos phi sin psi, -cos psi, -sin phi sin psi) are normal to a, and
+    rho = atan2(-b . e1, -b . e2) grows with a right-handed turn about a. On iRAM!S, with b the x
+    axis of the tip frame (eq. 2.7), rho = q5.
+    """
+    phi, psi = angles_from_axis(axis)
+    e1 = np.array([math.sin(phi), 0.0, math.cos(phi)])
+    e2 = np.array([math.cos(phi) * math.sin(psi), -math.cos(psi), -math.sin(phi) * math.sin(psi)])
+    return math.atan2(-float(np.dot(bend, e1)), -float(np.dot(bend, e2)))
+
+
+def roll_jacobian(axis: FloatArray, J_omega: FloatArray) -> FloatArray:
+    """d rho / d theta (k,) from the unit axis a and the needle's angular Jacobian (3, k).
+
+    The frame (e1, e2, a) turns with phi about the world y axis and with psi about e1 (normal
+    to a), so it spins about a at a_y d phi; the needle spins about a at a . omega. Hence
+    d rho = a . omega - a_y d phi (exact; FD-tested).
+    """
+    d_phi = angles_jacobian(axis, J_omega)[0]
+    out: FloatArray = axis @ J_omega - float(axis[1]) * d_phi
+    return out

@@ -109,12 +109,12 @@ def default_eye(
         radius: Outer radius in [m].
         wall: Wall thickness in [m].
         trocar_radius: Trocar port radius in [m].
-        trocar_offset: Trocar point relative to the needle tip at home, in [m].
+        trocar_offset: Trocar point relative to the needle's (shaft's) end at home, in [m].
         insertion_angles: Needle angles (phi, psi) in [rad] of the insertion axis; the eye
             centre lies on it one radius inside the trocar.
     """
     robot = robot or Iramis()
-    trocar = robot.tip(robot.home) + vector("trocar_offset", trocar_offset, 3)
+    trocar = robot.needle_point(robot.home, 1.0) + vector("trocar_offset", trocar_offset, 3)
     phi, psi = vector("insertion_angles", insertion_angles, 2)
     axis = axis_from_angles(phi, psi)
     return Eye(

@@ -21,8 +21,10 @@ from rcmplan.control.loop import LoopSettings, Phase
 from rcmplan.control.methods import METHODS, MethodSettings
 from rcmplan.control.solvers import Tolerance
 from rcmplan.exceptions import InvalidInputError, ScenarioError
+from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import ROBOTS
+from rcmplan.scene.curved_procedure import NeedleOptions, curved_injection
 from rcmplan.scene.eye import POINT_NAMES, Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
 
@@ -52,6 +54,9 @@ SCHEMA: dict[str, dict[str, tuple[str, float, float]]] = {
     "spiral": {"offset_mm": ("vec2", -10, 10), "radius_mm": ("float", 0.01, 10),
                "turns": ("float", 0.1, 50), "pitch_mm": ("float", -5, 5),
                "points_per_turn": ("int", 8, 10000)},
+    "needle": {"kind": ("str", 0, 0), "radius_mm": ("float", 1, 1000),
+               "arc_angle_rad": ("float", 0, 1.5707963)},
+    "lateral": {"directions": ("vec3list", -1e3, 1e3), "tolerance_mrad": ("float", 1e-3, 3141.59)},
     "qp": {},  # method-specific options, passed through to the QP controller as extra
 }  # fmt: skip
 
@@ -74,6 +79,7 @@ class Scenario:
     loop: LoopSettings = field(default_factory=LoopSettings)
     spiral: Spiral = field(default_factory=Spiral)
     dt: float = 1e-3
+    needle: NeedleOptions = field(default_factory=NeedleOptions)
 
     def eye(self, robot: RobotModel) -> Eye:
         """The eye placed for this robot."""
@@ -89,9 +95,18 @@ class Scenario:
         """The procedure's phases, every target checked before motion."""
         eye = self.eye(robot)
         pts = self.points(eye)
+        if self.needle.kind == "curved":
+            return self._curved_phases(self.needle.fit(robot), eye, pts)
         if self.procedure == "spiral":
             return spiral(robot, eye, pts, self.spiral, self.steps)
         return injection(robot, eye, pts, self.steps, self.visits)
+
+    def _curved_phases(self, robot: RobotModel, eye: Eye, pts: EyePoints) -> list[Phase]:
+        if self.procedure != "injection" or not isinstance(robot, CurvedTipRobot):
+            raise ScenarioError("needle", "curved", "the injection on a robot fitted with it")
+        n = self.needle
+        return curved_injection(robot, eye, pts, self.visits, n.directions, n.tolerance,
+                                self.steps)  # fmt: skip
 
     def with_method(self, method: str) -> Scenario:
         """The same scenario run with another method."""
@@ -134,11 +149,21 @@ def _check(section: str, key: str, value: Any) -> Any:
         if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
             raise ScenarioError(where, value, "a list of point names")
         return tuple(value)
+    if kind == "vec3list":
+        if not isinstance(value, list) or not value:
+            raise ScenarioError(where, value, "a non-empty list of [x, y, z] lists")
+        return tuple(_check_vec(where, v, 3, lo, hi) for v in value)
     if kind == "int":
         if not isinstance(value, int) or isinstance(value, bool) or not lo <= value <= hi:
             raise ScenarioError(where, value, f"an integer in [{lo:g}, {hi:g}]")
         return value
     n = int(kind[3:]) if kind.startswith("vec") else 1
+    out = _check_vec(where, value, n, lo, hi)
+    return out[0] if n == 1 else out
+
+
+def _check_vec(where: str, value: Any, n: int, lo: float, hi: float) -> tuple[float, ...]:
+    """n numbers in [lo, hi] as a tuple of floats, else ScenarioError."""
     items = value if isinstance(value, list) and n > 1 else [value]
     numbers = len(items) == n and all(
         (isinstance(v, int) and not isinstance(v, bool))
@@ -152,8 +177,7 @@ def _check(section: str, key: str, value: Any) -> Any:
         raise ScenarioError(
             where, value, f"{'a number' if n == 1 else 'numbers'} in [{lo:g}, {hi:g}]"
         )
-    vals = tuple(float(v) for v in items)
-    return vals[0] if n == 1 else vals
+    return tuple(float(v) for v in items)
 
 
 def _check_qp(key: str, value: Any) -> Any:
@@ -194,8 +218,8 @@ def _sections(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
 def scenario_from_dict(data: dict[str, Any]) -> Scenario:
     """A Scenario from a parsed TOML table; raises ScenarioError naming the bad key."""
     sec = _sections(data)
-    top, eye, pts, st, ctl, sp = (
-        sec[k] for k in ("", "eye", "points", "steps", "controller", "spiral")
+    top, eye, pts, st, ctl, sp, nd, lat = (
+        sec[k] for k in ("", "eye", "points", "steps", "controller", "spiral", "needle", "lateral")
     )
     procedure = top.get("procedure", "injection")
     if procedure not in PROCEDURES:
@@ -257,6 +281,21 @@ def scenario_from_dict(data: dict[str, Any]) -> Scenario:
         ),
         spiral=Spiral(**sp_opts),
         dt=ctl.get("dt_s", 1e-3),
+        needle=_needle(nd, lat),
+    )
+
+
+def _needle(nd: dict[str, Any], lat: dict[str, Any]) -> NeedleOptions:
+    """[needle] and [lateral] as NeedleOptions (kind, R, alpha, directions, tolerance)."""
+    kind = nd.get("kind", "straight")
+    if kind not in ("straight", "curved"):
+        raise ScenarioError("[needle] kind", kind, "'straight' or 'curved'")
+    return NeedleOptions(
+        kind=kind,
+        radius=nd.get("radius_mm", NeedleOptions.radius * 1e3) * MM,
+        arc_angle=nd.get("arc_angle_rad", NeedleOptions.arc_angle),
+        directions=lat.get("directions"),
+        tolerance=lat.get("tolerance_mrad", NeedleOptions.tolerance * 1e3) * 1e-3,
     )
 
 

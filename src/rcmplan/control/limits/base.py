@@ -83,14 +83,12 @@ def variable_map(robot: RobotModel, q: FloatArray) -> FloatArray:
 
 def kinematics(robot: RobotModel, q: FloatArray, lam: float) -> Kinematics:
     """The shared quantities at (q, lambda)."""
-    J_tip = robot.needle_point_jacobian(q, 1.0)
-    J_tip[:, -1] = 0.0
     return Kinematics(
         robot.actuators_from_joints(q),
         variable_map(robot, q),
-        J_tip,
+        robot.tip_jacobian(q),
         robot.needle_point_jacobian(q, lam),
-        robot.needle_point(q, 1.0),
+        robot.tip(q),
         robot.needle_point(q, lam),
         robot.needle_axis(q),
     )

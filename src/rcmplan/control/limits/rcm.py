@@ -36,7 +36,7 @@ class RcmLimit:
         """The two rows (equality) or four (box)."""
         N = normal_basis(kin.axis)
         Jc = N @ kin.J_rcm @ kin.T
-        r = N @ (kin.rcm - inp.target[3:])
+        r = N @ (kin.rcm - inp.target[-3:])
         tol = inp.limits.rcm_tolerance
         if tol == 0.0:
             return Constraint(Jc, -r / SCALE, equality=True)

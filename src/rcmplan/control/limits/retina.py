@@ -8,7 +8,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, damper_row, no_rows
 from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.targets import tip_of_target
+from rcmplan.control.targets import target_tip
 from rcmplan.robot.model import RobotModel
 
 
@@ -29,7 +29,7 @@ class RetinaBarrier:
         eye, lim = inp.eye, inp.limits
         if eye is None or np.linalg.norm(kin.tip - eye.port) <= lim.port_zone:
             return no_rows(kin)
-        tip_target = tip_of_target(inp.target)
+        tip_target = target_tip(inp.target)
         u = (kin.tip - eye.center) / np.linalg.norm(kin.tip - eye.center)
         grad = -(u @ kin.J_tip) @ kin.T
         floor = lim.retina_margin

@@ -6,6 +6,7 @@ table in `inertia.py`. Shapes are simple boxes and capsules sized to read well i
 
 from __future__ import annotations
 
+import itertools
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -92,6 +93,19 @@ def add_base_visuals(base: ET.Element, l1: float) -> None:
     half = np.array([25 * MM, 4 * MM, 0.5 * height])
     _box(base, "visual", pos, np.eye(3), half, METAL)
     _box(base, "collision", pos, np.eye(3), half)
+
+
+ARC_CAPSULES = 12
+
+
+def add_arc_visuals(needle: ET.Element, radius: float, angle: float) -> None:
+    """A curved needle's arc (`rcmplan.robot.curved_needle`) from the shaft's end (the frame's
+    origin) bending towards +x, as ARC_CAPSULES capsules, and a site at its tip."""
+    t = np.linspace(0.0, angle, ARC_CAPSULES + 1)
+    pts = np.column_stack([radius * (1.0 - np.cos(t)), np.zeros_like(t), radius * np.sin(t)])
+    for a, b in itertools.pairwise(pts):
+        _capsule(needle, "visual", a, b, NEEDLE_RADIUS, NEEDLE)
+    ET.SubElement(needle, "site", name="needle_arc_tip", pos=fmt(pts[-1]))
 
 
 def add_tool_visuals(holder: ET.Element, needle: ET.Element, l6: float) -> None:

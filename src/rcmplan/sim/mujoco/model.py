@@ -29,6 +29,7 @@ from rcmplan.sim.mujoco.frames import (
     pose_attrs,
 )
 from rcmplan.sim.mujoco.geometry import (
+    add_arc_visuals,
     add_base_visuals,
     add_inertial,
     add_pcjm_visuals,
@@ -50,12 +51,15 @@ class ModelOptions:
         eq_timeconst: Time constant of the loop-closure constraints in [s]; 2 physics steps
             if None (NOTES.md: about 2x the timestep with solimp >= 0.99).
         eq_solimp: Impedance (dmin, dmax, width [m]) of the loop-closure constraints.
+        needle_arc: (R [m], alpha [rad]) of a curved needle's arc after the shaft's end, drawn
+            as capsules bending towards the tip frame's x axis (visual only), or None.
     """
 
     physics_dt: float = 1e-4
     gravity_compensation: bool = True
     eq_timeconst: float | None = None
     eq_solimp: tuple[float, float, float] = (0.99, 0.999, 1e-4)
+    needle_arc: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         scalar("physics_dt", self.physics_dt, 0.0, 1e-2, low_open=True)
@@ -84,7 +88,7 @@ def robot_xml(
     _defaults(root, options)
     world = ET.SubElement(root, "worldbody")
     base = ET.SubElement(world, "body", name="base", childclass="iramis")
-    _chain(base, robot, "1" if options.gravity_compensation else "0")
+    _chain(base, robot, "1" if options.gravity_compensation else "0", options.needle_arc)
     _equalities(root, options)
     _actuators(root, piezo)
     nq = 14
@@ -118,7 +122,9 @@ def _angle_limit(robot: Iramis, a: int, b: int) -> float:
     return math.atan(span / robot.params.pcjm_spacing) + ANGLE_MARGIN
 
 
-def _chain(base: ET.Element, robot: Iramis, gc: str) -> None:
+def _chain(
+    base: ET.Element, robot: Iramis, gc: str, arc: tuple[float, float] | None = None
+) -> None:
     """The DH frames as nested bodies, the PCJM sliders and pins, the needle.
 
     `gc` is the MuJoCo `gravcomp` value of every moving body ("1" on, "0" off).
@@ -146,6 +152,8 @@ def _chain(base: ET.Element, robot: Iramis, gc: str) -> None:
     needle = _body(holder, "frame6", T[5], gc)
     _dh_joint(needle, "q5", "hinge", T[5], np.array([lo[5] - 0.01, hi[5] + 0.01]))
     add_tool_visuals(holder, needle, robot.params.l6)
+    if arc is not None:
+        add_arc_visuals(needle, *arc)
 
 
 def _pcjm(

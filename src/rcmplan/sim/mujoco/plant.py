@@ -52,6 +52,8 @@ class MujocoPlant:
         points: Named eye points shown as sites when `eye` is a scene Eye.
         piezo: Actuator parameters (default: from the robot, assumed servo values).
         gap_limit: Loop-closure gap in [m] above which the simulation is declared unstable.
+        needle_arc: (R [m], alpha [rad]) of a curved needle's arc, drawn after the shaft
+            (visual only; the controller's model holds its kinematics), or None.
     """
 
     def __init__(
@@ -65,6 +67,7 @@ class MujocoPlant:
         points: EyePoints | None = None,
         piezo: PiezoParameters | None = None,
         gap_limit: float = 50e-6,
+        needle_arc: tuple[float, float] | None = None,
     ) -> None:
         if mode not in MODES:
             raise InvalidInputError("mode", mode, f"one of {MODES}")
@@ -86,7 +89,8 @@ class MujocoPlant:
             phantom_of(eye, points) if isinstance(eye, Eye) else eye or default_eye(self.robot)
         )
         self.piezo = piezo or PiezoParameters.from_robot(self.robot)
-        options = ModelOptions(physics_dt=physics_dt, gravity_compensation=gravity_compensation)
+        options = ModelOptions(physics_dt=physics_dt, gravity_compensation=gravity_compensation,
+                               needle_arc=needle_arc)  # fmt: skip
         self._options = options
         self.model = physics_model(self.robot, self.piezo, options)
         if gravity_compensation:

@@ -1,0 +1,104 @@
+"""Figures of a curved-needle injection, read from its log: accuracy at the lateral targets and
+the needle's clearance in the trocar port.
+
+Port clearance: the port is the channel through the eye wall, from the trocar point along the
+insertion axis to the wall's depth, of radius `trocar_radius`. At each record the needle's
+centre line (the shaft and the arc as a polyline of ARC_SEGMENTS chords, whose sagitta is below
+1e-8 m for the default arc) is clipped to that slab; its largest distance from the axis is the
+port offset, and clearance = trocar radius - offset (the needle's own radius not subtracted).
+Distance from a line is convex along a segment, so the clipped ends give each segment's largest.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.curved_targets import tip_direction_error
+from rcmplan.control.log import RunLog
+from rcmplan.robot.curved import CurvedTipRobot
+from rcmplan.robot.model import RobotModel
+from rcmplan.scene.curved_procedure import plan_lateral
+from rcmplan.scene.eye import Eye
+
+ARC_SEGMENTS = 200
+OUTSIDE_PHASES = ("approach", "withdraw")  # the needle is not in the port
+
+
+def needle_polyline(robot: RobotModel, q: FloatArray) -> FloatArray:
+    """The needle's centre line (N, 3) in [m]: base, shaft's end, then the arc if curved."""
+    points = [robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)]
+    if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
+        T = robot.base.tool_pose(q)
+        ts = np.linspace(0.0, robot.needle.arc_angle, ARC_SEGMENTS + 1)[1:]
+        points += [T[:3, :3] @ robot.needle.arc_local(t) + T[:3, 3] for t in ts]
+    return np.array(points)
+
+
+def port_offset(eye: Eye, polyline: FloatArray) -> float:
+    """Largest distance in [m] from the insertion axis of the needle's points within the wall
+    (0 if none is)."""
+    rel = polyline - eye.port
+    x = rel @ eye.axis
+    radial = rel - x[:, None] * eye.axis
+    worst = 0.0
+    for i in range(len(x) - 1):
+        x0, x1 = x[i], x[i + 1]
+        lo, hi = sorted((x0, x1))
+        if hi < 0.0 or lo > eye.wall:
+            continue
+        for xc in (max(lo, 0.0), min(hi, eye.wall)):
+            t = 0.0 if x1 == x0 else (xc - x0) / (x1 - x0)
+            worst = max(worst, float(np.linalg.norm(radial[i] + t * (radial[i + 1] - radial[i]))))
+    return worst
+
+
+def port_offsets(robot: RobotModel, eye: Eye, log: RunLog) -> dict[str, float]:
+    """The largest port offset in [m] of each phase in which the needle is in the port."""
+    out: dict[str, float] = {}
+    for pid, name in enumerate(log.phase_names):
+        rows = np.flatnonzero(log.phase == pid)
+        if name in OUTSIDE_PHASES or rows.size == 0:
+            continue
+        out[name] = max(port_offset(eye, needle_polyline(robot, log.joints[r])) for r in rows)
+    return out
+
+
+def curved_figures(robot: RobotModel, scenario: Any, eye: Eye, log: RunLog) -> dict[str, Any]:
+    """Tip position and direction errors at every lateral target, approach angles to the
+    retina normal (curved and the straight needle's from the trocar) and the port clearance."""
+    if not isinstance(robot, CurvedTipRobot):
+        return {}
+    pts = scenario.points(eye).as_dict()
+    n = scenario.needle
+    tips = [pts[v] for v in scenario.visits]
+    planned = plan_lateral(robot, eye, tips, n.directions, n.tolerance)
+    rows = []
+    for name, target in zip(scenario.visits, planned, strict=True):
+        q = log.joints[np.flatnonzero(log.phase == log.phase_names.index(f"p3-{name}"))[-1]]
+        normal = (target.x[:3] - eye.center) / np.linalg.norm(target.x[:3] - eye.center)
+        line = (target.x[:3] - eye.port) / np.linalg.norm(target.x[:3] - eye.port)
+        rows.append({
+            "name": name,
+            "tip_error_m": float(np.linalg.norm(robot.tip(q) - target.x[:3])),
+            "tip_direction_error_rad": tip_direction_error(robot, q, target.direction),
+            "requested_direction_deviation_rad": target.deviation,
+            "approach_to_normal_rad": _angle(target.direction, normal),
+            "straight_approach_to_normal_rad": _angle(line, normal),
+        })  # fmt: skip
+    offsets = port_offsets(robot, eye, log)
+    worst = max(offsets.values()) if offsets else 0.0
+    return {
+        "lateral_targets": rows,
+        "max_target_tip_error_m": max(r["tip_error_m"] for r in rows),
+        "max_tip_direction_error_rad": max(r["tip_direction_error_rad"] for r in rows),
+        "port_offset_m": offsets,
+        "worst_port_clearance_m": eye.trocar_radius - worst,
+    }
+
+
+def _angle(a: FloatArray, b: FloatArray) -> float:
+    return math.acos(min(1.0, max(-1.0, float(a @ b))))

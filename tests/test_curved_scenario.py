@@ -1,0 +1,113 @@
+"""The curved-needle injection: scenario keys, entry through the trocar, lateral targets."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from rcmplan.exceptions import InvalidInputError, ScenarioError, UnreachableTargetError
+from rcmplan.job import run_scenario
+from rcmplan.robot.registry import make_robot
+from rcmplan.scene.curved_figures import needle_polyline, port_offset
+from rcmplan.scene.curved_procedure import entry_poses
+from rcmplan.scene.eye import default_eye
+from rcmplan.scene.procedures import Steps
+from rcmplan.scene.scenario import load_scenario, scenario_from_dict
+
+
+@pytest.fixture(scope="module")
+def curved_scenario():
+    return replace(load_scenario("curved"), visits=("p7",))
+
+
+@pytest.mark.parametrize("method", ["pinv", "dls"])
+def test_the_curved_injection_holds_the_rcm_and_meets_every_target(curved_scenario, method):
+    result = run_scenario(curved_scenario.with_method(method))
+    s = result.summary()
+    assert s["status"] == "ok"
+    assert s["needle"] == "curved"
+    assert s["max_rcm_deviation_m"] <= 1e-6
+    assert s["max_target_tip_error_m"] <= 1e-6
+    assert s["max_tip_direction_error_rad"] <= 1e-3
+    row = s["lateral_targets"][0]
+    assert row["approach_to_normal_rad"] < row["straight_approach_to_normal_rad"] - 0.2
+    assert 0.0 < s["worst_port_clearance_m"] < 0.45e-3
+
+
+def test_a_straight_run_reports_a_straight_needle() -> None:
+    sc = replace(load_scenario("default"), visits=("p4",))
+    assert run_scenario(sc).summary()["needle"] == "straight"
+
+
+def test_the_arc_passes_the_port_with_its_sagitta_only() -> None:
+    robot = load_scenario("curved").needle.fit(make_robot("iramis"))
+    eye = default_eye(robot)
+    worst = 0.0
+    for T in entry_poses(robot.needle, eye, np.array([0.0, 0.0, 1.0]), Steps()):
+        poly = [T[:3, :3] @ robot.needle.arc_local(t) + T[:3, 3]
+                for t in np.linspace(0.0, robot.needle.arc_angle, 201)]  # fmt: skip
+        worst = max(worst, port_offset(eye, np.array(poly)))
+    R, w = robot.needle.radius, eye.wall
+    assert worst == pytest.approx(R - math.sqrt(R * R - w * w), rel=1e-3)
+
+
+def test_a_needle_on_the_axis_has_no_port_offset() -> None:
+    robot = make_robot("iramis")
+    eye = default_eye(robot)
+    line = np.array([eye.port - 0.05 * eye.axis, eye.port + 0.01 * eye.axis])
+    assert port_offset(eye, line) == pytest.approx(0.0, abs=1e-15)
+    assert needle_polyline(robot, robot.home).shape == (2, 3)
+
+
+@pytest.mark.parametrize(
+    "data, key",
+    [({"needle": {"kind": "bent"}}, "kind"),
+     ({"needle": {"arc_angle_rad": 2.0}}, "arc_angle_rad"),
+     ({"lateral": {"directions": [[1.0, 0.0]]}}, "directions"),
+     ({"lateral": {"directions": []}}, "directions")],
+)  # fmt: skip
+def test_bad_needle_keys_raise_naming_the_key(data, key) -> None:
+    with pytest.raises(ScenarioError, match=key):
+        scenario_from_dict(data)
+
+
+def test_a_curved_spiral_is_refused() -> None:
+    sc = scenario_from_dict({"procedure": "spiral", "needle": {"kind": "curved"}})
+    with pytest.raises(ScenarioError, match="needle"):
+        sc.phases(make_robot("iramis"))
+
+
+def test_an_arc_too_tight_for_the_port_is_refused_before_motion() -> None:
+    sc = scenario_from_dict({"needle": {"kind": "curved", "radius_mm": 1.0, "arc_angle_rad": 1.5}})
+    with pytest.raises(UnreachableTargetError, match=r"R >= 1.34 mm"):
+        sc.phases(make_robot("iramis"))
+
+
+def test_one_direction_per_visit_is_required() -> None:
+    sc = scenario_from_dict({"needle": {"kind": "curved"}, "lateral": {"directions": [[1, 0, 0]]}})
+    with pytest.raises(InvalidInputError, match="one per visit"):
+        sc.phases(make_robot("iramis"))
+
+
+def test_a_curved_needle_on_an_arm_in_mujoco_stops_with_a_typed_error() -> None:
+    result = run_scenario(load_scenario("curved").with_plant("mujoco").with_robot("ur5"))
+    assert isinstance(result.error, InvalidInputError)
+    assert result.status == "invalid_input"
+    assert "'kinematic' for a curved needle on an arm" in result.message
+
+
+def test_the_mujoco_scene_draws_the_arc_ending_at_the_models_tip() -> None:
+    mujoco = pytest.importorskip("mujoco")
+    from rcmplan.sim.mujoco.plant import MujocoPlant
+
+    robot = load_scenario("curved").needle.fit(make_robot("iramis"))
+    plant = MujocoPlant(robot.base, mode="kinematic", needle_arc=(12e-3, 0.25))
+    q = np.array([1e-3, 0.05, -2e-3, 0.1, 5e-3, 0.7])
+    plant.reset(robot.actuators_from_joints(q))
+    model, data = plant.scene()
+    site = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "needle_arc_tip")
+    assert data.site_xpos[site] == pytest.approx(robot.tip(q), abs=1e-9)
+    assert plant.warnings() == {}
