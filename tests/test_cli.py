@@ -113,3 +113,20 @@ def test_malformed_scenario_file_exits_non_zero_with_status(tmp_path: Path, caps
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "invalid_scenario"
     assert s["message"].startswith("ScenarioError") and "[3, 20]" in s["message"]
+
+
+def test_a_full_disk_while_writing_is_a_one_line_error_and_leaves_no_half_written_file(
+    tmp_path: Path, capsys, monkeypatch
+) -> None:
+    import errno
+
+    def full(self, path) -> None:
+        with open(path, "w") as fh:
+            fh.write("time_s,pha")  # a truncated start, as a full disk leaves it
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(RunLog, "_write_csv", full)
+    assert main(["inject", "--out", str(tmp_path), "--no-plots"]) == 2
+    assert "No space left on device" in capsys.readouterr().err
+    assert not (tmp_path / "log.csv").exists()
+    assert not [p.name for p in tmp_path.iterdir() if ".tmp" in p.name]

@@ -95,6 +95,7 @@ def test_one_direction_per_visit_is_required() -> None:
 def test_a_curved_needle_on_an_arm_in_mujoco_stops_with_a_typed_error() -> None:
     result = run_scenario(load_scenario("curved").with_plant("mujoco").with_robot("ur5"))
     assert isinstance(result.error, InvalidInputError)
+    assert result.status == "invalid_input"
     assert "'kinematic' for a curved needle on an arm" in result.message
 
 

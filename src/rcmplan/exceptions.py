@@ -202,6 +202,22 @@ class SimulationError(RcmplanError):
     status = "simulation_unstable"
 
 
+class OutputError(RcmplanError):
+    """An output file cannot be written (a full disk, a read-only folder).
+
+    Attributes:
+        path: The file or folder.
+        reason: The system's reason.
+    """
+
+    status = "output_failed"
+
+    def __init__(self, path: Any, reason: str) -> None:
+        self.path = path
+        self.reason = reason
+        super().__init__(f"cannot write {str(path)!r}: {reason}")
+
+
 class MissingExtraError(RcmplanError, ImportError):
     """An optional dependency is missing; the message names the extra to install."""
 

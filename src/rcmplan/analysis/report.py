@@ -13,7 +13,7 @@ from rcmplan._atomic import write_text
 from rcmplan.analysis import plots
 from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import RunLog
-from rcmplan.exceptions import InvalidInputError
+from rcmplan.exceptions import InvalidInputError, OutputError
 from rcmplan.robot.iramis import SLIDER_NAMES
 
 
@@ -128,11 +128,15 @@ def write_outputs(
     result: RunResult, out: str | Path, figures: bool = True, scenario_text: str | None = None
 ) -> dict[str, Path]:
     """Everything for a run in `out`: log, summary, figures, report (with the scenario file
-    echoed when its text is given)."""
+    echoed when its text is given). A file that cannot be written (a full disk) raises
+    OutputError naming it; files are written atomically, so none is left half-written."""
     folder = prepare_folder(out)
-    made = {"summary": write_summary(result, folder)}
-    if figures:
-        figs = write_figures(result, folder)
-        made.update(figs)
-        made["report"] = write_report(result, folder, figs, scenario_text)
+    try:
+        made = {"summary": write_summary(result, folder)}
+        if figures:
+            figs = write_figures(result, folder)
+            made.update(figs)
+            made["report"] = write_report(result, folder, figs, scenario_text)
+    except OSError as exc:
+        raise OutputError(exc.filename or folder, exc.strerror or str(exc)) from exc
     return made

@@ -61,7 +61,7 @@ def scenario_trajectory(
     scenario = load_scenario(args.scenario).with_plant(args.plant)
     result = run_scenario(scenario)
     if not result.ok:
-        print(f"rcmplan render: run stopped early ({result.status}); animating the partial log")
+        print(f"rcmplan render: run stopped early ({result.message}); animating the partial log")
     eye = scenario.eye(robot)
     phantom = phantom_of(eye, scenario.points(eye))
     sliders = np.vstack([robot.home_actuators, result.log.sliders])

@@ -76,8 +76,8 @@ class Controller:
             f"{n}_{u}" for n, u in zip(self.robot.actuator_names, units, strict=True)
         )
         self.phase_times: dict[str, float] = {}
-        self._check_seed: FloatArray | None = None
         self._planned = 0  # targets planned so far in this run (at most MAX_TARGETS)
+        self._check_seed: FloatArray | None = None
         self.on_phase: Callable[[Phase], None] | None = None
 
     def check_targets(self, targets: FloatArray) -> None:
