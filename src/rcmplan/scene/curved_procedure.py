@@ -19,7 +19,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.spatial.transform import Rotation, Slerp
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.curved_targets import LateralTarget, lateral_target
@@ -49,6 +48,8 @@ def pose_target(needle: CurvedNeedle, T: FloatArray) -> FloatArray:
 def turned(T: FloatArray, centre: FloatArray, axis: FloatArray, angle: float) -> FloatArray:
     """T turned by `angle` [rad] about the line through `centre` along unit `axis`."""
     M = np.eye(4)
+    from scipy.spatial.transform import Rotation  # only curved runs pay for scipy.spatial
+
     M[:3, :3] = Rotation.from_rotvec(angle * axis).as_matrix()
     M[:3, 3] = centre - M[:3, :3] @ centre
     out: FloatArray = M @ T
@@ -57,6 +58,8 @@ def turned(T: FloatArray, centre: FloatArray, axis: FloatArray, angle: float) ->
 
 def pose_path(T0: FloatArray, T1: FloatArray, n: int) -> list[FloatArray]:
     """n poses from T0 (left out) to T1: origin in a straight line, rotation by slerp."""
+    from scipy.spatial.transform import Rotation, Slerp
+
     slerp = Slerp([0.0, 1.0], Rotation.from_matrix([T0[:3, :3], T1[:3, :3]]))
     out = []
     for k in np.arange(1, n + 1) / n:
@@ -100,6 +103,8 @@ def approach_phase(robot: CurvedTipRobot, T_pre: FloatArray, steps: Steps) -> Ph
     """Whole-pose motion from wherever the needle is to the pose before the entry."""
 
     def plan(q: FloatArray) -> FloatArray:
+        from scipy.spatial.transform import Rotation
+
         T0 = robot.base.tool_pose(q)
         turn0 = np.linalg.norm(Rotation.from_matrix(T_pre[:3, :3] @ T0[:3, :3].T).as_rotvec())
         n = steps.count(float(np.linalg.norm(T_pre[:3, 3] - T0[:3, 3])), float(turn0))
