@@ -114,13 +114,14 @@ def run(args: argparse.Namespace) -> int:
     out = prepare_folder(args.out or args.out_default)
     rows: list[dict[str, Any]] = []
     try:
-        path = compare_rows(args, rows)
-        doc = {"status": "ok", "message": "", "execution_path": path, "methods": rows}
-        write_json(out / "compare.json", doc)
-        if not args.no_plots:
-            from rcmplan.analysis.plots_compare import method_comparison
+        with interrupts.surfaced():
+            path = compare_rows(args, rows)
+            doc = {"status": "ok", "message": "", "execution_path": path, "methods": rows}
+            write_json(out / "compare.json", doc)
+            if not args.no_plots:
+                from rcmplan.analysis.plots_compare import method_comparison
 
-            method_comparison(rows, out / "compare.png")
+                method_comparison(rows, out / "compare.png")
     except KeyboardInterrupt as exc:
         with interrupts.shielded():
             message = f"interrupted by {interrupts.signal_name(exc)} after {len(rows)} methods"

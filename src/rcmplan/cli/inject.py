@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from rcmplan.cli import interrupts
 from rcmplan.cli.common import (
     add_run_options,
     interrupted_message,
@@ -75,12 +76,13 @@ def run(args: argparse.Namespace) -> int:
     out = prepare_folder(args.out or args.out_default)
     result = None
     try:
-        scenario = scenario_for(args)
-        with progress(args.command) as tick:
-            result = run_scenario(scenario, on_phase=tick)
-        write_outputs(
-            result, out, figures=not args.no_plots, scenario_text=scenario_text(args.scenario)
-        )
+        with interrupts.surfaced():
+            scenario = scenario_for(args)
+            with progress(args.command) as tick:
+                result = run_scenario(scenario, on_phase=tick)
+            write_outputs(
+                result, out, figures=not args.no_plots, scenario_text=scenario_text(args.scenario)
+            )
     except RcmplanError as exc:
         if result is None:
             message = f"{type(exc).__name__}: {exc}"

@@ -76,3 +76,30 @@ def shielded() -> Iterator[None]:
     finally:
         for s, handler in old.items():
             signal.signal(s, handler)
+
+
+def wrapped_interrupt(exc: BaseException) -> KeyboardInterrupt | None:
+    """The interrupt an exception carries as its cause or context, if any: Python wraps an
+    exception raised in some hooks (a signal landing in `__set_name__` while a module such as
+    matplotlib is imported becomes a RuntimeError)."""
+    seen: set[int] = set()
+    cur: BaseException | None = exc
+    while cur is not None and id(cur) not in seen:
+        if isinstance(cur, KeyboardInterrupt):
+            return cur
+        seen.add(id(cur))
+        cur = cur.__cause__ or cur.__context__
+    return None
+
+
+@contextlib.contextmanager
+def surfaced() -> Iterator[None]:
+    """Inside the block, an exception that wraps an interrupt is raised as the interrupt, so
+    the command's own interrupt handling writes the partial outputs."""
+    try:
+        yield
+    except Exception as exc:
+        interrupt = wrapped_interrupt(exc)
+        if interrupt is None:
+            raise
+        raise interrupt from exc

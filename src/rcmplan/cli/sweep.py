@@ -16,6 +16,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from rcmplan.cli import interrupts
 from rcmplan.control.methods import METHODS
 from rcmplan.exceptions import RcmplanError
 from rcmplan.sim.registry import PLANTS
@@ -268,11 +269,12 @@ def run(args: argparse.Namespace) -> int:
     settings = settings_from_args(args)
     checkpoint = open_checkpoint(Path(args.checkpoint or out / "checkpoint"), settings, args)
     try:
-        with make_executor(args.workers, args.scheduler, args.timeout) as executor:
-            result = run_main(args, settings, checkpoint, executor)
-            gains = None if args.gain_search == "none" else run_gains(args, result, checkpoint,
-                                                                        executor)  # fmt: skip
-        s = write_outputs(args, out, result, gains)
+        with interrupts.surfaced():
+            with make_executor(args.workers, args.scheduler, args.timeout) as executor:
+                result = run_main(args, settings, checkpoint, executor)
+                gains = None if args.gain_search == "none" else run_gains(
+                    args, result, checkpoint, executor)  # fmt: skip
+            s = write_outputs(args, out, result, gains)
     except KeyboardInterrupt as exc:
         write_interrupted(out, checkpoint, exc)
         raise
@@ -289,7 +291,6 @@ def run(args: argparse.Namespace) -> int:
 def write_interrupted(out: Path, checkpoint: Checkpoint, exc: BaseException) -> None:
     """summary.json of an interrupted sweep: status, why, and the results kept for --resume."""
     from rcmplan._atomic import write_text
-    from rcmplan.cli import interrupts
 
     with interrupts.shielded():
         try:
