@@ -219,3 +219,29 @@ def test_an_rcm_bound_that_holds_lets_the_run_finish(robot: Iramis) -> None:
     )
     inside = log.select(np.isfinite(log.trocar[:, 0]))
     assert np.linalg.norm(inside.rcm_deviation(), axis=1).max() < LoopSettings().rcm_bound
+
+
+def test_a_phase_starting_far_from_the_needle_is_refused_before_it_moves(robot: Iramis) -> None:
+    """A user's splice of a return from p4 right after `insert` (the needle still at p3)."""
+    from rcmplan.scene.procedures import injection
+
+    eye = default_eye(robot)
+    pts = default_points(eye)
+    phases = injection(robot, eye, pts)
+    insert_end = next(i for i, p in enumerate(phases) if p.name == "insert") + 1
+    spliced = Phase("spliced", line_targets(pts.p4, pts.p3, eye.port, Steps()))
+    assert np.linalg.norm(pts.p4 - pts.p3) > 1e-3  # farther than the default bound
+    ctl = Controller(KinematicPlant(robot), PinvSolver())
+    with pytest.raises(
+        InvalidInputError, match=r"\d+\.\d+ mm jump from the needle's tip to target 0"
+    ) as info:
+        ctl.run([*phases[:insert_end], spliced])
+    assert info.value.log is not None
+    assert "spliced" not in {info.value.log.phase_names[i] for i in info.value.log.phase}
+
+
+def test_the_jump_check_can_be_switched_off(robot: Iramis) -> None:
+    settings = LoopSettings(max_target_step=None)
+    assert settings.max_target_step is None
+    with pytest.raises(InvalidInputError, match="max_target_step"):
+        LoopSettings(max_target_step=-1.0)

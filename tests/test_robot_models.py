@@ -195,3 +195,19 @@ def test_inject_with_robot_writes_the_robot_into_the_summary(tmp_path, capsys) -
     assert code == 0
     assert summary["robot"] == "ur5"
     assert json.loads(capsys.readouterr().out)["robot"] == "ur5"
+
+
+@pytest.mark.parametrize("bad_q", [np.zeros(3), np.full(6, np.nan), "abc", np.zeros((2, 6))])
+def test_an_arm_refuses_malformed_joints_naming_q(bad_q) -> None:
+    ur5 = make_robot("ur5")
+    with pytest.raises(InvalidInputError, match=r"^q = "):
+        ur5.needle_point(bad_q, 0.5)
+    with pytest.raises(InvalidInputError, match=r"^q = "):
+        ur5.needle_point_jacobian(bad_q, 0.5)
+
+
+@pytest.mark.parametrize("bad_lam", [np.nan, np.inf, "x"])
+def test_an_arm_refuses_a_non_finite_lambda(bad_lam) -> None:
+    ur5 = make_robot("ur5")
+    with pytest.raises(InvalidInputError, match=r"^lam = "):
+        ur5.needle_point(ur5.home, bad_lam)

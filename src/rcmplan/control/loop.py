@@ -141,6 +141,7 @@ class Controller:
             if phase.kind == "rcm":
                 if callable(phase.targets):
                     self.check_targets(targets)
+                self._check_target_steps(phase.name, q, targets)
                 self.lam = self._closest_lambda(q, targets[0][-3:])
             first = len(self.log)
             try:
@@ -156,6 +157,25 @@ class Controller:
         finally:
             spent = time.perf_counter() - start
             self.phase_times[phase.name] = self.phase_times.get(phase.name, 0.0) + spent
+
+    def _check_target_steps(self, name: str, q: FloatArray, targets: FloatArray) -> None:
+        """Refuse an RCM phase whose target tips jump farther than `max_target_step`, from the
+        needle's tip to the first or between consecutive ones (a pivot's tip stays at the
+        trocar)."""
+        bound = self.settings.max_target_step
+        if bound is None:
+            return
+        tips = np.array([target_tip(t) for t in targets])
+        jumps = np.linalg.norm(np.diff(np.vstack([self.robot.tip(q), tips]), axis=0), axis=1)
+        k = int(np.argmax(jumps))
+        if jumps[k] > bound:
+            where = "the needle's tip to target 0" if k == 0 else f"target {k - 1} to {k}"
+            raise InvalidInputError(
+                f"targets of phase {name!r}",
+                f"a {1e3 * jumps[k]:.3f} mm jump from {where}",
+                f"steps of at most {1e3 * bound:g} mm (make them with split_steps, or raise "
+                "LoopSettings.max_target_step)",
+            )
 
     def _check_rcm_bound(self, name: str, first: int) -> None:
         """Raise RcmBoundError if a record from `first` on has the RCM beyond the bound (both

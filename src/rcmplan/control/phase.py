@@ -82,12 +82,18 @@ class LoopSettings:
             a phase that exceeds it ends the run with RcmBoundError (its records kept). Default
             45 um, a tenth of the thesis's 0.45 mm trocar radius; None: unbounded (the thesis
             reproduction, whose drift is the quantity measured).
+        max_target_step: Largest distance in [m] between the tip of an RCM phase's target and
+            the next one's, and between the needle's tip and the phase's first target: a
+            larger jump is refused before the phase moves (it is not subdivided: the plan is
+            the user's, and `split_steps` or the procedures make the steps). Default 1 mm,
+            five of the default 0.2 mm steps; None: unchecked.
     """
 
     max_iterations: int = 100
     drift_correction: bool = True
     singular_threshold: float | None = None
     rcm_bound: float | None = 45e-6
+    max_target_step: float | None = 1e-3
 
     def __post_init__(self) -> None:
         it = self.max_iterations
@@ -100,6 +106,8 @@ class LoopSettings:
             scalar("singular_threshold", self.singular_threshold, 0.0, 1.0, high_open=True)
         if self.rcm_bound is not None:
             scalar("rcm_bound", self.rcm_bound, 0.0, 0.01, low_open=True)
+        if self.max_target_step is not None:
+            scalar("max_target_step", self.max_target_step, 0.0, 0.1, low_open=True)
 
 
 def interpolate(start: FloatArray, goal: FloatArray, n: int) -> FloatArray:

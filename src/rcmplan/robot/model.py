@@ -197,7 +197,8 @@ class SerialArm:
 
     # --- needle ---------------------------------------------------------------------------
     def _frames(self, q: FloatArray) -> FloatArray:
-        q = np.asarray(q, dtype=float)
+        """The chain's frames at q (checked: shape (n,), finite), cached for the last q."""
+        q = vector("q", q, self.chain.n)
         key = q.tobytes()
         if key != self._key:
             self._T = self.chain.frames(q)
@@ -205,9 +206,9 @@ class SerialArm:
         return self._T
 
     def needle_point(self, q: FloatArray, lam: float) -> FloatArray:
-        """p(lambda) in [m] (eq. 3.7)."""
+        """p(lambda) in [m] (eq. 3.7); lambda a finite number (the needle for lambda in [0, 1])."""
         T = self._frames(q)[-1]
-        return T[:3, :3] @ self.needle.point_local(lam) + T[:3, 3]
+        return T[:3, :3] @ self.needle.point_local(scalar("lam", lam)) + T[:3, 3]
 
     def needle_axis(self, q: FloatArray) -> FloatArray:
         """Unit needle axis, base to tip."""
@@ -231,7 +232,7 @@ class SerialArm:
     def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d(q[active], lambda), (3, m + 1) (eq. 3.10)."""
         out = np.empty((3, len(self.active) + 1))
-        out[:, :-1] = self._point_jacobian(q, lam)[:3, list(self.active)]
+        out[:, :-1] = self._point_jacobian(q, scalar("lam", lam))[:3, list(self.active)]
         out[:, -1] = self.needle_length * self.needle_axis(q)
         return out
 
