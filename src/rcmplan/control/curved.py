@@ -28,8 +28,8 @@ from typing import ClassVar
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
-from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, dls_solve
-from rcmplan.control.tasks import NeedleBase, Posture, RcmPoint, Task, TipPosition
+from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, dls_solve, pinv_solve
+from rcmplan.control.tasks import NeedleBase, RcmPoint, Task, TipPosition
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
@@ -135,15 +135,7 @@ class CurvedPinvSolver:
     ) -> tuple[FloatArray, float]:
         """Solve J_c d = K e (square) or the minimum-norm step plus the null-space posture."""
         J = task_jacobian(self.tasks, robot, q, lam)
-        Ke = np.asarray(self.K) * error
-        if J.shape[0] == J.shape[1]:
-            d = np.asarray(np.linalg.solve(J, Ke), dtype=np.float64)
-        else:
-            J_pinv = np.linalg.pinv(J)
-            z = np.zeros(J.shape[1])
-            home = Posture().value(robot, robot.home, lam)
-            z[:-1] = self.posture_gain * (home - Posture().value(robot, q, lam))
-            d = J_pinv @ Ke + z - J_pinv @ (J @ z)
+        d = pinv_solve(J, np.asarray(self.K) * error, robot, q, lam, self.posture_gain)
         return d[:-1], float(d[-1])
 
 

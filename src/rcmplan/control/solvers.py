@@ -157,16 +157,22 @@ class PinvSolver:
     ) -> tuple[FloatArray, float]:
         """Solve J_a d = K e (square), or the minimum-norm step plus the null-space posture."""
         J = augmented_jacobian(robot, q, lam, self.variant)
-        Ke = np.asarray(self.K) * error
-        if J.shape[0] == J.shape[1]:
-            d = np.asarray(np.linalg.solve(J, Ke), dtype=np.float64)
-        else:
-            J_pinv = np.linalg.pinv(J)
-            home = Posture().value(robot, robot.home, lam)
-            z = np.zeros(J.shape[1])
-            z[:-1] = self.posture_gain * (home - Posture().value(robot, q, lam))
-            d = J_pinv @ Ke + z - J_pinv @ (J @ z)
+        d = pinv_solve(J, np.asarray(self.K) * error, robot, q, lam, self.posture_gain)
         return d[:-1], float(d[-1])
+
+
+def pinv_solve(
+    J: FloatArray, Ke: FloatArray, robot: RobotModel, q: FloatArray, lam: float, gain: float
+) -> FloatArray:
+    """d with J d = K e: solved when J is square; otherwise the minimum-norm solution plus
+    (I - J^+ J) z, z = gain (home - q) on the active joints (lambda has no preferred value)."""
+    if J.shape[0] == J.shape[1]:
+        return np.asarray(np.linalg.solve(J, Ke), dtype=np.float64)
+    J_pinv = np.linalg.pinv(J)
+    home = Posture().value(robot, robot.home, lam)
+    z = np.zeros(J.shape[1])
+    z[:-1] = gain * (home - Posture().value(robot, q, lam))
+    return np.asarray(J_pinv @ Ke + z - J_pinv @ (J @ z), dtype=np.float64)
 
 
 def dls_solve(J: FloatArray, e: FloatArray, D: float) -> FloatArray:
