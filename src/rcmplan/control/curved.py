@@ -100,8 +100,25 @@ def _tolerance(tol: Tolerance) -> FloatArray:
     return np.array([p, p, p, a, p, p, p])
 
 
+class CurvedSolver:
+    """What the curved-needle solvers share: the task X_c, its error and its tolerance."""
+
+    tasks: ClassVar[tuple[Task, ...]] = CURVED_TASKS
+    kind: ClassVar[SolverKind] = "rcm"
+    target_width: ClassVar[int] = TARGET_WIDTH
+    tol: Tolerance
+
+    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+        """X_c target minus X_c now: (p_tip [m], rho [rad], p_rcm [m])."""
+        return task_error(self.tasks, robot, q, lam, target)
+
+    def tolerance(self) -> FloatArray:
+        """(position x3, angle, position x3)."""
+        return _tolerance(self.tol)
+
+
 @dataclass(frozen=True)
-class CurvedPinvSolver:
+class CurvedPinvSolver(CurvedSolver):
     """d theta_ext = J_c^+ K e (eq. 3.17 on X_c), plus the null-space posture when J_c is wide.
 
     Attributes:
@@ -112,23 +129,12 @@ class CurvedPinvSolver:
     K: tuple[float, ...] = (1.0,) * TARGET_WIDTH
     tol: Tolerance = field(default_factory=Tolerance)
     posture_gain: float = 0.05
-    tasks: ClassVar[tuple[Task, ...]] = CURVED_TASKS
     name: ClassVar[str] = "pinv"
-    kind: ClassVar[SolverKind] = "rcm"
-    target_width: ClassVar[int] = TARGET_WIDTH
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "K", tuple(check_gains7(self.K)))
         scalar("posture_gain", self.posture_gain, 0.0, 1.0)
         self.tol.checked()
-
-    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
-        """X_c target minus X_c now: (p_tip [m], rho [rad], p_rcm [m])."""
-        return task_error(self.tasks, robot, q, lam, target)
-
-    def tolerance(self) -> FloatArray:
-        """(position x3, angle, position x3)."""
-        return _tolerance(self.tol)
 
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
@@ -140,7 +146,7 @@ class CurvedPinvSolver:
 
 
 @dataclass(frozen=True)
-class CurvedDlsSolver:
+class CurvedDlsSolver(CurvedSolver):
     """Damped least squares (eqs. 2.19, 2.20) on X_c, the roll row scaled by the shaft length
     l_s so that every row is in [m] (one damping for all).
 
@@ -150,22 +156,11 @@ class CurvedDlsSolver:
 
     damping: float = 1e-4
     tol: Tolerance = field(default_factory=Tolerance)
-    tasks: ClassVar[tuple[Task, ...]] = CURVED_TASKS
     name: ClassVar[str] = "dls"
-    kind: ClassVar[SolverKind] = "rcm"
-    target_width: ClassVar[int] = TARGET_WIDTH
 
     def __post_init__(self) -> None:
         check_damping(self.damping)
         self.tol.checked()
-
-    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
-        """(p_tip [m], rho [rad], p_rcm [m]) errors."""
-        return task_error(self.tasks, robot, q, lam, target)
-
-    def tolerance(self) -> FloatArray:
-        """(position x3, angle, position x3)."""
-        return _tolerance(self.tol)
 
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
