@@ -13,6 +13,11 @@ Other plants step in Python around `arm_iterate` (`rcmplan.compiled.arm_phase`).
 Records go to preallocated rows in the `records.record_columns(n)` layout: time [s],
 sliders (n,), joints (n,), lambda, tip, rcm, trocar, base, target tip (3 each) [m], error (6,)
 NaN-padded. Stops return the status codes of `rcmplan.compiled.records`.
+
+A curved needle (method codes from CURVED on, the arrays of `rcmplan.compiled.curved`) takes the
+same loop: its error, step and tip come from `curved_arm`, the roll joint moves with the others
+(the curved needle's active joints), its rows have the roll error column
+(`record_columns(n, roll=True)`) and `fail` a 7-row error.
 """
 
 from __future__ import annotations
@@ -23,6 +28,7 @@ import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
+from rcmplan.compiled import curved_arm
 from rcmplan.compiled.chain_kernels import (
     ROWS,
     IntArray,
@@ -36,9 +42,10 @@ from rcmplan.compiled.chain_kernels import (
     pinv_solve,
 )
 from rcmplan.compiled.kernels import axis_from_angles
-from rcmplan.compiled.loop import converged, target_frame
+from rcmplan.compiled.loop import converged, holds_rcm, target_frame
 from rcmplan.compiled.records import (
     BAD_JOINTS,
+    CURVED,
     DLS,
     DONE,
     NO_CONVERGENCE,
@@ -56,7 +63,10 @@ from rcmplan.compiled.records import (
 def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: float,
                target: FloatArray, tip_t: FloatArray, pivot: bool,
                e: FloatArray) -> int:  # fmt: skip
-    """The solver's error at the frames in W into e; returns its length (6, or 3 for TIP)."""
+    """The solver's error at the frames in W into e; returns its length (6, 3 for TIP, 7 for a
+    curved needle's)."""
+    if method >= CURVED:
+        return curved_arm.task_error(A, ix, W, method, lam, target, e)
     n = ix[0]
     p_tip = needle_point(A, n, W, 1.0)
     if method == TIP:
@@ -83,8 +93,10 @@ def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: flo
 def record(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float, s: FloatArray,
            lam: float, trocar: FloatArray, tip_t: FloatArray, e: FloatArray,
            ne: int) -> None:  # fmt: skip
-    """One record into row (`record_width(n)`,); see the module docstring."""
-    base, tip = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
+    """One record into row (`record_width(n)`,), a curved needle's (ne = 7: the arc's tip, the
+    six position errors, the roll error last) into row (`record_width(n, roll=True)`,)."""
+    base, end = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
+    tip = curved_arm.tip(A, n, W) if ne == 7 else end
     row[0] = t
     for i in range(n):
         row[1 + i], row[1 + n + i] = s[i], s[i]
@@ -92,8 +104,13 @@ def record(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float, s: F
     row[o] = lam
     for i in range(3):
         row[o + 1 + i] = tip[i]
-        row[o + 4 + i] = base[i] + lam * (tip[i] - base[i])
+        row[o + 4 + i] = base[i] + lam * (end[i] - base[i])
         row[o + 7 + i], row[o + 10 + i], row[o + 13 + i] = trocar[i], base[i], tip_t[i]
+    if ne == 7:
+        for i in range(6):
+            row[o + 16 + i] = e[i] if i < 3 else e[i + 1]
+        row[o + 22] = e[3]
+        return
     for i in range(6):
         row[o + 16 + i] = e[i] if i < ne else np.nan
 
@@ -104,10 +121,12 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
          d: FloatArray) -> None:  # fmt: skip
     """The solver's step d = (dq[active], dlambda) at joints s from its error e, at the frames
     in W (`PinvSolver`, `DlsSolver`, `TipSolver`), after the singularity check, which leaves
-    d p(1) / d theta_ext in W's J rows 0..2."""
+    d p(1) / d theta_ext in W's J rows 0..2; a curved needle's (`curved_arm.step`)."""
     n, m = ix[0], ix[1]
     o = 4 * (n + 1)
-    if method == TIP:
+    if method >= CURVED:
+        curved_arm.step(A, ix, W, method, K, gain, damping, s, lam, e, d)
+    elif method == TIP:
         gram_solve(W, o, 3, m, damping, e, d)
         d[m] = 0.0
     elif method == DLS:
@@ -126,14 +145,18 @@ def arm_iterate(
 ) -> int:  # fmt: skip
     """One iteration from joints s (n,). Returns DONE, STEPPED (the next joints in fail[n:2n]),
     NO_CONVERGENCE or SINGULAR. state = (lambda, time [s], ...); lambda is updated. fail holds
-    (q (n,), q_new (n,), error (6,)). `framed`: W already holds the frames of s."""
+    (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). `framed`: W already holds
+    the frames of s."""
     n, m = ix[0], ix[1]
-    e = fail[2 * n : 2 * n + 6]
+    first = 2 + n  # the moving joints: the arm's active ones, or the curved needle's
+    if method >= CURVED:
+        first, m = curved_arm.active_span(ix)
+    e = fail[2 * n :]
     for i in range(n):
         fail[i] = s[i]
     if not framed:
         frames(A, ix, s, W)
-    if method != TIP and drift:
+    if holds_rcm(method) and drift:
         base, tip = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
         num, den = 0.0, 0.0
         for i in range(3):
@@ -154,7 +177,7 @@ def arm_iterate(
     for i in range(n):
         fail[n + i] = s[i]
     for j in range(m):
-        fail[n + ix[2 + n + j]] += d[j]
+        fail[n + ix[first + j]] += d[j]
     state[0] += d[m]
     return STEPPED
 
@@ -198,7 +221,7 @@ def run_arm_targets(
         if count + max_it > cap:
             return PAUSED
         target = targets[k]
-        kind = target_frame(target, method != TIP, w, tip_t, trocar)
+        kind = target_frame(target, holds_rcm(method), w, tip_t, trocar)
         if kind < 0:
             return NO_TIP
         for it in range(max_it + 1):  # the first reuses the last target's final frames

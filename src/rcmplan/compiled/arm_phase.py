@@ -4,11 +4,12 @@ one compiled call per iteration with the plant stepping in Python (`arm_loop.arm
 
 Applies to a `SerialArm` itself (exact type: a subclass may change its actuator map) whose
 kinematics the chain kernels reproduce (`arm.arm_arrays`), with a solver the kernels implement
-(exact types, `records.method_code`). The side effects are the reference loop's: records go to
-the controller's log, the plant and controller.lam end where `Controller.converge` leaves them,
-and a stop raises the reference exception with the partial log kept (`records.raise_arm_stop`
-repeats the failing check with the reference function: the plant's own command checks, the
-robot's singularity check).
+(exact types, `records.method_code`); `curved_phase` runs a curved needle on an arm through
+`run_arm_phase_exact` with the curved needle's arrays. The side effects are the reference
+loop's: records go to the controller's log, the plant and controller.lam end where
+`Controller.converge` leaves them, and a stop raises the reference exception with the partial
+log kept (`records.raise_arm_stop` repeats the failing check with the reference function: the
+plant's own command checks, the robot's singularity check).
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm, arm_arrays, check_arm_targets
+from rcmplan.compiled.curved import CurvedArrays, arm_work_shape
 from rcmplan.compiled.records import (
     BLOCK,
     DONE,
@@ -71,20 +73,27 @@ def run_if_fast(
 
 
 class _Setup:
-    """What both arm loops pass to the kernels for one phase: the arm's arrays, the solver's
-    code and constants, the loop settings, and work arrays."""
+    """What both arm loops pass to the kernels for one phase: the arm's arrays (or a curved
+    needle's, `curved`), the solver's code and constants, the loop settings, and work arrays."""
 
-    def __init__(self, controller: Controller, solver: Solver) -> None:
+    def __init__(self, controller: Controller, solver: Solver,
+                 curved: CurvedArrays | None = None) -> None:  # fmt: skip
         cfg = controller.settings
-        A, ix = arm_arrays(controller.robot)  # type: ignore[misc]
+        packed = arm_arrays(controller.robot) if curved is None else curved.arm()
+        A, ix = packed  # type: ignore[misc]
         self.n, m = int(ix[0]), int(ix[1])
         code, (K, damping, tol) = method_code(solver), solver_arrays(solver)
         self.code, self.tol = int(code), tol  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
         self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
                      bool(cfg.drift_correction), float(singular_threshold(controller)))  # fmt: skip
-        self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
-        self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)
+        if curved is None:
+            self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
+            self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)
+        else:
+            self.W = np.empty(arm_work_shape(curved))
+            self.fail, self.d = np.empty(2 * self.n + 7), np.empty(curved.m + 1)
+        self.width = record_width(self.n, roll=curved is not None)
 
     def stop(self, controller: Controller, solver: Solver, status: int, target: FloatArray,
              where: str) -> None:  # fmt: skip
@@ -98,19 +107,21 @@ def _where(controller: Controller, pid: int, k: int) -> str:
 
 
 def run_arm_phase_exact(
-    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
-) -> None:
+    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int,
+    curved: CurvedArrays | None = None,
+) -> None:  # fmt: skip
     """Algorithm 1 on each target in turn, the whole loop compiled, on a plant whose commands
     are reached exactly: the plant ends at the last command with its time advanced by dt per
-    step, as the reference loop leaves it."""
+    step, as the reference loop leaves it. `curved`: the arrays of a curved needle on the
+    arm (`rcmplan.compiled.curved`)."""
     plant, cfg, run = controller.plant, controller.settings, fast_cache.arm_loop().run_arm_targets
-    setup = _Setup(controller, solver)
+    setup = _Setup(controller, solver, curved)
     robot = controller.robot
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
     state = np.array([controller.lam, plant.time, plant.dt], dtype=np.float64)
     cap = (ITERATIONS_PER_TARGET + 1) * targets.shape[0] + cfg.max_iterations
-    rec = np.empty((min(cap, 4 * BLOCK + cfg.max_iterations), record_width(setup.n)))
+    rec = np.empty((min(cap, 4 * BLOCK + cfg.max_iterations), setup.width))
     irec = np.empty((rec.shape[0], 2), dtype=np.int64)
     info = np.zeros(4, dtype=np.int64)
     lower = np.ascontiguousarray(robot.lower, dtype=np.float64)

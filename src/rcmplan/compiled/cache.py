@@ -96,7 +96,8 @@ def stamp_path() -> Path:
     here = Path(__file__).parent
     key = hashlib.sha256()
     kernels = ("kernels", "chain_kinematics", "chain_solve", "chain_checks", "arm_loop", "loop",
-               "mujoco_loop")  # fmt: skip
+               "mujoco_loop", "curved_kernels", "curved_iramis", "curved_arm",
+               "curved_checks")  # fmt: skip
     files = [here / f"{name}.py" for name in kernels]
     for path in (*files, here.parent / "sim" / "mujoco" / "compiled.py"):
         key.update(path.read_bytes())

@@ -9,6 +9,11 @@ iteration cap, singularity check, step, sliders from joints, travel check, comma
 The kernel stops with a status code instead of raising; `rcmplan.compiled.runner` turns the code
 into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
 `REC_COLUMNS` (`rcmplan.compiled.records`), `irec` (cap, 2) with (step, iteration).
+
+A curved needle (`CurvedTipRobot` on iRAM!S, method codes from CURVED on) takes the same loop:
+its error, step and tip come from `curved_iramis` (P then carries the arc, `curved_iramis.params`),
+the roll q5 moves with the other joints, records have the roll error column
+(`record_width(6, roll=True)`) and `fail` holds a 7-row error (`FAIL_WIDTH`).
 """
 
 from __future__ import annotations
@@ -18,6 +23,8 @@ import math
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.compiled import curved_iramis
+from rcmplan.compiled.curved_kernels import BLOCK_ROWS
 from rcmplan.compiled.kernels import (
     actuators_from_joints,
     axis_from_angles,
@@ -36,6 +43,8 @@ from rcmplan.compiled.kernels import (
 )
 from rcmplan.compiled.records import (
     BAD_JOINTS,
+    CURVED,
+    CURVED_POSE,
     DLS,
     DONE,
     NO_CONVERGENCE,
@@ -55,6 +64,12 @@ def put(dst: FloatArray, i: int, src: FloatArray, j: int, n: int) -> None:
     """dst[i:i+n] = src[j:j+n] (explicit: slice assignment is slow to compile)."""
     for k in range(n):
         dst[i + k] = src[j + k]
+
+
+@njit(cache=True)
+def holds_rcm(method: int) -> bool:
+    """True for a method with RCM targets (False: the free-space tip and whole-pose solvers)."""
+    return method != TIP and method != CURVED_POSE
 
 
 @njit(cache=True)
@@ -86,7 +101,10 @@ def task_error(
     P: FloatArray, method: int, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
     tip_t: FloatArray, pivot: bool, e: FloatArray, w: FloatArray,
 ) -> int:  # fmt: skip
-    """The solver's task error into e; returns its length (6, or 3 for the tip solver)."""
+    """The solver's task error into e; returns its length (6, 3 for the tip solver, 7 for a
+    curved needle's)."""
+    if method >= CURVED:
+        return curved_iramis.task_error(P, method, q, tr, lam, target, e, w)
     if method <= PINV_THESIS:
         task(P, q, tr, lam, e)
         for i in range(6):
@@ -115,8 +133,11 @@ def solve_step(
     lam: float, pivot: bool, e: FloatArray, J: FloatArray, A: FloatArray, f: FloatArray,
     d: FloatArray,
 ) -> None:  # fmt: skip
-    """The solver's step (dq0..dq4, dlambda) into d; J, A, f are scratch."""
-    if method <= PINV_THESIS:
+    """The solver's step (dq0..dq4, dlambda) into d, (dq0..dq5, dlambda) for a curved needle;
+    J, A, f are scratch (J also the curved needle's work block, `BLOCK_ROWS` x 7 or more)."""
+    if method >= CURVED:
+        curved_iramis.step(P, method, K, damping, q, tr, lam, e, J, d, f)
+    elif method <= PINV_THESIS:
         jacobian_a(P, q, tr, lam, method == PINV_THESIS, J)
         for i in range(6):
             f[i] = K[i] * e[i]
@@ -138,16 +159,25 @@ def record(
     P: FloatArray, row: FloatArray, t: float, s: FloatArray, q: FloatArray, tr: tuple, lam: float,
     trocar: FloatArray, tip_t: FloatArray, e: FloatArray, m: int,
 ) -> None:  # fmt: skip
-    """One log record (see REC_COLUMNS) into row (35,)."""
+    """One log record (see REC_COLUMNS) into row (35,); a curved needle's (m = 7: the arc's tip,
+    the six position errors, the roll error last) into row (36,)."""
     row[0] = t
     put(row, 1, s, 0, 6)
     put(row, 7, q, 0, 6)
     row[13] = lam
-    point(P, q, tr, 1.0, row[14:17])
     point(P, q, tr, lam, row[17:20])
     put(row, 20, trocar, 0, 3)
     point(P, q, tr, 0.0, row[23:26])
     put(row, 26, tip_t, 0, 3)
+    if m == 7:
+        o = (row[23], row[24], row[25])
+        a, b = curved_iramis.axes(q, tr)
+        row[14], row[15], row[16] = curved_iramis.tip_of(P, o, a, b)
+        put(row, 29, e, 0, 3)
+        put(row, 32, e, 4, 3)
+        row[35] = e[3]
+        return
+    point(P, q, tr, 1.0, row[14:17])
     for i in range(29 + m, 35):
         row[i] = np.nan
     put(row, 29, e, 0, m)
@@ -174,12 +204,13 @@ def iterate(
 
     Returns DONE (every error within tolerance), STEPPED (the next command is in fail[12:18])
     or a stop code. state = (lambda, time [s], dt [s]); lambda is updated. From the second
-    iteration on the record goes to row (35,). fail holds (q, q_new, s_new, error).
+    iteration on the record goes to row (35,). fail holds (q, q_new, s_new, error); a curved
+    needle's rows and error have one more entry (the roll's).
     """
-    q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:24]
+    q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     joints_from_actuators(P, s, q)
     tr = trig(q)
-    if method != TIP and drift:
+    if holds_rcm(method) and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
     m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
     if it > 0:
@@ -191,9 +222,10 @@ def iterate(
     if min(abs(tr[0]), abs(tr[2])) < thr:
         return SINGULAR
     solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
+    moved = 6 if method >= CURVED else 5  # a curved needle's roll q5 is active
     for i in range(6):
-        qn[i] = q[i] + d[i] if i < 5 else q[i]
-    state[0] += d[5]
+        qn[i] = q[i] + d[i] if i < moved else q[i]
+    state[0] += d[moved]
     if not actuators_from_joints(P, qn, sn):
         return BAD_JOINTS
     info[2] = first_beyond_travel(P, sn)
@@ -225,11 +257,15 @@ def iterate_recorded(
 def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray,
                  trocar: FloatArray) -> int:  # fmt: skip
     """Fill the target's tip point and trocar (NaN in free space); returns 1 for a pivot
-    target, 0 otherwise, and -1 (NO_TIP) when X_ext fixes no tip."""
+    target, 0 otherwise, and -1 (NO_TIP) when X_ext fixes no tip. A curved needle's target
+    X_c (7,) states its tip (its first three entries) and ends with the trocar."""
     if not rcm:
         put(tip_t, 0, target, 0, 3)
         return 0
-    put(trocar, 0, target, 3, 3)
+    put(trocar, 0, target, target.shape[0] - 3, 3)
+    if target.shape[0] == 7:
+        put(tip_t, 0, target, 0, 3)
+        return 0
     if not tip_of_target(target, w, tip_t):
         return -1
     return 1 if is_pivot(tip_t, target) else 0
@@ -245,18 +281,18 @@ def run_targets(
 
     state = (lambda, time [s], dt [s]) is updated in place, as is s. On return info holds
     (records written, target index reached, slider index for SLIDER_LIMIT) and fail holds
-    (q (6), q_new (6), s_new (6), error (6)) of the last iteration. PAUSED means the record
-    buffer could not hold another target: call again from info[1].
+    (q (6), q_new (6), s_new (6), error (6), or (7) for a curved needle) of the last iteration.
+    PAUSED means the record buffer could not hold another target: call again from info[1].
     """
-    w, d, f = np.empty(6), np.empty(6), np.empty(6)
-    J, A = np.empty((6, 6)), np.empty((6, 6))
+    w, d, f = np.empty(6), np.empty(7), np.empty(7)
+    J, A = np.empty((BLOCK_ROWS, 7)), np.empty((6, 6))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
     n, cap = 0, rec.shape[0]
     for k in range(k0, targets.shape[0]):
         info[0], info[1] = n, k
         if n + max_it > cap:
             return PAUSED
-        kind = target_frame(targets[k], method != TIP, w, tip_t, trocar)
+        kind = target_frame(targets[k], holds_rcm(method), w, tip_t, trocar)
         if kind < 0:
             return NO_TIP
         for it in range(max_it + 1):

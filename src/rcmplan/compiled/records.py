@@ -15,6 +15,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, CurvedPoseSolver
 from rcmplan.control.log import LogBuilder
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
 from rcmplan.control.targets import tip_of_target
@@ -26,6 +27,9 @@ if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
 
 PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3  # method codes of the kernels
+# A curved needle's methods (`rcmplan.control.curved`): codes from CURVED on (X_c, 7 rows)
+CURVED = 16
+CURVED_PINV, CURVED_DLS, CURVED_POSE = CURVED, CURVED + 1, CURVED + 2
 DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
 BLOCK = 4096  # records buffered before they go to the log
 REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
@@ -33,20 +37,30 @@ REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13,
                "target_tip": (26, 29), "error": (29, 35)}  # fmt: skip
 REC_WIDTH = 35
 VECTORS = tuple(k for k, (a, b) in REC_COLUMNS.items() if b - a > 1)
+FAIL_WIDTH = 25  # a stop's (q, q_new, s_new, error (7,)) of the iRAM!S loop (24 suffice straight)
 
 
-def record_columns(n: int) -> dict[str, tuple[int, int]]:
+def record_columns(n: int, roll: bool = False) -> dict[str, tuple[int, int]]:
     """The record layout for a robot with n joints (actuators): field -> (first, end) column.
-    The same fields in the same order as REC_COLUMNS, which is this layout for n = 6."""
+    The same fields in the same order as REC_COLUMNS, which is this layout for n = 6. With
+    `roll` (a curved needle) a last column holds the roll error [rad]; straight rows end
+    before it (the log gets NaN)."""
     widths = {"time": 1, "sliders": n, "joints": n, "lam": 1, "tip": 3, "rcm": 3, "trocar": 3,
               "base": 3, "target_tip": 3, "error": 6}  # fmt: skip
+    if roll:
+        widths["roll_error"] = 1
     ends = np.cumsum(list(widths.values()))
     return {k: (int(e - w), int(e)) for (k, w), e in zip(widths.items(), ends, strict=True)}
 
 
-def record_width(n: int) -> int:
-    """Columns of a record row for n joints (REC_WIDTH for n = 6)."""
-    return 2 * n + 23
+def record_width(n: int, roll: bool = False) -> int:
+    """Columns of a record row for n joints (REC_WIDTH for n = 6), one more with `roll`."""
+    return 2 * n + 23 + int(roll)
+
+
+def is_curved(code: int | None) -> bool:
+    """True for a curved needle's method code."""
+    return code is not None and code >= CURVED
 
 
 def robot_params(robot: RobotModel) -> FloatArray:
@@ -66,13 +80,16 @@ def method_code(solver: Solver) -> int | None:
         return DLS
     if type(solver) is TipSolver:
         return TIP
-    return None
+    curved: dict[type, int] = {CurvedPinvSolver: CURVED_PINV, CurvedDlsSolver: CURVED_DLS,
+                               CurvedPoseSolver: CURVED_POSE}  # fmt: skip
+    return curved.get(type(solver))
 
 
 def solver_arrays(solver: Solver) -> tuple[FloatArray, float, FloatArray]:
-    """(K (6,), damping [m], tolerance padded to (6,)) of a supported solver."""
+    """(K (6,) or (7,), damping [m], tolerance padded to at least (6,)) of a supported
+    solver."""
     K = np.asarray(getattr(solver, "K", (1.0,) * 6), dtype=np.float64)
-    tol = np.zeros(6)
+    tol = np.zeros(max(6, solver.tolerance().shape[0]))
     t = solver.tolerance()
     tol[: t.shape[0]] = t
     return K, float(getattr(solver, "damping", 0.0)), tol
@@ -87,11 +104,13 @@ def singular_threshold(controller: Controller) -> float:
 def append_records(
     log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n: int, pid: int, sid: int
 ) -> None:
-    """Append the first n compiled records to a LogBuilder, as one block."""
+    """Append the first n compiled records to a LogBuilder, as one block (rows of
+    `record_width(6, roll=True)` columns carry the roll error)."""
     vectors = {k: rec[:n, a:b] for k, (a, b) in ((k, REC_COLUMNS[k]) for k in VECTORS)}
+    roll = rec[:n, REC_WIDTH] if rec.shape[1] > REC_WIDTH else np.nan
     log.extend(
-        n, time=rec[:n, 0], lam=rec[:n, 13], step=irec[:n, 0], iteration=irec[:n, 1],
-        solver=sid, phase=pid, **vectors,
+        n, time=rec[:n, 0], lam=rec[:n, 13], roll_error=roll, step=irec[:n, 0],
+        iteration=irec[:n, 1], solver=sid, phase=pid, **vectors,
     )  # fmt: skip
 
 
@@ -99,9 +118,12 @@ def append_rows(
     log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], count: int, n: int, pid: int,
     sid: int,
 ) -> None:  # fmt: skip
-    """Append the first `count` records of an n-joint layout (`record_columns`) to a log."""
-    cols = {k: rec[:count, a:b] for k, (a, b) in record_columns(n).items()}
-    cols["time"], cols["lam"] = cols["time"][:, 0], cols["lam"][:, 0]
+    """Append the first `count` records of an n-joint layout (`record_columns`; with the roll
+    error when rec has its column) to a log."""
+    layout = record_columns(n, roll=rec.shape[1] > record_width(n))
+    cols: dict[str, object] = {k: rec[:count, a:b] for k, (a, b) in layout.items()}
+    for k in ("time", "lam", "roll_error"):
+        cols[k] = rec[:count, layout[k][0]] if k in layout else np.nan
     log.extend(count, step=irec[:count, 0], iteration=irec[:count, 1], solver=sid, phase=pid,
                **cols)  # fmt: skip
 
@@ -112,7 +134,7 @@ def raise_stop(
 ) -> None:  # fmt: skip
     """Raise the exception the reference loop raises for a compiled early stop."""
     robot, cfg = controller.robot, controller.settings
-    q, qn, sn, e = fail[0:6].copy(), fail[6:12].copy(), fail[12:18].copy(), fail[18:24]
+    q, qn, sn, e = fail[0:6].copy(), fail[6:12].copy(), fail[12:18].copy(), fail[18:]
     if status == NO_CONVERGENCE:
         raise ConvergenceError(cfg.max_iterations, np.abs(e[: tol.size]), tol, where=where)
     checks: dict[int, Any] = {
@@ -131,7 +153,8 @@ def raise_arm_stop(
 ) -> None:  # fmt: skip
     """Raise the exception the reference loop raises for a compiled arm loop's early stop.
 
-    fail holds (q (n,), q_new (n,), error (6,)) of the last iteration. The failing check is
+    fail holds (q (n,), q_new (n,), error (6,), or (7,) for a curved needle) of the last
+    iteration. The failing check is
     repeated with the reference function (the plant's command for BAD_JOINTS and SLIDER_LIMIT),
     which raises the same exception with the same message.
     """

@@ -25,9 +25,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.compiled import arm_phase
+from rcmplan.compiled import arm_phase, curved_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import check_arm_targets
+from rcmplan.compiled.curved import check_curved_targets
 from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
 from rcmplan.compiled.records import method_code, robot_params
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
@@ -61,14 +62,17 @@ def fast_converge_phase(
 ) -> bool:
     """Run Algorithm 1 on every target of a phase in compiled code, if it applies.
 
-    Applies when the solver is a PinvSolver, DlsSolver or TipSolver and the fast path is
-    enabled (see `fast_cache.use_fast`). On a KinematicPlant, and on a dynamic MujocoPlant
+    Applies when the solver is a PinvSolver, DlsSolver or TipSolver (or a curved needle's
+    solver on the kinematic plant, `curved_phase`) and the fast path is enabled (see
+    `fast_cache.use_fast`). On a KinematicPlant, and on a dynamic MujocoPlant
     (physics through MuJoCo's C functions, `fast_mujoco`), the whole loop is compiled; on any
     other plant the plant steps in Python and each iteration's control work is one compiled
     call. Records go to controller.log, the plant and controller.lam end where the
     reference loop leaves them, and an early stop raises the reference loop's exception.
     Returns False (nothing done) otherwise.
     """
+    if curved_phase.applies(controller, solver):  # a curved needle, on the kinematic plant
+        return curved_phase.run_if_fast(controller, solver, targets, pid, sid)
     if arm_phase.applies(controller, solver):  # any serial arm, on any plant
         return arm_phase.run_if_fast(controller, solver, targets, pid, sid)
     if method_code(solver) is None:
@@ -285,6 +289,12 @@ class CompiledRunner:
     def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
         """Screen targets in compiled code, where it applies."""
         return fast_check_targets(robot, targets)
+
+    def check_curved_targets(
+        self, robot: RobotModel, targets: FloatArray, seed: FloatArray | None
+    ) -> FloatArray | None:
+        """Screen a curved needle's targets in compiled code, where it applies."""
+        return check_curved_targets(robot, targets, seed)
 
     def run_phase(
         self, controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int

@@ -10,12 +10,14 @@ from __future__ import annotations
 from pathlib import Path
 
 from rcmplan.compiled.cache import stamp_path
+from rcmplan.compiled.curved_phase import compile_curved_kernels
 from rcmplan.compiled.runner import compile_kernels
 
 
 def compile_all() -> Path:
     """Compile every kernel (numba writes them to its cache), then write the stamp."""
     compile_kernels()
+    compile_curved_kernels()
     path = stamp_path()
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("numba cache of rcmplan.compiled kernels and loops is warm\n")

@@ -3,8 +3,11 @@
 Metrics and plots read only the log. A record is the state reached after one slider command:
 time [s], sliders (6,), joints (6,), lambda, tip (3,) [m], RCM point p(lambda) (3,) [m], trocar
 (3,) [m] (NaN in free space), needle base (3,) [m], the tip point the current target asks for
-(3,) [m], task error (6,) (NaN-padded for 3-component tasks), step index,
-iteration index within the step, solver id, phase id.
+(3,) [m], task error (6,) (NaN-padded for 3-component tasks), the needle roll error [rad]
+(a curved needle's fourth task row, `rcmplan.control.curved`; NaN for a straight needle, whose
+roll is not a task), step index, iteration index within the step, solver id, phase id. A curved
+needle's error (tip x3, roll, RCM or needle base x3) fills `error` with its six position rows
+and `roll_error` with the roll.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ class RunLog:
     base: FloatArray
     target_tip: FloatArray
     error: FloatArray
+    roll_error: FloatArray
     step: NDArray[np.int64]
     iteration: NDArray[np.int64]
     solver: NDArray[np.int64]
@@ -83,9 +87,12 @@ class RunLog:
 
     @staticmethod
     def load_npz(path: str | Path) -> RunLog:
-        """Read a log written by save_npz."""
+        """Read a log written by save_npz (one written before the roll error was logged gets a
+        NaN roll error)."""
         with np.load(path) as z:
-            arrays = {k: z[k] for k in ARRAY_FIELDS}
+            arrays = {k: z[k] for k in ARRAY_FIELDS if k != "roll_error"}
+            nan = np.full(arrays["time"].shape[0], np.nan)
+            arrays["roll_error"] = z["roll_error"] if "roll_error" in z.files else nan
             return RunLog(
                 **arrays,
                 phase_names=tuple(str(s) for s in z["phase_names"]),
@@ -107,12 +114,12 @@ class RunLog:
         header += [f"q{i}" for i in range(self.joints.shape[1])]
         for name in FIELDS_3:
             header += [f"{name}_{a}_m" for a in "xyz"]
-        header += [f"error_{i}" for i in range(6)]
+        header += [f"error_{i}" for i in range(6)] + ["roll_error_rad"]
         phases = np.array([*self.phase_names, ""], dtype=object)[self.phase]
         solvers = np.array([*self.solver_names, ""], dtype=object)[self.solver]
         floats = np.column_stack(
             [self.sliders, self.joints, self.tip, self.rcm, self.trocar, self.base,
-             self.target_tip, self.error]
+             self.target_tip, self.error, self.roll_error]
         )  # fmt: skip
         t, lam = self.time.tolist(), self.lam.tolist()
         step, it = self.step.tolist(), self.iteration.tolist()
@@ -125,7 +132,7 @@ class RunLog:
 
 ARRAY_FIELDS = (
     "time", "sliders", "joints", "lam", "tip", "rcm", "trocar", "base", "target_tip", "error",
-    "step", "iteration", "solver", "phase",
+    "roll_error", "step", "iteration", "solver", "phase",
 )  # fmt: skip
 
 

@@ -86,19 +86,27 @@ class Controller:
     def check_targets(self, targets: FloatArray) -> None:
         """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose), and
         those the solver's own limits refuse (a solver may define `check_targets`)."""
-        if not self.runner.check_targets(self.robot, targets):
-            from rcmplan.control.curved_targets import solve_curved_pose
-
-            curved = targets.shape[1] == 7
-            solve = solve_curved_pose if curved else solve_pose
-            # A curved needle's poses are found by Newton's method: continue from the last.
-            seed = self._check_seed if curved else None
+        if targets.shape[1] == 7:
+            self._check_curved_targets(targets)
+        elif not self.runner.check_targets(self.robot, targets):
+            seed = None  # each target's pose search starts from the last one's (arms: Newton)
             for target in targets:
-                seed = solve(self.robot, target, seed).q
-            self._check_seed = seed
+                seed = solve_pose(self.robot, target, seed).q
         solver_check = getattr(self.solver, "check_targets", None)
         if solver_check is not None:
             solver_check(targets)
+
+    def _check_curved_targets(self, targets: FloatArray) -> None:
+        """A curved needle's poses are found by Newton's method: each target's solve continues
+        from the last target's joints, across phases."""
+        seed = self.runner.check_curved_targets(self.robot, targets, self._check_seed)
+        if seed is None:
+            from rcmplan.control.curved_targets import solve_curved_pose
+
+            seed = self._check_seed
+            for target in targets:
+                seed = solve_curved_pose(self.robot, target, seed).q
+        self._check_seed = seed
 
     def run(self, phases: list[Phase]) -> RunLog:
         """Run every phase; on any error the partial log is attached to the exception.
@@ -236,11 +244,15 @@ class Controller:
         step: int, it: int, sid: int, pid: int,
     ) -> None:  # fmt: skip
         """One record; `end` is the needle's (shaft's) end, the tip comes from the model. A
-        curved needle's roll error (its fourth task row) is not kept: the log holds six."""
-        err = np.full(6, np.nan)
-        err[: min(6, e.shape[0])] = e[:6] if e.shape[0] != 7 else np.delete(e, 3)
+        curved needle's error (tip x3, roll, RCM or needle base x3) goes to the log's six error
+        columns and its roll error column; a straight needle's roll error is NaN."""
+        err, roll = np.full(6, np.nan), np.nan
+        if e.shape[0] == 7:
+            err, roll = np.delete(e, 3), e[3]
+        else:
+            err[: e.shape[0]] = e
         self.log.append(
             time=self.plant.time, sliders=s, joints=q, lam=self.lam, tip=self.robot.tip(q),
-            rcm=base + self.lam * (end - base), trocar=trocar, base=base,
-            target_tip=target_tip, error=err, step=step, iteration=it, solver=sid, phase=pid,
+            rcm=base + self.lam * (end - base), trocar=trocar, base=base, target_tip=target_tip,
+            error=err, roll_error=roll, step=step, iteration=it, solver=sid, phase=pid,
         )  # fmt: skip

@@ -42,6 +42,13 @@ class Runner(Protocol):
         """Check RCM targets as `solve_pose` would (raising its errors); False: not done."""
         ...
 
+    def check_curved_targets(
+        self, robot: RobotModel, targets: FloatArray, seed: FloatArray | None
+    ) -> FloatArray | None:
+        """Check a curved needle's targets (N, 7) as `solve_curved_pose` would along the path
+        from `seed` (raising its errors); the last target's joints, or None: not done."""
+        ...
+
     def run_phase(
         self, controller: ControlState, solver: Solver, targets: FloatArray, pid: int, sid: int
     ) -> bool:
@@ -58,6 +65,12 @@ class ReferenceRunner:
     def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
         """Not done here."""
         return False
+
+    def check_curved_targets(
+        self, robot: RobotModel, targets: FloatArray, seed: FloatArray | None
+    ) -> FloatArray | None:
+        """Not done here."""
+        return None
 
     def run_phase(
         self, controller: ControlState, solver: Solver, targets: FloatArray, pid: int, sid: int

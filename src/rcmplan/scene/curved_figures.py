@@ -28,14 +28,22 @@ ARC_SEGMENTS = 200
 OUTSIDE_PHASES = ("approach", "withdraw")  # the needle is not in the port
 
 
-def needle_polyline(robot: RobotModel, q: FloatArray) -> FloatArray:
-    """The needle's centre line (N, 3) in [m]: base, shaft's end, then the arc if curved."""
-    points = [robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)]
+def arc_points(robot: CurvedTipRobot) -> FloatArray:
+    """The arc's ARC_SEGMENTS points after the shaft's end (ARC_SEGMENTS, 3), in the needle base
+    frame [m]."""
+    ts = np.linspace(0.0, robot.needle.arc_angle, ARC_SEGMENTS + 1)[1:]
+    return np.array([robot.needle.arc_local(t) for t in ts])
+
+
+def needle_polyline(robot: RobotModel, q: FloatArray, arc: FloatArray | None = None) -> FloatArray:
+    """The needle's centre line (N, 3) in [m]: base, shaft's end, then the arc if curved
+    (`arc`: its points in the needle base frame, `arc_points`, computed if not given)."""
+    points = np.array([robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)])
     if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
         T = robot.base.tool_pose(q)
-        ts = np.linspace(0.0, robot.needle.arc_angle, ARC_SEGMENTS + 1)[1:]
-        points += [T[:3, :3] @ robot.needle.arc_local(t) + T[:3, 3] for t in ts]
-    return np.array(points)
+        local = arc_points(robot) if arc is None else arc
+        points = np.vstack([points, local @ T[:3, :3].T + T[:3, 3]])
+    return points
 
 
 def port_offset(eye: Eye, polyline: FloatArray) -> float:
@@ -44,26 +52,29 @@ def port_offset(eye: Eye, polyline: FloatArray) -> float:
     rel = polyline - eye.port
     x = rel @ eye.axis
     radial = rel - x[:, None] * eye.axis
+    x0, x1 = x[:-1], x[1:]
+    lo, hi = np.minimum(x0, x1), np.maximum(x0, x1)
+    inside = (hi >= 0.0) & (lo <= eye.wall)
+    if not inside.any():
+        return 0.0
+    x0, x1, r0, r1 = x0[inside], x1[inside], radial[:-1][inside], radial[1:][inside]
+    span = np.where(x1 == x0, 1.0, x1 - x0)
     worst = 0.0
-    for i in range(len(x) - 1):
-        x0, x1 = x[i], x[i + 1]
-        lo, hi = sorted((x0, x1))
-        if hi < 0.0 or lo > eye.wall:
-            continue
-        for xc in (max(lo, 0.0), min(hi, eye.wall)):
-            t = 0.0 if x1 == x0 else (xc - x0) / (x1 - x0)
-            worst = max(worst, float(np.linalg.norm(radial[i] + t * (radial[i + 1] - radial[i]))))
+    for xc in (np.maximum(lo[inside], 0.0), np.minimum(hi[inside], eye.wall)):
+        t = np.where(x1 == x0, 0.0, (xc - x0) / span)
+        worst = max(worst, float(np.linalg.norm(r0 + t[:, None] * (r1 - r0), axis=1).max()))
     return worst
 
 
 def port_offsets(robot: RobotModel, eye: Eye, log: RunLog) -> dict[str, float]:
     """The largest port offset in [m] of each phase in which the needle is in the port."""
     out: dict[str, float] = {}
+    arc = arc_points(robot) if isinstance(robot, CurvedTipRobot) and robot.needle.curved else None
     for pid, name in enumerate(log.phase_names):
         rows = np.flatnonzero(log.phase == pid)
         if name in OUTSIDE_PHASES or rows.size == 0:
             continue
-        out[name] = max(port_offset(eye, needle_polyline(robot, log.joints[r])) for r in rows)
+        out[name] = max(port_offset(eye, needle_polyline(robot, log.joints[r], arc)) for r in rows)
     return out
 
 

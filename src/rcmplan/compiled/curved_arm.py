@@ -1,0 +1,137 @@
+"""Compiled curved-needle kinematics of any serial arm: the needle base frame from the chain
+kernels' frames, the tip on the arc, X_c, J_c and the step (`rcmplan.robot.curved
+.CurvedTipRobot` on a `SerialArm`).
+
+The arm travels as the chain kernels' arrays (`chain_kinematics`) with a tail
+(`rcmplan.compiled.curved.pack_curved_arm` builds them): A gains row 5 n + 13 = (x, z, 0, 0),
+the arc's end in the needle base frame (the mount) [m]; ix gains (m_c, the m_c active joints of
+the curved needle: the arm's active joints and its roll joint). The head of both is the arm's
+own, so the chain kernels (frames, the singularity check over the arm's active joints) read them
+unchanged. The work array W has the curved work block (`curved_kernels`) after its joint axes
+rows (`block_row`). The base frame's geometric Jacobian over the curved needle's active joints:
+J_v = z_k x (o - o_k), J_w = z_k for a revolute joint k; J_v = z_k, J_w = 0 for a prismatic one.
+The small kernels the loop calls each iteration are inlined into it (`inline="always"`).
+Imports numba.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from rcmplan._validate import FloatArray
+from rcmplan.compiled import curved_kernels as ck
+from rcmplan.compiled.chain_kinematics import (
+    IntArray,
+    axes_row,
+    frames,
+    joint_axis,
+    needle_axis,
+    needle_point,
+    rotate,
+)
+from rcmplan.compiled.records import CURVED_PINV, CURVED_POSE
+
+
+def work_shape(n: int, m: int, m_c: int) -> tuple[int, int]:
+    """Shape of W for n joints, m active for the straight shaft, m_c for the curved needle."""
+    return axes_row(n) + n + ck.BLOCK_ROWS, max(ck.WIDTH, m + 1, m_c + 1)
+
+
+@njit(cache=True)
+def block_row(n: int) -> int:
+    """First row of the curved work block in W."""
+    return axes_row(n) + n
+
+
+@njit(cache=True, inline="always")
+def active_span(ix: IntArray) -> tuple[int, int]:
+    """(first entry of the curved needle's active joints in ix, their count m_c)."""
+    tail = 2 + ix[0] + ix[1]
+    return tail + 1, ix[tail]
+
+
+@njit(cache=True, inline="always")
+def frame(A: FloatArray, n: int, W: FloatArray) -> tuple[tuple, tuple, tuple, tuple]:
+    """(o, a, b, tip) at the frames in W: the needle base, the shaft axis, the bend direction
+    (the mount's x in the world) and the tip o + x b + z a."""
+    ml = 4 * (n + 2)
+    o = needle_point(A, n, W, 0.0)
+    a = needle_axis(A, n, W)
+    b = rotate(W, 4 * n, A[ml, 0], A[ml + 1, 0], A[ml + 2, 0])
+    x, z = A[5 * n + 13, 0], A[5 * n + 13, 1]
+    tip = (x * b[0] + z * a[0] + o[0], x * b[1] + z * a[1] + o[1], x * b[2] + z * a[2] + o[2])
+    return o, a, b, tip
+
+
+@njit(cache=True, inline="always")
+def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: float,
+               target: FloatArray, e: FloatArray) -> int:  # fmt: skip
+    """The curved solver's error (7,) at the frames in W into e: X_c target - X_c, or the
+    whole pose's (p_tip, rho, p(0)) for CURVED_POSE; returns 7."""
+    n = ix[0]
+    o, a, b, tip = frame(A, n, W)
+    e[0], e[1], e[2] = tip
+    e[3] = ck.roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
+    e[4], e[5], e[6] = o if method == CURVED_POSE else needle_point(A, n, W, lam)
+    ck.error(e, target, e)
+    return ck.WIDTH
+
+
+@njit(cache=True)
+def jacobian(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, pose: bool) -> None:
+    """J_c (7, m_c + 1) at the frames in W into the curved work block."""
+    n = ix[0]
+    c = block_row(n)
+    first, mc = active_span(ix)
+    o, a, _, tip = frame(A, n, W)
+    for j in range(mc):
+        k = ix[first + j]
+        zx, zy, zz = joint_axis(A, n, W, k)
+        if ix[2 + k] != 0:
+            W[c, j], W[c + 1, j], W[c + 2, j] = zx, zy, zz
+            W[c + 3, j], W[c + 4, j], W[c + 5, j] = 0.0, 0.0, 0.0
+            continue
+        dx, dy, dz = o[0] - W[4 * k, 3], o[1] - W[4 * k + 1, 3], o[2] - W[4 * k + 2, 3]
+        W[c, j], W[c + 1, j], W[c + 2, j] = zy * dz - zz * dy, zz * dx - zx * dz, zx * dy - zy * dx
+        W[c + 3, j], W[c + 4, j], W[c + 5, j] = zx, zy, zz
+    p = o if pose else needle_point(A, n, W, lam)
+    ck.assemble(W, c, mc, o, tip, p, a, A[5 * n + 12, 0], pose)
+
+
+@njit(cache=True)
+def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray, gain: float,
+         damping: float, s: FloatArray, lam: float, e: FloatArray,
+         d: FloatArray) -> None:  # fmt: skip
+    """The curved solver's step d = (dq[active_c], dlambda) (m_c + 1,) at joints s for its
+    error e, at the frames in W; a redundant arm's pinv step adds the null-space posture
+    gain (home - q) over the curved needle's active joints."""
+    n = ix[0]
+    c = block_row(n)
+    first, mc = active_span(ix)
+    jacobian(A, ix, W, lam, method == CURVED_POSE)
+    if method == CURVED_PINV and mc + 1 > ck.WIDTH:
+        for j in range(mc):
+            k = ix[first + j]
+            W[c + ck.Z, j] = gain * (A[4 * (n + 3) + k, 3] - s[k])
+        W[c + ck.Z, mc] = 0.0
+    ck.step(W, c, method, mc, K, damping, A[5 * n + 12, 0], e, d)
+
+
+@njit(cache=True, inline="always")
+def tip(A: FloatArray, n: int, W: FloatArray) -> tuple[float, float, float]:
+    """The tip on the arc at the frames in W."""
+    return frame(A, n, W)[3]
+
+
+@njit(cache=True)
+def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: float,
+                  pose: bool, x: FloatArray) -> None:  # fmt: skip
+    """Frames of q into W, X_c (or the whole pose) into x (7,) and J_c into the curved work
+    block's J rows (`block_row` + `curved_kernels.J`)."""
+    n = ix[0]
+    frames(A, ix, q, W)
+    o, a, b, t = frame(A, n, W)
+    x[0], x[1], x[2] = t
+    x[3] = ck.roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
+    x[4], x[5], x[6] = o if pose else needle_point(A, n, W, lam)
+    jacobian(A, ix, W, lam, pose)

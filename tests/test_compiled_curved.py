@@ -1,0 +1,303 @@
+"""The compiled path for a curved needle equals the reference: X_c and J_c, the three steps, whole
+phases of the curved injection (records with the roll error, the plant, lambda) on iRAM!S and the
+UR5, and the reference's exceptions; a straight needle's runs keep their path and records."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import replace
+
+import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they do not skip)
+import numpy as np
+import pytest
+
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled import curved_arm, curved_iramis, curved_phase
+from rcmplan.compiled import curved_kernels as ck
+from rcmplan.compiled.curved import CurvedArrays, arm_work_shape, curved_arrays
+from rcmplan.compiled.kernels import trig
+from rcmplan.compiled.records import CURVED_DLS, CURVED_PINV, CURVED_POSE
+from rcmplan.control import Controller, LoopSettings, Phase, PinvSolver
+from rcmplan.control.curved import (
+    CURVED_POSE_TASKS,
+    CURVED_TASKS,
+    CurvedDlsSolver,
+    CurvedPinvSolver,
+    CurvedPoseSolver,
+    task_jacobian,
+)
+from rcmplan.control.curved_targets import solve_curved_pose
+from rcmplan.control.log import ARRAY_FIELDS, RunLog
+from rcmplan.control.methods import make_free_solver, make_solver
+from rcmplan.control.solvers import Solver
+from rcmplan.control.tasks import stack_value
+from rcmplan.exceptions import ConvergenceError, RcmplanError, SliderLimitError
+from rcmplan.robot.curved import CurvedTipRobot, curved_robot
+from rcmplan.robot.curved_needle import CurvedNeedle
+from rcmplan.robot.registry import make_robot
+from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.scene.procedures import Steps, injection
+from rcmplan.scene.scenario import load_scenario
+from rcmplan.sim import KinematicPlant
+
+TOL = 1e-12
+ROBOTS = ("iramis", "ur5")
+METHODS = {"pinv": CURVED_PINV, "dls": CURVED_DLS}
+
+
+@pytest.fixture(autouse=True)
+def mode_restored() -> Iterator[None]:
+    yield
+    fast_cache.set_mode(None)
+
+
+@pytest.fixture(scope="module", params=ROBOTS)
+def robot(request: pytest.FixtureRequest) -> CurvedTipRobot:
+    base = make_robot(request.param)
+    return curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.25))
+
+
+def arrays_of(robot: CurvedTipRobot) -> CurvedArrays:
+    arrays = curved_arrays(robot)
+    assert arrays is not None
+    return arrays
+
+
+def configurations(robot: CurvedTipRobot, rng: np.random.Generator, n: int) -> np.ndarray:
+    """n joint vectors near home (the roll turned by up to 1 rad)."""
+    scale = np.array([5e-3 if u == "m" else 0.2 for u in robot.actuator_units])
+    scale[robot.roll_joint] = 1.0
+    return robot.home + scale * rng.uniform(-1.0, 1.0, (n, len(robot.home)))
+
+
+def kernel_step(robot: CurvedTipRobot, code: int, solver: Solver, q: np.ndarray, lam: float,
+                e: np.ndarray) -> np.ndarray:  # fmt: skip
+    """The compiled step d (m + 1,) of a curved solver at (q, lambda) for its error e."""
+    arrays, d = arrays_of(robot), np.empty(arrays_of(robot).m + 1)
+    K = np.asarray(getattr(solver, "K", np.ones(7)), dtype=float)
+    damping = float(getattr(solver, "damping", 0.0))
+    if arrays.P is not None:
+        C = np.empty((ck.BLOCK_ROWS, 7))
+        curved_iramis.step(arrays.P, code, K, damping, q, trig(q), lam, e, C, d, np.empty(3))
+        return d
+    A, ix = arrays.arm()
+    W = np.empty(arm_work_shape(arrays))
+    curved_arm.task_jacobian(A, ix, W, q, lam, False, np.empty(7))
+    gain = float(getattr(solver, "posture_gain", 0.0))
+    curved_arm.step(A, ix, W, code, K, gain, damping, q, lam, e, d)
+    return d
+
+
+def test_the_kernels_give_the_models_x_c_and_j_c(robot: CurvedTipRobot, rng) -> None:
+    arrays = arrays_of(robot)
+    for q in configurations(robot, rng, 20):
+        lam = float(rng.uniform())
+        for pose, tasks in ((False, CURVED_TASKS), (True, CURVED_POSE_TASKS)):
+            x, J = np.empty(7), np.empty((7, arrays.m + 1))
+            if arrays.P is not None:
+                C = np.empty((ck.BLOCK_ROWS, 7))
+                curved_iramis.task_jacobian(arrays.P, q, lam, pose, x, C)
+                J = C[ck.J : ck.J + 7]
+            else:
+                W = np.empty(arm_work_shape(arrays))
+                curved_arm.task_jacobian(*arrays.arm(), W, q, lam, pose, x)
+                r = curved_arm.block_row(arrays.n) + ck.J
+                J = W[r : r + 7, : arrays.m + 1]
+            ref = stack_value(tasks, robot, q, lam)
+            dx = x - ref
+            dx[3] = ck.wrap(dx[3])
+            assert np.abs(dx).max() <= TOL
+            np.testing.assert_allclose(J, task_jacobian(tasks, robot, q, lam), rtol=0, atol=TOL)
+
+
+@pytest.mark.parametrize(
+    "solver", [CurvedPinvSolver(), CurvedDlsSolver(), CurvedPoseSolver()], ids=lambda s: s.name
+)
+def test_each_step_equals_the_reference_solvers(robot: CurvedTipRobot, solver, rng) -> None:
+    code = {CurvedPinvSolver: CURVED_PINV, CurvedDlsSolver: CURVED_DLS,
+            CurvedPoseSolver: CURVED_POSE}[type(solver)]  # fmt: skip
+    for q in configurations(robot, rng, 10):
+        lam = float(rng.uniform(0.2, 0.9))
+        x = stack_value(solver.tasks, robot, q, lam)
+        target = x + rng.normal(0.0, 1e-4, 7)
+        e = solver.error(robot, q, lam, target)
+        dq, dlam = solver.step(robot, q, lam, target, e)
+        d = kernel_step(robot, code, solver, q, lam, e)
+        np.testing.assert_allclose(d, [*dq, dlam], rtol=0, atol=TOL)
+
+
+def test_a_satisfied_task_gives_zero_motion(robot: CurvedTipRobot) -> None:
+    q = robot.home.copy()
+    d = kernel_step(robot, CURVED_PINV, CurvedPinvSolver(), q, 0.5, np.zeros(7))
+    assert np.abs(d).max() == 0.0
+
+
+def assert_same_log(a: RunLog, b: RunLog) -> None:
+    assert len(a) == len(b) > 0
+    for k in ARRAY_FIELDS:
+        x, y = getattr(a, k), getattr(b, k)
+        if x.dtype.kind == "f":
+            np.testing.assert_array_equal(np.isnan(x), np.isnan(y), err_msg=k)
+            np.testing.assert_allclose(x, y, rtol=0, atol=TOL, err_msg=k)
+        else:
+            np.testing.assert_array_equal(x, y, err_msg=k)
+    assert a.phase_names == b.phase_names and a.solver_names == b.solver_names
+
+
+def curved_run(name: str, method: str, mode: str, phases: int = 5,
+               settings: LoopSettings | None = None) -> tuple[Controller, RunLog]:  # fmt: skip
+    """The curved injection's first phases (approach and enter: whole poses; insert, p3-p4,
+    p4-p3: X_c) on `mode`'s path, in 0.5 mm / 5 mrad steps (the RCM then moves about 12 um:
+    no RCM bound), as `rcmplan.job` sets them up."""
+    scenario = replace(load_scenario("curved").with_robot(name).with_method(method),
+                       visits=("p4",), steps=Steps(0.5e-3, 5e-3))  # fmt: skip
+    robot = scenario.needle.fit(make_robot(name))
+    assert isinstance(robot, CurvedTipRobot)
+    plant = KinematicPlant(robot.base)
+    plant.reset(robot.home_actuators)
+    solver = make_solver(method, scenario.method_settings, robot)
+    ctl = Controller(plant, solver, make_free_solver(robot, scenario.method_settings),
+                     settings=settings or replace(scenario.loop, rcm_bound=None),
+                     robot=robot)  # fmt: skip
+    fast_cache.set_mode(mode)
+    try:
+        return ctl, ctl.run(scenario.phases(robot)[:phases])
+    finally:
+        fast_cache.set_mode(None)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+@pytest.mark.parametrize("method", METHODS)
+def test_the_curved_injection_gives_the_reference_log(name: str, method: str, monkeypatch) -> None:
+    ref_ctl, ref = curved_run(name, method, "off")
+
+    def no_reference(*args: object) -> None:
+        raise AssertionError("the reference loop ran")
+
+    monkeypatch.setattr(Controller, "converge", no_reference)
+    ctl, log = curved_run(name, method, "on")
+    assert_same_log(log, ref)
+    assert np.isfinite(log.roll_error).all()  # every record states its roll error
+    np.testing.assert_allclose(ctl.plant.read_actuators(), ref_ctl.plant.read_actuators(),
+                               rtol=0, atol=TOL)  # fmt: skip
+    assert ctl.plant.time == pytest.approx(ref_ctl.plant.time, abs=1e-12)
+    assert ctl.lam == pytest.approx(ref_ctl.lam, abs=TOL)
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_a_convergence_stop_raises_the_reference_error_with_the_partial_log(name: str) -> None:
+    settings = LoopSettings(max_iterations=1)
+    errors, logs = [], []
+    for mode in ("off", "on"):
+        with pytest.raises(ConvergenceError) as info:
+            curved_run(name, "pinv", mode, settings=settings)
+        errors.append(str(info.value))
+        logs.append(info.value.log)
+    assert errors[0] == errors[1]
+    assert_same_log(logs[1], logs[0])
+
+
+def test_a_roll_beyond_its_travel_raises_the_reference_error() -> None:
+    base = make_robot("iramis")
+    robot = curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.25))
+    eye = default_eye(robot)
+    pts = default_points(eye)
+    start = solve_curved_pose(robot, np.array([*pts.p3, 0.0, *eye.port]))
+    q0 = start.q.copy()
+    q0[5] = robot.upper[5] - 1e-4  # 0.1 mrad from the roll's travel end, asked for 2 mrad more
+    x0 = stack_value(CURVED_TASKS, robot, q0, start.lam)
+    target = x0 + np.array([0.0, 0.0, 0.0, 2e-3, 0.0, 0.0, 0.0])
+    messages = []
+    for mode in ("off", "on"):
+        plant = KinematicPlant(base)
+        plant.reset(robot.actuators_from_joints(q0))
+        ctl = Controller(plant, CurvedPinvSolver(), robot=robot)
+        ctl.lam = start.lam
+        fast_cache.set_mode(mode)
+        with pytest.raises(SliderLimitError) as info:
+            ctl.run_phase(Phase("roll", target[None, :]))
+        messages.append(str(info.value))
+    assert messages[0] == messages[1]
+
+
+class SteppedPlant(KinematicPlant):
+    """The kinematic plant, stating no exact commands."""
+
+    exact_commands = False
+
+
+def test_a_plant_without_exact_commands_takes_the_reference_loop(robot: CurvedTipRobot) -> None:
+    fast_cache.set_mode("on")
+    ctl = Controller(SteppedPlant(robot.base), CurvedPinvSolver(), robot=robot)
+    target = stack_value(CURVED_TASKS, robot, robot.home, 0.5)[None, :]
+    assert not curved_phase.run_if_fast(ctl, ctl.solver, target, 0, 0)
+
+
+def test_the_whole_pose_step_of_a_redundant_arm_takes_the_reference_loop() -> None:
+    base = make_robot("panda")
+    robot = curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.25))
+    fast_cache.set_mode("on")
+    plant = KinematicPlant(base)
+    ctl = Controller(plant, CurvedPinvSolver(), robot=robot)
+    target = stack_value(CURVED_POSE_TASKS, robot, robot.home, 0.0)[None, :]
+    assert arrays_of(robot).m == 7
+    assert not curved_phase.run_if_fast(ctl, CurvedPoseSolver(), target, 0, 0)
+
+
+def test_a_straight_needle_keeps_the_straight_records_on_the_compiled_path() -> None:
+    logs = []
+    base = make_robot("iramis")
+    for robot in (base, curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.0))):
+        assert curved_arrays(robot) is None
+        eye = default_eye(robot)
+        plant = KinematicPlant(base)
+        plant.reset(robot.home_actuators)
+        fast_cache.set_mode("on")
+        ctl = Controller(plant, PinvSolver(), robot=robot)
+        logs.append(ctl.run(injection(robot, eye, default_points(eye), visits=("p4",))))
+    assert_same_log(logs[1], logs[0])
+    assert np.isnan(logs[0].roll_error).all()
+
+
+def curved_targets(robot: CurvedTipRobot) -> list[np.ndarray]:
+    """The X_c targets of every RCM phase of the `curved` scenario (checked before motion)."""
+    scenario = load_scenario("curved").with_robot(robot.name)
+    return [ph.plan(robot.home) for ph in scenario.phases(robot) if ph.kind == "rcm"]
+
+
+def test_the_target_screen_follows_the_reference_newton_path(robot: CurvedTipRobot,
+                                                             monkeypatch) -> None:  # fmt: skip
+    seeds = []
+    for mode in ("off", "on"):
+        fast_cache.set_mode(mode)
+        ctl = Controller(KinematicPlant(robot.base), CurvedPinvSolver(), robot=robot)
+        if mode == "on":  # every target cleared: no reference solve
+            monkeypatch.setattr("rcmplan.control.curved_targets.solve_curved_pose", None)
+        for targets in curved_targets(robot):
+            ctl.check_targets(targets)
+        seeds.append(ctl._check_seed)
+    np.testing.assert_allclose(seeds[1], seeds[0], rtol=0, atol=TOL)
+
+
+@pytest.mark.parametrize("bad", ["far", "roll", "nan"])
+def test_a_target_the_needle_cannot_take_raises_the_reference_error(
+    robot: CurvedTipRobot, bad: str
+) -> None:
+    if bad == "roll" and robot.name != "iramis":
+        pytest.skip("the UR5's last joint turns by +-2 pi: every roll lies within its travel")
+    targets = curved_targets(robot)[1].copy()
+    if bad == "far":
+        targets[20, :3] += np.array([0.0, 0.0, 0.3])  # 30 cm beyond the shaft
+    elif bad == "roll":  # the roll far along, beyond iRAM!S's q5 travel after the last target
+        targets[-1, 3] = targets[-1, 3] + 3.0
+    else:
+        targets[20, 5] = np.nan
+    messages = []
+    for mode in ("off", "on"):
+        fast_cache.set_mode(mode)
+        ctl = Controller(KinematicPlant(robot.base), CurvedPinvSolver(), robot=robot)
+        with pytest.raises(RcmplanError) as info:
+            ctl.check_targets(targets)
+        messages.append(f"{type(info.value).__name__}: {info.value}")
+    assert messages[1] == messages[0]
+    assert messages[0].startswith("InvalidInputError" if bad == "nan" else "UnreachableTarget")
