@@ -39,7 +39,6 @@ from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 
-
 # An actuator step within this fraction of speed x dt is at its speed bound (DAQP returns bound
 # values exactly; the fraction covers rounding of the map back from joints).
 SPEED_ACTIVE = 1e-9
