@@ -145,7 +145,8 @@ class QpSolver:
     def free_solver(self) -> LimitedTipSolver:
         """The free-space solver that holds this QP's actuator travel and speed outside the eye
         (the controller's default for free phases with this solver)."""
-        return LimitedTipSolver(self.dt, self.limits.travel_margin, tol=self.tol)
+        lim = self.limits
+        return LimitedTipSolver(self.dt, lim.travel_margin, tol=self.tol, tip_speed=lim.tip_speed)
 
     # --- helpers ----------------------------------------------------------------------------
     def task_error(

@@ -100,13 +100,13 @@ def no_rows(kin: Kinematics) -> Constraint:
 
 
 def damper_row(
-    grad: FloatArray, value: float, floor: float, gain: float
+    grad: FloatArray, value: float, floor: float, gain: float, recovery: float = RECOVERY
 ) -> tuple[FloatArray, float]:
     """One velocity-damper row G x <= h for value + grad x SCALE >= floor, approached at `gain`.
 
     value_next - floor >= (1 - gain)(value - floor) to first order; past the floor, the state
-    must not get worse and recovers by up to RECOVERY per step.
+    must not get worse and recovers by up to `recovery` per step.
     """
     gap = value - floor
-    need = -gain * gap if gap >= 0.0 else min(-gain * gap, RECOVERY)
+    need = -gain * gap if gap >= 0.0 else min(-gain * gap, recovery)
     return -grad, -need / SCALE
