@@ -110,7 +110,7 @@ def limit_text(log: RunLog, task: Visits) -> tuple[int, str]:
 
 def rows(n_states: int = 2000) -> list[dict[str, Any]]:
     """Every figure of rcmplan's QP beside the DQ Robotics peer."""
-    names = ("p4", "p5", "p6", "p7")
+    names: tuple[str, ...] = ("p4", "p5", "p6", "p7")
     if quick():
         n_states, names = 300, ("p4",)
     task = visits(names)

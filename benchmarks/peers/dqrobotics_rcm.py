@@ -156,9 +156,10 @@ class DqRun:
         tip = np.array([robot.tip(q) for q in self.joints])
         axis = tip - base
         lam = np.sum((self.trocar - base) * axis, axis=1) / np.sum(axis * axis, axis=1)
+        period = np.arange(1, n + 1, dtype=np.float64) * 1e-3  # records 1 ms apart
         return RunLog(
-            time=1e-3 * np.arange(1, n + 1), sliders=sliders, joints=self.joints, lam=lam,
-            tip=tip, rcm=base + lam[:, None] * axis, trocar=self.trocar, base=base,
+            time=period, sliders=sliders, joints=self.joints, lam=lam, tip=tip,
+            rcm=base + lam[:, None] * axis, trocar=self.trocar, base=base,
             target_tip=self.target_tip, error=np.full((n, 6), np.nan), step=self.step,
             iteration=np.zeros(n, dtype=np.int64), solver=np.zeros(n, dtype=np.int64),
             phase=self.phase, phase_names=self.phase_names, solver_names=("dqrobotics-qp",),
