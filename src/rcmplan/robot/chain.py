@@ -148,14 +148,18 @@ class JointChain:
     def point_jacobian(self, T: FloatArray, p: FloatArray) -> FloatArray:
         """Geometric Jacobian (6, n) of the world point p (3,) moving with the end frame, given
         the frames T (n + 1, 4, 4) of `frames` (eqs. 2.9-2.11)."""
-        J = np.zeros((6, self.n))
-        for k in range(self.n):
-            z = T[k, :3, :3] @ self.axes[k]
-            if self.prismatic[k]:
-                J[:3, k] = z  # eq. 2.11
-            else:
-                J[:3, k] = np.cross(z, p - T[k, :3, 3])  # eq. 2.10
-                J[3:, k] = z
+        n = self.n
+        z = np.einsum("kij,kj->ki", T[:n, :3, :3], np.asarray(self.axes))  # joint axes, world
+        r = p - T[:n, :3, 3]
+        lin = np.empty((n, 3))  # z x r for a revolute joint (eq. 2.10), z for a prismatic one
+        lin[:, 0] = z[:, 1] * r[:, 2] - z[:, 2] * r[:, 1]
+        lin[:, 1] = z[:, 2] * r[:, 0] - z[:, 0] * r[:, 2]
+        lin[:, 2] = z[:, 0] * r[:, 1] - z[:, 1] * r[:, 0]
+        prismatic = np.asarray(self.prismatic, dtype=bool)
+        lin[prismatic] = z[prismatic]  # eq. 2.11
+        J = np.zeros((6, n))
+        J[:3] = lin.T
+        J[3:] = np.where(prismatic[:, None], 0.0, z).T
         return J
 
     @classmethod

@@ -23,7 +23,7 @@ from rcmplan.exceptions import (
     UnreachableTargetError,
 )
 from rcmplan.robot.chain import JointChain
-from rcmplan.robot.needle import StraightNeedle, angles_from_axis, angles_jacobian
+from rcmplan.robot.needle import StraightNeedle, angles_from_axis, angles_jacobian, cross3
 
 IK_ITERATIONS = 100  # Newton iterations of `SerialArm.needle_pose`
 IK_TOLERANCE = 1e-12  # [m] and [rad]
@@ -268,9 +268,9 @@ class SerialArm:
         a = self.needle_axis(q)
         helper = np.zeros(3)
         helper[int(np.argmin(np.abs(a)))] = 1.0
-        n1 = np.cross(a, helper)
+        n1 = cross3(a, helper)
         n1 /= np.linalg.norm(n1)
-        N = np.array([n1, np.cross(a, n1)])
+        N = np.array([n1, cross3(a, n1)])
         J = self._point_jacobian(q, 1.0)[:, list(self.active)]
         M = np.vstack([J[:3] / self.needle_length, N @ J[3:]])
         sv = np.linalg.svd(M, compute_uv=False)
