@@ -94,9 +94,11 @@ def qp_kernels() -> ModuleType:
 def qp_loop() -> ModuleType | None:
     """The compiled QP loop (`qp_loop`), or None if DAQP's C solver cannot be called from
     compiled code here (`daqp_c.abi_ok`: a DAQP version whose structures are not the ones
-    copied); checked once per process. MissingExtraError without numba or DAQP."""
+    copied, or no DAQP at all: the reference path then raises MissingExtraError at its first
+    solve); checked once per process. MissingExtraError without numba."""
     require_extra("numba", "fast")
-    require_extra("daqp", "qp")
+    if importlib.util.find_spec("daqp") is None:
+        return None
     if _state.get("daqp_abi") is None:
         _state["daqp_abi"] = importlib.import_module("rcmplan.compiled.daqp_c").abi_ok()
     if not _state["daqp_abi"]:

@@ -60,6 +60,19 @@ def applies(controller: Controller, solver: Solver) -> bool:
     )
 
 
+def runs_compiled(solver: Solver, exact_commands: bool) -> bool:
+    """Whether a phase of this solver on a plant with (or without) exact commands would run
+    compiled once the fast path is on: `applies`, and DAQP's binding and the eye usable."""
+    return (
+        type(solver) is QpSolver
+        and solver.backend == "daqp"
+        and not solver.curved
+        and exact_commands
+        and fast_cache.qp_loop() is not None
+        and qp_params(solver.robot, solver) is not None
+    )
+
+
 def run_if_ready(
     controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
