@@ -22,7 +22,7 @@ from rcmplan.control.qp_backends import solve
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, StepInput, build_step
 from rcmplan.control.targets import rcm_target
-from rcmplan.exceptions import ConvergenceError, QPError
+from rcmplan.exceptions import ConvergenceError, InvalidInputError, QPError
 from rcmplan.scene.constrained import grazing_spiral
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
@@ -248,6 +248,8 @@ def test_compiled_qp_declines_what_it_does_not_reproduce(
         monkeypatch.setitem(fast_cache._state, "daqp_abi", False)
     else:
         solver = QpSolver(robot, SteepEye(eye))
+        with pytest.raises(InvalidInputError, match="sphere"):
+            FastQpStep(solver)
     ctl = Controller(KinematicPlant(robot), solver)
     targets = injection(robot, eye, default_points(eye))[2].plan(robot.home)
     assert not fast_converge_phase(ctl, solver, targets, ctl.log.phase_id("p"), 0)

@@ -37,7 +37,7 @@ from rcmplan.control.limits.base import SCALE
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_problem import QPProblem, StepQP
 from rcmplan.control.solvers import Solver
-from rcmplan.exceptions import QPError
+from rcmplan.exceptions import InvalidInputError, QPError
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -135,14 +135,15 @@ class FastQpStep:
     benchmarks; the loop calls the kernels directly).
 
     Args:
-        solver: The QP solver whose step is reproduced; its robot must be one the kernels
-            reproduce (iRAM!S) and its eye spherical. MissingExtraError without numba or DAQP.
+        solver: The QP solver whose step is reproduced; its robot must be an Iramis and its eye
+            spherical (InvalidInputError otherwise). MissingExtraError without numba or DAQP.
     """
 
     def __init__(self, solver: QpSolver) -> None:
         params = qp_params(solver.robot, solver)
         if params is None:
-            raise ValueError("the solver's eye is not a sphere the kernels reproduce")
+            valid = "an eye whose retina is a sphere (retina_radius - |p - center|)"
+            raise InvalidInputError("eye", solver.eye, valid)
         self.solver = solver
         self.P = robot_params(solver.robot)
         self.Q, self.contacts = params
