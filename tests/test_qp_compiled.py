@@ -126,8 +126,9 @@ def test_compiled_step_solves_to_the_reference_solvers_step(robot: Iramis, rng) 
                 continue
             x, e_fast = fast.solve(q, lam, target)
             np.testing.assert_allclose(x, x_ref, rtol=0, atol=X_TOL)
-            np.testing.assert_allclose(e_fast, ref.task @ x_ref / solver.K, rtol=0,
-                                       atol=X_TOL * SCALE)  # fmt: skip
+            # QpSolver.error: J x* / K, or the plain error for a step at full actuator speed.
+            e_ref = e if solver.speed_limited(robot, x_ref) else ref.task @ x_ref / solver.K
+            np.testing.assert_allclose(e_fast, e_ref, rtol=0, atol=X_TOL * SCALE)
             outcomes["solved"] += 1
     assert outcomes["solved"] > 300 and outcomes["infeasible"] > 0, outcomes
 

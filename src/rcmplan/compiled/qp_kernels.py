@@ -56,7 +56,7 @@ from rcmplan.compiled.qp_params import (
     SPEED,
     TRAVEL_MARGIN,
 )
-from rcmplan.control.limits.base import RECOVERY, SCALE
+from rcmplan.control.limits.base import RECOVERY, SCALE, SPEED_ACTIVE
 
 N_VAR = 6  # L1..L5 and l dlambda
 N_BOUNDS = 6
@@ -337,7 +337,8 @@ def solve_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray
                q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
                e: FloatArray, qp: tuple) -> int:  # fmt: skip
     """Build and solve the step's QP; returns DAQP's exit flag (1: optimal). The solution is
-    in qp[X]; e (6,) holds the error a feasible step removes, J x* / K (`QpSolver.error`)."""
+    in qp[X]; e (6,) holds the error a feasible step removes, J x* / K, or the plain X_ext
+    error when an actuator moves at full speed (`QpSolver.error`)."""
     rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
     H, f, A, upper, lower, sense, task_ = qp[:7]
     x, lam_d, problem, result, settings = qp[10:]
@@ -345,6 +346,9 @@ def solve_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray
                     settings)  # fmt: skip
     if flag != 1:
         return flag
+    for j in range(5):  # a step at full speed leaves the plain error (`QpSolver.speed_limited`)
+        if abs(x[j]) >= (1.0 - SPEED_ACTIVE) * (Q[SPEED + j] * Q[DT] / SCALE):
+            return flag
     for i in range(6):
         acc = 0.0
         for j in range(N_VAR):

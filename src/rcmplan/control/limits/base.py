@@ -18,6 +18,9 @@ from rcmplan.robot.model import RobotModel
 
 SCALE = 1e-6  # [m] or [rad] per unit of the decision variables
 RECOVERY = 1e-6  # [m] largest push back per step when a damped quantity is past its floor
+# An actuator step within this fraction of speed x dt is at its speed bound (DAQP returns bound
+# values exactly; the fraction covers rounding).
+SPEED_ACTIVE = 1e-9
 
 
 @dataclass(frozen=True)
