@@ -36,7 +36,7 @@ from rcmplan.control.log import RunLog
 from rcmplan.control.loop import Controller
 from rcmplan.control.qp import make_qp
 from rcmplan.control.targets import rcm_target
-from rcmplan.scene.constrained import violations
+from rcmplan.analysis.limits import violations
 from rcmplan.sim import KinematicPlant
 
 PEER = "DQ Robotics + quadprog"

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from fd import fd_jacobian
-from rcmplan.scene.constrained import violations
+from rcmplan.analysis.limits import violations
 
 for _module in ("dqrobotics", "quadprog"):
     pytest.importorskip(_module, reason=f"the DQ Robotics peer needs {_module} (dev extra)")

@@ -367,7 +367,7 @@ def main() -> None:
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     from peers.visits import visits
-    from rcmplan.scene.constrained import violations
+    from rcmplan.analysis.limits import violations
 
     parser = argparse.ArgumentParser(description=main.__doc__)
     parser.add_argument("--rcm", choices=RCM_FORMS, default="moment", help="RCM rows")
