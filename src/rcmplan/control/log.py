@@ -39,14 +39,18 @@ class RunLog:
     base: FloatArray
     target_tip: FloatArray
     error: FloatArray
-    roll_error: FloatArray
     step: NDArray[np.int64]
     iteration: NDArray[np.int64]
     solver: NDArray[np.int64]
     phase: NDArray[np.int64]
+    roll_error: FloatArray = field(default_factory=lambda: np.empty(0))
     phase_names: tuple[str, ...] = ()
     solver_names: tuple[str, ...] = ()
     actuator_labels: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.roll_error.size == 0 < self.time.shape[0]:  # not given: no roll error stated
+            object.__setattr__(self, "roll_error", np.full(self.time.shape[0], np.nan))
 
     def __len__(self) -> int:
         return int(self.time.shape[0])
@@ -88,11 +92,9 @@ class RunLog:
     @staticmethod
     def load_npz(path: str | Path) -> RunLog:
         """Read a log written by save_npz (one written before the roll error was logged gets a
-        NaN roll error)."""
+        NaN roll error, `RunLog`'s default)."""
         with np.load(path) as z:
-            arrays = {k: z[k] for k in ARRAY_FIELDS if k != "roll_error"}
-            nan = np.full(arrays["time"].shape[0], np.nan)
-            arrays["roll_error"] = z["roll_error"] if "roll_error" in z.files else nan
+            arrays = {k: z[k] for k in ARRAY_FIELDS if k in z.files or k != "roll_error"}
             return RunLog(
                 **arrays,
                 phase_names=tuple(str(s) for s in z["phase_names"]),
