@@ -12,7 +12,7 @@ import pytest
 from rcmplan.control import Controller, Phase, PinvSolver
 from rcmplan.control.curved import CurvedPinvSolver
 from rcmplan.control.curved_targets import solve_curved_pose
-from rcmplan.control.log import ARRAY_FIELDS, RunLog
+from rcmplan.control.log import ARRAY_FIELDS, LogBuilder, RunLog
 from rcmplan.control.runner import ReferenceRunner
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.robot.curved import CurvedTipRobot, curved_robot
@@ -89,3 +89,14 @@ def test_an_npz_written_without_the_roll_error_loads_with_nan(
     back = RunLog.load_npz(tmp_path / "old.npz")
     assert len(back) == len(log) and np.isnan(back.roll_error).all()
     np.testing.assert_array_equal(back.error, log.error)
+
+
+def test_records_and_logs_built_without_a_roll_error_hold_nan(robot: CurvedTipRobot) -> None:
+    log, _ = curved_log(robot)
+    builder = LogBuilder()
+    row = {k: getattr(log, k)[0] for k in ARRAY_FIELDS if k != "roll_error"}
+    builder.append(**row)
+    builder.extend(2, **{k: getattr(log, k)[:2] for k in row})
+    assert np.isnan(builder.finish().roll_error).all()
+    arrays = {k: getattr(log, k) for k in row}
+    assert np.isnan(RunLog(**arrays).roll_error).all()

@@ -141,6 +141,7 @@ ARRAY_FIELDS = (
 SHAPES = {"sliders": 6, "joints": 6, "tip": 3, "rcm": 3, "trocar": 3, "base": 3,
           "target_tip": 3, "error": 6}  # fmt: skip
 INT_FIELDS = ("step", "iteration", "solver", "phase")
+OPTIONAL = {"roll_error": np.nan}  # fields a record may leave out, with their value then
 WIDE = ("sliders", "joints")  # one column per actuator or joint of the robot (iRAM!S: 6)
 
 
@@ -179,15 +180,17 @@ class LogBuilder:
         return self.solver_names.index(name)
 
     def append(self, **record: object) -> None:
-        """Add one record; keys are the RunLog array fields."""
+        """Add one record; keys are the RunLog array fields (`roll_error` may be left out:
+        NaN)."""
         for k in ARRAY_FIELDS:
-            self._rows[k].append(record[k])
+            self._rows[k].append(record[k] if k in record else OPTIONAL[k])
 
     def extend(self, n: int, **columns: object) -> None:
-        """Add n records at once; each field is an array of n values (or one broadcast value)."""
+        """Add n records at once; each field is an array of n values (or one broadcast value;
+        `roll_error` may be left out: NaN)."""
         self._flush()
         for k in ARRAY_FIELDS:
-            col = np.asarray(columns[k])
+            col = np.asarray(columns[k] if k in columns else OPTIONAL[k])
             full = col if col.ndim and col.shape[0] == n else np.broadcast_to(col, (n, *col.shape))
             self._blocks[k].append(_column(k, full, n))
         self._n_blocks += n
