@@ -63,10 +63,7 @@ from rcmplan.compiled.records import (
 def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: float,
                target: FloatArray, tip_t: FloatArray, pivot: bool,
                e: FloatArray) -> int:  # fmt: skip
-    """The solver's error at the frames in W into e; returns its length (6, 3 for TIP, 7 for a
-    curved needle's)."""
-    if method >= CURVED:
-        return curved_arm.task_error(A, ix, W, method, lam, target, e)
+    """The solver's error at the frames in W into e; returns its length (6, or 3 for TIP)."""
     n = ix[0]
     p_tip = needle_point(A, n, W, 1.0)
     if method == TIP:
@@ -93,10 +90,8 @@ def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: flo
 def record(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float, s: FloatArray,
            lam: float, trocar: FloatArray, tip_t: FloatArray, e: FloatArray,
            ne: int) -> None:  # fmt: skip
-    """One record into row (`record_width(n)`,), a curved needle's (ne = 7: the arc's tip, the
-    six position errors, the roll error last) into row (`record_width(n, roll=True)`,)."""
-    base, end = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
-    tip = curved_arm.tip(A, n, W) if ne == 7 else end
+    """One record into row (`record_width(n)`,); see the module docstring."""
+    base, tip = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
     row[0] = t
     for i in range(n):
         row[1 + i], row[1 + n + i] = s[i], s[i]
@@ -104,15 +99,24 @@ def record(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float, s: F
     row[o] = lam
     for i in range(3):
         row[o + 1 + i] = tip[i]
-        row[o + 4 + i] = base[i] + lam * (end[i] - base[i])
+        row[o + 4 + i] = base[i] + lam * (tip[i] - base[i])
         row[o + 7 + i], row[o + 10 + i], row[o + 13 + i] = trocar[i], base[i], tip_t[i]
-    if ne == 7:
-        for i in range(6):
-            row[o + 16 + i] = e[i] if i < 3 else e[i + 1]
-        row[o + 22] = e[3]
-        return
     for i in range(6):
         row[o + 16 + i] = e[i] if i < ne else np.nan
+
+
+@njit(cache=True)
+def record_curved(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float,
+                  s: FloatArray, lam: float, trocar: FloatArray, tip_t: FloatArray,
+                  e: FloatArray) -> None:  # fmt: skip
+    """A curved needle's record into row (`record_width(n, roll=True)`,): `record`'s fields
+    with the arc's tip, the six position errors (tip, RCM) and the roll error last."""
+    record(A, n, W, row, t, s, lam, trocar, tip_t, e, 6)
+    o = 2 * n + 1
+    row[o + 1], row[o + 2], row[o + 3] = curved_arm.tip(A, n, W)
+    for i in range(3):
+        row[o + 19 + i] = e[4 + i]
+    row[o + 22] = e[3]
 
 
 @njit(cache=True)
@@ -121,12 +125,10 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
          d: FloatArray) -> None:  # fmt: skip
     """The solver's step d = (dq[active], dlambda) at joints s from its error e, at the frames
     in W (`PinvSolver`, `DlsSolver`, `TipSolver`), after the singularity check, which leaves
-    d p(1) / d theta_ext in W's J rows 0..2; a curved needle's (`curved_arm.step`)."""
+    d p(1) / d theta_ext in W's J rows 0..2."""
     n, m = ix[0], ix[1]
     o = 4 * (n + 1)
-    if method >= CURVED:
-        curved_arm.step(A, ix, W, method, K, gain, damping, s, lam, e, d)
-    elif method == TIP:
+    if method == TIP:
         gram_solve(W, o, 3, m, damping, e, d)
         d[m] = 0.0
     elif method == DLS:
@@ -148,8 +150,8 @@ def arm_iterate(
     (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). `framed`: W already holds
     the frames of s."""
     n, m = ix[0], ix[1]
-    first = 2 + n  # the moving joints: the arm's active ones, or the curved needle's
-    if method >= CURVED:
+    first, curved = 2 + n, method >= CURVED  # the moving joints: the arm's active ones
+    if curved:  # or the curved needle's (with the roll joint)
         first, m = curved_arm.active_span(ix)
     e = fail[2 * n :]
     for i in range(n):
@@ -164,8 +166,13 @@ def arm_iterate(
             num += (trocar[i] - base[i]) * axis
             den += axis * axis
         state[0] = min(1.0, max(0.0, num / den))  # the needle point closest to the trocar
-    ne = task_error(A, ix, W, method, state[0], target, tip_t, pivot, e)
-    if it > 0:
+    if curved:
+        ne = curved_arm.task_error(A, ix, W, method, state[0], target, e)
+    else:
+        ne = task_error(A, ix, W, method, state[0], target, tip_t, pivot, e)
+    if it > 0 and curved:
+        record_curved(A, n, W, row, state[1], s, state[0], trocar, tip_t, e)
+    elif it > 0:
         record(A, n, W, row, state[1], s, state[0], trocar, tip_t, e, ne)
     if converged(e, tol, ne):
         return DONE
@@ -173,7 +180,10 @@ def arm_iterate(
         return NO_CONVERGENCE
     if is_singular(A, ix, W, thr):
         return SINGULAR
-    step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
+    if curved:
+        curved_arm.step(A, ix, W, method, K, gain, damping, s, state[0], e, d)
+    else:
+        step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
     for i in range(n):
         fail[n + i] = s[i]
     for j in range(m):

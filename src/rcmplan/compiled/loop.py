@@ -66,7 +66,7 @@ def put(dst: FloatArray, i: int, src: FloatArray, j: int, n: int) -> None:
         dst[i + k] = src[j + k]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def holds_rcm(method: int) -> bool:
     """True for a method with RCM targets (False: the free-space tip and whole-pose solvers)."""
     return method != TIP and method != CURVED_POSE
@@ -101,10 +101,7 @@ def task_error(
     P: FloatArray, method: int, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
     tip_t: FloatArray, pivot: bool, e: FloatArray, w: FloatArray,
 ) -> int:  # fmt: skip
-    """The solver's task error into e; returns its length (6, 3 for the tip solver, 7 for a
-    curved needle's)."""
-    if method >= CURVED:
-        return curved_iramis.task_error(P, method, q, tr, lam, target, e, w)
+    """The solver's task error into e; returns its length (6, or 3 for the tip solver)."""
     if method <= PINV_THESIS:
         task(P, q, tr, lam, e)
         for i in range(6):
@@ -133,11 +130,8 @@ def solve_step(
     lam: float, pivot: bool, e: FloatArray, J: FloatArray, A: FloatArray, f: FloatArray,
     d: FloatArray,
 ) -> None:  # fmt: skip
-    """The solver's step (dq0..dq4, dlambda) into d, (dq0..dq5, dlambda) for a curved needle;
-    J, A, f are scratch (J also the curved needle's work block, `BLOCK_ROWS` x 7 or more)."""
-    if method >= CURVED:
-        curved_iramis.step(P, method, K, damping, q, tr, lam, e, J, d, f)
-    elif method <= PINV_THESIS:
+    """The solver's step (dq0..dq4, dlambda) into d; J, A, f are scratch."""
+    if method <= PINV_THESIS:
         jacobian_a(P, q, tr, lam, method == PINV_THESIS, J)
         for i in range(6):
             f[i] = K[i] * e[i]
@@ -159,28 +153,33 @@ def record(
     P: FloatArray, row: FloatArray, t: float, s: FloatArray, q: FloatArray, tr: tuple, lam: float,
     trocar: FloatArray, tip_t: FloatArray, e: FloatArray, m: int,
 ) -> None:  # fmt: skip
-    """One log record (see REC_COLUMNS) into row (35,); a curved needle's (m = 7: the arc's tip,
-    the six position errors, the roll error last) into row (36,)."""
+    """One log record (see REC_COLUMNS) into row (35,)."""
     row[0] = t
     put(row, 1, s, 0, 6)
     put(row, 7, q, 0, 6)
     row[13] = lam
+    point(P, q, tr, 1.0, row[14:17])
     point(P, q, tr, lam, row[17:20])
     put(row, 20, trocar, 0, 3)
     point(P, q, tr, 0.0, row[23:26])
     put(row, 26, tip_t, 0, 3)
-    if m == 7:
-        o = (row[23], row[24], row[25])
-        a, b = curved_iramis.axes(q, tr)
-        row[14], row[15], row[16] = curved_iramis.tip_of(P, o, a, b)
-        put(row, 29, e, 0, 3)
-        put(row, 32, e, 4, 3)
-        row[35] = e[3]
-        return
-    point(P, q, tr, 1.0, row[14:17])
     for i in range(29 + m, 35):
         row[i] = np.nan
     put(row, 29, e, 0, m)
+
+
+@njit(cache=True)
+def record_curved(
+    P: FloatArray, row: FloatArray, t: float, s: FloatArray, q: FloatArray, tr: tuple, lam: float,
+    trocar: FloatArray, tip_t: FloatArray, e: FloatArray,
+) -> None:  # fmt: skip
+    """A curved needle's record into row (36,): `record`'s fields with the arc's tip, the six
+    position errors (tip, RCM) and the roll error last."""
+    record(P, row, t, s, q, tr, lam, trocar, tip_t, e, 6)
+    a, b = curved_iramis.axes(q, tr)
+    row[14], row[15], row[16] = curved_iramis.tip_of(P, (row[23], row[24], row[25]), a, b)
+    put(row, 32, e, 4, 3)
+    row[35] = e[3]
 
 
 @njit(cache=True)
@@ -212,8 +211,14 @@ def iterate(
     tr = trig(q)
     if holds_rcm(method) and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
-    m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
-    if it > 0:
+    curved = method >= CURVED  # its error and step: `curved_iramis`, J its work block
+    if curved:
+        m = curved_iramis.task_error(P, method, q, tr, state[0], target, e, w)
+    else:
+        m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
+    if it > 0 and curved:
+        record_curved(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e)
+    elif it > 0:
         record(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e, m)
     if converged(e, tol, m):
         return DONE
@@ -221,8 +226,11 @@ def iterate(
         return NO_CONVERGENCE
     if min(abs(tr[0]), abs(tr[2])) < thr:
         return SINGULAR
-    solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
-    moved = 6 if method >= CURVED else 5  # a curved needle's roll q5 is active
+    if curved:
+        curved_iramis.step(P, method, K, damping, q, tr, state[0], e, J, d, f)
+    else:
+        solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
+    moved = 6 if curved else 5  # a curved needle's roll q5 is active
     for i in range(6):
         qn[i] = q[i] + d[i] if i < moved else q[i]
     state[0] += d[moved]
