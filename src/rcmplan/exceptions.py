@@ -301,3 +301,39 @@ class UnsupportedJointError(InvalidInputError):
         self.kind = kind
         valid = "revolute, continuous, prismatic or fixed joints (no mimic) on the chain's path"
         super().__init__(f"joint {joint!r} type", kind, valid)
+
+
+class RunFolderError(RcmplanError):
+    """A folder or file given to `rcmplan view` is not a run rcmplan can show: not a run
+    folder, a log written by another version, a truncated or damaged file.
+
+    Attributes:
+        path: The folder or file at fault.
+        reason: What is wrong with it and what a run folder holds.
+    """
+
+    status = "invalid_run_folder"
+
+    def __init__(self, path: Any, reason: str) -> None:
+        self.path = path
+        self.reason = reason
+        super().__init__(f"cannot show {str(path)!r}: {reason}")
+
+
+class PortInUseError(RcmplanError):
+    """A server cannot listen on a port another program (another viewer) holds.
+
+    Attributes:
+        host: The address asked for. port: The port asked for.
+    """
+
+    status = "port_in_use"
+
+    def __init__(self, host: str, port: int, reason: str = "") -> None:
+        self.host = host
+        self.port = port
+        why = f" ({reason})" if reason else ""
+        super().__init__(
+            f"port {port} on {host} is in use{why}: is another viewer running? "
+            f"Stop it or choose another port with --port (1024-65535, or 0 for any free port)"
+        )
