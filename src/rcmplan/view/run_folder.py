@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -149,7 +150,7 @@ def read_log(path: Path) -> RunLog:
             arrays = {k: np.asarray(z[k]) for k in ARRAY_FIELDS}
             names = {k: tuple(str(s) for s in z[k]) for k in ("phase_names", "solver_names")}
             labels = tuple(str(s) for s in z["actuator_labels"]) if "actuator_labels" in z else ()
-    except (zipfile.BadZipFile, EOFError, ValueError, OSError, KeyError) as exc:
+    except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, OSError, KeyError) as exc:
         raise RunFolderError(path, f"truncated or damaged ({type(exc).__name__}: {exc})") from exc
     _check_shapes(path, arrays, len(names["phase_names"]))
     return RunLog(**arrays, **names, actuator_labels=labels)

@@ -65,6 +65,11 @@ def start_server(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT, label: str 
     if port and server.get_port() != port:  # taken between the check and viser's bind
         stop_server(server)
         raise PortInUseError(host, port)
+    # Plain lights, no shadows and no environment map: the scene is simple shapes, and a
+    # browser without a GPU (software WebGL) then draws its first frame in seconds, not tens.
+    server.scene.configure_environment_map(None)
+    server.scene.configure_default_lights(enabled=True, cast_shadow=False)
+    server.scene.add_light_ambient("/lights/ambient", intensity=0.8)
     return server
 
 
