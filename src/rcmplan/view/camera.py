@@ -12,16 +12,21 @@ from rcmplan.robot.model import RobotModel
 from rcmplan.scene.record import SceneRecord
 
 
-def eye_view(record: SceneRecord, needle_length: float) -> tuple[FloatArray, FloatArray]:
-    """(camera position, look-at point) [m] of the close-up: the eye and the trocar, seen from
-    the side of the insertion axis and a little above and behind the trocar."""
+def side_direction(record: SceneRecord) -> FloatArray:
+    """Unit direction to look from: beside the insertion axis, above it and back from the eye
+    towards the trocar, so the needle outside the eye is not hidden behind the robot."""
     a = record.axis
     side = np.cross(a, [0.0, 0.0, 1.0])
     side = side / np.linalg.norm(side) if np.linalg.norm(side) > 1e-9 else np.array([0, 1.0, 0])
     direction = side + 0.5 * np.array([0.0, 0.0, 1.0]) - 0.5 * a
+    return np.asarray(direction / np.linalg.norm(direction))
+
+
+def eye_view(record: SceneRecord, needle_length: float) -> tuple[FloatArray, FloatArray]:
+    """(camera position, look-at point) [m] of the close-up: the eye and the trocar."""
     distance = 4.0 * record.eye_radius + 0.1 * needle_length
-    look = record.eye_center - 0.6 * record.eye_radius * a
-    return look + distance * direction / np.linalg.norm(direction), look
+    look = record.eye_center - 0.6 * record.eye_radius * record.axis
+    return look + distance * side_direction(record), look
 
 
 def robot_view(record: SceneRecord, robot: RobotModel | None) -> tuple[FloatArray, FloatArray]:
@@ -32,8 +37,7 @@ def robot_view(record: SceneRecord, robot: RobotModel | None) -> tuple[FloatArra
     pts_a = np.array(pts)
     look = pts_a.mean(axis=0)
     extent = max(float(np.ptp(pts_a, axis=0).max()), 6 * record.eye_radius)
-    direction = np.array([1.0, -1.4, 0.9])
-    return look + 1.6 * extent * direction / np.linalg.norm(direction), look
+    return look + 1.6 * extent * side_direction(record), look
 
 
 class CameraViews:

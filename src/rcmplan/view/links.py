@@ -51,14 +51,14 @@ def robot_links(server: Any, robot: RobotModel | None, root: str = "/robot") -> 
 
 
 def _arm_links(server: Any, arm: SerialArm, root: str) -> Links:
-    from rcmplan.robot.library import ROBOT_FILES, robot_file
+    from rcmplan.robot.library import ROBOT_FILES, flange_frame, robot_file
     from rcmplan.view.links_chain import ChainLinks
 
     if arm.name in ROBOT_FILES:
         try:
             from rcmplan.view.links_urdf import UrdfLinks
 
-            return UrdfLinks(server, arm, robot_file(arm.name), root)
+            return UrdfLinks(server, arm, robot_file(arm.name), flange_frame(arm.name), root)
         except MissingExtraError as exc:
             links = ChainLinks(server.scene, arm, root)
             links.note += f" (meshes not drawn: {exc})"
