@@ -25,6 +25,7 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.exceptions import InvalidInputError, RcmplanError
 from rcmplan.robot.model import RobotModel
+from rcmplan.scene.eye import Eye
 from rcmplan.scene.scenario import Scenario
 
 FORMAT = "rcmplan-scene-1"  # a string: every number in summary.json carries a unit
@@ -60,6 +61,12 @@ class SceneRecord:
         """Unit insertion axis from the trocar to the eye centre."""
         d = self.eye_center - self.trocar
         return np.asarray(d / np.linalg.norm(d))
+
+    @classmethod
+    def of(cls, eye: Eye, points: dict[str, FloatArray], visits: tuple[str, ...] = ()) -> SceneRecord:
+        """The record of an eye and its named points (a straight needle)."""
+        return cls(eye.center, eye.radius, eye.wall, eye.port, eye.trocar_radius,
+                   {n: np.asarray(p, dtype=float) for n, p in points.items()}, visits)  # fmt: skip
 
     def labelled_points(self) -> dict[str, FloatArray]:
         """p1 (outside), p2 (trocar), p3 (vitreous) and the visited points, in visit order."""

@@ -94,3 +94,27 @@ def click_track(page: Any, label: str, fraction: float) -> None:
     """Click the slider labelled `label` at a fraction of its track (0: left end)."""
     box = slider_track(page, label).bounding_box()
     page.mouse.click(box["x"] + fraction * box["width"], box["y"] + 0.5 * box["height"])
+
+
+def project(camera: Any, point: FloatArray) -> FloatArray:
+    """Canvas pixel (u right, v down) of a world point [m] seen by a viser client's camera
+    (OpenCV convention: the camera looks along its +z, +y down; `fov` is vertical)."""
+    from viser import transforms as tf
+
+    R = tf.SO3(np.asarray(camera.wxyz)).as_matrix()
+    x = R.T @ (np.asarray(point, dtype=float) - np.asarray(camera.position))
+    f = 0.5 * camera.image_height / np.tan(0.5 * camera.fov)
+    return np.array([0.5 * camera.image_width + f * x[0] / x[2],
+                     0.5 * camera.image_height + f * x[1] / x[2]])  # fmt: skip
+
+
+def drag(page: Any, start: FloatArray, end: FloatArray, steps: int = 20) -> None:
+    """Press the mouse at canvas pixel `start`, move it to `end` in steps, release."""
+    box = page.locator("canvas").first.bounding_box()
+    ox, oy = box["x"], box["y"]
+    page.mouse.move(ox + start[0], oy + start[1])
+    page.mouse.down()
+    for k in range(1, steps + 1):
+        p = start + (end - start) * k / steps
+        page.mouse.move(ox + p[0], oy + p[1])
+    page.mouse.up()

@@ -1,0 +1,149 @@
+"""Drive the needle live in the view: a draggable target (viser's transform controls) is the
+input, the robot follows in real time with the RCM at the trocar and the tip kept off the
+retina, and the panels show the RCM deviation and the distance to the retina as they happen.
+
+Two threads besides viser's: the control (`live_control.run_live`, 1 kHz at wall-clock pace)
+and the view, which reads the control's latest state and redraws at `rate_hz`. The control
+never waits for the view. While live, Python's thread switch interval is shortened (from 5 ms
+to 0.2 ms) so the control thread gets the interpreter back promptly when its period starts.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.scene.record import SceneRecord
+from rcmplan.scene.scenario import load_scenario
+from rcmplan.view.camera import CameraViews
+from rcmplan.view.links import robot_links
+from rcmplan.view.live_control import LiveInput, LiveSettings, LiveState, run_live
+from rcmplan.view.needle import needle_polyline
+from rcmplan.view.panels import ActuatorPanel, StatePanel, length
+from rcmplan.view.scene import SceneDrawing
+
+SWITCH_INTERVAL_S = 2e-4
+NAN3 = np.full(3, np.nan)
+
+
+def live_settings(scenario: str, robot: str | None, plant: str) -> LiveSettings:
+    """Live settings from a scenario (its eye, method; the tip starts at its p3), a robot
+    (default: the scenario's) and a plant. A curved needle is refused (the live target is a
+    tip point with the RCM: a straight needle's task)."""
+    from rcmplan.robot.registry import make_robot
+
+    sc = load_scenario(scenario)
+    if robot:
+        sc = sc.with_robot(robot)
+    if sc.needle.kind != "straight":
+        raise InvalidInputError("scenario needle", sc.needle.kind, "'straight' in live mode")
+    model = make_robot(sc.robot)
+    eye = sc.eye(model)
+    points = sc.points(eye).as_dict()
+    return LiveSettings(model, eye, points["p3"], plant=plant, method=sc.method,
+                        method_settings=sc.method_settings, points=points)  # fmt: skip
+
+
+class LiveView:
+    """The live scene, its control and its redraw threads.
+
+    Args:
+        server: A running viser server. settings: The live session. rate_hz: Redraw rate.
+    """
+
+    def __init__(self, server: Any, settings: LiveSettings, rate_hz: float = 40.0) -> None:
+        self.server, self.settings, self.rate_hz = server, settings, rate_hz
+        robot, eye = settings.robot, settings.eye
+        record = SceneRecord.of(eye, settings.points, ("p4", "p5", "p6", "p7"))
+        self.links = robot_links(server, robot)
+        self.drawing = SceneDrawing(server.scene, record)
+        self.input = LiveInput(settings.start_tip)
+        self.gizmo = server.scene.add_transform_controls(
+            "/live/target", scale=0.4 * eye.radius, disable_rotations=True, depth_test=False,
+            position=settings.start_tip,
+        )  # fmt: skip
+        self.gizmo.on_update(lambda _e: self.input.push(np.array(self.gizmo.position)))
+        gui = server.gui
+        self.panel = StatePanel(gui, "Live")
+        with gui.add_folder("Actuators"):
+            self.actuators = ActuatorPanel(gui, robot.actuator_names, robot.actuator_units,
+                                           robot.lower, robot.upper)  # fmt: skip
+        gui.add_markdown("Drag the gizmo's arrows: the needle tip follows with the RCM held at "
+                         f"the trocar and the tip {length(settings.retina_margin, 'mm')} off "
+                         "the retina.  \n_" + self.links.note + "_")  # fmt: skip
+        self.cameras = CameraViews(server, record, robot)
+        self.lock = threading.Lock()
+        self.latest: LiveState | None = None
+        self.updates = 0
+        self.update_times: list[float] = []
+        self.stop_event = threading.Event()
+        self._switch = sys.getswitchinterval()
+        sys.setswitchinterval(SWITCH_INTERVAL_S)
+        self.control = threading.Thread(target=self._control, name="rcmplan-live-control",
+                                        daemon=True)  # fmt: skip
+        self.redraw = threading.Thread(target=self._redraw, name="rcmplan-live-view", daemon=True)
+        self.control.start()
+        self.redraw.start()
+
+    def _control(self) -> None:
+        run_live(self.settings, self.input, self.stop_event, self._keep)
+
+    def _keep(self, state: LiveState) -> None:
+        self.latest = state  # one reference swap: the redraw thread reads it as it is
+
+    def _redraw(self) -> None:
+        period = 1.0 / self.rate_hz
+        due = time.perf_counter() + period
+        while not self.stop_event.wait(max(0.0, due - time.perf_counter())):
+            due = max(due + period, time.perf_counter())  # a slow redraw is not caught up
+            st = self.latest
+            if st is None or len(st.q) == 0:
+                continue
+            snapshot = (st.q.copy(), st.s.copy(), st.base.copy(), st.tip.copy())
+            self.show(st, *snapshot)
+
+    def show(self, st: LiveState, q: Any, s: Any, base: Any, tip: Any) -> None:
+        """Redraw the robot, needle and panels from one control state."""
+        with self.lock, self.server.atomic():
+            self.links.show(q, s)
+            needle = needle_polyline(self.settings.robot, q, base, tip)
+            self.drawing.show(needle, self.settings.eye.port, NAN3)
+            missed = st.missed / st.slots if st.slots else 0.0
+            self.panel.show({
+                "RCM deviation": length(st.rcm_deviation),
+                "largest RCM deviation": length(st.max_rcm_deviation),
+                "distance to the retina": length(st.retina_distance, "mm"),
+                "tip to target": length(float(np.linalg.norm(tip - st.goal))),
+                "control": f"{st.period:,} periods, {100 * missed:.1f}% missed",
+                "status": st.status,
+            })  # fmt: skip
+            self.actuators.show(s)
+            self.updates += 1
+            self.update_times.append(time.perf_counter())
+
+    def state(self) -> dict[str, Any]:
+        """The control's latest state and the redraw count, for tests and benchmarks (SI)."""
+        st = self.latest
+        if st is None:
+            return {"period": 0}
+        times = self.update_times[-31:]
+        rate = (len(times) - 1) / (times[-1] - times[0]) if len(times) > 1 else 0.0
+        return {
+            "period": st.period, "slots": st.slots, "missed": st.missed,
+            "tip_m": st.tip.tolist(), "goal_m": st.goal.tolist(),
+            "rcm_deviation_m": st.rcm_deviation, "max_rcm_deviation_m": st.max_rcm_deviation,
+            "retina_distance_m": st.retina_distance, "status": st.status,
+            "view_updates": self.updates, "view_rate_hz": rate, "pushes": self.input.pushes,
+        }  # fmt: skip
+
+    def close(self) -> None:
+        """Stop the control and the redraw, restore the switch interval."""
+        self.stop_event.set()
+        self.control.join(timeout=2.0)
+        self.redraw.join(timeout=2.0)
+        sys.setswitchinterval(self._switch)
