@@ -104,3 +104,38 @@ def test_playing_runs_the_timeline_to_the_end_and_pauses(browser, replay):
     assert state["index"] == len(view.current.log) - 1
     assert state["shows"] > 10  # it played through records, not one jump
     page.close()
+
+
+def test_dragging_the_live_target_moves_the_tip_with_the_rcm_held(browser):
+    from rcmplan.view.live import LiveView, live_settings
+
+    server = start_server("127.0.0.1", 0)
+    view = LiveView(server, live_settings("default", None, "kinematic"))
+    try:
+        page = open_page(browser, server)
+        (client,) = server.get_clients().values()
+        camera = client.camera
+        centre = np.array(view.gizmo.position)
+        reach = 0.7 * view.gizmo_scale  # a point on an arrow of the gizmo
+        ends = [probe.project(camera, centre + reach * axis) for axis in np.eye(3)]
+        start = probe.project(camera, centre)
+        k = int(np.argmax([np.linalg.norm(e - start) for e in ends]))  # the longest arrow
+        along = (ends[k] - start) / np.linalg.norm(ends[k] - start)
+        probe.drag(page, ends[k], ends[k] - 60.0 * along)  # 60 px back along the arrow
+
+        def followed() -> bool:
+            s = view.state()
+            moved = np.linalg.norm(np.subtract(s["goal_m"], centre))
+            return bool(s["pushes"] > 0 and moved > 1e-3
+                        and np.linalg.norm(np.subtract(s["tip_m"], s["goal_m"])) < 1e-6)  # fmt: skip
+
+        probe.wait_for(followed, 30.0)
+        state = view.state()
+        goal = np.subtract(state["goal_m"], centre)
+        assert abs(goal[k]) > 1e-3 and np.abs(np.delete(goal, k)).max() < 1e-9  # along one axis
+        assert state["max_rcm_deviation_m"] <= 1e-6
+        assert state["retina_distance_m"] > 0.0
+        page.close()
+    finally:
+        view.close()
+        stop_server(server)

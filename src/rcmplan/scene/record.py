@@ -63,14 +63,16 @@ class SceneRecord:
         return np.asarray(d / np.linalg.norm(d))
 
     @classmethod
-    def of(cls, eye: Eye, points: dict[str, FloatArray], visits: tuple[str, ...] = ()) -> SceneRecord:
+    def of(
+        cls, eye: Eye, points: dict[str, FloatArray], visits: tuple[str, ...] = ()
+    ) -> SceneRecord:
         """The record of an eye and its named points (a straight needle)."""
         return cls(eye.center, eye.radius, eye.wall, eye.port, eye.trocar_radius,
                    {n: np.asarray(p, dtype=float) for n, p in points.items()}, visits)  # fmt: skip
 
     def labelled_points(self) -> dict[str, FloatArray]:
         """p1 (outside), p2 (trocar), p3 (vitreous) and the visited points, in visit order."""
-        names = [n for n in ("p1", "p2", "p3") if n in self.points]
+        names: list[str] = [n for n in ("p1", "p2", "p3") if n in self.points]
         names += [n for n in self.visits if n in self.points and n not in names]
         return {n: self.points[n] for n in names}
 

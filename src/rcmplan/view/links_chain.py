@@ -36,8 +36,7 @@ class ChainLinks:
             f"{root}/links", _segments(pts), LINK_RGB, thickness=width
         )
         self.joints = [
-            scene.add_icosphere(f"{root}/joint{k}", radius=0.6 * width, color=JOINT_RGB,
-                                position=p)  # fmt: skip
+            scene.add_icosphere(f"{root}/joint{k}", radius=0.6 * width, color=JOINT_RGB, position=p)
             for k, p in enumerate(pts[1:-1])
         ]
         self.note = f"{arm.name} links: skeleton of its {arm.chain.n} joints (no mesh file)"

@@ -47,7 +47,8 @@ class MujocoLinks:
         self.frames: dict[int, Any] = {}
         self.geoms = 0
         for g in range(self.model.ngeom):
-            if int(self.model.geom_group[g]) == VISUAL_GROUP and self.model.geom(g).name not in SKIPPED:
+            visual = int(self.model.geom_group[g]) == VISUAL_GROUP
+            if visual and self.model.geom(g).name not in SKIPPED:
                 self._add_geom(scene, root, g)
         self.note = f"iRAM!S links: {self.geoms} visual geoms of its MJCF, posed by MuJoCo"
 
@@ -96,4 +97,3 @@ class MujocoLinks:
         for body, frame in self.frames.items():
             frame.position = np.array(d.xpos[body])
             frame.wxyz = np.array(d.xquat[body])
-

@@ -63,8 +63,9 @@ class LiveView:
         self.links = robot_links(server, robot)
         self.drawing = SceneDrawing(server.scene, record)
         self.input = LiveInput(settings.start_tip)
+        self.gizmo_scale = 0.4 * eye.radius  # arrow length [m]
         self.gizmo = server.scene.add_transform_controls(
-            "/live/target", scale=0.4 * eye.radius, disable_rotations=True, depth_test=False,
+            "/live/target", scale=self.gizmo_scale, disable_rotations=True, depth_test=False,
             position=settings.start_tip,
         )  # fmt: skip
         self.gizmo.on_update(lambda _e: self.input.push(np.array(self.gizmo.position)))

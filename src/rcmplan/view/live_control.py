@@ -183,7 +183,9 @@ class LiveLoop:
         st.retina_distance = cfg.eye.distance_to_retina(st.tip)
         st.t_s = plant.time
         if st.rcm_deviation > cfg.rcm_bound:
-            st.status = f"stopped: RCM deviation {st.rcm_deviation:.3g} m beyond {cfg.rcm_bound:g} m"
+            st.status = (
+                f"stopped: RCM deviation {st.rcm_deviation:.3g} m beyond {cfg.rcm_bound:g} m"
+            )
             return st
         if sample.clutch:
             st.goal = fixture(cfg, sample.position)
@@ -193,7 +195,9 @@ class LiveLoop:
         try:
             target = rcm_target(setpoint, trocar)
             e = self.solver.error(robot, q, self.lam, target)
-            dq, dlam = self.solver.step(robot, q, self.lam, target, e)
+            # lambda is re-declared from the needle each period (drift correction): the
+            # step's lambda increment is not needed
+            dq, _dlam = self.solver.step(robot, q, self.lam, target, e)
             q_new = q.copy()
             q_new[list(robot.active)] += dq
             plant.command_actuators(robot.check_actuators(robot.actuators_from_joints(q_new)))

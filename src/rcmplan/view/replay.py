@@ -81,9 +81,10 @@ class ReplayView:
         self.links = robot_links(server, self.robot)
         self.notes = [n for n in (why, self.links.note) if n]
         self.drawing = SceneDrawing(server.scene, runs[0].scene)
-        self.traces = [self.drawing.show_trace(f"/trace/{k}", a.segments, a.segment_deviation,
-                                               a.max_deviation)  # fmt: skip
-                       for k, a in enumerate(self.runs)]
+        self.traces = [
+            self.drawing.show_trace(f"/trace/{k}", a.segments, a.segment_deviation, a.max_deviation)
+            for k, a in enumerate(self.runs)
+        ]
         self._run_menu(gui)
         self.timeline = Timeline(gui, self.current.log.time, self.show)
         self.state_panel = StatePanel(gui, "Now")
@@ -189,4 +190,3 @@ class ReplayView:
     def close(self) -> None:
         """Stop playback."""
         self.timeline.close()
-

@@ -147,13 +147,14 @@ def read_log(path: Path) -> RunLog:
                     path, f"lacks the fields {', '.join(missing)}: a log written by another "
                     f"version of rcmplan (this one is {__version__}), or not a run log",
                 )  # fmt: skip
-            arrays = {k: np.asarray(z[k]) for k in ARRAY_FIELDS}
-            names = {k: tuple(str(s) for s in z[k]) for k in ("phase_names", "solver_names")}
+            arrays: dict[str, Any] = {k: np.asarray(z[k]) for k in ARRAY_FIELDS}
+            phases = tuple(str(s) for s in z["phase_names"])
+            solvers = tuple(str(s) for s in z["solver_names"])
             labels = tuple(str(s) for s in z["actuator_labels"]) if "actuator_labels" in z else ()
     except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, OSError, KeyError) as exc:
         raise RunFolderError(path, f"truncated or damaged ({type(exc).__name__}: {exc})") from exc
-    _check_shapes(path, arrays, len(names["phase_names"]))
-    return RunLog(**arrays, **names, actuator_labels=labels)
+    _check_shapes(path, arrays, len(phases))
+    return RunLog(**arrays, phase_names=phases, solver_names=solvers, actuator_labels=labels)
 
 
 def _check_shapes(path: Path, arrays: dict[str, np.ndarray], n_phases: int) -> None:

@@ -45,8 +45,8 @@ def check_port(host: str, port: int) -> None:
         except OSError as exc:
             if exc.errno == errno.EADDRINUSE:
                 raise PortInUseError(host, port) from exc
-            raise InvalidInputError("--host/--port", f"{host}:{port}",
-                                    f"an address and port this user may bind ({exc})") from exc  # fmt: skip
+            why = f"an address and port this user may bind ({exc})"
+            raise InvalidInputError("--host/--port", f"{host}:{port}", why) from exc
 
 
 @contextlib.contextmanager
