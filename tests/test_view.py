@@ -66,7 +66,7 @@ def test_a_spiral_labels_only_the_axis_points_and_a_curved_needle_records_its_ar
 
 @pytest.mark.parametrize(
     ("key", "value"),
-    [("format", 2), ("eye_radius_m", -1.0), ("trocar_m", [0.0, 1.0]), ("points_m", None)],
+    [("format", 2), ("eye_radius_m", -1.0), ("trocar_m", [0.0, 1.0]), ("points", None)],
 )
 def test_a_scene_block_with_a_wrong_key_is_refused_naming_it(robot, key, value) -> None:
     block = scene_record(load_scenario("default"), robot)

@@ -41,16 +41,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
-def build(args: argparse.Namespace, server: Any) -> tuple[Any, str]:
-    """The view for the arguments, and what it shows (for the address line)."""
+def build(args: argparse.Namespace, server: Any, source: Any) -> tuple[Any, str]:
+    """The view of `source` (live settings, or the runs of RUN_DIR) and what it shows."""
     if args.live:
-        from rcmplan.view.live import LiveView, live_settings
+        from rcmplan.view.live import LiveView
 
-        settings = live_settings(args.scenario, args.robot, args.plant)
-        return LiveView(server, settings), f"live control of {settings.robot.name}"
+        return LiveView(server, source), f"live control of {source.robot.name}"
     from rcmplan.view.replay import ReplayView
 
-    return ReplayView(server, args.runs), f"{args.run_dir}"
+    return ReplayView(server, source), f"{args.run_dir}"
+
+
+def checked_source(args: argparse.Namespace) -> Any:
+    """What the view will show, read and checked before any server starts: the live settings,
+    or the runs of RUN_DIR."""
+    if args.live:
+        from rcmplan.view.live import live_settings
+
+        return live_settings(args.scenario, args.robot, args.plant)
+    from rcmplan.view.run_folder import load_runs
+
+    return load_runs(args.run_dir)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -59,14 +70,11 @@ def run(args: argparse.Namespace) -> int:
 
     if args.live == bool(args.run_dir):
         raise InvalidInputError("RUN_DIR", args.run_dir, "a run folder, or --live (not both)")
-    if not args.live:
-        from rcmplan.view.run_folder import load_runs
-
-        args.runs = load_runs(args.run_dir)
+    source = checked_source(args)
     server = start_server(args.host, args.port)
     view = None
     try:
-        view, what = build(args, server)
+        view, what = build(args, server, source)
         url = address(server, args.host)
         print(f"rcmplan view: {what} at {url} (Ctrl-C stops)", flush=True)
         if not args.no_browser:

@@ -10,7 +10,7 @@ Block layout (FORMAT "rcmplan-scene-1")::
     "scene": {"format": "rcmplan-scene-1", "frame": "robot base, m",
               "eye_center_m": [x, y, z], "eye_radius_m": R, "eye_wall_m": w,
               "trocar_m": [x, y, z], "trocar_radius_m": r,
-              "points_m": {"p1": [x, y, z], ...}, "visits": ["p4", ...],
+              "points": [{"name": "p1", "position_m": [x, y, z]}, ...], "visits": ["p4", ...],
               "needle_arc": {"radius_m": R, "angle_rad": a} or null}
 """
 
@@ -94,7 +94,10 @@ def scene_record(scenario: Scenario, robot: RobotModel) -> dict[str, Any] | None
         "eye_wall_m": eye.wall,
         "trocar_m": eye.port.tolist(),
         "trocar_radius_m": eye.trocar_radius,
-        "points_m": {n: np.asarray(p, dtype=float).tolist() for n, p in points.items()},
+        "points": [
+            {"name": n, "position_m": np.asarray(p, dtype=float).tolist()}
+            for n, p in points.items()
+        ],
         "visits": list(scenario.visits) if scenario.procedure == "injection" else [],
         "needle_arc": None if arc is None else {"radius_m": arc[0], "angle_rad": arc[1]},
     }
@@ -109,9 +112,12 @@ def read_scene_record(block: Any) -> SceneRecord:
     arc = block.get("needle_arc")
     if arc is not None and not isinstance(arc, dict):
         raise InvalidInputError("scene.needle_arc", arc, "null or {radius_m, angle_rad}")
-    points = block.get("points_m")
-    if not isinstance(points, dict):
-        raise InvalidInputError("scene.points_m", points, "an object of named points")
+    points = block.get("points")
+    named = isinstance(points, list) and all(
+        isinstance(p, dict) and isinstance(p.get("name"), str) for p in points
+    )
+    if not named:
+        raise InvalidInputError("scene.points", points, "a list of {name, position_m}")
     visits = block.get("visits", [])
     if not isinstance(visits, list) or not all(isinstance(v, str) for v in visits):
         raise InvalidInputError("scene.visits", visits, "a list of point names")
@@ -121,7 +127,7 @@ def read_scene_record(block: Any) -> SceneRecord:
         eye_wall=_positive("eye_wall_m", block.get("eye_wall_m")),
         trocar=_point("trocar_m", block.get("trocar_m")),
         trocar_radius=_positive("trocar_radius_m", block.get("trocar_radius_m")),
-        points={str(n): _point(f"points_m.{n}", p) for n, p in points.items()},
+        points={p["name"]: _point(f"points.{p['name']}", p.get("position_m")) for p in points},
         visits=tuple(visits),
         needle_arc=None
         if arc is None

@@ -22,7 +22,7 @@ from rcmplan.scene.record import SceneRecord
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.view.camera import CameraViews
 from rcmplan.view.links import robot_links
-from rcmplan.view.live_control import LiveInput, LiveSettings, LiveState, run_live
+from rcmplan.view.live_control import LiveInput, LiveLoop, LiveSettings, LiveState, pace
 from rcmplan.view.needle import needle_polyline
 from rcmplan.view.panels import ActuatorPanel, StatePanel, length
 from rcmplan.view.scene import SceneDrawing
@@ -58,6 +58,7 @@ class LiveView:
 
     def __init__(self, server: Any, settings: LiveSettings, rate_hz: float = 40.0) -> None:
         self.server, self.settings, self.rate_hz = server, settings, rate_hz
+        self.loop = LiveLoop(settings)  # the plant and solver, built first: errors surface here
         robot, eye = settings.robot, settings.eye
         record = SceneRecord.of(eye, settings.points, ("p4", "p5", "p6", "p7"))
         self.links = robot_links(server, robot)
@@ -92,7 +93,7 @@ class LiveView:
         self.redraw.start()
 
     def _control(self) -> None:
-        run_live(self.settings, self.input, self.stop_event, self._keep)
+        pace(self.loop, self.input, self.stop_event, self._keep)
 
     def _keep(self, state: LiveState) -> None:
         self.latest = state  # one reference swap: the redraw thread reads it as it is

@@ -223,8 +223,18 @@ def run_live(
     missed too (skipped: the loop does not hurry to catch up, it goes on with the next period
     to start). `state.slots` counts the periods of wall time, `state.missed` the missed ones.
     """
-    loop = LiveLoop(settings)
-    dt = settings.dt
+    return pace(LiveLoop(settings), live_input, stop_event, on_period)
+
+
+def pace(
+    loop: LiveLoop,
+    live_input: LiveInput,
+    stop_event: threading.Event,
+    on_period: Callable[[LiveState], None] | None = None,
+) -> LiveState:
+    """`run_live` on a loop built beforehand (so that a plant or solver that cannot be built
+    fails in the caller's thread, before any motion)."""
+    dt = loop.settings.dt
     t0 = time.perf_counter()
     k = 0  # the period the next step belongs to
     st = loop.state
