@@ -113,10 +113,9 @@ def read_scene_record(block: Any) -> SceneRecord:
     if arc is not None and not isinstance(arc, dict):
         raise InvalidInputError("scene.needle_arc", arc, "null or {radius_m, angle_rad}")
     points = block.get("points")
-    named = isinstance(points, list) and all(
+    if not isinstance(points, list) or not all(
         isinstance(p, dict) and isinstance(p.get("name"), str) for p in points
-    )
-    if not named:
+    ):
         raise InvalidInputError("scene.points", points, "a list of {name, position_m}")
     visits = block.get("visits", [])
     if not isinstance(visits, list) or not all(isinstance(v, str) for v in visits):
