@@ -104,3 +104,30 @@ def test_live_refuses_a_curved_needle() -> None:
 def test_live_input_refuses_a_position_that_is_not_three_numbers(settings) -> None:
     with pytest.raises(InvalidInputError):
         LiveInput(settings.start_tip).push(np.array([0.0, np.nan, 0.0]))
+
+
+def test_the_scheduling_reported_is_the_one_the_thread_has() -> None:
+    import os
+
+    from rcmplan.view.realtime import request_realtime
+
+    seen = {}
+
+    def ask() -> None:  # in a thread of its own: the test runner's thread keeps its policy
+        seen["text"] = request_realtime()
+        seen["policy"] = os.sched_getscheduler(0)
+
+    th = threading.Thread(target=ask)
+    th.start()
+    th.join()
+    fifo = seen["policy"] == os.SCHED_FIFO
+    assert seen["text"].startswith("real-time" if fifo else "normal")
+
+
+def test_run_live_reports_its_scheduling(settings) -> None:
+    from dataclasses import replace
+
+    inp, stop = LiveInput(settings.start_tip), threading.Event()
+    stop.set()  # one period, then stop
+    st = run_live(replace(settings, realtime=False), inp, stop)
+    assert st.scheduling == "normal scheduling (asked for)"

@@ -38,6 +38,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     live.add_argument("--robot", choices=tuple(ROBOTS), help="robot (default: the scenario's)")
     live.add_argument("--plant", choices=PLANTS, default="kinematic",
                       help="plant the live control drives (kinematic)")  # fmt: skip
+    live.add_argument("--no-realtime", action="store_true",
+                      help="keep the control thread at normal scheduling (default: real-time "
+                      "where the system grants it)")  # fmt: skip
     p.set_defaults(run=run)
 
 
@@ -58,7 +61,7 @@ def checked_source(args: argparse.Namespace) -> Any:
     if args.live:
         from rcmplan.view.live import live_settings
 
-        return live_settings(args.scenario, args.robot, args.plant)
+        return live_settings(args.scenario, args.robot, args.plant, not args.no_realtime)
     from rcmplan.view.run_folder import load_runs
 
     return load_runs(args.run_dir)

@@ -4,8 +4,9 @@ retina, and the panels show the RCM deviation and the distance to the retina as 
 
 Two threads besides viser's: the control (`live_control.run_live`, 1 kHz at wall-clock pace)
 and the view, which reads the control's latest state and redraws at `rate_hz`. The control
-never waits for the view. While live, Python's thread switch interval is shortened (from 5 ms
-to 0.2 ms) so the control thread gets the interpreter back promptly when its period starts.
+never waits for the view; it asks for real-time scheduling where the system grants it
+(`view.realtime`). While live, Python's thread switch interval is shortened (from 5 ms to
+0.2 ms) so the control thread gets the interpreter back promptly when its period starts.
 """
 
 from __future__ import annotations
@@ -31,10 +32,12 @@ SWITCH_INTERVAL_S = 2e-4
 NAN3 = np.full(3, np.nan)
 
 
-def live_settings(scenario: str, robot: str | None, plant: str) -> LiveSettings:
+def live_settings(
+    scenario: str, robot: str | None, plant: str, realtime: bool = True
+) -> LiveSettings:
     """Live settings from a scenario (its eye, method; the tip starts at its p3), a robot
-    (default: the scenario's) and a plant. A curved needle is refused (the live target is a
-    tip point with the RCM: a straight needle's task)."""
+    (default: the scenario's), a plant, and whether to ask for real-time scheduling. A curved
+    needle is refused (the live target is a tip point with the RCM: a straight needle's task)."""
     from rcmplan.robot.registry import make_robot
 
     sc = load_scenario(scenario)
@@ -46,7 +49,8 @@ def live_settings(scenario: str, robot: str | None, plant: str) -> LiveSettings:
     eye = sc.eye(model)
     points = sc.points(eye).as_dict()
     return LiveSettings(model, eye, points["p3"], plant=plant, method=sc.method,
-                        method_settings=sc.method_settings, points=points)  # fmt: skip
+                        method_settings=sc.method_settings, points=points,
+                        realtime=realtime)  # fmt: skip
 
 
 class LiveView:
@@ -122,6 +126,7 @@ class LiveView:
                 "distance to the retina": length(st.retina_distance, "mm"),
                 "tip to target": length(float(np.linalg.norm(tip - st.goal))),
                 "control": f"{st.period:,} periods, {100 * missed:.1f}% missed",
+                "scheduling": st.scheduling,
                 "status": st.status,
             })  # fmt: skip
             self.actuators.show(s)

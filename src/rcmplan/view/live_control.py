@@ -32,6 +32,7 @@ from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import closest_lambda
 from rcmplan.scene.eye import Eye
+from rcmplan.view.realtime import request_realtime
 
 
 @dataclass(frozen=True)
@@ -45,6 +46,7 @@ class LiveSettings:
         dt: Control period [s]. max_speed: Fastest setpoint motion [m/s].
         retina_margin: Closest approach of the tip to the retina [m].
         rcm_bound: RCM deviation [m] that stops the control.
+        realtime: Ask for real-time scheduling of the control thread (`view.realtime`).
         method_settings: The method's gains and options (default: its defaults).
         points: Named points to label in the view (the scenario's p1..p7).
     """
@@ -58,6 +60,7 @@ class LiveSettings:
     max_speed: float = 0.02
     retina_margin: float = 0.5e-3
     rcm_bound: float = 45e-6
+    realtime: bool = True
     method_settings: MethodSettings | None = None
     points: dict[str, FloatArray] = field(default_factory=dict)
 
@@ -117,6 +120,7 @@ class LiveState:
         rcm_deviation: Distance from the trocar to the needle point p(lambda) [m].
         max_rcm_deviation: Its largest value so far [m]. retina_distance: Tip to retina [m]
             (positive inside). status: "running", "held: <why>" or "stopped: <why>".
+        scheduling: The control thread's scheduling (real-time or normal, and why).
     """
 
     period: int = 0
@@ -133,6 +137,7 @@ class LiveState:
     max_rcm_deviation: float = 0.0
     retina_distance: float = 0.0
     status: str = "running"
+    scheduling: str = ""
 
 
 def fixture(settings: LiveSettings, p: FloatArray) -> FloatArray:
@@ -235,6 +240,10 @@ def pace(
     """`run_live` on a loop built beforehand (so that a plant or solver that cannot be built
     fails in the caller's thread, before any motion)."""
     dt = loop.settings.dt
+    if loop.settings.realtime:
+        loop.state.scheduling = request_realtime()
+    else:
+        loop.state.scheduling = "normal scheduling (asked for)"
     t0 = time.perf_counter()
     k = 0  # the period the next step belongs to
     st = loop.state
