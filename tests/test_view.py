@@ -338,3 +338,18 @@ def test_a_busy_port_is_refused_before_viser_moves_to_another() -> None:
         s.listen()
         with pytest.raises(PortInUseError, match=str(s.getsockname()[1])):
             check_port("127.0.0.1", s.getsockname()[1])
+
+
+def test_live_view_stops_cleanly_when_ctrl_c_reaches_the_whole_process_group() -> None:
+    pytest.importorskip("viser")
+    port = free_port()
+    proc = rcmplan("view", "--live", "--port", str(port), "--no-browser", start_new_session=True)
+    try:
+        assert f"live control of iramis at http://127.0.0.1:{port}/" in proc.stdout.readline()
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)  # as a terminal's Ctrl-C: the control process too
+        _out, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    assert "stopped by SIGINT" in err and "Traceback" not in err
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", port))

@@ -2,16 +2,15 @@
 input, the robot follows in real time with the RCM at the trocar and the tip kept off the
 retina, and the panels show the RCM deviation and the distance to the retina as they happen.
 
-Two threads besides viser's: the control (`live_control.run_live`, 1 kHz at wall-clock pace)
-and the view, which reads the control's latest state and redraws at `rate_hz`. The control
-never waits for the view; it asks for real-time scheduling where the system grants it
-(`view.realtime`). While live, Python's thread switch interval is shortened (from 5 ms to
-0.2 ms) so the control thread gets the interpreter back promptly when its period starts.
+The control (`live_control`, 1 kHz at wall-clock pace) runs in a process of its own
+(`live_process`): the view's drawing and viser's messages never hold the interpreter it
+needs, and it asks for real-time scheduling where the system grants it (`view.realtime`). A
+redraw thread reads the control's latest state from shared memory at `rate_hz`; the control
+never waits for the view.
 """
 
 from __future__ import annotations
 
-import sys
 import threading
 import time
 from typing import Any
@@ -23,12 +22,12 @@ from rcmplan.scene.record import SceneRecord
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.view.camera import CameraViews
 from rcmplan.view.links import robot_links
-from rcmplan.view.live_control import LiveInput, LiveLoop, LiveSettings, LiveState, pace
+from rcmplan.view.live_control import LiveSettings, LiveState
+from rcmplan.view.live_process import LiveProcess
 from rcmplan.view.needle import needle_polyline
 from rcmplan.view.panels import ActuatorPanel, StatePanel, length
 from rcmplan.view.scene import SceneDrawing
 
-SWITCH_INTERVAL_S = 2e-4
 NAN3 = np.full(3, np.nan)
 
 
@@ -62,12 +61,12 @@ class LiveView:
 
     def __init__(self, server: Any, settings: LiveSettings, rate_hz: float = 40.0) -> None:
         self.server, self.settings, self.rate_hz = server, settings, rate_hz
-        self.loop = LiveLoop(settings)  # the plant and solver, built first: errors surface here
+        self.control = LiveProcess(settings)  # plant and solver built first: errors surface here
         robot, eye = settings.robot, settings.eye
         record = SceneRecord.of(eye, settings.points, ("p4", "p5", "p6", "p7"))
         self.links = robot_links(server, robot)
         self.drawing = SceneDrawing(server.scene, record)
-        self.input = LiveInput(settings.start_tip)
+        self.input = self.control.input
         self.gizmo_scale = 0.4 * eye.radius  # arrow length [m]
         self.gizmo = server.scene.add_transform_controls(
             "/live/target", scale=self.gizmo_scale, disable_rotations=True, depth_test=False,
@@ -84,23 +83,16 @@ class LiveView:
                          "the retina.  \n_" + self.links.note + "_")  # fmt: skip
         self.cameras = CameraViews(server, record, robot)
         self.lock = threading.Lock()
-        self.latest: LiveState | None = None
         self.updates = 0
         self.update_times: list[float] = []
         self.stop_event = threading.Event()
-        self._switch = sys.getswitchinterval()
-        sys.setswitchinterval(SWITCH_INTERVAL_S)
-        self.control = threading.Thread(target=self._control, name="rcmplan-live-control",
-                                        daemon=True)  # fmt: skip
         self.redraw = threading.Thread(target=self._redraw, name="rcmplan-live-view", daemon=True)
-        self.control.start()
         self.redraw.start()
 
-    def _control(self) -> None:
-        pace(self.loop, self.input, self.stop_event, self._keep)
-
-    def _keep(self, state: LiveState) -> None:
-        self.latest = state  # one reference swap: the redraw thread reads it as it is
+    @property
+    def latest(self) -> LiveState | None:
+        """The control's latest state (a copy, from shared memory)."""
+        return self.control.latest()
 
     def _redraw(self) -> None:
         period = 1.0 / self.rate_hz
@@ -108,10 +100,8 @@ class LiveView:
         while not self.stop_event.wait(max(0.0, due - time.perf_counter())):
             due = max(due + period, time.perf_counter())  # a slow redraw is not caught up
             st = self.latest
-            if st is None or len(st.q) == 0:
-                continue
-            snapshot = (st.q.copy(), st.s.copy(), st.base.copy(), st.tip.copy())
-            self.show(st, *snapshot)
+            if st is not None:
+                self.show(st, st.q, st.s, st.base, st.tip)
 
     def show(self, st: LiveState, q: Any, s: Any, base: Any, tip: Any) -> None:
         """Redraw the robot, needle and panels from one control state."""
@@ -149,8 +139,7 @@ class LiveView:
         }  # fmt: skip
 
     def close(self) -> None:
-        """Stop the control and the redraw, restore the switch interval."""
+        """Stop the redraw and the control."""
         self.stop_event.set()
-        self.control.join(timeout=2.0)
         self.redraw.join(timeout=2.0)
-        sys.setswitchinterval(self._switch)
+        self.control.close()

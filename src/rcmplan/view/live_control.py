@@ -20,6 +20,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -79,6 +80,22 @@ class LiveSample:
     t: float
     position: FloatArray
     clutch: bool
+
+
+class InputSource(Protocol):
+    """Where the control reads its input: `LiveInput`, or its shared-memory twin."""
+
+    def latest(self) -> LiveSample:
+        """The latest sample."""
+        ...
+
+
+class StopFlag(Protocol):
+    """A threading.Event or a multiprocessing Event."""
+
+    def is_set(self) -> bool:
+        """True once the control should stop."""
+        ...
 
 
 class LiveInput:
@@ -215,8 +232,8 @@ class LiveLoop:
 
 def run_live(
     settings: LiveSettings,
-    live_input: LiveInput,
-    stop_event: threading.Event,
+    live_input: InputSource,
+    stop_event: StopFlag,
     on_period: Callable[[LiveState], None] | None = None,
 ) -> LiveState:
     """Run the control at wall-clock pace until `stop_event` is set or a safety stop; calls
@@ -233,8 +250,8 @@ def run_live(
 
 def pace(
     loop: LiveLoop,
-    live_input: LiveInput,
-    stop_event: threading.Event,
+    live_input: InputSource,
+    stop_event: StopFlag,
     on_period: Callable[[LiveState], None] | None = None,
 ) -> LiveState:
     """`run_live` on a loop built beforehand (so that a plant or solver that cannot be built

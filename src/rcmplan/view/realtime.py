@@ -2,7 +2,7 @@
 
 A 1 kHz loop that sleeps between periods is woken by the scheduler; on a busy machine a
 thread of normal priority waits its turn behind every other runnable thread, and periods are
-missed (measured in docs/view.md: about a third of them at a load average of 5 on 2 cores,
+missed (docs/view.md: a fifth to a third of them at a load average of 5 to 7 on 2 cores,
 none with the thread at a real-time priority). Linux grants SCHED_FIFO to root, to a process
 with CAP_SYS_NICE, or within RLIMIT_RTPRIO; elsewhere the thread keeps normal scheduling and
 says so. The control loop sleeps until its next period after every step, also when it runs
