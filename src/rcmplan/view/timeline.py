@@ -72,9 +72,10 @@ class Timeline:
 
     def _run(self) -> None:
         period = 1.0 / self.fps
-        last = time.perf_counter()
-        while not self._stop.wait(period):
+        last = due = time.perf_counter()
+        while not self._stop.wait(max(0.0, due + period - time.perf_counter())):
             now = time.perf_counter()
+            due = max(due + period, now - period)  # on schedule; a late frame is not caught up
             if self.playing:
                 t = self.slider.value + (now - last) * self.speed_factor()
                 if t >= self.times[-1]:
