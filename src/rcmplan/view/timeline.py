@@ -73,9 +73,11 @@ class Timeline:
     def _run(self) -> None:
         period = 1.0 / self.fps
         last = due = time.perf_counter()
-        while not self._stop.wait(max(0.0, due + period - time.perf_counter())):
+        while True:
+            due = max(due + period, time.perf_counter())  # on schedule; late frames not caught up
+            if self._stop.wait(max(0.0, due - time.perf_counter())):
+                return
             now = time.perf_counter()
-            due = max(due + period, now - period)  # on schedule; a late frame is not caught up
             if self.playing:
                 t = self.slider.value + (now - last) * self.speed_factor()
                 if t >= self.times[-1]:
