@@ -169,12 +169,13 @@ def browser_rows(server: Any, view: ReplayView) -> list[dict[str, Any]]:
         probe.wait_for(lambda: len(probe.needle_pixels(probe.screenshot(page))) > 30, 120, 0.05)
         first = time.perf_counter() - t
         page.evaluate(COUNT_JS)
-        shows = view.shows
         page.get_by_role("button", name="Play").click()
+        probe.wait_for(lambda: view.timeline.playing, 30.0, 0.01)
+        shows, dom, t = view.shows, page.evaluate("() => window.__updates"), time.perf_counter()
         time.sleep(2.0)
+        played_hz = (view.shows - shows) / (time.perf_counter() - t)
+        dom_hz = (page.evaluate("() => window.__updates") - dom) / (time.perf_counter() - t)
         page.get_by_role("button", name="Pause").click()
-        played_hz = (view.shows - shows) / 2.0
-        dom_hz = page.evaluate("() => window.__updates") / 2.0
         page.close()
         large = scrub_latency_ms(browser, server, 1200, 800)
         small = scrub_latency_ms(browser, server, 640, 480)
