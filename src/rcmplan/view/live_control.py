@@ -11,7 +11,8 @@ control (a safety stop, as `LoopSettings.rcm_bound`).
 
 This module has the public shape of `rcmplan.teleop` (`LiveInput.push/latest`,
 `run_live(settings, live_input, stop_event, on_period)`), so the view moves to the teleoperation
-pipeline (scaling, tremor filters, clutch) by changing its import once that is available.
+pipeline (scaling, tremor filters, clutch) by changing the loop `live_process` runs once that
+package is available.
 """
 
 from __future__ import annotations
