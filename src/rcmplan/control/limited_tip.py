@@ -9,7 +9,8 @@ the margin. The step is scaled in actuator space and mapped back exactly
 (`joints_from_actuators`), so the bounds hold exactly, not only to first order; scaling the
 whole increment keeps its direction, so the tip still heads for its target (the first-order
 tip motion is f times the unscaled one). An actuator already outside the margin band (a home
-pose in it) may move back towards the band, never further out.
+pose in it) may move back towards the band, never further out. With a tip speed bound, f also
+keeps each component of the tip's step (to first order, J_tip dq) within tip_speed x dt.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.solvers import SolverKind, TipSolver, Tolerance
+from rcmplan.control.tasks import TipPosition
 from rcmplan.robot.model import RobotModel
 
 
@@ -33,17 +35,21 @@ class LimitedTipSolver:
         travel_margin: Distance kept from each actuator's travel ends, in its unit.
         damping: 0 for the pseudoinverse step, D > 0 for damped least squares.
         tol: Loop tolerance (positions only).
+        tip_speed: Largest tip speed per base axis in [m/s], or None.
     """
 
     dt: float = 1e-3
     travel_margin: float = 0.5e-3
     damping: float = 0.0
     tol: Tolerance = field(default_factory=Tolerance)
+    tip_speed: float | None = None
     kind: ClassVar[SolverKind] = "free"
 
     def __post_init__(self) -> None:
         scalar("dt", self.dt, 0.0, 1.0, low_open=True)
         scalar("travel_margin", self.travel_margin, 0.0, 0.1)
+        if self.tip_speed is not None:
+            scalar("tip_speed", self.tip_speed, 0.0, 1.0, low_open=True)
         self._tip = TipSolver(self.damping, self.tol)
 
     @property
@@ -70,6 +76,10 @@ class LimitedTipSolver:
         q_full[active] += dq
         ds = robot.actuators_from_joints(q_full) - s
         f = scale_factor(robot, s, ds, self.dt, self.travel_margin)
+        if self.tip_speed is not None:
+            tip_step = float(np.max(np.abs(TipPosition().jacobian(robot, q, lam)[:, :-1] @ dq)))
+            if tip_step > 0.0:
+                f = min(f, self.tip_speed * self.dt / tip_step)
         moved = s + f * ds
         return (robot.joints_from_actuators(moved) - q)[active], 0.0
 

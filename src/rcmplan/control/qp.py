@@ -30,6 +30,7 @@ from rcmplan.control.curved import task_error as curved_error
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.limited_tip import LimitedTipSolver
+from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
@@ -38,10 +39,6 @@ from rcmplan.control.targets import solve_pose, target_tip
 from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
-
-# An actuator step within this fraction of speed x dt is at its speed bound (DAQP returns bound
-# values exactly; the fraction covers rounding of the map back from joints).
-SPEED_ACTIVE = 1e-9
 
 
 class QpSolver:
@@ -145,7 +142,8 @@ class QpSolver:
     def free_solver(self) -> LimitedTipSolver:
         """The free-space solver that holds this QP's actuator travel and speed outside the eye
         (the controller's default for free phases with this solver)."""
-        return LimitedTipSolver(self.dt, self.limits.travel_margin, tol=self.tol)
+        lim = self.limits
+        return LimitedTipSolver(self.dt, lim.travel_margin, tol=self.tol, tip_speed=lim.tip_speed)
 
     # --- helpers ----------------------------------------------------------------------------
     def task_error(
