@@ -114,11 +114,12 @@ def injection(path: str) -> dict[str, Any]:
 
 
 class SiteRecorder(MujocoPlant):
-    """The dynamic plant, keeping MuJoCo's needle base and tip sites after every period (a
-    subclass, so the controller steps it from Python)."""
+    """The dynamic plant, keeping MuJoCo's needle base and tip sites after every period
+    (stepped from Python: it declines the compiled closed loop)."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
+        self.compiled_physics = False
         self.sites: dict[int, np.ndarray] = {}
 
     def advance(self) -> None:
