@@ -10,8 +10,11 @@ Termination at a limit. The loop (Algorithm 1) stops when every error component 
 tolerance. The QP solver's `error` is the part of the task error that a feasible step can still
 remove: J x* / K (componentwise), with x* the QP's solution at this state. With no constraint
 active it equals the X_ext error (up to the damping, relative size D^2/sigma_min^2); at the
-closest feasible point to the target it is zero, so the loop moves on to the next target. The
-true X_ext error stays available through `task_error`, and the log's tip and target records.
+closest feasible point to the target it is zero, so the loop moves on to the next target. A step
+at an actuator's full speed is not at such a point (the speed bound only slows the motion): then
+`error` is the plain X_ext error, so a tolerance looser than one period's motion cannot end a
+target early. The true X_ext error stays available through `task_error`, and the log's tip and
+target records.
 
 On a plant whose servos follow the command over several periods (`servo`: the dynamic MuJoCo
 plant, whose reference ramps towards the command within speed and acceleration) the QP plans
@@ -38,6 +41,8 @@ from rcmplan.control.curved import CURVED_TASKS, check_gains7, gains_from_x_ext
 from rcmplan.control.curved import task_error as curved_error
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
+from rcmplan.control.limited_tip import LimitedTipSolver
+from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
@@ -129,10 +134,20 @@ class QpSolver:
         self.check_target(target)
         plan = self.planned_joints(robot, q)
         step, result = self._solve(robot, plan, lam, target)
+        if self.speed_limited(robot, result.x):
+            return self.task_error(robot, q, lam, target)
         e = np.asarray(step.task @ result.x / self.K, dtype=float)
         if plan is not q:
             e += self.task_error(robot, q, lam, target) - self._planned_error
         return e
+
+    def speed_limited(self, robot: RobotModel, x: FloatArray) -> bool:
+        """True if an actuator moves at its full speed in the step x: the target is still being
+        approached, not the closest feasible point (a speed bound only slows the motion, so
+        the error it leaves is not one that no feasible motion removes)."""
+        m = len(robot.active)
+        full = robot.speed[list(robot.active)] * self.dt / SCALE
+        return bool(np.any(np.abs(x[:m]) >= (1.0 - SPEED_ACTIVE) * full))
 
     def tolerance(self) -> FloatArray:
         """(position, angle, angle, position x3); curved: (position x3, angle, position x3)."""
@@ -153,6 +168,12 @@ class QpSolver:
         s[active] += result.x[:m] * SCALE
         dq = robot.joints_from_actuators(s) - q
         return dq[active], float(result.x[m] * SCALE / robot.needle_length)
+
+    def free_solver(self) -> LimitedTipSolver:
+        """The free-space solver that holds this QP's actuator travel and speed outside the eye
+        (the controller's default for free phases with this solver)."""
+        lim = self.limits
+        return LimitedTipSolver(self.dt, lim.travel_margin, tol=self.tol, tip_speed=lim.tip_speed)
 
     # --- helpers ----------------------------------------------------------------------------
     def planned_joints(self, robot: RobotModel, q: FloatArray) -> FloatArray:
