@@ -301,3 +301,24 @@ class UnsupportedJointError(InvalidInputError):
         self.kind = kind
         valid = "revolute, continuous, prismatic or fixed joints (no mimic) on the chain's path"
         super().__init__(f"joint {joint!r} type", kind, valid)
+
+
+class InputStreamError(InvalidInputError):
+    """A master input stream (a replay file, a live sample) is malformed: the message names
+    the source, the row and the value, and what is valid.
+
+    Attributes:
+        source: The file (or "live input").
+        row: Index of the offending data row (0-based, header excluded), or None for the
+            file as a whole (a missing column).
+        column: The column (or key) the value is in.
+    """
+
+    status = "invalid_input_stream"
+
+    def __init__(self, source: str, row: int | None, column: str, value: Any, valid: str) -> None:
+        self.source = source
+        self.row = row
+        self.column = column
+        where = f"{source}: row {row} {column}" if row is not None else f"{source}: {column}"
+        super().__init__(where, value, valid)

@@ -26,9 +26,10 @@ from rcmplan.control.curved import CURVED_TASKS, check_gains7, gains_from_x_ext
 from rcmplan.control.curved import task_error as curved_error
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
+from rcmplan.control.limits import Limit
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
+from rcmplan.control.qp_problem import LIMITS, SCALE, StepInput, StepQP, build_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import solve_pose, target_tip
 from rcmplan.exceptions import UnreachableTargetError
@@ -48,6 +49,8 @@ class QpSolver:
         tol: Loop tolerance.
         limits: What is held (checked against robot and eye here, before any motion).
         backend: QP solver (see qp_backends.BACKENDS).
+        extra_limits: Limits held besides the standard ones (`qp_problem.LIMITS`), for
+            example a `limits.WorkspaceBound` for the tip.
     """
 
     name: ClassVar[str] = "qp"
@@ -63,6 +66,7 @@ class QpSolver:
         tol: Tolerance | None = None,
         limits: QpLimits | None = None,
         backend: str = DEFAULT_BACKEND,
+        extra_limits: tuple[Limit, ...] = (),
     ) -> None:
         self.robot = robot
         self.eye = eye
@@ -79,6 +83,7 @@ class QpSolver:
         self.tol = (tol or Tolerance()).checked()
         self.limits = (limits or QpLimits()).check(robot, eye)
         self.backend = check_backend(backend)
+        self.rows: tuple[Limit, ...] = (*LIMITS, *extra_limits)
         self.last: tuple[StepQP, QpResult] | None = None
         self._key: bytes = b""
         self._checked: bytes = b""
@@ -142,7 +147,7 @@ class QpSolver:
             return self.last
         e = self.task_error(robot, q, lam, target)
         inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.eye, self.limits)
-        step = build_step(robot, inp)
+        step = build_step(robot, inp, self.rows)
         result = solve(step.problem, self.backend)
         self.last, self._key = (step, result), key
         return self.last

@@ -1,8 +1,9 @@
 """Limits: each gives linear rows over one control step's QP variables x (`base.py`).
 
 `ActuatorLimit` gives variable bounds (travel and speed, lambda in [0, 1]); `RcmLimit`,
-`RetinaBarrier` and `SingularMargin` give inequality rows G x <= h (the RCM, with tolerance 0,
-an equality A x = b). The QP (`rcmplan.control.qp_problem`) is assembled from them.
+`RetinaBarrier`, `SingularMargin` and `WorkspaceBound` (a box for the tip, added per solver)
+give inequality rows G x <= h (the RCM, with tolerance 0, an equality A x = b). The QP
+(`rcmplan.control.qp_problem`) is assembled from them.
 """
 
 from rcmplan.control.limits.actuators import ActuatorLimit
@@ -10,6 +11,7 @@ from rcmplan.control.limits.base import Constraint, Kinematics, Limit, StepInput
 from rcmplan.control.limits.rcm import RcmLimit
 from rcmplan.control.limits.retina import RetinaBarrier, is_contact
 from rcmplan.control.limits.singular import SingularMargin
+from rcmplan.control.limits.workspace import WorkspaceBound
 
 __all__ = [
     "ActuatorLimit",
@@ -20,6 +22,7 @@ __all__ = [
     "RetinaBarrier",
     "SingularMargin",
     "StepInput",
+    "WorkspaceBound",
     "is_contact",
     "kinematics",
 ]
