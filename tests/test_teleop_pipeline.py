@@ -74,13 +74,18 @@ def test_a_reflection_is_not_a_master_frame() -> None:
         MotionScaling(10.0, np.diag([1.0, 1.0, -1.0]))
 
 
-def test_targets_are_rcm_targets_and_keep_the_tip_in_the_box() -> None:
+def test_targets_are_rcm_targets_of_the_closest_allowed_tip() -> None:
     eye = default_eye()
     box = Fixtures().workspace(eye)
-    maker = TargetMaker(eye.port, box)
+    maker = TargetMaker(eye.port, box, eye.center, eye.retina_radius - 0.25e-3)
     R = eye_frame(eye)
     inside = eye.center + R @ np.array([1e-3, -2e-3, 5e-3])
     assert maker.target(tuple(inside)) == pytest.approx(rcm_target(inside, eye.port), abs=1e-15)
     outside = eye.center + R @ np.array([9e-3, 0.0, 5e-3])  # beyond the +x face at 6 mm
     clamped = eye.center + R @ np.array([6e-3, 0.0, 5e-3])
     assert maker.target(tuple(outside)) == pytest.approx(rcm_target(clamped, eye.port), abs=1e-12)
+    deep = eye.center + R @ np.array([1e-3, 0.0, 11.5e-3])  # past the retina
+    radial = (deep - eye.center) / np.linalg.norm(deep - eye.center)
+    on_margin = eye.center + (eye.retina_radius - 0.25e-3) * radial  # the closest allowed tip
+    assert maker.target(tuple(deep)) == pytest.approx(rcm_target(on_margin, eye.port), abs=1e-12)
+    assert eye.distance_to_retina(maker.allowed(tuple(deep))) == pytest.approx(0.25e-3, abs=1e-15)

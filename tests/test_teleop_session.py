@@ -153,3 +153,19 @@ def test_a_live_input_that_stops_sending_counts_as_released() -> None:
     engaged = result.trace.engaged
     assert engaged[1:20].all()  # fresh while it sends
     assert not engaged[-5:].any()  # stale: released, the needle holds
+
+
+def test_on_the_mujoco_plant_the_margin_holds_and_the_needle_holds_when_released() -> None:
+    pytest.importorskip("mujoco", reason="the MuJoCo plant needs the sim extra")
+    settings = TeleopSettings(plant="mujoco")
+    result = run_replay(settings, SyntheticSurgeon(plan=PUSH, seed=2).track())
+    assert result.status in ("ok", "limit_violated"), result.message
+    eye, margin = result.session.eye, settings.fixtures.retina_margin
+    assert retina_distance(eye, result.trace.desired).min() < margin - 0.5 * MM
+    assert retina_distance(eye, result.log.tip).min() >= margin - 1e-9
+    assert result.violations["retina"] == result.violations["workspace"] == 0
+    deviation = np.linalg.norm(result.log.rcm - result.log.trocar, axis=1)
+    assert deviation.max() < 10e-6  # the MuJoCo plant's floor for the injection (README)
+    t = result.log.time
+    tips = result.log.tip[(t > 2.6) & (t < 3.2)]  # released; the servo settles in 0.1 s
+    assert np.abs(tips - tips[0]).max() < 1e-6

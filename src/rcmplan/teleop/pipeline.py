@@ -59,29 +59,60 @@ class Pipeline:
 
 class TargetMaker:
     """X_ext targets "tip at p, RCM at the trocar" (`rcmplan.control.targets.rcm_target`,
-    written out in floats for the per-period budget), p kept in the workspace box so that
-    the needle direction it asks for stays defined."""
+    written out in floats for the per-period budget), with p first brought into the allowed
+    region: the workspace box and the ball `allowed_radius` about the eye centre (the retina
+    less its no-go margin).
 
-    def __init__(self, trocar: FloatArray, box: WorkspaceBound) -> None:
+    The QP holds the fixtures whatever the target; bringing the target in makes the needle
+    stop where the hand's path leaves the allowed region (the closest allowed point) instead
+    of sliding along the fixture towards the X_ext compromise of an unreachable target, and
+    keeps the needle direction (tip to trocar) defined.
+    """
+
+    def __init__(
+        self, trocar: FloatArray, box: WorkspaceBound, centre: FloatArray, allowed_radius: float
+    ) -> None:
         self.trocar = tuple(float(v) for v in trocar)
         self._o = tuple(float(v) for v in box.origin)
         self._R = [float(v) for v in np.asarray(box.rotation).ravel()]
         self._lo, self._hi = box.lower, box.upper
+        self._c = tuple(float(v) for v in centre)
+        self._r = float(allowed_radius)
 
-    def clamp(self, p: Vec3) -> Vec3:
+    def clamp_box(self, p: Vec3) -> Vec3:
         """p [m] moved into the box (along the box axes); p itself if inside."""
-        R, o = self._R, self._o
-        d = (p[0] - o[0], p[1] - o[1], p[2] - o[2])
-        c = [R[i] * d[0] + R[3 + i] * d[1] + R[6 + i] * d[2] for i in range(3)]
-        k = [min(max(c[i], self._lo[i]), self._hi[i]) for i in range(3)]
-        if k == c:
+        R, o, lo, hi = self._R, self._o, self._lo, self._hi
+        d0, d1, d2 = p[0] - o[0], p[1] - o[1], p[2] - o[2]
+        c0 = R[0] * d0 + R[3] * d1 + R[6] * d2
+        c1 = R[1] * d0 + R[4] * d1 + R[7] * d2
+        c2 = R[2] * d0 + R[5] * d1 + R[8] * d2
+        if lo[0] <= c0 <= hi[0] and lo[1] <= c1 <= hi[1] and lo[2] <= c2 <= hi[2]:
             return p
-        return tuple(o[j] + R[3 * j] * k[0] + R[3 * j + 1] * k[1] + R[3 * j + 2] * k[2]
-                     for j in range(3))  # type: ignore[return-value]  # fmt: skip
+        k0, k1, k2 = (min(max(c0, lo[0]), hi[0]), min(max(c1, lo[1]), hi[1]),
+                      min(max(c2, lo[2]), hi[2]))  # fmt: skip
+        return (o[0] + R[0] * k0 + R[1] * k1 + R[2] * k2,
+                o[1] + R[3] * k0 + R[4] * k1 + R[5] * k2,
+                o[2] + R[6] * k0 + R[7] * k1 + R[8] * k2)  # fmt: skip
+
+    def clamp_ball(self, p: Vec3) -> Vec3:
+        """p [m] moved radially into the allowed ball; p itself if inside."""
+        c, r = self._c, self._r
+        d = (p[0] - c[0], p[1] - c[1], p[2] - c[2])
+        n = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+        if n <= r:
+            return p
+        f = r / n
+        return (c[0] + f * d[0], c[1] + f * d[1], c[2] + f * d[2])
+
+    def allowed(self, p: Vec3) -> Vec3:
+        """p brought into the box and the ball (alternating projections onto the two convex
+        sets, two rounds: the box's faces lie far from the ball's surface by default)."""
+        q = self.clamp_ball(self.clamp_box(p))
+        return self.clamp_ball(self.clamp_box(q)) if q is not p else q
 
     def target(self, p: Vec3) -> FloatArray:
-        """X_ext (6,) for the tip at p (clamped into the box) and the RCM at the trocar."""
-        x, y, z = self.clamp(p)
+        """X_ext (6,) for the tip at p (brought into the allowed region), RCM at the trocar."""
+        x, y, z = self.allowed(p)
         cx, cy, cz = self.trocar
         ux, uy, uz = x - cx, y - cy, z - cz
         phi = math.atan2(uz, -ux)

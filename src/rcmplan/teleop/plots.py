@@ -64,9 +64,11 @@ def input_vs_tip(result: TeleopResult, path: Path) -> Path:
         for p, label, colour, ls, lw in lines:
             ax.plot(t, eye_mm(p)[:, i], color=colour, ls=ls, lw=lw, label=label)
         ax.set_ylabel(f"{'xyz'[i]} [mm]")
-    axes[0].set_title(f"Input versus tip, eye frame (scale {result.settings.scale:g}, "
-                      f"filter {result.settings.filter}); grey: clutch released")  # fmt: skip
-    axes[0].legend(loc="upper left", ncols=4)
+    fig.suptitle(f"Input versus tip, eye frame (scale {result.settings.scale:g}, "
+                 f"filter {result.settings.filter}); grey: clutch released")  # fmt: skip
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="upper center", ncols=4, bbox_to_anchor=(0.5, 0.955))
+    fig.subplots_adjust(top=0.88, bottom=0.08, hspace=0.12)
     axes[-1].set_xlabel("time [s]")
     return style.save(fig, path)
 

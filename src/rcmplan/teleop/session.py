@@ -78,7 +78,8 @@ class Session:
         self.solver = QpSolver(robot, eye, cfg.dt, limits=cfg.fixtures.qp_limits(guard),
                                extra_limits=(held,))  # fmt: skip
         self.pipeline = Pipeline(cfg.make_filter(), MotionScaling(cfg.scale, R))
-        self.targets = TargetMaker(eye.port, held)
+        allowed = eye.retina_radius - cfg.fixtures.retina_margin - guard
+        self.targets = TargetMaker(eye.port, held, eye.center, allowed)
         self.log = LogBuilder()
         self.log.actuator_labels = tuple(
             f"{n}_{u}" for n, u in zip(robot.actuator_names, robot.actuator_units, strict=True)
