@@ -31,6 +31,7 @@ FREE_GUARD_M = 0.1e-3
 MAX_LAG_S = 0.3
 INTENDED_CUTOFF_HZ = 2.0
 ALIGN_CUTOFF_HZ = 5.0
+EDGE_S = 0.5
 
 Mask = NDArray[np.bool_]
 
@@ -88,7 +89,12 @@ def tracking_rms(tip: FloatArray, ref: FloatArray, mask: Mask) -> float | None:
 
 def added_lag(tip: FloatArray, ref: FloatArray, mask: Mask, rate_hz: float) -> float | None:
     """The delay tau [s] minimising the RMS of tip(t) - ref(t - tau) over mask (module
-    docstring), to 0.01 ms; None without enough motion to tell."""
+    docstring), to 0.01 ms, leaving out EDGE_S at each end (where the zero-phase filter's
+    padding differs between the two); None with too few periods to tell."""
+    edge = int(EDGE_S * rate_hz)
+    mask = mask.copy()
+    mask[:edge] = False
+    mask[max(mask.shape[0] - edge, 0) :] = False
     if mask.sum() < 200:
         return None
     sos = signal.butter(4, ALIGN_CUTOFF_HZ, fs=rate_hz, output="sos")
