@@ -44,8 +44,8 @@ class Fixtures:
             v dt / 0.02 before a fixture, over about 50 periods, instead of stopping at once).
         travel_margin: Distance kept from each actuator's travel ends [m].
         plant_guard: Added to the retina margin and taken off the box in the QP [m] on a
-            plant that does not reach its commands exactly (MuJoCo's piezo servo stops up to
-            about 0.3 um off its command); violations still count against the fixtures
+            plant that does not reach its commands exactly (MuJoCo's piezo servo stops short
+            of its command: docs/teleop.md); violations still count against the fixtures
             themselves. Exact plants get no guard.
     """
 

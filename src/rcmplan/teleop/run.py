@@ -39,8 +39,8 @@ class TeleopResult:
         log: The run log (one record per period; partial if the session stopped early).
         trace: The pipeline's per-period arrays.
         events: Clutch events (time, kind, tip).
-        status: "ok", "interrupted" or the stopping error's status; `outputs` may later set
-            "limit_violated" when the measured log breaks a fixture.
+        status: "ok", "limit_violated" (the log breaks a fixture: `violations`),
+            "interrupted" or the stopping error's status.
         message: Why the session stopped ("" when it ran to the end).
         wall_time_s: Wall time of the session [s].
         source: The input ("synthetic", a file name, "live").
