@@ -22,6 +22,7 @@ import numpy as np
 from _common import quick, row
 from rcmplan import Iramis
 from rcmplan._validate import FloatArray
+from rcmplan.analysis.limits import KINDS, violations
 from rcmplan.control.loop import Controller
 from rcmplan.control.methods import MethodSettings
 from rcmplan.control.qp import QpSolver
@@ -29,7 +30,7 @@ from rcmplan.control.qp_backends import BACKENDS, QpResult, solve
 from rcmplan.control.qp_problem import QPProblem, StepQP
 from rcmplan.control.solvers import DlsSolver, PinvSolver
 from rcmplan.exceptions import QPError, RcmplanError
-from rcmplan.scene.constrained import Scene, grazing_spiral, near_slider_limit, violations
+from rcmplan.scene.constrained import Scene, grazing_spiral, near_slider_limit
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
@@ -162,9 +163,6 @@ def violation_rows() -> list[dict[str, Any]]:
             out.append(row(f"{label}, {name}: records breaking a limit ({kinds or 'none'}; "
                            f"run {status})", v.total, "", target="0 for qp"))  # fmt: skip
     return out
-
-
-KINDS = ("travel", "speed", "lam", "rcm", "retina", "singular")
 
 
 def rows(n_problems: int = 2000, repeat: int = 3) -> list[dict[str, Any]]:

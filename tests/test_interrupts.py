@@ -30,6 +30,8 @@ COMMANDS = {  # command line, and the span [s] after start-up in which the signa
     "sweep": (["sweep", "--targets", "30000", "--workers", "2", "--no-plots"], 3.0),
 }
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
+# Interruptions per command: 4 in CI; `benchmarks/bench_interruptions.py` runs 100 per command.
+RUNS = int(os.environ.get("RCMPLAN_INTERRUPTIONS", "4"))
 
 
 def children_of(pid: int) -> set[int]:
@@ -127,7 +129,7 @@ def test_signals_at_random_points_leave_a_summary_a_loadable_log_and_no_process(
         assert code in (0, 1)
     rng = random.Random(18 + sorted(COMMANDS).index(command))
     interrupted = 0
-    for k in range(4):
+    for k in range(RUNS):
         sig, delay = SIGNALS[k % 2], rng.uniform(0.0, 0.9 * span)
         out = tmp_path / f"run{k}"
         code, kids, _ = interrupt(argv, out, sig, delay)

@@ -10,6 +10,7 @@ import pytest
 from scipy.optimize import minimize
 
 from rcmplan import Iramis
+from rcmplan.analysis.limits import violations
 from rcmplan.control import Controller, DlsSolver, PinvSolver
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.methods import MethodSettings, make_solver
@@ -28,7 +29,7 @@ from rcmplan.control.qp_problem import (
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import InvalidInputError, QPError, RcmplanError, UnreachableTargetError
 from rcmplan.robot.iramis import IramisParameters
-from rcmplan.scene.constrained import near_slider_limit, violations
+from rcmplan.scene.constrained import near_slider_limit
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection, spiral
 from rcmplan.sim import KinematicPlant

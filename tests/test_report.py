@@ -10,13 +10,16 @@ import numpy as np
 import pytest
 
 from rcmplan import Iramis
+from rcmplan.analysis.limits import KINDS
 from rcmplan.analysis.report import summary_json, write_outputs
 from rcmplan.analysis.settings_table import settings_rows
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import load_scenario
 
 UNIT_SUFFIXES = ("_m", "_s", "_rad")
-COUNTS = {"iterations", "steps"}
+# Counts and indices: iterations, steps, limited waypoints and a waypoint's step index, and the
+# records breaking each kind of limit (`limit_violations`).
+COUNTS = {"iterations", "steps", "limited_waypoints", "step", *KINDS}
 
 
 @pytest.fixture(scope="module")

@@ -211,3 +211,34 @@ def test_an_arm_refuses_a_non_finite_lambda(bad_lam) -> None:
     ur5 = make_robot("ur5")
     with pytest.raises(InvalidInputError, match=r"^lam = "):
         ur5.needle_point(ur5.home, bad_lam)
+
+
+@pytest.mark.parametrize("name", ["ur5", "panda"])
+def test_an_arms_singular_gradient_equals_finite_differences_of_its_measure(name: str) -> None:
+    arm = make_robot(name)
+    rng = np.random.default_rng(3)
+    for _ in range(10):
+        q = arm.home + rng.normal(scale=0.3, size=arm.home.shape)
+        value, grad = arm.singular_terms(q)
+        assert value[0] == pytest.approx(arm.singularity_measure(q), rel=1e-12)
+        fd = fd_jacobian(lambda x: np.array([arm.singularity_measure(x)]), q)
+        np.testing.assert_allclose(grad, fd, rtol=0, atol=1e-6 * np.abs(fd).max())
+
+
+def test_chain_jacobian_derivatives_equal_finite_differences_with_prismatic_joints() -> None:
+    chain = JointChain.from_dh(Iramis().chain)  # revolute and prismatic joints
+    assert chain.prismatic.any() and not chain.prismatic.all()
+    rng = np.random.default_rng(4)
+    point = np.array([0.01, -0.02, 0.03])
+
+    def jac(q: np.ndarray) -> np.ndarray:
+        T = chain.frames(q)
+        return chain.point_jacobian(T, T[-1, :3, :3] @ point + T[-1, :3, 3])
+
+    for _ in range(5):
+        q = rng.uniform(-0.3, 0.3, chain.n)
+        T = chain.frames(q)
+        d = chain.jacobian_derivatives(T, jac(q))
+        for j in range(chain.n):
+            fd = fd_jacobian(lambda x, j=j: jac(x).ravel(), q)[:, j].reshape(6, chain.n)
+            np.testing.assert_allclose(d[j], fd, rtol=0, atol=1e-7)

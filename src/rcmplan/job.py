@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from rcmplan.analysis.limits import limit_figures
 from rcmplan.analysis.metrics import phase_metrics
 from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import LogBuilder, RunLog
@@ -88,6 +89,7 @@ def _result(
     extra: dict[str, Any] | None = None,
 ) -> RunResult:  # fmt: skip
     times = controller.phase_times if controller is not None else {}
+    tracking = limit_figures(scenario, robot, log)
     return RunResult(
         scenario=scenario,
         log=log,
@@ -97,5 +99,5 @@ def _result(
         robot=robot,
         error=error,
         message=message,
-        extra=extra or {},
+        extra={**tracking, **(extra or {})},
     )

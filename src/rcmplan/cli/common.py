@@ -139,6 +139,13 @@ def print_summary(result: RunResult) -> None:
         f"max tip error {fmt(s['max_tip_error_m'], 'um')} um; {s['iterations']:,} iterations, "
         f"wall time {fmt(s['wall_time_s'], 'ms')} ms"
     )
+    if "limit_violations" in s:
+        broken = {k: n for k, n in s["limit_violations"].items() if n}
+        print(
+            f"every waypoint: max tip error {fmt(s['max_waypoint_tip_error_m'], 'um')} um, "
+            f"{s['limited_waypoints']} limited; limit violations: "
+            + (", ".join(f"{k} {n:,}" for k, n in broken.items()) or "none")
+        )
 
 
 def one_line(text: str) -> str:

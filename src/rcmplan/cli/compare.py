@@ -41,8 +41,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def execution_path(scenario: Scenario, pinned: str) -> str:
-    """ "compiled" if the pinned path is compiled and the method has a compiled kernel, else
-    "reference" (the QP, for one, always runs in Python)."""
+    """ "compiled" if the pinned path is compiled and the method has a compiled kernel (the QP:
+    on the kinematic plant, `qp_phase.runs_compiled`), else "reference"."""
+    from rcmplan.compiled.qp_phase import runs_compiled
     from rcmplan.compiled.records import method_code
     from rcmplan.control.methods import make_solver
     from rcmplan.robot.iramis import Iramis
@@ -52,7 +53,9 @@ def execution_path(scenario: Scenario, pinned: str) -> str:
     robot = Iramis()
     solver = make_solver(scenario.method, scenario.method_settings, robot,
                          eye=scenario.eye(robot), dt=scenario.dt)  # fmt: skip
-    return "compiled" if method_code(solver) is not None else "reference"
+    if method_code(solver) is not None or runs_compiled(solver, scenario.plant == "kinematic"):
+        return "compiled"
+    return "reference"
 
 
 def measure(scenario: Scenario, pinned: str) -> dict[str, Any]:

@@ -131,6 +131,8 @@ def attribute_docs(docstring: str) -> dict[str, str]:
 def _unit(key: str) -> str:
     if key.endswith("_mm_per_rad"):
         return "mm/rad"
+    if key.endswith("_mm_s"):
+        return "mm/s"
     for suffix, unit in (("_mm", "mm"), ("_mrad", "mrad"), ("_rad", "rad"), ("_m", "m"),
                          ("_s", "s"), ("_um", "um")):  # fmt: skip
         if key.endswith(suffix):

@@ -83,6 +83,29 @@ def loop_kernels() -> ModuleType:
     return importlib.import_module("rcmplan.compiled.loop")
 
 
+def qp_kernels() -> ModuleType:
+    """The QP step's kernels (`qp_kernels`: assembly and DAQP's C solve); MissingExtraError
+    without numba or DAQP."""
+    require_extra("numba", "fast")
+    require_extra("daqp", "qp")
+    return importlib.import_module("rcmplan.compiled.qp_kernels")
+
+
+def qp_loop() -> ModuleType | None:
+    """The compiled QP loop (`qp_loop`), or None if DAQP's C solver cannot be called from
+    compiled code here (`daqp_c.abi_ok`: a DAQP version whose structures are not the ones
+    copied, or no DAQP at all: the reference path then raises MissingExtraError at its first
+    solve); checked once per process. MissingExtraError without numba."""
+    require_extra("numba", "fast")
+    if importlib.util.find_spec("daqp") is None:
+        return None
+    if _state.get("daqp_abi") is None:
+        _state["daqp_abi"] = importlib.import_module("rcmplan.compiled.daqp_c").abi_ok()
+    if not _state["daqp_abi"]:
+        return None
+    return importlib.import_module("rcmplan.compiled.qp_loop")
+
+
 def closed_loop() -> ModuleType:
     """The compiled loop around the dynamic MuJoCo plant (`mujoco_loop`); needs numba and
     MuJoCo (MissingExtraError naming the extra otherwise)."""
@@ -96,7 +119,7 @@ def stamp_path() -> Path:
     here = Path(__file__).parent
     key = hashlib.sha256()
     kernels = ("kernels", "chain_kinematics", "chain_solve", "chain_checks", "arm_loop", "loop",
-               "mujoco_loop")  # fmt: skip
+               "mujoco_loop", "daqp_c", "qp_params", "qp_kernels", "qp_loop")  # fmt: skip
     files = [here / f"{name}.py" for name in kernels]
     for path in (*files, here.parent / "sim" / "mujoco" / "compiled.py"):
         key.update(path.read_bytes())

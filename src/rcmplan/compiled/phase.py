@@ -8,9 +8,11 @@ raises the same exception with the same message.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
@@ -33,37 +35,62 @@ from rcmplan.exceptions import RcmplanError
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
 
+IntArray = NDArray[np.int64]
+
 
 def run_phase_compiled(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> None:
     """Algorithm 1 on each target in turn, compiled; see the module docstring."""
     loop = fast_cache.loop_kernels()
-    robot, plant, cfg = controller.robot, controller.plant, controller.settings
+    robot, cfg = controller.robot, controller.settings
     code = method_code(solver)
     K, damping, tol = solver_arrays(solver)
     thr = singular_threshold(controller)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    s = plant.read_actuators()
-    state = np.array([controller.lam, plant.time, plant.dt])
-    cap = 4 * targets.shape[0] + cfg.max_iterations
-    rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
-    info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
+    fail = np.empty(24)
     args = (robot_params(robot), code, K, damping, tol, cfg.max_iterations,
             cfg.drift_correction, float(thr), targets)  # fmt: skip
+
+    def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
+            info: IntArray) -> int:  # fmt: skip
+        return int(loop.run_targets(*args, k0, s, state, rec, irec, info, fail))
+
+    status, info = run_in_blocks(controller, targets, pid, sid, run)
+    if status != DONE:
+        where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
+        m = solver.tolerance().shape[0]
+        raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
+
+
+BlockRunner = Callable[[int, FloatArray, FloatArray, FloatArray, IntArray, IntArray], int]
+
+
+def run_in_blocks(
+    controller: Controller, targets: FloatArray, pid: int, sid: int, run: BlockRunner,
+    per_target: int = 4,
+) -> tuple[int, IntArray]:  # fmt: skip
+    """Call a compiled phase loop `run(k0, s, state, rec, irec, info)` on the kinematic plant
+    (the `loop.run_targets` protocol) until it stops pausing, its records appended to the
+    log; the plant ends at the last command with its time advanced and controller.lam holds
+    the last lambda. Returns (status, info); the record buffer holds `per_target` records per
+    target (a full buffer pauses the loop, which is then resumed)."""
+    plant, cfg = controller.plant, controller.settings
+    s = plant.read_actuators()
+    state = np.array([controller.lam, plant.time, plant.dt])
+    cap = per_target * targets.shape[0] + cfg.max_iterations
+    rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
+    info = np.zeros(3, dtype=np.int64)
     status, k0 = PAUSED, 0
     while status == PAUSED:
-        status = loop.run_targets(*args, k0, s, state, rec, irec, info, fail)
+        status = run(k0, s, state, rec, irec, info)
         append_records(controller.log, rec, irec, int(info[0]), pid, sid)
         k0 = int(info[1])
     plant.command_actuators(s)
     plant.advance()
     plant.time = float(state[1])
     controller.lam = float(state[0])
-    if status != DONE:
-        where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
-        m = solver.tolerance().shape[0]
-        raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
+    return status, info
 
 
 def run_phase_on_plant(

@@ -26,7 +26,9 @@ if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
 
 PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3  # method codes of the kernels
+QP = 4  # the QP controller: its own loop (`qp_loop`), see `qp_phase.qp_applies`
 DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
+QP_FAILED = 8  # DAQP did not return an optimal solution (its exit flag in info[2])
 BLOCK = 4096  # records buffered before they go to the log
 REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
                "tip": (14, 17), "rcm": (17, 20), "trocar": (20, 23), "base": (23, 26),

@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.compiled import arm_phase
+from rcmplan.compiled import arm_phase, qp_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import check_arm_targets
 from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
@@ -62,7 +62,8 @@ def fast_converge_phase(
     """Run Algorithm 1 on every target of a phase in compiled code, if it applies.
 
     Applies when the solver is a PinvSolver, DlsSolver or TipSolver and the fast path is
-    enabled (see `fast_cache.use_fast`). On a KinematicPlant, and on a dynamic MujocoPlant
+    enabled (see `fast_cache.use_fast`); a QpSolver on the kinematic plant runs its own
+    compiled loop (`qp_phase`). On a KinematicPlant, and on a dynamic MujocoPlant
     (physics through MuJoCo's C functions, `fast_mujoco`), the whole loop is compiled; on any
     other plant the plant steps in Python and each iteration's control work is one compiled
     call. Records go to controller.log, the plant and controller.lam end where the
@@ -71,6 +72,12 @@ def fast_converge_phase(
     """
     if arm_phase.applies(controller, solver):  # any serial arm, on any plant
         return arm_phase.run_if_fast(controller, solver, targets, pid, sid)
+    if qp_phase.applies(controller, solver):  # the QP controller, on the kinematic plant
+        if not fast_cache.use_fast(qp_phase.TARGET_WEIGHT * len(targets)):
+            return False
+        if kernel_params(controller.robot) is None:
+            return False
+        return qp_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
     if method_code(solver) is None:
         return False
     # Whether compiling pays is asked first: checking the robot loads the kernels.
@@ -95,12 +102,18 @@ def fast_converge_phase(
 def expect_job(controller: Controller, phases: list[Phase]) -> None:
     """Before a job on a plant with dynamics, count all its planned targets towards mode
     "auto"'s payoff: there every control period costs about 0.5 ms on the reference path and
-    0.1 ms compiled, so a whole injection pays for loading the kernels from its first phase on
-    (a kinematic plant keeps counting phase by phase: its reference loop is cheap)."""
-    if getattr(controller.plant, "exact_commands", False):
-        return
+    0.1 ms compiled, so a whole injection pays for loading the kernels from its first phase on.
+    A kinematic plant keeps counting phase by phase (its reference loop is cheap), except with
+    the QP controller, whose reference step costs about 200 us: its RCM targets count
+    `qp_phase.TARGET_WEIGHT` times each from the start."""
     n = sum(len(ph.targets) for ph in phases if not callable(ph.targets))
-    fast_cache.expect(DYNAMIC_ITERATIONS_PER_TARGET * n)
+    if not getattr(controller.plant, "exact_commands", False):
+        fast_cache.expect(DYNAMIC_ITERATIONS_PER_TARGET * n)
+        return
+    solver = getattr(controller, "solver", None)
+    if solver is not None and qp_phase.applies(controller, solver):
+        rcm = sum(len(ph.targets) for ph in phases if ph.kind == "rcm" and not callable(ph.targets))
+        fast_cache.expect(qp_phase.TARGET_WEIGHT * rcm)
 
 
 _PROBES = np.array([[4e-3, 0.3, -6e-3, -0.2, 5e-3, 0.4], [-9e-3, -0.5, 2e-3, 0.6, -3e-3, -1.1],
@@ -254,8 +267,26 @@ def compile_kernels() -> None:
             ctl.lam = 1.0 - 8e-3 / robot.params.l6
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
     arm_phase.compile_arm_kernels()
+    if importlib.util.find_spec("daqp") is not None:
+        _compile_qp_loop(robot, trocar)
     if importlib.util.find_spec("mujoco") is not None:
         _compile_mujoco_loop(robot, jobs)
+
+
+def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
+    """The compiled QP loop (and DAQP's binding), on a 20 um move about the trocar; nothing if
+    DAQP's C solver cannot be called from compiled code (`cache.qp_loop`)."""
+    from rcmplan.control.loop import Controller, interpolate
+    from rcmplan.control.qp import QpSolver
+    from rcmplan.control.targets import rcm_target
+
+    tip = robot.tip(robot.home)
+    path = interpolate(tip, tip + np.array([-2e-5, 2e-6, 0.0]), 2)
+    targets = np.array([rcm_target(t, trocar) for t in path])
+    solver = QpSolver(robot)
+    ctl = Controller(KinematicPlant(robot), solver)
+    ctl.lam = 1.0 - 8e-3 / robot.params.l6
+    qp_phase.run_if_ready(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
 
 
 def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -> None:

@@ -46,7 +46,9 @@ class Controller:
     Args:
         plant: Any Plant.
         solver: Step solver for RCM phases.
-        free_solver: Step solver for free-space phases (default: tip pseudoinverse).
+        free_solver: Step solver for free-space phases (default: the RCM solver's own
+            `free_solver()` if it has one, as the QP does to hold its limits in every phase,
+            else the tip pseudoinverse).
         settings: Loop settings.
         runner: Runs phases faster where it applies (default: the compiled runner when
             `rcmplan.compiled` is loaded, else the reference code); see `control.runner`.
@@ -66,7 +68,8 @@ class Controller:
         self.plant = plant
         self.robot: RobotModel = robot or plant.robot
         self.solver = solver
-        self.free_solver: Solver = free_solver or TipSolver()
+        own = getattr(solver, "free_solver", None)
+        self.free_solver: Solver = free_solver or (own() if own is not None else TipSolver())
         self.settings = settings or LoopSettings()
         self.runner = runner or default_runner()
         self.lam = 1.0

@@ -67,11 +67,16 @@ def _curved_solver(name: str, cfg: MethodSettings, robot: RobotModel, **context:
     raise InvalidInputError("method", name, "'pinv', 'dls' or 'qp' for a curved needle")
 
 
-def make_free_solver(robot: RobotModel, settings: MethodSettings | None = None) -> Solver | None:
+def make_free_solver(
+    robot: RobotModel,
+    settings: MethodSettings | None = None,
+) -> Solver | None:
     """The free-space solver for `robot`: whole poses for a curved needle (its arc must pass
-    the trocar), else None (the controller's tip pseudoinverse)."""
+    the trocar), else None (the controller's default: the RCM solver's own `free_solver()` if it
+    has one, as the QP does to hold its limits in every phase, else the tip pseudoinverse)."""
+    cfg = settings or MethodSettings()
     if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
         from rcmplan.control.curved import CurvedPoseSolver
 
-        return CurvedPoseSolver(tol=(settings or MethodSettings()).tolerance)
+        return CurvedPoseSolver(tol=cfg.tolerance)
     return None

@@ -10,8 +10,11 @@ Termination at a limit. The loop (Algorithm 1) stops when every error component 
 tolerance. The QP solver's `error` is the part of the task error that a feasible step can still
 remove: J x* / K (componentwise), with x* the QP's solution at this state. With no constraint
 active it equals the X_ext error (up to the damping, relative size D^2/sigma_min^2); at the
-closest feasible point to the target it is zero, so the loop moves on to the next target. The
-true X_ext error stays available through `task_error`, and the log's tip and target records.
+closest feasible point to the target it is zero, so the loop moves on to the next target. A step
+at an actuator's full speed is not at such a point (the speed bound only slows the motion): then
+`error` is the plain X_ext error, so a tolerance looser than one period's motion cannot end a
+target early. The true X_ext error stays available through `task_error`, and the log's tip and
+target records.
 """
 
 from __future__ import annotations
@@ -26,7 +29,9 @@ from rcmplan.control.curved import CURVED_TASKS, check_gains7, gains_from_x_ext
 from rcmplan.control.curved import task_error as curved_error
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
+from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.limits import Limit
+from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import LIMITS, SCALE, StepInput, StepQP, build_step
@@ -50,7 +55,8 @@ class QpSolver:
         limits: What is held (checked against robot and eye here, before any motion).
         backend: QP solver (see qp_backends.BACKENDS).
         extra_limits: Limits held besides the standard ones (`qp_problem.LIMITS`), for
-            example a `limits.WorkspaceBound` for the tip.
+            example a `limits.WorkspaceBound` for the tip (the compiled QP declines a solver
+            that has any).
     """
 
     name: ClassVar[str] = "qp"
@@ -83,7 +89,8 @@ class QpSolver:
         self.tol = (tol or Tolerance()).checked()
         self.limits = (limits or QpLimits()).check(robot, eye)
         self.backend = check_backend(backend)
-        self.rows: tuple[Limit, ...] = (*LIMITS, *extra_limits)
+        self.extra_limits = tuple(extra_limits)
+        self.rows: tuple[Limit, ...] = (*LIMITS, *self.extra_limits)
         self.last: tuple[StepQP, QpResult] | None = None
         self._key: bytes = b""
         self._checked: bytes = b""
@@ -108,7 +115,17 @@ class QpSolver:
         """The X_ext error a feasible step can still remove, J x* / K (see module docstring)."""
         self.check_target(target)
         step, result = self._solve(robot, q, lam, target)
+        if self.speed_limited(robot, result.x):
+            return self.task_error(robot, q, lam, target)
         return np.asarray(step.task @ result.x / self.K, dtype=float)
+
+    def speed_limited(self, robot: RobotModel, x: FloatArray) -> bool:
+        """True if an actuator moves at its full speed in the step x: the target is still being
+        approached, not the closest feasible point (a speed bound only slows the motion, so
+        the error it leaves is not one that no feasible motion removes)."""
+        m = len(robot.active)
+        full = robot.speed[list(robot.active)] * self.dt / SCALE
+        return bool(np.any(np.abs(x[:m]) >= (1.0 - SPEED_ACTIVE) * full))
 
     def tolerance(self) -> FloatArray:
         """(position, angle, angle, position x3); curved: (position x3, angle, position x3)."""
@@ -128,6 +145,12 @@ class QpSolver:
         s[active] += result.x[:m] * SCALE
         dq = robot.joints_from_actuators(s) - q
         return dq[active], float(result.x[m] * SCALE / robot.needle_length)
+
+    def free_solver(self) -> LimitedTipSolver:
+        """The free-space solver that holds this QP's actuator travel and speed outside the eye
+        (the controller's default for free phases with this solver)."""
+        lim = self.limits
+        return LimitedTipSolver(self.dt, lim.travel_margin, tol=self.tol, tip_speed=lim.tip_speed)
 
     # --- helpers ----------------------------------------------------------------------------
     def task_error(

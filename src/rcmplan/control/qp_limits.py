@@ -29,6 +29,7 @@ EXTRA_KEYS: dict[str, tuple[str, float]] = {
     "singular_gain": ("singular_gain", 1.0),
     "angle_weight_mm_per_rad": ("angle_weight", 1e-3),
     "rcm_weight": ("rcm_weight", 1.0),
+    "tip_speed_mm_s": ("tip_speed", 1e-3),
 }
 
 
@@ -55,6 +56,10 @@ class QpLimits:
         singular_gain: Damper gain in (0, 1] of the singular margin.
         angle_weight: Weight of the needle-angle rows in [m/rad] (1 mrad counts as 10 um).
         rcm_weight: Weight of the RCM rows (dimensionless).
+        tip_speed: Largest tip speed in [m/s] along each base axis (None: no bound beyond the
+            actuators'). Bounds the step of a fast robot (an arm whose joints turn at rad/s),
+            whose RCM deviation per step is second order in the step; the retina recovery then
+            runs at up to eye_gain x tip_speed x dt per step.
     """
 
     rcm_tolerance: float = 0.5e-6
@@ -68,6 +73,7 @@ class QpLimits:
     singular_gain: float = 0.5
     angle_weight: float = 10e-3
     rcm_weight: float = 1.0
+    tip_speed: float | None = None
 
     def __post_init__(self) -> None:
         scalar("rcm_tolerance", self.rcm_tolerance, 0.0, 5e-3)
@@ -79,6 +85,8 @@ class QpLimits:
         scalar("singular_gain", self.singular_gain, 0.0, 1.0, low_open=True)
         scalar("angle_weight", self.angle_weight, 0.0, 1.0, low_open=True)
         scalar("rcm_weight", self.rcm_weight, 0.0, 1e6, low_open=True)
+        if self.tip_speed is not None:
+            scalar("tip_speed", self.tip_speed, 0.0, 1.0, low_open=True)
         if self.singular_margin is not None:
             scalar("singular_margin", self.singular_margin, 0.0, 1.0, low_open=True, high_open=True)
         pts = tuple(tuple(vector(f"contacts[{i}]", c, 3)) for i, c in enumerate(self.contacts))

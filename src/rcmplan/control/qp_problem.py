@@ -14,6 +14,7 @@ limits exact variable bounds; the joint step is recovered exactly through the ac
                G_eye x <= h_eye                   RetinaBarrier: velocity damper with a gain
                G_sing x <= h_sing                 SingularMargin: the robot's singular terms
                                                   above a margin (iRAM!S: cos q1, cos q3)
+               G_tip x <= h_tip                   TipSpeed: the tip's step per axis (if set)
 
 Each row block comes from a limit object (`rcmplan.control.limits`); a new limit is one file
 with a `constraint(robot, inp, kin)` method, added to `LIMITS` or passed to `build_step`.
@@ -39,6 +40,7 @@ from rcmplan.control.limits import (
     RetinaBarrier,
     SingularMargin,
     StepInput,
+    TipSpeed,
     is_contact,
 )
 from rcmplan.control.limits.base import SCALE, Kinematics, kinematics, variable_map
@@ -49,7 +51,7 @@ __all__ = ["SCALE", "QPProblem", "StepInput", "StepQP", "build_step", "kinematic
            "task_jacobian", "variable_map"]  # fmt: skip
 
 # The rows of every step, in this order; the actuator bounds are variable bounds.
-LIMITS: tuple[Limit, ...] = (RcmLimit(), RetinaBarrier(), SingularMargin())
+LIMITS: tuple[Limit, ...] = (RcmLimit(), RetinaBarrier(), SingularMargin(), TipSpeed())
 
 
 @dataclass(frozen=True)

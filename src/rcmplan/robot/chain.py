@@ -148,15 +148,44 @@ class JointChain:
     def point_jacobian(self, T: FloatArray, p: FloatArray) -> FloatArray:
         """Geometric Jacobian (6, n) of the world point p (3,) moving with the end frame, given
         the frames T (n + 1, 4, 4) of `frames` (eqs. 2.9-2.11)."""
-        J = np.zeros((6, self.n))
-        for k in range(self.n):
-            z = T[k, :3, :3] @ self.axes[k]
-            if self.prismatic[k]:
-                J[:3, k] = z  # eq. 2.11
-            else:
-                J[:3, k] = np.cross(z, p - T[k, :3, 3])  # eq. 2.10
-                J[3:, k] = z
+        n = self.n
+        z = np.einsum("kij,kj->ki", T[:n, :3, :3], np.asarray(self.axes))  # joint axes, world
+        r = p - T[:n, :3, 3]
+        lin = np.empty((n, 3))  # z x r for a revolute joint (eq. 2.10), z for a prismatic one
+        lin[:, 0] = z[:, 1] * r[:, 2] - z[:, 2] * r[:, 1]
+        lin[:, 1] = z[:, 2] * r[:, 0] - z[:, 0] * r[:, 2]
+        lin[:, 2] = z[:, 0] * r[:, 1] - z[:, 1] * r[:, 0]
+        prismatic = np.asarray(self.prismatic, dtype=bool)
+        lin[prismatic] = z[prismatic]  # eq. 2.11
+        J = np.zeros((6, n))
+        J[:3] = lin.T
+        J[3:] = np.where(prismatic[:, None], 0.0, z).T
         return J
+
+    def jacobian_derivatives(self, T: FloatArray, J: FloatArray) -> FloatArray:
+        """d J / d q_j for every joint j, (n, 6, n), of the point Jacobian J (6, n)
+        (`point_jacobian` at frames T).
+
+        Column k of a revolute joint is (z_k x (p - o_k), z_k); of a prismatic one (z_k, 0).
+        A revolute joint j turns the joints after it and the point: for k > j the column turns
+        with it, z_j x J_k; for k <= j only the point moves, z_k x J_v,j (revolute k). A
+        prismatic joint j moves the point and the later joints' origins alike: only columns
+        k <= j of revolute joints change, z_k x z_j.
+        """
+        n = self.n
+        z = np.einsum("kij,kj->ki", T[:n, :3, :3], np.asarray(self.axes))
+        revolute = ~np.asarray(self.prismatic, dtype=bool)
+        jj, kk = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
+        early = (kk <= jj) & revolute[None, :]  # z_k x J_v,j
+        late = (kk > jj) & revolute[:, None]  # z_j x J_k
+        out = np.zeros((n, 6, n))
+        lin_early = np.cross(z[None, :, :], J[:3].T[:, None, :])  # [j, k] = z_k x J_v,j
+        lin_late = np.cross(z[:, None, :], J[:3].T[None, :, :])  # [j, k] = z_j x J_v,k
+        ang_late = np.cross(z[:, None, :], J[3:].T[None, :, :])  # [j, k] = z_j x J_w,k
+        lin = np.where(early[..., None], lin_early, 0.0) + np.where(late[..., None], lin_late, 0.0)
+        out[:, :3, :] = lin.transpose(0, 2, 1)
+        out[:, 3:, :] = np.where(late[..., None], ang_late, 0.0).transpose(0, 2, 1)
+        return out
 
     @classmethod
     def from_dh(cls, chain: DHChain, name: str = "dh") -> JointChain:

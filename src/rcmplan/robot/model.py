@@ -23,7 +23,7 @@ from rcmplan.exceptions import (
     UnreachableTargetError,
 )
 from rcmplan.robot.chain import JointChain
-from rcmplan.robot.needle import StraightNeedle, angles_from_axis, angles_jacobian
+from rcmplan.robot.needle import StraightNeedle, angles_from_axis, angles_jacobian, cross3
 
 IK_ITERATIONS = 100  # Newton iterations of `SerialArm.needle_pose`
 IK_TOLERANCE = 1e-12  # [m] and [rad]
@@ -268,23 +268,47 @@ class SerialArm:
         a = self.needle_axis(q)
         helper = np.zeros(3)
         helper[int(np.argmin(np.abs(a)))] = 1.0
-        n1 = np.cross(a, helper)
+        n1 = cross3(a, helper)
         n1 /= np.linalg.norm(n1)
-        N = np.array([n1, np.cross(a, n1)])
+        N = np.array([n1, cross3(a, n1)])
         J = self._point_jacobian(q, 1.0)[:, list(self.active)]
         M = np.vstack([J[:3] / self.needle_length, N @ J[3:]])
         sv = np.linalg.svd(M, compute_uv=False)
         return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
 
     def singular_terms(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """The measure (1,) and its gradient (1, n) by central differences (step 1e-7)."""
+        """The measure kappa = s_min / s_max of M = [J_tip / l; N J_omega] (1,) and its exact
+        gradient (1, n): d s_i / d q_j = u_i' (dM / dq_j) v_i (distinct singular values), with
+        dM / dq_j from the chain's second derivatives (`jacobian_derivatives`) and the motion of
+        the normals N with the needle axis (d a / d q_j = omega_j x a)."""
         q = vector("q", q, self.chain.n)
+        T = self._frames(q)
+        act = list(self.active)
+        J = self._point_jacobian(q, 1.0)
+        a = self.needle_axis(q)
+        helper = np.zeros(3)
+        helper[int(np.argmin(np.abs(a)))] = 1.0
+        c = cross3(a, helper)
+        n1 = c / np.linalg.norm(c)
+        N = np.array([n1, cross3(a, n1)])
+        length = self.needle_length
+        M = np.vstack([J[:3, act] / length, N @ J[3:, act]])
+        U, S, Vt = np.linalg.svd(M, full_matrices=False)
         grad = np.zeros((1, self.chain.n))
-        for j in self.active:
-            h = np.zeros(self.chain.n)
-            h[j] = 1e-7
-            grad[0, j] = (self.singularity_measure(q + h) - self.singularity_measure(q - h)) / 2e-7
-        return np.array([self.singularity_measure(q)]), grad
+        if S[0] <= 0.0:
+            return np.array([0.0]), grad
+        kappa = S[-1] / S[0]
+        dJ = self.chain.jacobian_derivatives(T, J)[act][:, :, act]  # (m, 6, m)
+        da = np.cross(J[3:, act].T, a)  # (m, 3): omega_j x a
+        dc = np.cross(da, helper)
+        dn1 = (dc - np.outer(dc @ n1, n1)) / np.linalg.norm(c)
+        dn2 = np.cross(da, n1) + np.cross(a, dn1)
+        dN = np.stack([dn1, dn2], axis=1)  # (m, 2, 3)
+        dM = np.concatenate([dJ[:, :3] / length, dN @ J[3:, act] + N @ dJ[:, 3:]], axis=1)
+        ds_min = np.einsum("i,jik,k->j", U[:, -1], dM, Vt[-1])
+        ds_max = np.einsum("i,jik,k->j", U[:, 0], dM, Vt[0])
+        grad[0, act] = (ds_min * S[0] - S[-1] * ds_max) / S[0] ** 2
+        return np.array([kappa]), grad
 
     def check_singularity(self, q: FloatArray, threshold: float | None = None) -> None:
         """Raise SingularPoseError if the measure is below the threshold."""

@@ -9,32 +9,23 @@
   Pseudoinverse and DLS follow the path into the margin; the QP slides along the margin and
   rejoins the path.
 
-Both return (eye, points, phases) for the default robot; `violations` counts, per record of the
-RCM phases, every limit the QP holds.
+Both return (eye, points, phases) for the default robot; `rcmplan.analysis.limits.violations`
+counts, per record, every limit the QP holds.
 """
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numpy as np
 
-from rcmplan.control.log import RunLog
 from rcmplan.control.loop import Phase
-from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.needle import angles_from_axis, axis_from_angles
 from rcmplan.scene.eye import Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import Spiral, injection, spiral
-
-# A violation must exceed these to count: slider values are exact by construction (float
-# rounding only); the retina margin and RCM bound are held to first order, and the sphere's
-# curvature costs at most |tip step|^2 / (2 r) per step (about 5 nm for a 10 um step).
-SLIDER_SLACK = 1e-12  # [m]
-FIRST_ORDER_SLACK = 1e-8  # [m]
 
 LIMIT_SLIDER = 3  # L4
 LIMIT_GAP = 0.25e-3  # [m] from L4's hard upper end, inside the 0.5 mm default margin
@@ -118,76 +109,3 @@ def grazing_spiral(robot: Iramis | None = None) -> Scene:
     depth = graze_depth(eye)
     points = default_points(eye, depth=depth)
     return Scene(eye, points, spiral(robot, eye, points, graze_spiral(eye, depth)))
-
-
-class Violations(NamedTuple):
-    """Records of RCM phases that break a limit, and the worst excess of each, in [m].
-
-    travel: a slider beyond its hard travel less `travel_margin`; speed: a slider step above
-    speed * dt; lam: lambda outside [0, 1]; rcm: trocar-to-needle-line distance above the
-    RCM tolerance; retina: tip closer to the retina than the margin and getting closer (outside
-    the port zone, target not a contact); singular: min(|cos q1|, |cos q3|) below the singular
-    margin.
-    """
-
-    travel: int
-    speed: int
-    lam: int
-    rcm: int
-    retina: int
-    singular: int
-    worst: dict[str, float]
-
-    @property
-    def total(self) -> int:
-        """Number of violations of any kind."""
-        return self.travel + self.speed + self.lam + self.rcm + self.retina + self.singular
-
-
-def violations(
-    log: RunLog, robot: Iramis, eye: Eye, limits: QpLimits | None = None, dt: float = 1e-3
-) -> Violations:
-    """Count the records of the log's RCM phases that break a limit the QP holds."""
-    lim = limits or QpLimits()
-    rcm = ~np.isnan(log.trocar[:, 0])
-    s = log.sliders[rcm, :5]
-    excess = {
-        "travel": np.max(
-            np.maximum(
-                robot.lower[:5] + lim.travel_margin - s, s - robot.upper[:5] + lim.travel_margin
-            ),
-            axis=1,
-        ),
-        "speed": speed_excess(log, robot, dt)[rcm],
-        "lam": np.maximum(-log.lam, log.lam - 1.0)[rcm],
-        "rcm": log.line_distance()[rcm] - lim.rcm_tolerance,
-        "retina": retina_excess(log, eye, lim)[rcm],
-        "singular": lim.singular_floor(robot) - cos_measure(log.joints[rcm]),
-    }
-    slack = {"travel": SLIDER_SLACK, "speed": SLIDER_SLACK, "lam": 0.0, "rcm": FIRST_ORDER_SLACK,
-             "retina": FIRST_ORDER_SLACK, "singular": 1e-9}  # fmt: skip
-    counts = {k: int(np.sum(v > slack[k])) for k, v in excess.items()}
-    worst = {k: float(np.max(v, initial=-math.inf)) for k, v in excess.items()}
-    return Violations(**counts, worst=worst)
-
-
-def speed_excess(log: RunLog, robot: Iramis, dt: float) -> np.ndarray:
-    """Per record, the largest |slider step| - speed * dt in [m] (0 for the first record)."""
-    ds = np.abs(np.diff(log.sliders[:, :5], axis=0)) - robot.speed[:5] * dt
-    return np.concatenate([[-math.inf], np.max(ds, axis=1)])
-
-
-def retina_excess(log: RunLog, eye: Eye, lim: QpLimits) -> np.ndarray:
-    """Per record, margin minus the tip's retina distance in [m]; -inf where exempt: tip in the
-    port zone, target a contact, or the tip moving away from the retina (leaving a contact)."""
-    d = eye.retina_radius - np.linalg.norm(log.tip - eye.center, axis=1)
-    d_target = eye.retina_radius - np.linalg.norm(log.target_tip - eye.center, axis=1)
-    in_port = np.linalg.norm(log.tip - eye.port, axis=1) <= lim.port_zone
-    contact = np.abs(d_target) <= lim.contact_tolerance
-    receding = np.concatenate([[False], np.diff(d) >= 0.0])
-    return np.where(in_port | contact | receding, -math.inf, lim.retina_margin - d)
-
-
-def cos_measure(q: np.ndarray) -> np.ndarray:
-    """min(|cos q1|, |cos q3|) per row of joints (N, 6)."""
-    return np.asarray(np.minimum(np.abs(np.cos(q[:, 1])), np.abs(np.cos(q[:, 3]))))

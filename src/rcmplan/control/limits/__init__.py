@@ -1,8 +1,8 @@
 """Limits: each gives linear rows over one control step's QP variables x (`base.py`).
 
 `ActuatorLimit` gives variable bounds (travel and speed, lambda in [0, 1]); `RcmLimit`,
-`RetinaBarrier`, `SingularMargin` and `WorkspaceBound` (a box for the tip, added per solver)
-give inequality rows G x <= h (the RCM, with tolerance 0, an equality A x = b). The QP
+`RetinaBarrier`, `SingularMargin`, `TipSpeed` and `WorkspaceBound` (a box for the tip, added per
+solver) give inequality rows G x <= h (the RCM, with tolerance 0, an equality A x = b). The QP
 (`rcmplan.control.qp_problem`) is assembled from them.
 """
 
@@ -11,6 +11,7 @@ from rcmplan.control.limits.base import Constraint, Kinematics, Limit, StepInput
 from rcmplan.control.limits.rcm import RcmLimit
 from rcmplan.control.limits.retina import RetinaBarrier, is_contact
 from rcmplan.control.limits.singular import SingularMargin
+from rcmplan.control.limits.tip_speed import TipSpeed
 from rcmplan.control.limits.workspace import WorkspaceBound
 
 __all__ = [
@@ -22,6 +23,7 @@ __all__ = [
     "RetinaBarrier",
     "SingularMargin",
     "StepInput",
+    "TipSpeed",
     "WorkspaceBound",
     "is_contact",
     "kinematics",

@@ -18,6 +18,9 @@ from rcmplan.robot.model import RobotModel
 
 SCALE = 1e-6  # [m] or [rad] per unit of the decision variables
 RECOVERY = 1e-6  # [m] largest push back per step when a damped quantity is past its floor
+# An actuator step within this fraction of speed x dt is at its speed bound (DAQP returns bound
+# values exactly; the fraction covers rounding).
+SPEED_ACTIVE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -100,13 +103,13 @@ def no_rows(kin: Kinematics) -> Constraint:
 
 
 def damper_row(
-    grad: FloatArray, value: float, floor: float, gain: float
+    grad: FloatArray, value: float, floor: float, gain: float, recovery: float = RECOVERY
 ) -> tuple[FloatArray, float]:
     """One velocity-damper row G x <= h for value + grad x SCALE >= floor, approached at `gain`.
 
     value_next - floor >= (1 - gain)(value - floor) to first order; past the floor, the state
-    must not get worse and recovers by up to RECOVERY per step.
+    must not get worse and recovers by up to `recovery` per step.
     """
     gap = value - floor
-    need = -gain * gap if gap >= 0.0 else min(-gain * gap, RECOVERY)
+    need = -gain * gap if gap >= 0.0 else min(-gain * gap, recovery)
     return -grad, -need / SCALE

@@ -1,0 +1,199 @@
+"""The QP controller's control step and run, compiled against the reference Python path.
+
+Run alone: python benchmarks/bench_qp_step.py [--states N]  (or: python benchmarks/run.py).
+
+- The step (QP assembly + DAQP solve + the removable error) at the states the QP controller
+  visits in the default injection (recorded from a reference run): the reference
+  `QpSolver` (build_step in Python + daqp.solve), timed per state, against the compiled step
+  (`qp_kernels.solve_step`: assembly in numba, DAQP's C function called directly), timed over
+  batches of BATCH consecutive states inside compiled code (what the compiled loop pays), and
+  once per call from Python (`FastQpStep.solve`, which adds the call from Python).
+- The whole default injection with `--method qp`: `wall_time_s` of `rcmplan inject` in a new
+  process, default mode (compiled, numba's cache warmed first) against RCMPLAN_FAST=off; and
+  the compiled loop's time per iteration in this process.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from typing import Any
+
+import numpy as np
+from numba import njit
+
+from _common import quick, row
+from rcmplan import Iramis
+from rcmplan._validate import FloatArray
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.kernels import trig
+from rcmplan.compiled.qp_kernels import solve_step
+from rcmplan.compiled.qp_phase import FastQpStep
+from rcmplan.compiled.warm import compile_all
+from rcmplan.control.loop import Controller
+from rcmplan.control.qp import QpSolver
+from rcmplan.control.qp_backends import QpResult
+from rcmplan.control.qp_problem import StepQP
+from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.scene.procedures import injection
+from rcmplan.sim import KinematicPlant
+
+BATCH = 8
+
+
+class RecordingQp(QpSolver):
+    """A QpSolver that keeps every state (q, lambda, target) it builds a QP at (a subclass: it
+    runs on the reference path)."""
+
+    states: list[FloatArray]
+
+    def _solve(
+        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray
+    ) -> tuple[StepQP, QpResult]:
+        before = self.last
+        out = super()._solve(robot, q, lam, target)
+        if out is not before:
+            self.states.append(np.concatenate([q, [lam], target]))
+        return out
+
+
+def record_states() -> tuple[FloatArray, QpSolver]:
+    """Every state of the default injection's QP steps (N, 13) = (q, lambda, X_ext target)."""
+    robot = Iramis()
+    eye = default_eye(robot)
+    solver = RecordingQp(robot, eye)
+    solver.states = []
+    Controller(KinematicPlant(robot), solver).run(injection(robot, eye, default_points(eye)))
+    return np.array(solver.states), QpSolver(robot, eye)
+
+
+def reference_step_s(solver: QpSolver, states: FloatArray) -> FloatArray:
+    """Time [s] of the reference step at each state: the X_ext error, build_step and
+    daqp.solve (`QpSolver._solve`, its one-state cache cleared)."""
+    robot, times = solver.robot, np.empty(len(states))
+    for i, x in enumerate(states):
+        solver.last = None
+        t = time.perf_counter()
+        solver._solve(robot, x[:6], float(x[6]), x[7:])
+        times[i] = time.perf_counter() - t
+    return times
+
+
+@njit(cache=True)
+def _steps(P: Any, Q: Any, contacts: Any, K: Any, states: Any, s: Any, e: Any, qp: Any) -> int:
+    """solve_step at every state in turn (the compiled loop's step); returns the optimal count."""
+    ok = 0
+    for i in range(states.shape[0]):
+        q = states[i, :6]
+        ok += solve_step(P, Q, contacts, K, q, trig(q), states[i, 6], states[i, 7:], s, e, qp) == 1
+    return ok
+
+
+def compiled_step_s(fast: FastQpStep, states: FloatArray) -> FloatArray:
+    """Mean time [s] per step over each batch of BATCH consecutive states, in compiled code."""
+    args = (fast.P, fast.Q, fast.contacts, fast.K)
+    _steps(*args, states[:BATCH], fast.s, fast.e, fast.qp)
+    times = []
+    for i in range(0, len(states) - BATCH + 1, BATCH):
+        chunk = states[i : i + BATCH]
+        t = time.perf_counter()
+        if _steps(*args, chunk, fast.s, fast.e, fast.qp) != BATCH:
+            raise RuntimeError("a recorded step QP failed compiled")
+        times.append((time.perf_counter() - t) / BATCH)
+    return np.array(times)
+
+
+def python_call_s(fast: FastQpStep, states: FloatArray) -> FloatArray:
+    """Time [s] of one `FastQpStep.solve` call from Python per state."""
+    times = np.empty(len(states))
+    for i, x in enumerate(states):
+        q, lam, target = x[:6], float(x[6]), x[7:]
+        t = time.perf_counter()
+        fast.solve(q, lam, target)
+        times[i] = time.perf_counter() - t
+    return times
+
+
+def step_rows(n_states: int) -> list[dict[str, Any]]:
+    """The QP step, reference against compiled, at states of the default injection."""
+    states, solver = record_states()
+    picked = states[np.linspace(0, len(states) - 1, n_states).astype(int)]
+    fast = FastQpStep(solver)
+    ref = 1e6 * statistics.median(reference_step_s(solver, picked))
+    # Consecutive states (as the loop meets them), from evenly spaced starts.
+    starts = np.linspace(0, len(states) - 64, max(1, n_states // 64)).astype(int)
+    runs = np.concatenate([states[s : s + 64] for s in starts])
+    comp = 1e6 * statistics.median(compiled_step_s(fast, runs))
+    call = 1e6 * statistics.median(python_call_s(fast, picked))
+    tag = f"default injection, {len(runs)} of {len(states)} recorded states"
+    return [
+        row(f"QP step (assembly + DAQP solve), compiled, median over batches of {BATCH}; {tag}",
+            comp, "us", "reference Python (build_step + daqp.solve)", ref, "<= 30 us"),
+        row(f"QP step called from Python (FastQpStep.solve), median; {n_states} states", call,
+            "us", "reference Python (build_step + daqp.solve)", ref),
+    ]  # fmt: skip
+
+
+def inject_wall_s(mode: str) -> tuple[float, dict[str, Any]]:
+    """`wall_time_s` of `rcmplan inject --method qp --no-plots` in a new process."""
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "rcmplan", "inject", "--method", "qp", "--no-plots",
+               "--out", f"{tmp}/out"]  # fmt: skip
+        env = {**os.environ, fast_cache.ENV_MODE: mode}
+        subprocess.run(cmd, env=env, check=True, capture_output=True)
+        with open(f"{tmp}/out/summary.json") as f:
+            summary = json.load(f)
+    return float(summary["wall_time_s"]), summary
+
+
+def run_rows() -> list[dict[str, Any]]:
+    """The whole default injection with the QP: CLI wall time and the loop per iteration."""
+    compile_all()  # numba's cache warm and stamped: the default mode then runs compiled
+    fast_s, summary = inject_wall_s("auto")
+    ref_s, ref_summary = inject_wall_s("off")
+    robot = Iramis()
+    eye = default_eye(robot)
+    phases = injection(robot, eye, default_points(eye))
+    fast_cache.set_mode("on")
+    try:
+        Controller(KinematicPlant(robot), QpSolver(robot, eye)).run(phases)  # loaded
+        t = time.perf_counter()
+        log = Controller(KinematicPlant(robot), QpSolver(robot, eye)).run(phases)
+        per_it = (time.perf_counter() - t) / len(log)
+    finally:
+        fast_cache.set_mode(None)
+    same = summary["iterations"] == ref_summary["iterations"]
+    return [
+        row(f"`rcmplan inject --method qp` wall_time_s, default mode, warm cache "
+            f"({summary['iterations']} iterations, status {summary['status']}; same count as "
+            f"the reference: {same})", fast_s, "s", "RCMPLAN_FAST=off", ref_s, "<= 1.5 s"),
+        row("QP run in process, compiled, per iteration (loop, records, target checks)",
+            1e6 * per_it, "us"),
+    ]  # fmt: skip
+
+
+def rows(n_states: int = 2000) -> list[dict[str, Any]]:
+    """Every figure of the QP step."""
+    if quick():
+        n_states = 300
+    return step_rows(n_states) + run_rows()
+
+
+def main() -> None:
+    """Print the table."""
+    from run import print_table
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--states", type=int, default=2000, help="states sampled evenly")
+    args = parser.parse_args()
+    print_table(rows(args.states))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,109 @@
+"""Algorithm 1 with the QP controller on the kinematic plant, compiled: a phase in one call.
+
+Each iteration does what `Controller.converge` does with a `QpSolver` and a `KinematicPlant`,
+in the same order: read sliders, joints through the PCJMs, drift correction, the QP built and
+solved at this state (its solution gives the error, J x* / K, and the step), record (from the
+second iteration on), per-component tolerance check, iteration cap, singularity check, the
+step through the actuator map, travel check, command and advance. The record helpers and the
+record layout are the compiled loop's (`loop.py`, `records.REC_COLUMNS`).
+
+A solve that DAQP does not finish optimally stops the loop with QP_FAILED and DAQP's exit flag
+in info[2]; `qp_phase` repeats that solve on the reference path, which raises its QPError.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.compiled.kernels import (
+    actuators_from_joints,
+    first_beyond_travel,
+    joints_from_actuators,
+    njit,
+    trig,
+)
+from rcmplan.compiled.loop import closest_lambda, converged, put, record, target_frame
+from rcmplan.compiled.qp_kernels import X, solve_step, step_joints
+from rcmplan.compiled.records import (
+    BAD_JOINTS,
+    DONE,
+    NO_CONVERGENCE,
+    NO_TIP,
+    PAUSED,
+    QP_FAILED,
+    SINGULAR,
+    SLIDER_LIMIT,
+    STEPPED,
+)
+
+
+@njit(cache=True)
+def iterate_qp(
+    P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray, tol: FloatArray,
+    max_it: int, drift: bool, thr: float, target: FloatArray, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
+    fail: FloatArray, info: np.ndarray, w: FloatArray, qp: tuple,
+) -> int:  # fmt: skip
+    """One iteration from sliders s (see the module docstring); returns DONE, STEPPED (the
+    next command in fail[12:18]) or a stop code. state = (lambda, time [s], dt [s]); fail
+    holds (q, q_new, s_new, error) and fail[24:30] the actuators the QP was built at."""
+    q, qn, sn, e, s_qp = fail[0:6], fail[6:12], fail[12:18], fail[18:24], fail[24:30]
+    joints_from_actuators(P, s, q)
+    tr = trig(q)
+    if drift:
+        state[0] = closest_lambda(P, q, tr, trocar, w)
+    flag = solve_step(P, Q, contacts, K, q, tr, state[0], target, s_qp, e, qp)
+    if flag != 1:
+        info[2] = flag
+        return QP_FAILED
+    if it > 0:
+        record(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e, 6)
+    if converged(e, tol, 6):
+        return DONE
+    if it == max_it:
+        return NO_CONVERGENCE
+    if min(abs(tr[0]), abs(tr[2])) < thr:
+        return SINGULAR
+    state[0] += step_joints(P, q, s_qp, qp[X], qn, w)
+    if not actuators_from_joints(P, qn, sn):
+        return BAD_JOINTS
+    info[2] = first_beyond_travel(P, sn)
+    if info[2] >= 0:
+        return SLIDER_LIMIT
+    return STEPPED
+
+
+@njit(cache=True)
+def run_targets_qp(
+    P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray, tol: FloatArray,
+    max_it: int, drift: bool, thr: float, targets: FloatArray, k0: int, s: FloatArray,
+    state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
+    qp: tuple,
+) -> int:  # fmt: skip
+    """Algorithm 1 with the QP on targets[k0:] from sliders s, on the kinematic plant; returns
+    a status, as `loop.run_targets` does (same state, info, records and PAUSED protocol)."""
+    w = np.empty(6)
+    trocar, tip_t = np.full(3, np.nan), np.empty(3)
+    n, cap = 0, rec.shape[0]
+    for k in range(k0, targets.shape[0]):
+        info[0], info[1] = n, k
+        if n + max_it > cap:
+            return PAUSED
+        if target_frame(targets[k], True, w, tip_t, trocar) < 0:
+            return NO_TIP
+        for it in range(max_it + 1):
+            status = iterate_qp(P, Q, contacts, K, tol, max_it, drift, thr, targets[k], tip_t,
+                                trocar, s, state, it, rec[n], fail, info, w, qp)  # fmt: skip
+            if it > 0 and status != QP_FAILED:
+                irec[n, 0], irec[n, 1] = k, it
+                n += 1
+                info[0] = n
+            if status == DONE:
+                break
+            if status != STEPPED:
+                return status
+            put(s, 0, fail, 12, 6)  # the kinematic plant reaches the command
+            state[1] += state[2]
+    info[0], info[1] = n, targets.shape[0]
+    return DONE

@@ -1,0 +1,181 @@
+"""The QP controller's phases in compiled code (`qp_loop`), behind the runner seam.
+
+Applies to a `QpSolver` itself (exact type: a subclass may change its step) with the DAQP back
+end and a straight needle, on a plant whose commands are reached exactly (the kinematic plant),
+for a robot the iRAM!S kernels reproduce (`runner.kernel_params`) and an eye whose retina is
+the kernels' sphere (`qp_params.spherical_eye`), when DAQP's C function can be called from
+compiled code (`cache.qp_loop`). Everything else runs on the reference path.
+
+The side effects are the reference loop's: records go to the controller's log, the plant and
+controller.lam end where `Controller.converge` leaves them, and a stop raises the reference
+exception. A failed QP solve is repeated on the reference path (`QpSolver.error` at the
+failing state), which raises its QPError with the problem attached.
+
+Targets are not checked again here: `Controller.run` has already passed every target of the
+phase through `QpSolver.check_targets` before any motion (planned phases: before their own).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.phase import IntArray, run_in_blocks
+from rcmplan.compiled.qp_params import qp_params
+from rcmplan.compiled.records import (
+    DONE,
+    QP_FAILED,
+    raise_stop,
+    robot_params,
+    singular_threshold,
+    solver_arrays,
+)
+from rcmplan.control.limits.base import SCALE
+from rcmplan.control.qp import QpSolver
+from rcmplan.control.qp_problem import QPProblem, StepQP
+from rcmplan.control.solvers import Solver
+from rcmplan.exceptions import InvalidInputError, QPError
+
+if TYPE_CHECKING:
+    from rcmplan.control.runner import ControlState as Controller
+
+# Auto mode's payoff counts targets of the reference pinv loop (about 0.4 ms each); a QP target
+# on the reference path takes about 38 iterations of 200 us (the default injection), so it
+# counts as TARGET_WEIGHT of them.
+TARGET_WEIGHT = 20
+ITERATIONS_PER_TARGET = 40  # record buffer per target (the loop pauses when it is full)
+
+
+def applies(controller: Controller, solver: Solver) -> bool:
+    """Cheap checks: a QpSolver itself with DAQP and a straight needle, on a plant with exact
+    commands (the robot, the eye and DAQP's binding are checked in `run_if_ready`)."""
+    return (
+        type(solver) is QpSolver
+        and solver.backend == "daqp"
+        and not solver.curved
+        and bool(getattr(controller.plant, "exact_commands", False))
+    )
+
+
+def runs_compiled(solver: Solver, exact_commands: bool) -> bool:
+    """Whether a phase of this solver on a plant with (or without) exact commands would run
+    compiled once the fast path is on: `applies`, and DAQP's binding and the eye usable."""
+    return (
+        type(solver) is QpSolver
+        and solver.backend == "daqp"
+        and not solver.curved
+        and exact_commands
+        and fast_cache.qp_loop() is not None
+        and qp_params(solver.robot, solver) is not None
+    )
+
+
+def run_if_ready(
+    controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int
+) -> bool:
+    """Run the phase compiled if DAQP's binding is usable and the eye is the kernels'; False
+    (nothing done) otherwise. The caller has checked the robot and the mode."""
+    loop = fast_cache.qp_loop()
+    params = qp_params(controller.robot, solver)
+    if loop is None or params is None:
+        return False
+    run_qp_phase(controller, solver, targets, pid, sid, loop, params)
+    return True
+
+
+def run_qp_phase(
+    controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int,
+    loop: Any, params: tuple[FloatArray, FloatArray],
+) -> None:  # fmt: skip
+    """Algorithm 1 with the QP on each target in turn, compiled (see the module docstring)."""
+    robot, cfg = controller.robot, controller.settings
+    K, _, tol = solver_arrays(solver)
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    fail, qp = np.empty(30), fast_cache.qp_kernels().buffers()
+    args = (robot_params(robot), *params, K, tol, cfg.max_iterations, cfg.drift_correction,
+            float(singular_threshold(controller)), targets)  # fmt: skip
+
+    def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
+            info: IntArray) -> int:  # fmt: skip
+        return int(loop.run_targets_qp(*args, k0, s, state, rec, irec, info, fail, qp))
+
+    status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET)
+    if status == DONE:
+        return
+    k = int(info[1])
+    where = f"phase {controller.log.phase_names[pid]!r} step {k}"
+    if status == QP_FAILED:
+        raise_qp_failure(controller, solver, targets[k], fail, int(info[2]))
+    raise_stop(controller, status, k, targets, fail, tol, where)
+
+
+def raise_qp_failure(
+    controller: Controller, solver: QpSolver, target: FloatArray, fail: FloatArray, flag: int
+) -> None:
+    """Raise the reference QPError of a solve that failed compiled: the same solve on the
+    reference path at the failing state (joints fail[0:6], controller.lam); if it succeeds
+    there (a failure at the edge of DAQP's tolerances), a QPError with the compiled flag."""
+    from rcmplan.compiled.daqp_c import exit_name
+
+    q = fail[0:6].copy()
+    solver.error(controller.robot, q, controller.lam, target)
+    raise QPError(
+        f"QP solve failed: daqp exit flag {flag} ({exit_name(flag)}) in compiled code; the "
+        "same solve succeeded on the reference path",
+        problem=None,
+        result=flag,
+    )
+
+
+class FastQpStep:
+    """One QP step of a QpSolver assembled and solved in compiled code, from Python (tests and
+    benchmarks; the loop calls the kernels directly).
+
+    Args:
+        solver: The QP solver whose step is reproduced; its robot must be an Iramis and its eye
+            spherical (InvalidInputError otherwise). MissingExtraError without numba or DAQP.
+    """
+
+    def __init__(self, solver: QpSolver) -> None:
+        params = qp_params(solver.robot, solver)
+        if params is None:
+            valid = "an eye whose retina is a sphere (retina_radius - |p - center|)"
+            raise InvalidInputError("eye", solver.eye, valid)
+        self.solver = solver
+        self.P = robot_params(solver.robot)
+        self.Q, self.contacts = params
+        self.K = np.ascontiguousarray(solver.K, dtype=np.float64)
+        self._k = fast_cache.qp_kernels()
+        self._trig = fast_cache.kernels().trig
+        self.qp = self._k.buffers()
+        self.s, self.e = np.empty(6), np.empty(6)
+
+    def problem(self, q: FloatArray, lam: float, target: FloatArray) -> StepQP:
+        """The step's QP as `qp_problem.build_step` returns it (contact left False)."""
+        q, target = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(target, dtype=float)
+        tr = self._trig(q)
+        rows = self._k.build_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam), target,
+                                  self.s, self.e, self.qp)  # fmt: skip
+        H, f, A, upper, lower, sense, task = (a.copy() for a in self.qp[:7])
+        nb = self._k.N_BOUNDS
+        eq = sense[nb : nb + rows] == self._k.EQUALITY
+        G, h = A[:rows][~eq], upper[nb : nb + rows][~eq]
+        problem = QPProblem(H, f, G, h, A[:rows][eq], upper[nb : nb + rows][eq], lower[:nb],
+                            upper[:nb])  # fmt: skip
+        return StepQP(problem, task * SCALE, self.s.copy(), False)
+
+    def solve(self, q: FloatArray, lam: float, target: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """(x, error J x* / K) of the step's QP; QPError naming DAQP's exit flag if not optimal."""
+        q, target = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(target, dtype=float)
+        tr = self._trig(q)
+        flag = self._k.solve_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam),
+                                  target, self.s, self.e, self.qp)  # fmt: skip
+        if flag != 1:
+            from rcmplan.compiled.daqp_c import exit_name
+
+            raise QPError(f"QP solve failed: daqp exit flag {flag} ({exit_name(flag)})",
+                          problem=self.problem(q, lam, target).problem, result=flag)  # fmt: skip
+        return self.qp[self._k.X].copy(), self.e.copy()

@@ -1,0 +1,257 @@
+"""The compiled QP step and loop equal the reference QP controller: the problem, its solution,
+whole runs, their stops, and where the compiled path declines."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they do not skip)
+import numpy as np
+import pytest
+
+from rcmplan import Iramis
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled import qp_phase
+from rcmplan.compiled.qp_phase import FastQpStep
+from rcmplan.compiled.runner import fast_converge_phase
+from rcmplan.control import Controller, LoopSettings, Phase
+from rcmplan.control.augmented import extended_task
+from rcmplan.control.log import ARRAY_FIELDS, RunLog
+from rcmplan.control.qp import QpSolver
+from rcmplan.control.qp_backends import solve
+from rcmplan.control.qp_limits import QpLimits
+from rcmplan.control.qp_problem import SCALE, StepInput, build_step
+from rcmplan.control.targets import rcm_target
+from rcmplan.exceptions import ConvergenceError, InvalidInputError, QPError
+from rcmplan.scene.constrained import grazing_spiral
+from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.scene.procedures import injection
+from rcmplan.sim import KinematicPlant
+
+from conftest import random_joints
+
+# DAQP's primal tolerance is 1e-6 in the variables' unit (um): 1e-12 m per step.
+X_TOL = 1e-6
+RUN_TOL = 1e-11
+
+
+@pytest.fixture(autouse=True)
+def fast_on() -> Iterator[None]:
+    fast_cache.set_mode("on")
+    yield
+    fast_cache.set_mode(None)
+
+
+def reference(run):  # type: ignore[no-untyped-def]
+    fast_cache.set_mode("off")
+    try:
+        return run()
+    finally:
+        fast_cache.set_mode("on")
+
+
+def solvers(robot: Iramis) -> list[QpSolver]:
+    """QP solvers that exercise every row: the default one, an RCM equality, a retina contact
+    listed at a point, other gains and damping, and no eye."""
+    eye = default_eye(robot)
+    contact = tuple(default_points(eye).p5)
+    return [
+        QpSolver(robot, eye),
+        QpSolver(robot, eye, limits=QpLimits(rcm_tolerance=0.0)),
+        QpSolver(robot, eye, K=(0.5, 1.2, 0.8, 1.0, 1.5, 0.7), damping=3e-3,
+                 limits=QpLimits(contacts=(contact,), rcm_weight=4.0, singular_margin=0.3)),
+        QpSolver(robot, None, dt=2e-3),
+    ]  # fmt: skip
+
+
+def states(
+    robot: Iramis, rng: np.random.Generator, n: int, spread: float = 1e-3
+) -> Iterator[tuple]:
+    """(q, lam, target): random poses (some past the singular floor), each with the target of a
+    pose `spread` away (m, rad), and poses near targets on and off the retina and with the tip
+    in the trocar's zone."""
+    eye = default_eye(robot)
+    pts = default_points(eye)
+    for q in random_joints(rng, n, angle=1.5):
+        lam = float(rng.uniform(0.0, 1.0))
+        yield q, lam, extended_task(robot, q + rng.normal(0.0, spread, 6), lam)
+    for point in (pts.p3, pts.p4, pts.p5, pts.p6, pts.p7, eye.port + 1e-3 * eye.axis):
+        target = rcm_target(point, eye.port)
+        q = robot.needle_pose(point, target[1], target[2]) + rng.normal(0.0, spread / 10, 6)
+        yield q, float(rng.uniform(0.3, 0.9)), target
+
+
+def relative_gap(a: np.ndarray, b: np.ndarray) -> float:
+    """max |a - b| over max |a| (0 for empty arrays)."""
+    assert a.shape == b.shape
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(a)), 1e-300)) if a.size else 0.0
+
+
+def test_compiled_qp_equals_build_step_at_many_states(robot: Iramis, rng) -> None:  # type: ignore[no-untyped-def]
+    for solver in solvers(robot):
+        fast = FastQpStep(solver)
+        for q, lam, target in states(robot, rng, 150):
+            step = fast.problem(q, lam, target)
+            e_ref = solver.task_error(robot, q, lam, target)
+            np.testing.assert_allclose(fast.e, e_ref, rtol=0, atol=1e-15)
+            # The error from the kernels' X_ext (equal to rounding, tests/test_fast.py): the
+            # cost's q is compared on the same error, everything else on the reference's.
+            inp = StepInput(q, lam, target, fast.e.copy(), solver.K, solver.damping, solver.dt,
+                            solver.eye, solver.limits)  # fmt: skip
+            ref = build_step(robot, inp)
+            for name in ("P", "q", "G", "h", "A", "b", "lb", "ub"):
+                gap = relative_gap(getattr(ref.problem, name), getattr(step.problem, name))
+                assert gap <= 1e-12, (name, gap)
+            assert relative_gap(ref.task, step.task) <= 1e-12
+            np.testing.assert_array_equal(ref.sliders, step.sliders)
+
+
+def test_compiled_step_solves_to_the_reference_solvers_step(robot: Iramis, rng) -> None:  # type: ignore[no-untyped-def]
+    outcomes = {"solved": 0, "infeasible": 0}
+    for solver in solvers(robot):
+        fast = FastQpStep(solver)
+        for q, lam, target in states(robot, rng, 100, spread=1e-6):
+            # QpSolver.error without its target check (random targets lie anywhere).
+            e = solver.task_error(robot, q, lam, target)
+            inp = StepInput(q, lam, target, e, solver.K, solver.damping, solver.dt, solver.eye,
+                            solver.limits)  # fmt: skip
+            ref = build_step(robot, inp)
+            try:
+                x_ref = solve(ref.problem).x
+            except QPError as exc:
+                with pytest.raises(QPError) as info:
+                    fast.solve(q, lam, target)
+                assert str(info.value) == str(exc)
+                outcomes["infeasible"] += 1
+                continue
+            x, e_fast = fast.solve(q, lam, target)
+            np.testing.assert_allclose(x, x_ref, rtol=0, atol=X_TOL)
+            # QpSolver.error: J x* / K, or the plain error for a step at full actuator speed.
+            e_ref = e if solver.speed_limited(robot, x_ref) else ref.task @ x_ref / solver.K
+            np.testing.assert_allclose(e_fast, e_ref, rtol=0, atol=X_TOL * SCALE)
+            outcomes["solved"] += 1
+    assert outcomes["solved"] > 300 and outcomes["infeasible"] > 0, outcomes
+
+
+def assert_same_log(a: RunLog, b: RunLog) -> None:
+    assert len(a) == len(b)
+    for k in ARRAY_FIELDS:
+        x, y = getattr(a, k), getattr(b, k)
+        if x.dtype.kind == "f":
+            np.testing.assert_array_equal(np.isnan(x), np.isnan(y), err_msg=k)
+            np.testing.assert_allclose(x, y, rtol=0, atol=RUN_TOL, err_msg=k)
+        else:
+            np.testing.assert_array_equal(x, y, err_msg=k)
+    assert a.phase_names == b.phase_names and a.solver_names == b.solver_names
+
+
+def both(robot: Iramis, make, phases: list[Phase]) -> tuple:  # type: ignore[no-untyped-def]
+    """The reference and the compiled run of the same job: (log or exception, controller)."""
+    out = []
+    for compiled in (False, True):
+        ctl = make()
+        try:
+            result = ctl.run(phases) if compiled else reference(lambda c=ctl: c.run(phases))
+        except QPError as exc:
+            result = exc
+        except ConvergenceError as exc:
+            result = exc
+        out.append((result, ctl))
+    return tuple(out)
+
+
+@pytest.mark.parametrize("scene", ["injection", "grazing spiral"])
+def test_compiled_qp_loop_equals_the_reference_controller(robot: Iramis, scene: str) -> None:
+    if scene == "injection":
+        eye = default_eye(robot)
+        phases = injection(robot, eye, default_points(eye))
+    else:
+        eye, _, phases = grazing_spiral(robot)
+    (ref, ca), (fast, cb) = both(robot, lambda: Controller(KinematicPlant(robot),
+                                                           QpSolver(robot, eye)), phases)  # fmt: skip
+    assert isinstance(ref, RunLog) and isinstance(fast, RunLog)
+    assert_same_log(ref, fast)
+    np.testing.assert_allclose(ca.plant.read_actuators(), cb.plant.read_actuators(), atol=RUN_TOL)
+    assert ca.plant.time == cb.plant.time and abs(ca.lam - cb.lam) <= RUN_TOL
+
+
+def test_a_full_record_buffer_pauses_and_resumes_the_loop(
+    robot: Iramis, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(qp_phase, "ITERATIONS_PER_TARGET", 1)  # room for one target at a time
+    eye = default_eye(robot)
+    phases = injection(robot, eye, default_points(eye))[:4]
+    (ref, _), (fast, _) = both(robot, lambda: Controller(KinematicPlant(robot),
+                                                         QpSolver(robot, eye)), phases)  # fmt: skip
+    assert isinstance(fast, RunLog) and len(fast) > 1000
+    assert_same_log(ref, fast)
+
+
+def test_iteration_cap_stops_both_paths_alike(robot: Iramis) -> None:
+    eye = default_eye(robot)
+    phases = injection(robot, eye, default_points(eye))[:4]
+    (a, _), (b, _) = both(robot, lambda: Controller(
+        KinematicPlant(robot), QpSolver(robot, eye), settings=LoopSettings(max_iterations=40)),
+        phases)  # fmt: skip
+    assert isinstance(a, ConvergenceError) and type(a) is type(b)
+    assert "phase 'p3-p4' step 0" in str(a)  # a QP phase, after three that finish
+    assert str(a).split("|error|")[0] == str(b).split("|error|")[0]
+    np.testing.assert_allclose(a.error, b.error, rtol=0, atol=RUN_TOL)
+    assert len(a.log) > 0
+    assert_same_log(a.log, b.log)
+
+
+def test_an_infeasible_step_raises_the_reference_qperror(robot: Iramis) -> None:
+    # The needle starts 1 mm off the trocar: the RCM box cannot be reached in one step at
+    # 10 um per slider step, so the first QP is infeasible on both paths.
+    tip = robot.tip(robot.home)
+    trocar = robot.needle_point(robot.home, 0.9) + np.array([0.0, 1e-3, 0.0])
+    targets = np.array([rcm_target(tip + d, trocar) for d in ([-1e-5, 0, 0], [-2e-5, 0, 0])])
+    (a, ca), (b, cb) = both(robot, lambda: Controller(KinematicPlant(robot), QpSolver(robot)),
+                            [Phase("off the trocar", targets)])  # fmt: skip
+    assert isinstance(a, QPError) and isinstance(b, QPError)
+    assert str(a) == str(b) and "infeasible" in str(a)
+    assert a.problem is not None and b.problem is not None
+    assert_same_log(a.log, b.log)
+    np.testing.assert_array_equal(ca.plant.read_actuators(), cb.plant.read_actuators())
+
+
+class RecordingQp(QpSolver):
+    """A subclass may change the step: it runs on the reference path."""
+
+
+class SteepEye:
+    """An eye whose retina distance is not the kernels' sphere's."""
+
+    def __init__(self, eye) -> None:  # type: ignore[no-untyped-def]
+        self.center, self.wall, self.port = eye.center, eye.wall, eye.port
+        self.trocar_radius, self.retina_radius = eye.trocar_radius, eye.retina_radius
+
+    def distance_to_retina(self, p: np.ndarray) -> float:
+        return 2.0 * (self.retina_radius - float(np.linalg.norm(p - self.center)))
+
+
+@pytest.mark.parametrize(
+    "case", ["mode off", "other back end", "subclass", "daqp binding unusable", "odd eye"]
+)
+def test_compiled_qp_declines_what_it_does_not_reproduce(
+    robot: Iramis, case: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    eye = default_eye(robot)
+    solver: QpSolver = QpSolver(robot, eye)
+    if case == "mode off":
+        fast_cache.set_mode("off")
+    elif case == "other back end":
+        solver = QpSolver(robot, eye, backend="quadprog")
+    elif case == "subclass":
+        solver = RecordingQp(robot, eye)
+    elif case == "daqp binding unusable":
+        monkeypatch.setitem(fast_cache._state, "daqp_abi", False)
+    else:
+        solver = QpSolver(robot, SteepEye(eye))
+        with pytest.raises(InvalidInputError, match="sphere"):
+            FastQpStep(solver)
+    ctl = Controller(KinematicPlant(robot), solver)
+    targets = injection(robot, eye, default_points(eye))[2].plan(robot.home)
+    assert not fast_converge_phase(ctl, solver, targets, ctl.log.phase_id("p"), 0)
+    assert len(ctl.log) == 0
