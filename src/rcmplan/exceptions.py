@@ -337,3 +337,24 @@ class PortInUseError(RcmplanError):
             f"port {port} on {host} is in use{why}: is another viewer running? "
             f"Stop it or choose another port with --port (1024-65535, or 0 for any free port)"
         )
+
+
+class InputStreamError(InvalidInputError):
+    """A master input stream (a replay file, a live sample) is malformed: the message names
+    the source, the row and the value, and what is valid.
+
+    Attributes:
+        source: The file (or "live input").
+        row: Index of the offending data row (0-based, header excluded), or None for the
+            file as a whole (a missing column).
+        column: The column (or key) the value is in.
+    """
+
+    status = "invalid_input_stream"
+
+    def __init__(self, source: str, row: int | None, column: str, value: Any, valid: str) -> None:
+        self.source = source
+        self.row = row
+        self.column = column
+        where = f"{source}: row {row} {column}" if row is not None else f"{source}: {column}"
+        super().__init__(where, value, valid)

@@ -42,10 +42,11 @@ from rcmplan.control.curved import task_error as curved_error
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.limited_tip import LimitedTipSolver
+from rcmplan.control.limits import Limit
 from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
+from rcmplan.control.qp_problem import LIMITS, SCALE, StepInput, StepQP, build_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import solve_pose, target_tip
 from rcmplan.exceptions import UnreachableTargetError
@@ -68,6 +69,9 @@ class QpSolver:
         servo: The plant, when its servos follow commands over several periods (it has
             `exact_commands` False and a `command`): steps are planned from its last command
             (module docstring). None, or a plant with exact commands: from the measured state.
+        extra_limits: Limits held besides the standard ones (`qp_problem.LIMITS`), for
+            example a `limits.WorkspaceBound` for the tip (the compiled QP declines a solver
+            that has any).
     """
 
     name: ClassVar[str] = "qp"
@@ -84,6 +88,7 @@ class QpSolver:
         limits: QpLimits | None = None,
         backend: str = DEFAULT_BACKEND,
         servo: Any | None = None,
+        extra_limits: tuple[Limit, ...] = (),
     ) -> None:
         self.robot = robot
         self.eye = eye
@@ -104,6 +109,8 @@ class QpSolver:
         self.servo = servo if follows and hasattr(servo, "command") else None
         res = getattr(self.servo, "actuator_resolution", None)
         self._resolution = None if res is None else np.asarray(res, dtype=float)
+        self.extra_limits = tuple(extra_limits)
+        self.rows: tuple[Limit, ...] = (*LIMITS, *self.extra_limits)
         self.last: tuple[StepQP, QpResult] | None = None
         self._planned_error: FloatArray = np.zeros(0)  # the task error of the last solve
         self._plan, self._plan_key = np.zeros(0), b""
@@ -207,7 +214,7 @@ class QpSolver:
         e = self.task_error(robot, q, lam, target)
         self._planned_error = e
         inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.eye, self.limits)
-        step = build_step(robot, inp)
+        step = build_step(robot, inp, self.rows)
         if self.servo is not None:
             step = synchronised_step(robot, step, self.dt)
         result = solve(step.problem, self.backend)
