@@ -67,8 +67,6 @@ def test_workspace_rows_let_each_gap_shrink_by_the_gain_at_most(state) -> None:
 
 def test_a_qp_with_the_box_stops_the_tip_at_the_face(state) -> None:
     robot, eye, inp = state
-    if robot.name != "iramis":
-        pytest.skip("one robot suffices for the closed loop (the rows are checked on all)")
     box = box_about(eye, half=0.5e-3)
     R = eye_frame(eye)
     outside = eye.center + R @ (np.asarray(box.upper) + [0.0, 0.0, 0.5e-3])  # past the z face
