@@ -187,3 +187,25 @@ def test_run_live_reports_its_scheduling(settings) -> None:
     stop.set()  # no period, then stop
     st = run_live(replace(settings, realtime=False), inp, stop)
     assert st.scheduling == "normal scheduling (asked for)"
+
+
+def test_the_view_does_not_send_a_gizmo_position_the_input_refuses(settings) -> None:
+    from rcmplan.view.live import LiveView
+    from rcmplan.view.server import start_server, stop_server
+
+    server = start_server("127.0.0.1", 0)
+    view = LiveView(server, settings)
+    try:
+        view.stop_event.set()  # no redraw (it sends too) while the pushes are counted
+        view.redraw.join()
+        before = view.input.pushes
+        view.gizmo.position = np.array([5.0, 0.0, 0.0])  # 5 m from the base
+        view.send()
+        assert view.input.pushes == before
+        assert "position_m" in view.refused
+        view.gizmo.position = settings.start_tip
+        view.send()
+        assert view.input.pushes == before + 1 and view.refused == ""
+    finally:
+        view.close()
+        stop_server(server)

@@ -91,6 +91,7 @@ class LiveView:
             position=settings.start_tip,
         )  # fmt: skip
         self.moves = 0  # gizmo updates from a browser
+        self.refused = ""  # why the gizmo's last position was not sent
 
         def moved(_event: Any) -> None:
             self.moves += 1
@@ -114,8 +115,15 @@ class LiveView:
         self.redraw.start()
 
     def send(self) -> None:
-        """Push the gizmo's position as the master position (clutch engaged)."""
-        self.input.push(self.settings.to_master(np.array(self.gizmo.position)))
+        """Push the gizmo's position as the master position (clutch engaged). A position the
+        input refuses (beyond +-1 m of the base: `teleop.samples.check_position`) is not sent:
+        the needle holds (the session releases the clutch when no position comes) and the panel
+        says why."""
+        try:
+            self.input.push(self.settings.to_master(np.array(self.gizmo.position)))
+            self.refused = ""
+        except InvalidInputError as exc:
+            self.refused = " ".join(str(exc).split())[:160]
 
     @property
     def latest(self) -> LiveState | None:
@@ -147,7 +155,8 @@ class LiveView:
                 "tip to target": length(float(np.linalg.norm(tip - st.goal))),
                 "control": f"{st.period:,} periods, {100 * missed:.1f}% missed",
                 "scheduling": st.scheduling,
-                "status": st.status,
+                "status": st.status + (f" (gizmo not sent: {self.refused})"
+                                       if self.refused else ""),
             })  # fmt: skip
             self.actuators.show(s)
             self.updates += 1
