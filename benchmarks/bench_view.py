@@ -19,6 +19,7 @@ import sys
 import tempfile
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -205,25 +206,30 @@ def browser_rows(server: Any, view: ReplayView) -> list[dict[str, Any]]:
     ]  # fmt: skip
 
 
-def scripted_drag(inp: Any, centre: np.ndarray, stop: threading.Event, seconds: float) -> None:
-    """Push a target circling the start point (2 mm radius, 5 mm/s) for `seconds`."""
+def scripted_drag(
+    push: Callable[[np.ndarray], None], centre: np.ndarray, stop: threading.Event, seconds: float
+) -> None:
+    """Push a target (base frame) circling the start point (2 mm radius, 5 mm/s) for
+    `seconds`."""
     t0 = time.perf_counter()
     while not stop.is_set() and (t := time.perf_counter() - t0) < seconds:
         a = 2.5 * t  # rad/s: 5 mm/s on a 2 mm circle
-        inp.push(centre + 2e-3 * np.array([np.sin(a), 1.0 - np.cos(a), 0.0]))
+        push(centre + 2e-3 * np.array([np.sin(a), 1.0 - np.cos(a), 0.0]))
         time.sleep(0.01)
 
 
 def control_alone(seconds: float, realtime: bool) -> float:
     """Missed fraction of the control with no view (the peer)."""
+    from rcmplan.teleop import LiveInput
     from rcmplan.view.live import live_settings
-    from rcmplan.view.live_control import LiveInput, run_live
+    from rcmplan.view.live_control import run_live
 
     s = live_settings("default", None, "kinematic", realtime)
-    inp, stop, out = LiveInput(s.start_tip), threading.Event(), {}
+    inp, stop, out = LiveInput(s.to_master(s.start_tip)), threading.Event(), {}
+    inp.push(s.to_master(s.start_tip))
     th = threading.Thread(target=lambda: out.setdefault("st", run_live(s, inp, stop)))
     th.start()
-    scripted_drag(inp, s.start_tip, threading.Event(), seconds)
+    scripted_drag(lambda p: inp.push(s.to_master(p)), s.start_tip, threading.Event(), seconds)
     stop.set()
     th.join()
     return float(out["st"].missed / out["st"].slots)
@@ -246,7 +252,12 @@ def live_run(seconds: float, browser: bool) -> dict[str, Any]:
             probe.wait_for(lambda: len(probe.needle_pixels(probe.screenshot(page))) > 30, 120)
         time.sleep(0.5)
         s0, u0, t0 = view.state(), view.updates, time.perf_counter()
-        scripted_drag(view.input, view.settings.start_tip, threading.Event(), seconds)
+
+        def move(p: np.ndarray) -> None:  # as a browser's drag: the gizmo moves, the view sends
+            view.gizmo.position = p
+            view.send()
+
+        scripted_drag(move, view.settings.start_tip, threading.Event(), seconds)
         s1, u1, t1 = view.state(), view.updates, time.perf_counter()
     finally:
         view.close()

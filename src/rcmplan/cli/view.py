@@ -17,6 +17,7 @@ from rcmplan.cli import interrupts
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.registry import ROBOTS
 from rcmplan.scene.scenario import PLANTS
+from rcmplan.teleop.filters import FILTERS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -38,6 +39,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     live.add_argument("--robot", choices=tuple(ROBOTS), help="robot (default: the scenario's)")
     live.add_argument("--plant", choices=PLANTS, default="kinematic",
                       help="plant the live control drives (kinematic)")  # fmt: skip
+    live.add_argument("--scale", type=float, default=1.0,
+                      help="motion scaling in [1, 50]: the tip moves 1/scale of the "
+                      "gizmo (1)")  # fmt: skip
+    live.add_argument("--filter", choices=FILTERS, default="none",
+                      help="tremor filter on the gizmo's motion (none)")  # fmt: skip
     live.add_argument("--no-realtime", action="store_true",
                       help="keep the control thread at normal scheduling (default: real-time "
                       "where the system grants it)")  # fmt: skip
@@ -61,7 +67,8 @@ def checked_source(args: argparse.Namespace) -> Any:
     if args.live:
         from rcmplan.view.live import live_settings
 
-        return live_settings(args.scenario, args.robot, args.plant, not args.no_realtime)
+        return live_settings(args.scenario, args.robot, args.plant, not args.no_realtime,
+                             args.scale, args.filter)  # fmt: skip
     from rcmplan.view.run_folder import load_runs
 
     return load_runs(args.run_dir)

@@ -1,9 +1,9 @@
 """The live control in a process of its own, so that the view's drawing (and viser's
 messages) never hold the interpreter the 1 kHz loop needs.
 
-The child runs `live_control.pace` on a `LiveLoop` it builds itself (a plant or solver that
-cannot be built is reported back before any motion); the input and the latest state cross in
-shared memory: the parent pushes positions into a `SharedInput` (the `LiveInput` interface),
+The child runs `live_control.run_live` (the teleoperation session; a session that cannot be
+built is reported back before any motion); the input and the latest state cross in shared
+memory: the parent pushes master positions into a `SharedInput` (the `LiveInput` interface),
 the child writes each period's state into a `SharedState` the view reads when it redraws.
 The child ignores SIGINT (Ctrl-C reaches the whole process group; the parent stops the child)
 and is a daemon: it cannot outlive the view.
@@ -18,34 +18,39 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import scalar, vector
+from rcmplan._validate import scalar
 from rcmplan.exceptions import RcmplanError
-from rcmplan.view.live_control import LiveLoop, LiveSample, LiveSettings, LiveState, pace
+from rcmplan.teleop.samples import MasterSample, check_position
+from rcmplan.view.live_control import LiveSettings, LiveState, run_live
 
 TEXT = 240  # bytes of the status and scheduling texts
 START_TIMEOUT_S = 120.0
 
 
 class SharedInput:
-    """`LiveInput` in shared memory: (x, y, z [m], clutch, t [s]) and a push count."""
+    """`rcmplan.teleop.LiveInput` in shared memory: (x, y, z [m], clutch, t [s]) of the latest
+    master sample and a push count. It starts engaged at `initial_position` (the gizmo's
+    starting point), stamped now."""
 
     def __init__(self, ctx: Any, initial_position: Any) -> None:
-        self._values = ctx.Array("d", [*vector("position", initial_position, 3), 0.0, 0.0])
+        p = check_position("live input", initial_position)
+        self._values = ctx.Array("d", [*p, 1.0, time.monotonic()])
         self._pushes = ctx.Value("q", 0)
 
     def push(self, position_m: Any, clutch: bool = True, t: float | None = None) -> None:
-        """Record the latest position (3,) [m] and clutch (InvalidInputError if not finite)."""
-        p = vector("position", position_m, 3)
+        """Record the latest master position (3,) [m] and clutch (InputStreamError if not 3
+        finite numbers within 1 m, as `LiveInput.push`)."""
+        p = check_position("live input", position_m)
         stamp = time.monotonic() if t is None else scalar("t", t)
         with self._values.get_lock():
             self._values[:] = [*p, 1.0 if clutch else 0.0, stamp]
             self._pushes.value += 1
 
-    def latest(self) -> LiveSample:
+    def latest(self) -> MasterSample:
         """The latest sample."""
         with self._values.get_lock():
             v = list(self._values)
-        return LiveSample(v[4], np.array(v[:3]), v[3] > 0.5)
+        return MasterSample(v[4], np.array(v[:3]), v[3] > 0.5)
 
     @property
     def pushes(self) -> int:
@@ -57,8 +62,9 @@ class SharedState:
     """The control's latest `LiveState` in shared memory, for `n` joints."""
 
     SCALARS = ("period", "slots", "missed", "t_s", "rcm_deviation", "max_rcm_deviation",
-               "retina_distance")  # fmt: skip
-    VECTORS = ("tip", "base", "setpoint", "goal")
+               "retina_distance", "engaged")  # fmt: skip
+    INTEGERS = ("period", "slots", "missed")
+    VECTORS = ("tip", "goal")
 
     def __init__(self, ctx: Any, n: int) -> None:
         self.n = n
@@ -90,7 +96,8 @@ class SharedState:
         k = len(self.SCALARS)
         st = LiveState(status=status, scheduling=scheduling)
         for i, name in enumerate(self.SCALARS):
-            setattr(st, name, int(v[i]) if name in ("period", "slots", "missed") else v[i])
+            value = v[i] > 0.5 if name == "engaged" else float(v[i])
+            setattr(st, name, int(v[i]) if name in self.INTEGERS else value)
         for name in self.VECTORS:
             setattr(st, name, v[k : k + 3])
             k += 3
@@ -102,13 +109,23 @@ def _child(
     settings: LiveSettings, inp: SharedInput, out: SharedState, stop: Any, pipe: Any
 ) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    started = False
+
+    def on_period(st: LiveState) -> None:
+        nonlocal started
+        if not started:  # the session was built: the parent may go on
+            pipe.send("")
+            started = True
+        out.write(st)
+
     try:
-        loop = LiveLoop(settings)
-    except RcmplanError as exc:
+        final = run_live(settings, inp, stop, on_period)
+    except RcmplanError as exc:  # the session could not be built: before any motion
         pipe.send(f"{type(exc).__name__}: {exc}")
         return
-    pipe.send("")
-    pace(loop, inp, stop, out.write)
+    if not started:  # stopped before its first period: say why, if it was an error
+        pipe.send(final.status if final.status.startswith("stopped") else "")
+    out.write(final)
 
 
 class LiveProcess:
@@ -118,12 +135,12 @@ class LiveProcess:
         settings: The session (pickled into the child).
 
     Raises:
-        RcmplanError: The child could not build the plant or solver (its message).
+        RcmplanError: The child could not build the session (its message).
     """
 
     def __init__(self, settings: LiveSettings) -> None:
         ctx = mp.get_context("forkserver")
-        self.input = SharedInput(ctx, settings.start_tip)
+        self.input = SharedInput(ctx, settings.to_master(settings.start_tip))
         self.shared = SharedState(ctx, len(settings.robot.joint_names))
         self.stop_event = ctx.Event()
         parent, child = ctx.Pipe(duplex=False)
