@@ -4,8 +4,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Headless MuJoCo rendering through EGL and Mesa (no GPU needed), and Chromium for the test
-# that opens report.html in a real browser.
+# Headless MuJoCo rendering through EGL and Mesa (no GPU needed), and Chromium for the tests
+# that open report.html and the 3D view (`rcmplan view`, driven by playwright) in a real browser.
 EGL_PACKAGES="libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 chromium"
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
   # shellcheck disable=SC2086

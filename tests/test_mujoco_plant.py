@@ -69,18 +69,41 @@ def test_dynamic_mode_settles_on_forward_kinematics(
         assert dynamic.loop_gap() < UM
 
 
-def test_sliders_move_together_and_no_faster_than_their_speed(
+def test_sliders_move_together_and_no_faster_than_their_speed_and_acceleration(
     dynamic: MujocoPlant, robot: Iramis
 ) -> None:
     dynamic.reset(robot.home_actuators)
     goal = robot.upper.copy()
     dynamic.command_actuators(goal)
-    for _ in range(100):
+    ramp, dt, speed = dynamic.piezo.ramp_time, dynamic.dt, robot.speed
+    v = np.zeros((101, 6))  # the servo reference's velocity in each period
+    for k in range(1, 101):
         dynamic.advance()
+        v[k] = dynamic.data.ctrl[dynamic._ids.servo]
     fraction = dynamic.read_actuators() / goal  # of the way to the goal, per slider
     np.testing.assert_allclose(fraction, fraction[0], rtol=0.02)  # a straight slider path
-    speed_used = np.abs(dynamic.read_actuators()) / (robot.speed * 0.1)  # after 0.1 s
-    assert speed_used.max() == pytest.approx(1.0, abs=0.02)
+    used = np.abs(v) / speed  # fraction of each slider's speed
+    assert used.max() == pytest.approx(1.0, abs=1e-12)  # full speed once the ramp is over
+    assert np.all(np.abs(np.diff(v, axis=0)) / speed <= dt / ramp * (1 + 1e-12))
+    ramp_periods = round(ramp / dt)
+    assert used[ramp_periods].max() == pytest.approx(1.0, abs=1e-12)
+    assert used[ramp_periods - 1].max() < 1.0  # it took the whole ramp to get there
+
+
+def test_the_reference_stops_at_the_quantised_command_without_overshoot(
+    dynamic: MujocoPlant, robot: Iramis
+) -> None:
+    dynamic.reset(robot.home_actuators)
+    goal = robot.home_actuators + np.array([0.3e-3, -0.2e-3, 0.1e-3, 0.0, 0.25e-3, 0.0])
+    dynamic.command_actuators(goal)
+    ref, distance = [], []
+    for _ in range(150):
+        dynamic.advance()
+        ref.append(dynamic.data.act[dynamic._ids.act].copy())
+        distance.append(np.abs(goal - ref[-1]).max())
+    np.testing.assert_allclose(ref[-1], dynamic.piezo.quantise(goal), rtol=0.0, atol=1e-15)
+    assert np.all(np.diff(distance) <= 0.0)  # always closer, never past the goal
+    assert np.abs(dynamic.data.ctrl[dynamic._ids.servo]).max() < 1e-12  # at rest
 
 
 def test_loop_gap_stays_below_one_micrometre_at_full_speed(

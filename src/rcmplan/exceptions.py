@@ -301,3 +301,60 @@ class UnsupportedJointError(InvalidInputError):
         self.kind = kind
         valid = "revolute, continuous, prismatic or fixed joints (no mimic) on the chain's path"
         super().__init__(f"joint {joint!r} type", kind, valid)
+
+
+class RunFolderError(RcmplanError):
+    """A folder or file given to `rcmplan view` is not a run rcmplan can show: not a run
+    folder, a log written by another version, a truncated or damaged file.
+
+    Attributes:
+        path: The folder or file at fault.
+        reason: What is wrong with it and what a run folder holds.
+    """
+
+    status = "invalid_run_folder"
+
+    def __init__(self, path: Any, reason: str) -> None:
+        self.path = path
+        self.reason = reason
+        super().__init__(f"cannot show {str(path)!r}: {reason}")
+
+
+class PortInUseError(RcmplanError):
+    """A server cannot listen on a port another program (another viewer) holds.
+
+    Attributes:
+        host: The address asked for. port: The port asked for.
+    """
+
+    status = "port_in_use"
+
+    def __init__(self, host: str, port: int, reason: str = "") -> None:
+        self.host = host
+        self.port = port
+        why = f" ({reason})" if reason else ""
+        super().__init__(
+            f"port {port} on {host} is in use{why}: is another viewer running? "
+            f"Stop it or choose another port with --port (1024-65535, or 0 for any free port)"
+        )
+
+
+class InputStreamError(InvalidInputError):
+    """A master input stream (a replay file, a live sample) is malformed: the message names
+    the source, the row and the value, and what is valid.
+
+    Attributes:
+        source: The file (or "live input").
+        row: Index of the offending data row (0-based, header excluded), or None for the
+            file as a whole (a missing column).
+        column: The column (or key) the value is in.
+    """
+
+    status = "invalid_input_stream"
+
+    def __init__(self, source: str, row: int | None, column: str, value: Any, valid: str) -> None:
+        self.source = source
+        self.row = row
+        self.column = column
+        where = f"{source}: row {row} {column}" if row is not None else f"{source}: {column}"
+        super().__init__(where, value, valid)

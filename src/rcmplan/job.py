@@ -61,7 +61,7 @@ def run_scenario(
         plant = make_plant(scenario.plant, shaft, scene=scene, dt=scenario.dt)
         plant.reset(robot.home_actuators)
         solver = make_solver(
-            scenario.method, scenario.method_settings, robot, eye=eye, dt=scenario.dt
+            scenario.method, scenario.method_settings, robot, plant, eye=eye, dt=scenario.dt
         )
         free = make_free_solver(robot, scenario.method_settings)
         controller = Controller(plant, solver, free, settings=scenario.loop, robot=robot)

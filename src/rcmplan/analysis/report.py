@@ -15,6 +15,7 @@ from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError, OutputError
 from rcmplan.robot.iramis import SLIDER_NAMES
+from rcmplan.scene.record import scene_record
 
 
 def prepare_folder(out: str | Path) -> Path:
@@ -39,7 +40,8 @@ def write_summary(result: RunResult, out: Path) -> Path:
 
 def summary_json(result: RunResult) -> dict[str, Any]:
     """The run summary with a unit in every key: the slider block per slider (`_m` for the
-    linear sliders L1..L5, `_rad` for q5) and the run's simulated time."""
+    linear sliders L1..L5, `_rad` for q5), the run's simulated time, and the scene the run
+    moved in (eye, trocar, named points: `rcmplan.scene.record`)."""
     s = dict(result.summary())
     used = s.get("sliders", {})
     if used:
@@ -50,6 +52,7 @@ def summary_json(result: RunResult) -> dict[str, Any]:
         }  # fmt: skip
     log = result.log
     s["simulated_time_s"] = float(log.time[-1]) if len(log) else 0.0
+    s["scene"] = scene_record(result.scenario, result.robot)
     return s
 
 

@@ -11,7 +11,17 @@ from collections.abc import Sequence
 from rcmplan.cli import interrupts
 from rcmplan.exceptions import RcmplanError
 
-COMMANDS = ("compare", "inject", "render", "reproduce", "robot", "scenario", "sweep")
+COMMANDS = (
+    "compare",
+    "inject",
+    "render",
+    "reproduce",
+    "robot",
+    "scenario",
+    "sweep",
+    "teleop",
+    "view",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -58,10 +58,16 @@ def execution_path(scenario: Scenario, pinned: str) -> str:
     return "reference"
 
 
-def measure(scenario: Scenario, pinned: str) -> dict[str, Any]:
-    """One row: a warm-up run, then the measured run of the scenario's method."""
+def measure(scenario: Scenario, pinned: str, out: Path | None = None) -> dict[str, Any]:
+    """One row: a warm-up run, then the measured run of the scenario's method; with `out`, the
+    measured run's log and summary.json go to out/<method>/ (`rcmplan view` reads them)."""
+    from rcmplan.analysis.report import prepare_folder, write_summary
+
     run_scenario(scenario)
-    s = run_scenario(scenario).summary()
+    result = run_scenario(scenario)
+    if out is not None:
+        write_summary(result, prepare_folder(out / scenario.method))
+    s = result.summary()
     row = {k: s[k] for k in COLUMNS}
     row["execution_path"] = execution_path(scenario, pinned)
     its = s["iterations"]
@@ -69,16 +75,19 @@ def measure(scenario: Scenario, pinned: str) -> dict[str, Any]:
     return row
 
 
-def compare_rows(args: argparse.Namespace, rows: list[dict[str, Any]]) -> str:
+def compare_rows(
+    args: argparse.Namespace, rows: list[dict[str, Any]], out: Path | None = None
+) -> str:
     """Run the scenario once per method on one pinned path, appending a row to `rows` as each
-    method finishes; a method whose extra is missing is reported, not run. Returns the path."""
+    method finishes (its run written to out/<method>/ when `out` is given); a method whose
+    extra is missing is reported, not run. Returns the path."""
     from rcmplan.compiled import cache as fast_cache
 
     base = scenario_from_args(argparse.Namespace(**{**vars(args), "method": None}))
     with fast_cache.pinned() as path:
         for method in args.method or METHODS:
             try:
-                rows.append(measure(base.with_method(method), path))
+                rows.append(measure(base.with_method(method), path, out))
             except MissingExtraError as exc:
                 rows.append({"method": method, "status": exc.status,
                              "message": f"MissingExtraError: {exc}",
@@ -107,7 +116,8 @@ def print_table(rows: list[dict[str, Any]], path: str) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the comparison table; write compare.json and the chart.
+    """Print the comparison table; write compare.json, the chart, and each method's run (log
+    and summary.json) in a folder named after the method.
 
     Interrupted (SIGINT, SIGTERM), it writes compare.json with status "interrupted" and the
     rows of the methods that finished, then re-raises (exit 130 or 143).
@@ -118,7 +128,7 @@ def run(args: argparse.Namespace) -> int:
     rows: list[dict[str, Any]] = []
     try:
         with interrupts.surfaced():
-            path = compare_rows(args, rows)
+            path = compare_rows(args, rows, out)
             doc = {"status": "ok", "message": "", "execution_path": path, "methods": rows}
             write_json(out / "compare.json", doc)
             if not args.no_plots:

@@ -37,8 +37,9 @@ DESCRIPTIONS: dict[Key, str] = {
     ("controller", "method"): "`pinv`, `pinv-thesis`, `dls` or `qp`",
     ("controller", "K"): "diagonal gains of the pseudoinverse methods, each in (0, 2)",
     ("controller", "damping"): "DLS damping in m (the QP: regularisation per unit motion)",
-    ("controller", "tolerance_position_m"): "loop tolerance on position components",
-    ("controller", "tolerance_angle_rad"): "loop tolerance on angle components",
+    ("controller", "tolerance_position_m"): "loop tolerance on position components (raised to "
+    "what the plant's actuator resolution supports)",
+    ("controller", "tolerance_angle_rad"): "loop tolerance on angle components (raised likewise)",
     ("controller", "max_iterations"): "iteration cap of Algorithm 1 per target",
     ("controller", "drift_correction"): "re-declare the RCM as the needle point nearest the trocar",
     ("controller", "dt_s"): "control period",

@@ -24,20 +24,12 @@ from rcmplan.control.loop import Phase
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
-from rcmplan.scene.eye import Eye
+from rcmplan.scene.eye import Eye, eye_frame
 from rcmplan.scene.procedures import path_procedure
 from rcmplan.scene.scenario import Scenario
 
 MM = 1e-3
 SLOTS = ("p4", "p5", "p6", "p7")
-
-
-def eye_frame(eye: Eye) -> FloatArray:
-    """Rotation (3, 3) whose columns are the eye frame's x, y, z in the base frame."""
-    z = eye.axis
-    x = np.cross(z, [0.0, 0.0, 1.0])
-    x /= np.linalg.norm(x)
-    return np.column_stack([x, np.cross(z, x), z])
 
 
 def to_base(eye: Eye, points_eye_mm: FloatArray) -> FloatArray:

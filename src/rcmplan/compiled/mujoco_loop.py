@@ -50,8 +50,9 @@ def run_targets_on_mujoco(
     cmd: FloatArray, state: FloatArray, rec: FloatArray, irec: NDArray[np.int64],
     info: NDArray[np.int64], fail: FloatArray, slider_qpos: NDArray[np.intp],
     fns: NDArray[np.intp], model: int, data: int, substeps: int, dt: float, steps: FloatArray,
-    speed: FloatArray, gap2: float, act: FloatArray, ctrl: FloatArray, qpos: FloatArray,
-    qvel: FloatArray, xpos: FloatArray, warn: NDArray[np.int32], act_idx: NDArray[np.intp],
+    speed: FloatArray, ramp: float, gap2: float, act: FloatArray, ctrl: FloatArray,
+    qpos: FloatArray, qvel: FloatArray, xpos: FloatArray, warn: NDArray[np.int32],
+    act_idx: NDArray[np.intp],
     servo: NDArray[np.intp], feedforward: NDArray[np.intp], slot: NDArray[np.intp],
     pin: NDArray[np.intp],
 ) -> int:  # fmt: skip
@@ -82,7 +83,7 @@ def run_targets_on_mujoco(
             if status == STEPPED:
                 for i in range(6):
                     cmd[i] = fail[12 + i]
-                code = advance(cmd, v, fns, model, data, substeps, dt, steps, speed, gap2,
+                code = advance(cmd, v, fns, model, data, substeps, dt, steps, speed, ramp, gap2,
                                act, ctrl, qpos, qvel, xpos, warn, act_idx, servo,
                                feedforward, slot, pin)  # fmt: skip
                 state[1] += state[2]

@@ -39,9 +39,10 @@ def spherical_eye(eye: EyeModel) -> bool:
 
 def qp_params(robot: RobotModel, solver: QpSolver) -> tuple[FloatArray, FloatArray] | None:
     """(Q, contacts (k, 3) [m]) of a QP solver driving `robot`; None if its eye is not one the
-    kernels reproduce (`spherical_eye`) or it bounds the tip's speed (no compiled rows)."""
+    kernels reproduce (`spherical_eye`), it bounds the tip's speed or holds extra limits (no
+    compiled rows)."""
     lim, eye = solver.limits, solver.eye
-    if lim.tip_speed is not None:
+    if lim.tip_speed is not None or solver.extra_limits:
         return None
     Q = np.zeros(Q_SIZE)
     Q[RCM_TOL], Q[TRAVEL_MARGIN], Q[RETINA_MARGIN] = (

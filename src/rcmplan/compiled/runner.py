@@ -294,14 +294,15 @@ def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
 
 
 def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -> None:
-    """The compiled loop around the dynamic MuJoCo plant, on a short move per solver."""
-    from rcmplan.control.loop import Controller
+    """The compiled loop around the dynamic MuJoCo plant, on a short move per solver (up to
+    0.5 mm: with the reference's 30 ms ramp it takes more than the default 100 periods)."""
+    from rcmplan.control.loop import Controller, LoopSettings
     from rcmplan.sim.mujoco.plant import MujocoPlant
 
     loop = fast_cache.closed_loop()
     for solver, targets in jobs:
         plant = MujocoPlant(robot, mode="dynamic")
-        ctl = Controller(plant, solver)
+        ctl = Controller(plant, solver, settings=LoopSettings(max_iterations=1000))
         ctl.lam = 1.0 - 8e-3 / robot.params.l6
         loop.run_phase_on_mujoco(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0)
 

@@ -7,9 +7,11 @@ pseudoinverse. Optional methods (the QP controller) are imported on first use.
 from __future__ import annotations
 
 import importlib
+from dataclasses import replace
 from typing import Any
 
 from rcmplan.control.method_settings import MethodSettings
+from rcmplan.control.resolution import met_tolerance
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.curved import CurvedTipRobot
@@ -26,6 +28,7 @@ def make_solver(
     name: str,
     settings: MethodSettings | None = None,
     robot: RobotModel | None = None,
+    plant: Any | None = None,
     **context: Any,
 ) -> Solver:
     """The RCM step solver called `name`.
@@ -34,9 +37,16 @@ def make_solver(
         name: One of METHODS.
         settings: Gains, damping, tolerance and method-specific options.
         robot: The robot (methods that hold limits need it).
+        plant: The plant the solver will drive, or None: its actuator resolution raises the
+            tolerance to what it supports (`control.resolution`), and the QP centres its
+            speed window on the command its servos follow (`QpSolver`'s `servo`).
         context: Scene context for constrained methods (eye, control period dt, ...).
     """
     cfg = settings or MethodSettings()
+    if plant is not None:
+        tol = met_tolerance(cfg.tolerance, robot or Iramis(), plant)
+        cfg = cfg if tol is cfg.tolerance else replace(cfg, tolerance=tol)
+        context["servo"] = plant
     if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
         return _curved_solver(name, cfg, robot, **context)
     if name == "pinv":

@@ -3,8 +3,14 @@
 A plant reads and commands actuator positions s (iRAM!S: its sliders (L1, L2, L3, L4, L5, q5);
 an arm: its joints) and advances time by one control period, the way the thesis's MATLAB loop
 read and set V-REP joints. Controllers only see this interface, so the same loop drives the
-kinematic plant and the MuJoCo plant. A plant states what it can do by attributes
-(`exact_commands`, `compiled_physics`), never by its class name.
+kinematic plant and the MuJoCo plant. A plant states what it can do by attributes, never by
+its class name:
+    exact_commands: True if `advance` puts the actuators exactly at the command.
+    compiled_physics: True if its period can run in compiled code (the dynamic MuJoCo plant).
+    command: The last command (n,), which servos follow (a plant without exact commands).
+    actuator_resolution: The step (n,) in [m] or [rad] every command is rounded to, or None
+        when commands are taken as they are; loop tolerances are raised to what it supports
+        (`rcmplan.control.resolution`).
 """
 
 from __future__ import annotations

@@ -15,10 +15,22 @@ at an actuator's full speed is not at such a point (the speed bound only slows t
 `error` is the plain X_ext error, so a tolerance looser than one period's motion cannot end a
 target early. The true X_ext error stays available through `task_error`, and the log's tip and
 target records.
+
+On a plant whose servos follow the command over several periods (`servo`: the dynamic MuJoCo
+plant, whose reference ramps towards the command within speed and acceleration) the QP plans
+the command the servo follows: each step is built at the plant's last command, rounded to the
+actuator resolution as the plant rounds it (the position the servo settles at), so the speed
+window, the RCM and every other limit hold on the commanded motion; built at the lagging
+measured actuators, a speed-bounded command could pull the servo reference back, and
+limits linearised there hold on a pose up to a ramp's lead (about 0.15 mm) away. The loop then
+stops on `error` = J x* / K at the command plus the command's lead over the measured pose
+(X(command) - X(measured)): zero once the command is where the QP would stay and the
+servo has arrived.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import Any, ClassVar
 
 import numpy as np
@@ -30,10 +42,11 @@ from rcmplan.control.curved import task_error as curved_error
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.limited_tip import LimitedTipSolver
+from rcmplan.control.limits import Limit
 from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
+from rcmplan.control.qp_problem import LIMITS, SCALE, StepInput, StepQP, build_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import solve_pose, target_tip
 from rcmplan.exceptions import UnreachableTargetError
@@ -53,6 +66,12 @@ class QpSolver:
         tol: Loop tolerance.
         limits: What is held (checked against robot and eye here, before any motion).
         backend: QP solver (see qp_backends.BACKENDS).
+        servo: The plant, when its servos follow commands over several periods (it has
+            `exact_commands` False and a `command`): steps are planned from its last command
+            (module docstring). None, or a plant with exact commands: from the measured state.
+        extra_limits: Limits held besides the standard ones (`qp_problem.LIMITS`), for
+            example a `limits.WorkspaceBound` for the tip (the compiled QP declines a solver
+            that has any).
     """
 
     name: ClassVar[str] = "qp"
@@ -68,6 +87,8 @@ class QpSolver:
         tol: Tolerance | None = None,
         limits: QpLimits | None = None,
         backend: str = DEFAULT_BACKEND,
+        servo: Any | None = None,
+        extra_limits: tuple[Limit, ...] = (),
     ) -> None:
         self.robot = robot
         self.eye = eye
@@ -84,7 +105,15 @@ class QpSolver:
         self.tol = (tol or Tolerance()).checked()
         self.limits = (limits or QpLimits()).check(robot, eye)
         self.backend = check_backend(backend)
+        follows = servo is not None and not getattr(servo, "exact_commands", True)
+        self.servo = servo if follows and hasattr(servo, "command") else None
+        res = getattr(self.servo, "actuator_resolution", None)
+        self._resolution = None if res is None else np.asarray(res, dtype=float)
+        self.extra_limits = tuple(extra_limits)
+        self.rows: tuple[Limit, ...] = (*LIMITS, *self.extra_limits)
         self.last: tuple[StepQP, QpResult] | None = None
+        self._planned_error: FloatArray = np.zeros(0)  # the task error of the last solve
+        self._plan, self._plan_key = np.zeros(0), b""
         self._key: bytes = b""
         self._checked: bytes = b""
 
@@ -95,22 +124,29 @@ class QpSolver:
         robot: RobotModel,
         eye: EyeModel | None = None,
         dt: float = 1e-3,
+        servo: Any | None = None,
         **extra: Any,
     ) -> QpSolver:
         """From MethodSettings (K, damping, tolerance, extra); `extra` adds or overrides keys."""
         options: dict[str, Any] = {**dict(cfg.extra), **extra}
         backend = str(options.pop("solver", DEFAULT_BACKEND))
         limits = QpLimits.from_extra(options)
-        return cls(robot, eye, dt, tuple(cfg.K), cfg.damping, cfg.tolerance, limits, backend)
+        return cls(robot, eye, dt, tuple(cfg.K), cfg.damping, cfg.tolerance, limits, backend,
+                   servo)  # fmt: skip
 
     # --- the Solver protocol ---------------------------------------------------------------
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
-        """The X_ext error a feasible step can still remove, J x* / K (see module docstring)."""
+        """The X_ext error a feasible step can still remove, J x* / K, plus with a servo the
+        command's lead over the measured pose (see module docstring)."""
         self.check_target(target)
-        step, result = self._solve(robot, q, lam, target)
+        plan = self.planned_joints(robot, q)
+        step, result = self._solve(robot, plan, lam, target)
         if self.speed_limited(robot, result.x):
             return self.task_error(robot, q, lam, target)
-        return np.asarray(step.task @ result.x / self.K, dtype=float)
+        e = np.asarray(step.task @ result.x / self.K, dtype=float)
+        if plan is not q:
+            e += self.task_error(robot, q, lam, target) - self._planned_error
+        return e
 
     def speed_limited(self, robot: RobotModel, x: FloatArray) -> bool:
         """True if an actuator moves at its full speed in the step x: the target is still being
@@ -130,8 +166,9 @@ class QpSolver:
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """The QP's step: joint increments recovered exactly from the actuator increments."""
-        step, result = self._solve(robot, q, lam, target)
+        """The QP's step: joint increments recovered exactly from the actuator increments
+        (with a servo: from the measured joints q to the planned command)."""
+        step, result = self._solve(robot, self.planned_joints(robot, q), lam, target)
         active = list(robot.active)
         m = len(active)
         s = step.sliders.copy()
@@ -146,6 +183,19 @@ class QpSolver:
         return LimitedTipSolver(self.dt, lim.travel_margin, tol=self.tol, tip_speed=lim.tip_speed)
 
     # --- helpers ----------------------------------------------------------------------------
+    def planned_joints(self, robot: RobotModel, q: FloatArray) -> FloatArray:
+        """The joints a step is planned from: q itself, or with a servo the joints of the
+        plant's last command rounded to its resolution."""
+        if self.servo is None:
+            return q
+        s = np.asarray(self.servo.command, dtype=float)
+        if self._resolution is not None:
+            s = np.round(s / self._resolution) * self._resolution
+        key = s.tobytes()
+        if key != self._plan_key:  # `error` and `step` ask in turn for the same command
+            self._plan, self._plan_key = robot.joints_from_actuators(s), key
+        return self._plan
+
     def task_error(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray
     ) -> FloatArray:
@@ -162,8 +212,11 @@ class QpSolver:
         if self.last is not None and key == self._key:
             return self.last
         e = self.task_error(robot, q, lam, target)
+        self._planned_error = e
         inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.eye, self.limits)
-        step = build_step(robot, inp)
+        step = build_step(robot, inp, self.rows)
+        if self.servo is not None:
+            step = synchronised_step(robot, step, self.dt)
         result = solve(step.problem, self.backend)
         self.last, self._key = (step, result), key
         return self.last
@@ -200,6 +253,29 @@ class QpSolver:
     def _in_port(self, tip: FloatArray) -> bool:
         eye = self.eye
         return eye is not None and bool(np.linalg.norm(tip - eye.port) <= self.limits.port_zone)
+
+
+def synchronised_step(robot: RobotModel, step: StepQP, dt: float) -> StepQP:
+    """The step's QP tracking K e / sigma instead of K e, sigma >= 1 the largest fraction of
+    an actuator's speed window that the unconstrained optimum x = -P^-1 q would use: a
+    straight, synchronised sub-goal along the way to the target, as the plant's servo
+    reference moves (`sim.mujoco.actuators.synchronised_velocity`); the unconstrained optimum
+    then just fits the window.
+
+    Tracking K e itself, a step that cannot reach the target within the window spends its
+    window on whatever error it reduces fastest (on iRAM!S: a retraction tilts the needle by up
+    to 0.1 mrad and back, slider reversals at full speed); a servo reference with bounded
+    acceleration cannot follow such reversals, and leaves the commanded (RCM-holding) path.
+    Only the linear cost term changes (it is linear in e); the limits are untouched.
+    """
+    active = list(robot.active)
+    m = len(active)
+    x = np.linalg.solve(step.problem.P, step.problem.q)  # -x: P is positive definite (damping)
+    window = robot.speed[active] * dt / SCALE  # [QP units]
+    sigma = float(np.max(np.abs(x[:m]) / window))
+    if sigma <= 1.0:
+        return step
+    return replace(step, problem=replace(step.problem, q=step.problem.q / sigma))
 
 
 def make_qp(

@@ -52,6 +52,13 @@ def robot_file(name: str) -> Path:
     return robots_dir() / _FILES[name][0]
 
 
+def flange_frame(name: str) -> str:
+    """The link a shipped robot's chain ends at (its flange), one of ROBOT_FILES."""
+    if name not in _FILES:
+        raise InvalidInputError("robot name", name, "one of " + ", ".join(ROBOT_FILES))
+    return _FILES[name][1]
+
+
 def robot_chain(name: str) -> JointChain:
     """A shipped robot's chain from its URDF root to its flange frame."""
     path = robot_file(name)

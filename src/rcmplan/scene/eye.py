@@ -95,6 +95,16 @@ class Eye:
         return self.port + (-b + math.sqrt(disc)) * d
 
 
+def eye_frame(eye: Eye) -> FloatArray:
+    """Rotation (3, 3) whose columns are the eye frame's x, y, z in the base frame: z along the
+    insertion axis (trocar to centre), x = z x z_base / |z x z_base| (horizontal in the base
+    frame), y = z x x. Points in this frame have their origin at the eye centre."""
+    z = eye.axis
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
 def default_eye(
     robot: RobotModel | None = None,
     radius: float = 12e-3,

@@ -19,6 +19,7 @@ class KinematicPlant:
 
     name = "kinematic"
     exact_commands = True  # capability: advance() puts the actuators exactly at the command
+    actuator_resolution = None  # commands are taken as they are, not rounded
 
     def __init__(self, robot: RobotModel | None = None, dt: float = 1e-3) -> None:
         self.robot: RobotModel = robot or Iramis()

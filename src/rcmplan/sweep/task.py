@@ -129,7 +129,8 @@ def run_target(motion: MotionSettings, target_id: int, point: Sequence[float]) -
     t0 = time.perf_counter()
     plant = _plant(motion)
     plant.reset(sliders)
-    solver = make_solver(motion.method, motion.method_settings(), robot, eye=eye, dt=motion.dt)
+    solver = make_solver(motion.method, motion.method_settings(), robot, plant, eye=eye,
+                         dt=motion.dt)  # fmt: skip
     controller = Controller(plant, solver, settings=motion.loop())
     status, message = "ok", ""
     try:

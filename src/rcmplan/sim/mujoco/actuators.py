@@ -2,7 +2,9 @@
 
 A stick-slip positioner in closed-loop (scanning) mode is modelled as a stiff position servo
 that tracks a reference; the reference moves towards the quantised command no faster than the
-slider's maximum speed (all six axes scaled together, so they arrive at the same time).
+slider's maximum speed and changes its speed no faster than its acceleration, as a positioner
+controller's trajectory generator does (all six axes scaled together, so their profiles stay
+synchronised and they arrive at the same time; `profile_velocity`).
 In MuJoCo each slider has two actuators: an integrator whose state is the reference
 (force kp (ref - x) - kv x_dot, state clamped to the travel) and a velocity feed-forward
 (force kv v_ref), so a constant-speed ramp is tracked without lag.
@@ -39,6 +41,10 @@ class PiezoParameters:
         rotary_inertia: Effective inertia seen by the q5 servo in [kg m^2] (assumed: 1e-6).
         insertion_mass: Effective mass seen by the L5 servo in [kg] (assumed: 0.03 kg, the
             insertion stage and needle).
+        ramp_time: Time in [s] the reference takes from rest to full speed (assumed: 30 ms);
+            slider i accelerates at most at speed_i / ramp_time, the same fraction of its speed
+            for every slider, so synchronised profiles stay synchronised. 0 lets the reference
+            jump to any speed within one period (velocity steps).
     """
 
     lower: tuple[float, ...]
@@ -51,12 +57,14 @@ class PiezoParameters:
     linear_mass: float = 0.3
     rotary_inertia: float = 1e-6
     insertion_mass: float = 0.03
+    ramp_time: float = 0.03
 
     def __post_init__(self) -> None:
         for name in ("resolution", "rotary_resolution", "bandwidth"):
             scalar(name, getattr(self, name), 0.0, np.inf, low_open=True)
         for name in ("damping_ratio", "linear_mass", "rotary_inertia", "insertion_mass"):
             scalar(name, getattr(self, name), 0.0, np.inf, low_open=True)
+        scalar("ramp_time", self.ramp_time, 0.0, 10.0)
         vector("lower", self.lower, 6)
         vector("upper", self.upper, 6)
         vector("speed", self.speed, 6)
@@ -135,4 +143,42 @@ def synchronised_velocity(
     excess = float(np.max(np.abs(v) / speed))
     if excess > 1.0:
         v /= excess
+    return v
+
+
+def profile_velocity(
+    target: FloatArray,
+    s_ref: FloatArray,
+    v_prev: FloatArray,
+    dt: float,
+    speed: FloatArray,
+    ramp_time: float,
+) -> FloatArray:
+    """Reference velocity [m/s, rad/s] for one period of dt [s]: from the reference s_ref,
+    moving at v_prev, towards the (quantised) target, within speed and acceleration.
+
+    1. `synchronised_velocity`: arrive within the period, or go at full speed along the way.
+    2. Braking: the speed fraction sigma = max_i |v_i| / speed_i is capped so that the
+       reference can still stop at the target while slowing by dt / ramp_time per period.
+       From sigma such a stop covers sigma^2 ramp_time / 2 + sigma dt / 2 (in seconds at full
+       speed), which must not exceed r = max_i |target_i - s_ref_i| / speed_i.
+    3. Acceleration: the change v - v_prev is scaled as a whole so that no slider's speed
+       changes by more than speed_i dt / ramp_time (the profiles stay synchronised).
+    With ramp_time 0 only step 1 applies. `sim.mujoco.compiled.advance` repeats these
+    operations in compiled code, in the same order.
+    """
+    v = synchronised_velocity(target, s_ref, dt, speed)
+    if ramp_time <= 0.0:
+        return v
+    r = float(np.max(np.abs(target - s_ref) / speed))
+    sigma = float(np.max(np.abs(v) / speed))
+    half = 0.5 * dt
+    brake = (math.sqrt(half * half + 2.0 * ramp_time * r) - half) / ramp_time
+    if sigma > brake:
+        v *= brake / sigma
+    v -= v_prev
+    excess = float(np.max(np.abs(v) / speed)) * ramp_time / dt
+    if excess > 1.0:
+        v /= excess
+    v += v_prev
     return v

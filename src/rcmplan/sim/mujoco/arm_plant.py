@@ -79,6 +79,8 @@ class ArmPlant:
         self._ids = _Ids(self.mj, self.model, robot)
         self._lower, self._upper, self._speed = robot.lower, robot.upper, robot.speed
         self._steps = np.full(self._n, robot.resolution)
+        # capability: a dynamic-mode command is rounded to the joint resolution
+        self.actuator_resolution = self._steps.copy() if mode == "dynamic" else None
         self._warnings = self.data.warning.number  # a view: MuJoCo updates it in place
         self.time = 0.0
         self._cmd = robot.home.copy()

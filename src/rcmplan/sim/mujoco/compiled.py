@@ -1,7 +1,8 @@
 """The dynamic MuJoCo plant's control period in compiled code (needs numba: the `fast` extra).
 
 `advance` is `MujocoPlant.advance` in dynamic mode, operation for operation: the quantised
-command, the synchronised reference velocity, the servo and feed-forward controls, the physics
+command, the synchronised reference velocity within speed and acceleration
+(`actuators.profile_velocity`), the servo and feed-forward controls, the physics
 steps, the kinematics and the checks (NaN, MuJoCo warnings, loop-closure gap). MuJoCo's own
 `mj_step` and `mj_kinematics` are called from the compiled code through their C addresses, so
 a closed control loop on the MuJoCo plant runs without returning to Python between periods
@@ -77,7 +78,8 @@ class PlantArrays:
     Attributes:
         fns: Addresses (mj_step, mj_kinematics); model, data: of the plant's MjModel/MjData.
         substeps: Physics steps per control period; dt: the control period [s].
-        steps, speed: Slider resolution and speed (6,); gap2: the loop-gap limit squared [m^2].
+        steps, speed: Slider resolution and speed (6,); ramp: the reference's time from rest to
+            full speed [s] (`PiezoParameters.ramp_time`); gap2: the loop-gap limit squared [m^2].
         act, ctrl, qpos, qvel, xpos, warn: Views of mjData's arrays (MuJoCo writes into them).
         act_idx, servo, feedforward, slider_qpos, slot, pin: Index arrays into those views.
     """
@@ -89,6 +91,7 @@ class PlantArrays:
     dt: float
     steps: FloatArray
     speed: FloatArray
+    ramp: float
     gap2: float
     act: FloatArray
     ctrl: FloatArray
@@ -106,8 +109,8 @@ class PlantArrays:
     def args(self) -> tuple[Any, ...]:
         """The arguments of `advance` after the command, in order."""
         return (self.fns, self.model, self.data, self.substeps, self.dt, self.steps,
-                self.speed, self.gap2, self.act, self.ctrl, self.qpos, self.qvel, self.xpos,
-                self.warn, self.act_idx, self.servo, self.feedforward, self.slot,
+                self.speed, self.ramp, self.gap2, self.act, self.ctrl, self.qpos, self.qvel,
+                self.xpos, self.warn, self.act_idx, self.servo, self.feedforward, self.slot,
                 self.pin)  # fmt: skip
 
 
@@ -125,7 +128,7 @@ def plant_arrays(plant: Any) -> PlantArrays | None:
         fns=np.array(fns, dtype=np.intp), model=int(plant.model._address),
         data=int(d._address), substeps=int(plant.substeps), dt=float(plant.dt),
         steps=np.ascontiguousarray(plant._steps, dtype=np.float64),
-        speed=np.ascontiguousarray(plant._speed, dtype=np.float64),
+        speed=np.ascontiguousarray(plant._speed, dtype=np.float64), ramp=float(plant._ramp),
         gap2=float(plant.gap_limit) ** 2, act=d.act, ctrl=d.ctrl, qpos=d.qpos, qvel=d.qvel,
         xpos=d.site_xpos, warn=d.warning.number, act_idx=idx(ids.act), servo=idx(ids.servo),
         feedforward=idx(ids.feedforward), slider_qpos=idx(ids.slider_qpos),
@@ -134,23 +137,56 @@ def plant_arrays(plant: Any) -> PlantArrays | None:
 
 
 @njit(cache=True)
+def reference_velocity(
+    cmd: FloatArray, v: FloatArray, dt: float, steps: FloatArray, speed: FloatArray,
+    ramp: float, act: FloatArray, act_idx: NDArray[np.intp], ctrl: FloatArray,
+    servo: NDArray[np.intp],
+) -> None:  # fmt: skip
+    """v (6,) = `actuators.profile_velocity` towards the quantised command cmd from the servo
+    references act[act_idx], moving at the last period's ctrl[servo]; same operations, same
+    order (so the same bits)."""
+    excess, r = 0.0, 0.0
+    for i in range(6):
+        d = np.rint(cmd[i] / steps[i]) * steps[i] - act[act_idx[i]]
+        v[i] = d / dt
+        excess = max(excess, abs(v[i]) / speed[i])
+        r = max(r, abs(d) / speed[i])
+    sigma = 0.0
+    for i in range(6):
+        if excess > 1.0:
+            v[i] /= excess
+        sigma = max(sigma, abs(v[i]) / speed[i])
+    if ramp <= 0.0:
+        return
+    half = 0.5 * dt
+    brake = (np.sqrt(half * half + 2.0 * ramp * r) - half) / ramp
+    if sigma > brake:
+        factor = brake / sigma
+        for i in range(6):
+            v[i] *= factor
+    change = 0.0
+    for i in range(6):
+        v[i] -= ctrl[servo[i]]
+        change = max(change, abs(v[i]) / speed[i])
+    change = change * ramp / dt
+    for i in range(6):
+        if change > 1.0:
+            v[i] /= change
+        v[i] += ctrl[servo[i]]
+
+
+@njit(cache=True)
 def advance(
     cmd: FloatArray, v: FloatArray, fns: NDArray[np.intp], model: int, data: int,
-    substeps: int, dt: float, steps: FloatArray, speed: FloatArray, gap2: float,
+    substeps: int, dt: float, steps: FloatArray, speed: FloatArray, ramp: float, gap2: float,
     act: FloatArray, ctrl: FloatArray, qpos: FloatArray, qvel: FloatArray, xpos: FloatArray,
     warn: NDArray[np.int32], act_idx: NDArray[np.intp], servo: NDArray[np.intp],
     feedforward: NDArray[np.intp], slot: NDArray[np.intp], pin: NDArray[np.intp],
 ) -> int:  # fmt: skip
     """One control period of the dynamic plant towards the command cmd (6,); v (6,) is
     scratch. Returns OK or the first failing check (DIVERGED, WARNED, GAP)."""
-    excess = 0.0
+    reference_velocity(cmd, v, dt, steps, speed, ramp, act, act_idx, ctrl, servo)
     for i in range(6):
-        target = np.rint(cmd[i] / steps[i]) * steps[i]
-        v[i] = (target - act[act_idx[i]]) / dt
-        excess = max(excess, abs(v[i]) / speed[i])
-    for i in range(6):
-        if excess > 1.0:
-            v[i] /= excess
         ctrl[servo[i]] = v[i]
         ctrl[feedforward[i]] = v[i]
     for _ in range(substeps):

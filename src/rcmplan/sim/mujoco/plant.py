@@ -4,7 +4,8 @@ Modes:
     kinematic: a command places the sliders exactly; the PCJM loops are closed by Newton steps
         on MuJoCo's kinematics (no dynamics, no actuators).
     dynamic: each `advance` runs dt / physics_dt physics steps; the piezo servo reference moves
-        towards the quantised command at most at slider speed (see actuators.py).
+        towards the quantised command at most at slider speed and acceleration, the sliders'
+        profiles synchronised (`actuators.profile_velocity`).
 After every period the plant checks for NaN, MuJoCo warnings and the loop-closure gap and
 raises SimulationError when the simulation has become unstable.
 
@@ -28,7 +29,7 @@ from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.exceptions import InvalidInputError, SimulationError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.eye import Eye, EyePoints
-from rcmplan.sim.mujoco.actuators import PiezoParameters, quantise, synchronised_velocity
+from rcmplan.sim.mujoco.actuators import PiezoParameters, profile_velocity, quantise
 from rcmplan.sim.mujoco.assembly import LoopIndex, assemble_at, loop_gap
 from rcmplan.sim.mujoco.files import load_model, mujoco_module, physics_model
 from rcmplan.sim.mujoco.model import ModelOptions
@@ -99,6 +100,9 @@ class MujocoPlant:
         self.index = LoopIndex.of(self.mj, self.model)
         self._ids = _Ids(self.mj, self.model)
         self._steps, self._speed = self.piezo.steps(), np.asarray(self.piezo.speed)
+        self._ramp = float(self.piezo.ramp_time)
+        # capability: a dynamic-mode command is rounded to the slider resolution
+        self.actuator_resolution = self._steps.copy() if mode == "dynamic" else None
         self._lower, self._upper = self.robot.lower, self.robot.upper
         self._warning_count = self.data.warning.number  # a view: MuJoCo updates it in place
         self._scene: tuple[Any, Any] | None = None
@@ -140,7 +144,8 @@ class MujocoPlant:
         else:
             ref = self.data.act[self._ids.act]
             target = quantise(self._cmd, self._steps)
-            v = synchronised_velocity(target, ref, self.dt, self._speed)
+            v_prev = self.data.ctrl[self._ids.servo]  # the last period's reference velocity
+            v = profile_velocity(target, ref, v_prev, self.dt, self._speed, self._ramp)
             self.data.ctrl[self._ids.servo] = v
             self.data.ctrl[self._ids.feedforward] = v
             self.mj.mj_step(self.model, self.data, nstep=self.substeps)

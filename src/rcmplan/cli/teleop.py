@@ -1,0 +1,142 @@
+"""`rcmplan teleop`: a teleoperated session from a replay file or the synthetic surgeon."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from rcmplan.cli import interrupts
+from rcmplan.cli.common import interrupted_message, one_line, print_json, table
+from rcmplan.exceptions import RcmplanError
+from rcmplan.robot.registry import ROBOTS
+from rcmplan.sim.registry import PLANTS
+
+FILTERS = ("none", "lowpass", "wflc")  # rcmplan.teleop.FILTERS (a test checks they agree)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    """Add the `teleop` subcommand."""
+    text = "a teleoperated session: clutch, motion scaling, tremor filter, virtual fixtures"
+    p = sub.add_parser(
+        "teleop", help=text,
+        description="Drive the needle from a master input through the clutch, motion scaling "
+        "and a tremor filter, with the RCM, a retina no-go margin, a workspace box and actuator "
+        "speed held by the QP at every 1 kHz period. The default input is a 20 s synthetic "
+        "surgeon (100 um RMS tremor) who pushes the tip past the retina margin once.",
+    )  # fmt: skip
+    p.add_argument("--input", default="synthetic", metavar="synthetic|FILE",
+                   help="'synthetic' or a replay file (.csv or .npz; docs/teleop.md)")  # fmt: skip
+    p.add_argument("--scale", type=float, default=20.0, help="motion scaling, 1-50 (20)")
+    p.add_argument("--filter", choices=FILTERS, default="wflc", help="tremor filter (wflc)")
+    p.add_argument("--plant", choices=sorted(PLANTS), default="kinematic", help="plant")
+    p.add_argument("--robot", choices=tuple(ROBOTS), default="iramis", help="robot")
+    p.add_argument("--seed", type=int, default=0, help="seed of the synthetic surgeon (0)")
+    p.add_argument("--tremor-um", type=float, default=100.0,
+                   help="synthetic tremor, RMS of its 3-D magnitude in um (100)")  # fmt: skip
+    p.add_argument("--out", default=None, help="output folder (default: rcmplan-out/teleop)")
+    p.add_argument("--json", action="store_true", help="print summary.json instead of the table")
+    p.add_argument("--no-plots", action="store_true", help="skip the figures")
+    p.set_defaults(run=run, out_default="rcmplan-out/teleop")
+
+
+def track_of(args: argparse.Namespace, settings: Any) -> Any:
+    """The input track: the synthetic surgeon, or the file (checked row by row)."""
+    from rcmplan.teleop import SyntheticSurgeon, read_track
+
+    if args.input == "synthetic":
+        return SyntheticSurgeon(seed=args.seed, tremor_rms=args.tremor_um * 1e-6).track()
+    return read_track(args.input, settings.max_input_speed)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the session, write the outputs, print the summary; exit 1 if it stopped early or
+    broke a fixture. Interrupted, it writes what it has with status "interrupted" and
+    re-raises (exit 130 or 143)."""
+    from rcmplan.analysis.report import prepare_folder
+    from rcmplan.teleop import TeleopSettings, run_replay
+    from rcmplan.teleop.outputs import write_outputs
+
+    out = prepare_folder(args.out or args.out_default)
+    result, doc = None, None
+    try:
+        with interrupts.surfaced():
+            settings = TeleopSettings(robot=args.robot, plant=args.plant, scale=args.scale,
+                                      filter=args.filter)  # fmt: skip
+            track = track_of(args, settings)
+            result = run_replay(settings, track)
+            doc, _ = write_outputs(result, out, figures=not args.no_plots)
+    except RcmplanError as exc:
+        if result is None:
+            write_failed(out, exc.status, f"{type(exc).__name__}: {exc}")
+            raise
+        print(f"rcmplan teleop: could not write all outputs: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as exc:
+        write_interrupted(out, exc, result)
+        raise
+    if args.json:
+        print_json(doc)
+    else:
+        print_table(doc)
+        print(f"outputs in {out}/")
+    if doc["status"] != "ok":
+        print(f"rcmplan teleop: {doc['status']}: {doc['message']}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def write_failed(out: Path, status: str, message: str) -> None:
+    """summary.json of a session refused before motion (no log of an earlier run kept)."""
+    from rcmplan._atomic import write_text
+
+    with interrupts.shielded():
+        for name in ("log.npz", "log.csv", "teleop.npz"):
+            (out / name).unlink(missing_ok=True)
+        doc = {"command": "teleop", "status": status, "message": one_line(message)}
+        write_text(out / "summary.json", json.dumps(doc, indent=2))
+
+
+def write_interrupted(out: Path, exc: KeyboardInterrupt, result: Any) -> None:
+    """The partial log and summary.json with status "interrupted" (figures skipped)."""
+    from rcmplan.teleop.outputs import write_summary
+
+    if result is None:
+        result = getattr(exc, "result", None)
+        where = "during the session" if result is not None else "before the session"
+    else:
+        where = f"while writing the outputs (the session ended with status {result.status!r})"
+    message = interrupted_message(exc, where)
+    if result is None:
+        write_failed(out, "interrupted", message)
+        return
+    with interrupts.shielded():
+        write_summary(replace(result, status="interrupted", message=message), out)
+
+
+def print_table(doc: dict[str, Any]) -> None:
+    """The session's figures, one per line."""
+    um = "um"
+
+    def f(key: str, unit: str = um, scale: float = 1e6) -> str:
+        v = doc.get(key)
+        return "-" if v is None else f"{v * scale:.3f} {unit}"
+
+    print(f"teleop  robot {doc['robot']}  plant {doc['plant']}  input {doc['input']}  "
+          f"filter {doc['filter']}  scale {doc['scale']:g}  status {doc['status']}")  # fmt: skip
+    rows = [
+        ["max RCM deviation", f("max_rcm_deviation_m")],
+        ["tip tremor RMS, 6-16 Hz", f("tip_tremor_rms_m")],
+        ["input tremor RMS, 6-16 Hz (scaled)", f("input_tremor_rms_m")],
+        ["tracking RMS (free space)", f("tracking_rms_m")],
+        ["added lag", f("added_lag_s", "ms", 1e3)],
+        ["closest approach to the retina", f("retina_min_distance_m", "mm", 1e3)],
+        ["retina margin", f("retina_margin_m", "mm", 1e3)],
+        ["limit violations", ", ".join(f"{k} {v}" for k, v in doc["limit_violations"].items())],
+    ]
+    print(table(["figure", "value"], rows))
+    for note in doc.get("released_past_fixture", []):
+        print(f"t = {note['t_s']:.3f} s: {note['note']}")

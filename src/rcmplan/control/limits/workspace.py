@@ -1,0 +1,75 @@
+"""The workspace bound: the needle tip kept inside a box, each face a velocity damper."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, matrix, scalar, vector
+from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, damper_row
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.model import RobotModel
+
+
+@dataclass(frozen=True)
+class WorkspaceBound:
+    """lower <= R^T (tip - origin) <= upper, componentwise: a box with axes R (columns, in the
+    base frame) about `origin`, all in [m]. Each face is a velocity damper at `gain` (the gap
+    to a face shrinks at most by this fraction per step; past a face the tip may not go
+    further and comes back by up to `limits.base.RECOVERY` per step).
+
+    Attributes:
+        origin: Box origin (3,) in the base frame [m].
+        rotation: (3, 3) rotation whose columns are the box axes in the base frame.
+        lower, upper: Box faces (3,) along those axes [m]; lower < upper.
+        gain: Damper gain in (0, 1].
+    """
+
+    origin: tuple[float, float, float]
+    rotation: tuple[tuple[float, ...], ...]
+    lower: tuple[float, float, float]
+    upper: tuple[float, float, float]
+    gain: float = 0.5
+
+    def __post_init__(self) -> None:
+        R = matrix("workspace.rotation", self.rotation, (3, 3))
+        if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0.0:
+            raise InvalidInputError("workspace.rotation", R, "a proper rotation (R^T R = I)")
+        lo = vector("workspace.lower", self.lower, 3)
+        hi = vector("workspace.upper", self.upper, 3)
+        if np.any(hi <= lo):
+            raise InvalidInputError("workspace box", (lo, hi), "lower < upper on every axis")
+        scalar("workspace.gain", self.gain, 0.0, 1.0, low_open=True)
+        object.__setattr__(self, "origin", tuple(vector("workspace.origin", self.origin, 3)))
+        object.__setattr__(self, "rotation", tuple(tuple(r) for r in R))
+        object.__setattr__(self, "lower", tuple(lo))
+        object.__setattr__(self, "upper", tuple(hi))
+
+    def coordinates(self, p: FloatArray) -> FloatArray:
+        """Box coordinates R^T (p - origin) of points p (3,) or (N, 3) in [m]."""
+        return np.asarray((np.asarray(p) - np.asarray(self.origin)) @ np.asarray(self.rotation))
+
+    def depth(self, p: FloatArray) -> FloatArray:
+        """Signed distance (N,) [m] of points p (N, 3) to the nearest face along the box axes:
+        positive inside, negative outside (then minus the largest excess over a face)."""
+        c = self.coordinates(np.atleast_2d(p))
+        gaps = np.minimum(c - np.asarray(self.lower), np.asarray(self.upper) - c)
+        return np.asarray(gaps.min(axis=1))
+
+    def outside(self, p: FloatArray) -> FloatArray:
+        """How far points p (N, 3) lie outside the box in [m] (0 inside), per point (N,)."""
+        return np.asarray(np.maximum(-self.depth(p), 0.0))
+
+    def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
+        """Six damper rows, one per face."""
+        R = np.asarray(self.rotation)
+        c = R.T @ (kin.tip - np.asarray(self.origin))
+        J = R.T @ kin.J_tip @ kin.T  # d c / d (x SCALE)
+        rows, hs = [], []
+        for i in range(3):
+            for grad, gap in ((J[i], c[i] - self.lower[i]), (-J[i], self.upper[i] - c[i])):
+                g, h = damper_row(grad, float(gap), 0.0, self.gain)
+                rows.append(g)
+                hs.append(h)
+        return Constraint(np.array(rows), np.array(hs))
