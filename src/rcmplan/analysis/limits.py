@@ -133,8 +133,10 @@ def retina_excess(log: RunLog, eye: EyeModel, lim: QpLimits) -> NDArray[np.float
 def singular_values(log: RunLog, robot: RobotModel) -> NDArray[np.float64]:
     """Per record, the smallest of the robot's singular terms (iRAM!S: cos q1, cos q3)."""
     out = np.full(len(log), math.inf)
+    # The values alone where the model offers them (an arm's gradient costs an SVD's worth).
+    only = getattr(robot, "singular_values", None)
     for i, q in enumerate(log.joints):
-        values, _ = robot.singular_terms(q)
+        values = only(q) if only is not None else robot.singular_terms(q)[0]
         if len(values):
             out[i] = float(np.min(values))
     return out

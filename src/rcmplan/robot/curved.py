@@ -85,6 +85,11 @@ class CurvedTipRobot:
     def singular_terms(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         return self.base.singular_terms(q)
 
+    def singular_values(self, q: FloatArray) -> FloatArray:
+        """The base's singular terms' values, without their gradients."""
+        values = getattr(self.base, "singular_values", None)
+        return values(q) if values is not None else self.base.singular_terms(q)[0]
+
     def check_singularity(self, q: FloatArray, threshold: float | None = None) -> None:
         self.base.check_singularity(q, threshold)
 

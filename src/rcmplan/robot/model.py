@@ -276,6 +276,10 @@ class SerialArm:
         sv = np.linalg.svd(M, compute_uv=False)
         return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
 
+    def singular_values(self, q: FloatArray) -> FloatArray:
+        """The singular terms' values (1,) without their gradient (the measure)."""
+        return np.array([self.singularity_measure(q)])
+
     def singular_terms(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """The measure kappa = s_min / s_max of M = [J_tip / l; N J_omega] (1,) and its exact
         gradient (1, n): d s_i / d q_j = u_i' (dM / dq_j) v_i (distinct singular values), with
