@@ -8,6 +8,7 @@ import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they
 import numpy as np
 import pytest
 
+from logcheck import assert_same_log as same_log
 from rcmplan import Iramis, IramisParameters
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.records import robot_params
@@ -21,7 +22,7 @@ from rcmplan.control import (
     TipSolver,
 )
 from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.log import ARRAY_FIELDS, RunLog
+from rcmplan.control.log import RunLog
 from rcmplan.control.solvers import dls_solve
 from rcmplan.exceptions import (
     ConvergenceError,
@@ -58,15 +59,7 @@ def reference_run(ctl: Controller, phases: list[Phase]) -> RunLog:
 
 
 def assert_same_log(a: RunLog, b: RunLog) -> None:
-    assert len(a) == len(b)
-    for k in ARRAY_FIELDS:
-        x, y = getattr(a, k), getattr(b, k)
-        if x.dtype.kind == "f":
-            np.testing.assert_array_equal(np.isnan(x), np.isnan(y), err_msg=k)
-            np.testing.assert_allclose(x, y, rtol=0, atol=TOL, err_msg=k)
-        else:
-            np.testing.assert_array_equal(x, y, err_msg=k)
-    assert a.phase_names == b.phase_names and a.solver_names == b.solver_names
+    same_log(a, b, TOL)
 
 
 def test_kernels_equal_reference_over_random_poses(robot: Iramis, rng: np.random.Generator) -> None:

@@ -9,6 +9,7 @@ import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they
 import numpy as np
 import pytest
 
+from logcheck import assert_same_log as same_log
 from rcmplan import Iramis
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled import qp_phase
@@ -16,7 +17,7 @@ from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.runner import fast_converge_phase
 from rcmplan.control import Controller, LoopSettings, Phase
 from rcmplan.control.augmented import extended_task
-from rcmplan.control.log import ARRAY_FIELDS, RunLog
+from rcmplan.control.log import RunLog
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_backends import solve
 from rcmplan.control.qp_limits import QpLimits
@@ -134,15 +135,7 @@ def test_compiled_step_solves_to_the_reference_solvers_step(robot: Iramis, rng) 
 
 
 def assert_same_log(a: RunLog, b: RunLog) -> None:
-    assert len(a) == len(b)
-    for k in ARRAY_FIELDS:
-        x, y = getattr(a, k), getattr(b, k)
-        if x.dtype.kind == "f":
-            np.testing.assert_array_equal(np.isnan(x), np.isnan(y), err_msg=k)
-            np.testing.assert_allclose(x, y, rtol=0, atol=RUN_TOL, err_msg=k)
-        else:
-            np.testing.assert_array_equal(x, y, err_msg=k)
-    assert a.phase_names == b.phase_names and a.solver_names == b.solver_names
+    same_log(a, b, RUN_TOL)
 
 
 def both(robot: Iramis, make, phases: list[Phase]) -> tuple:  # type: ignore[no-untyped-def]

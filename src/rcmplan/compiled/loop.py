@@ -234,6 +234,13 @@ def iterate(
     for i in range(6):
         qn[i] = q[i] + d[i] if i < moved else q[i]
     state[0] += d[moved]
+    return command_status(P, qn, sn, info)
+
+
+@njit(cache=True)
+def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarray) -> int:
+    """The sliders sn of the stepped joints qn, and the iteration's status: BAD_JOINTS if no
+    sliders realise qn, SLIDER_LIMIT (the slider in info[2]) beyond travel, else STEPPED."""
     if not actuators_from_joints(P, qn, sn):
         return BAD_JOINTS
     info[2] = first_beyond_travel(P, sn)

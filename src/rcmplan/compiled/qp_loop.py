@@ -17,23 +17,26 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import (
-    actuators_from_joints,
-    first_beyond_travel,
     joints_from_actuators,
     njit,
     trig,
 )
-from rcmplan.compiled.loop import closest_lambda, converged, put, record, target_frame
+from rcmplan.compiled.loop import (
+    closest_lambda,
+    command_status,
+    converged,
+    put,
+    record,
+    target_frame,
+)
 from rcmplan.compiled.qp_kernels import X, solve_step, step_joints
 from rcmplan.compiled.records import (
-    BAD_JOINTS,
     DONE,
     NO_CONVERGENCE,
     NO_TIP,
     PAUSED,
     QP_FAILED,
     SINGULAR,
-    SLIDER_LIMIT,
     STEPPED,
 )
 
@@ -66,12 +69,7 @@ def iterate_qp(
     if min(abs(tr[0]), abs(tr[2])) < thr:
         return SINGULAR
     state[0] += step_joints(P, q, s_qp, qp[X], qn, w)
-    if not actuators_from_joints(P, qn, sn):
-        return BAD_JOINTS
-    info[2] = first_beyond_travel(P, sn)
-    if info[2] >= 0:
-        return SLIDER_LIMIT
-    return STEPPED
+    return command_status(P, qn, sn, info)
 
 
 @njit(cache=True)
