@@ -2,7 +2,7 @@
 
 Run alone: python benchmarks/bench_interruptions.py [--runs N]
 Runs tests/test_interrupts.py's harness with RCMPLAN_INTERRUPTIONS=N (default 100; 10 with
---quick through benchmarks/run.py): per command (inject, spiral, compare, sweep), N real
+--quick through benchmarks/run.py): per command (inject, spiral, compare, sweep, teleop), N real
 processes each get SIGINT or SIGTERM at a seeded random point; each must leave a summary
 saying why it stopped, a loadable log or none, no temporary file and no process behind. One row
 per command: the interruptions that broke any of these (the lost logs), out of N.
@@ -22,7 +22,7 @@ from typing import Any
 from _common import quick, row
 
 ROOT = Path(__file__).resolve().parents[1]
-COMMANDS = ("compare", "inject", "spiral", "sweep")
+COMMANDS = ("compare", "inject", "spiral", "sweep", "teleop")
 
 
 def run_command(command: str, runs: int) -> tuple[int | str, float]:

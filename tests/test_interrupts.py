@@ -28,6 +28,7 @@ COMMANDS = {  # command line, and the span [s] after start-up in which the signa
     "spiral": (["spiral"], None),
     "compare": (["compare", "--method", "pinv", "--method", "dls"], None),
     "sweep": (["sweep", "--targets", "30000", "--workers", "2", "--no-plots"], 3.0),
+    "teleop": (["teleop"], None),
 }
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Interruptions per command: 4 in CI; `benchmarks/bench_interruptions.py` runs 100 per command.
