@@ -25,3 +25,18 @@ def test_the_package_has_its_layers() -> None:
 @pytest.mark.parametrize("name", MODULES)
 def test_every_module_imports(name: str) -> None:
     assert importlib.import_module(name).__name__ == name
+
+
+def test_the_command_line_starts_without_the_heavy_optional_modules() -> None:
+    """`rcmplan CMD` builds its parser from every command: none may import a heavy optional
+    module at start-up (each costs 0.1-1.2 s on every run); they load when a command needs them."""
+    import subprocess
+    import sys
+
+    heavy = ["scipy.signal", "viser", "matplotlib", "dask", "mujoco", "playwright", "dqrobotics"]
+    code = (
+        "import sys, rcmplan.cli as c; c.build_parser(); "
+        f"print([m for m in {heavy!r} if m in sys.modules])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

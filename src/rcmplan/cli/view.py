@@ -14,10 +14,10 @@ import threading
 from typing import Any
 
 from rcmplan.cli import interrupts
+from rcmplan.cli.teleop import FILTERS  # not rcmplan.teleop: its import costs scipy.signal
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.registry import ROBOTS
 from rcmplan.scene.scenario import PLANTS
-from rcmplan.teleop.filters import FILTERS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
