@@ -21,6 +21,7 @@ from rcmplan.teleop import FILTERS as TELEOP_FILTERS
 from rcmplan.teleop import SyntheticSurgeon, write_track
 from rcmplan.teleop.motion_plan import MotionPlan, Move
 from rcmplan.teleop.trace import Trace
+from rcmplan.view.run_folder import load_run
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 SHORT = MotionPlan(2.0, (Move(0.8, 1.0, (10e-3, 5e-3, 0.0)),), released=((0.0, 0.6),))
@@ -49,6 +50,10 @@ def test_a_replay_file_writes_log_trace_summary_and_figures(short_csv, tmp_path,
     for name in FIGURES:
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
     assert "tip tremor RMS" in capsys.readouterr().out
+    # the 3D view reads the session as it reads any run: its eye and trocar from the scene block
+    run = load_run(tmp_path)
+    assert len(run.log) == doc["periods"]
+    assert run.scene.trocar_radius == doc["scene"]["trocar_radius_m"] > 0
 
 
 def test_the_default_session_pushes_past_the_margin_and_the_needle_stops_at_it(

@@ -3,7 +3,8 @@
 A run's log holds the robot's motion; the eye it moved in, the trocar and the named points
 depend on the scenario and the robot (`Scenario.eye`), so the run writes them beside the log,
 in the robot base frame in [m], and readers (the 3D view) need neither the scenario file nor
-the options of the command that ran it. Written by `rcmplan.analysis.report.summary_json`.
+the options of the command that ran it. Written by `rcmplan.analysis.report.summary_json` and
+`rcmplan.teleop.summary`.
 
 Block layout (FORMAT "rcmplan-scene-1")::
 
@@ -85,7 +86,18 @@ def scene_record(scenario: Scenario, robot: RobotModel) -> dict[str, Any] | None
         points = scenario.points(eye).as_dict()
     except RcmplanError:
         return None
-    arc = scenario.needle.arc()
+    visits = list(scenario.visits) if scenario.procedure == "injection" else []
+    return eye_record(eye, points, visits, scenario.needle.arc())
+
+
+def eye_record(
+    eye: Eye,
+    points: dict[str, Any] | None = None,
+    visits: list[str] | None = None,
+    arc: tuple[float, float] | None = None,
+) -> dict[str, Any]:
+    """The `scene` block of a run in `eye` with the named points (base frame, [m]), the
+    injection's visits and a curved needle's arc (radius, angle), if any."""
     return {
         "format": FORMAT,
         "frame": "robot base, m",
@@ -96,9 +108,9 @@ def scene_record(scenario: Scenario, robot: RobotModel) -> dict[str, Any] | None
         "trocar_radius_m": eye.trocar_radius,
         "points": [
             {"name": n, "position_m": np.asarray(p, dtype=float).tolist()}
-            for n, p in points.items()
+            for n, p in (points or {}).items()
         ],
-        "visits": list(scenario.visits) if scenario.procedure == "injection" else [],
+        "visits": list(visits or []),
         "needle_arc": None if arc is None else {"radius_m": arc[0], "angle_rad": arc[1]},
     }
 

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from rcmplan import __version__
+from rcmplan.scene.record import eye_record
 from rcmplan.teleop import metrics
 from rcmplan.teleop.run import TeleopResult
 from rcmplan.teleop.violations import fixture_active, retina_distance
@@ -70,6 +71,7 @@ def summary(result: TeleopResult) -> dict[str, Any]:
         "pacing": dict(result.pacing),
         "wall_time_s": result.wall_time_s,
         "rcmplan_version": __version__,
+        "scene": eye_record(eye),  # the eye and trocar, for readers such as `rcmplan view`
     }
     return out
 

@@ -78,7 +78,7 @@ def load_run(folder: Path, label: str | None = None) -> RunData:
         raise RunFolderError(folder / "log.npz", f"missing: the run left no log{why}")
     scene = _scene(folder / "summary.json", summary)
     log = read_log(folder / "log.npz")
-    n = summary.get("iterations")
+    n = summary.get("iterations", summary.get("periods"))  # a teleop session counts periods
     if n != len(log):
         raise RunFolderError(
             folder / "log.npz", f"holds {len(log)} records but summary.json says {n}: a "
