@@ -126,3 +126,17 @@ def test_a_stray_temporary_file_is_removed_and_never_read(tmp_path: Path) -> Non
     stray.write_text("{half a chunk")
     reopened = Checkpoint.open(tmp_path / "cp", SETTINGS, resume=True)
     assert not stray.exists() and len(reopened.load()) == len(cp.load())
+
+
+def test_a_chunk_write_interrupted_mid_file_leaves_no_temporary_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rcmplan.sweep import checkpoint as module
+
+    def interrupted(fd: int) -> None:
+        raise KeyboardInterrupt  # SIGINT (or the CLI's SIGTERM) between write and rename
+
+    monkeypatch.setattr(module.os, "fsync", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        module.write_atomic(tmp_path / "chunk-0000000.json", "{}")
+    assert list(tmp_path.iterdir()) == []

@@ -23,6 +23,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from rcmplan._atomic import atomic_path
 from rcmplan.sweep.errors import CheckpointError
 from rcmplan.sweep.settings import FORMAT_VERSION, SweepSettings
 from rcmplan.sweep.task import TargetResult
@@ -40,14 +41,13 @@ def _digest(results: list[dict[str, Any]]) -> str:
 
 
 def write_atomic(path: Path, text: str) -> None:
-    """Write text to path through a temporary file, fsync and rename (all or nothing)."""
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.tmp")
+    """Write text to path through a temporary file, fsync and rename (all or nothing; the
+    temporary file is removed when the write fails or is interrupted: `rcmplan._atomic`)."""
     try:
-        with open(tmp, "w", encoding="utf-8") as fh:
+        with atomic_path(path) as tmp, open(tmp, "w", encoding="utf-8") as fh:
             fh.write(text)
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
     except OSError as exc:
         raise CheckpointError(path, f"cannot be written ({exc})") from exc
 
@@ -85,7 +85,7 @@ class Checkpoint:
         if cp.path.exists() and not cp.path.is_dir():
             raise CheckpointError(cp.path, "exists and is not a checkpoint folder")
         cp.path.mkdir(parents=True, exist_ok=True)
-        for stray in cp.path.glob("*.tmp"):
+        for stray in [*cp.path.glob(".*.tmp*"), *cp.path.glob("*.tmp")]:  # a killed writer's
             stray.unlink(missing_ok=True)
         chunks = cp.chunk_files()
         if not (cp.path / HEADER).exists():
