@@ -139,13 +139,15 @@ class LocalExecutor(_ExecutorBase):
         pool = self._pool
         if pool is None:
             return
-        # CPython's pool internals: its workers, and its queue of work items, from which the
-        # cancelled ones are dropped (Python 3.11 would set an exception on them when the
-        # workers die, printing a traceback from the pool's thread).
+        # CPython's pool internals: its workers, and its work items. When the workers die,
+        # Python 3.11's pool thread sets an exception on every pending item, which fails with a
+        # traceback on a cancelled future; the cancelled items get a fresh stand-in future
+        # (nobody waits on it) instead. The items stay in the table: removing them here races
+        # the pool thread, which reads them by id (a KeyError traceback from that thread).
         pending = getattr(pool, "_pending_work_items", {})
-        for key, item in list(pending.items()):
+        for item in list(pending.values()):
             if item.future.cancelled():
-                pending.pop(key, None)
+                item.future = cf.Future()
         workers = list(dict(getattr(pool, "_processes", None) or {}).values())
         for proc in workers:
             proc.terminate()
