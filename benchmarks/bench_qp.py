@@ -20,14 +20,14 @@ from typing import Any
 import numpy as np
 
 from _common import quick, row
+from _recording import RecordingQp
 from rcmplan import Iramis
-from rcmplan._validate import FloatArray
 from rcmplan.analysis.limits import KINDS, violations
 from rcmplan.control.loop import Controller
 from rcmplan.control.methods import MethodSettings
 from rcmplan.control.qp import QpSolver
-from rcmplan.control.qp_backends import BACKENDS, QpResult, solve
-from rcmplan.control.qp_problem import QPProblem, StepQP
+from rcmplan.control.qp_backends import BACKENDS, solve
+from rcmplan.control.qp_problem import QPProblem
 from rcmplan.control.solvers import DlsSolver, PinvSolver
 from rcmplan.exceptions import QPError, RcmplanError
 from rcmplan.scene.constrained import Scene, grazing_spiral, near_slider_limit
@@ -36,28 +36,12 @@ from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
 
 
-class RecordingQp(QpSolver):
-    """A QpSolver that keeps every problem it solves."""
-
-    problems: list[QPProblem]
-
-    def _solve(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray
-    ) -> tuple[StepQP, QpResult]:
-        before = self.last
-        out = super()._solve(robot, q, lam, target)
-        if out is not before:
-            self.problems.append(out[0].problem)
-        return out
-
-
 def record_problems() -> tuple[list[QPProblem], float]:
     """Every QP solved in the default injection with the QP method, and the run's time per
     control step (build, solve and loop) in [s]."""
     robot = Iramis()
     eye = default_eye(robot)
     solver = RecordingQp(robot, eye)
-    solver.problems = []
     start = time.perf_counter()
     log = Controller(KinematicPlant(robot), solver).run(injection(robot, eye, default_points(eye)))
     return solver.problems, (time.perf_counter() - start) / len(log)

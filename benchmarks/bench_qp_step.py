@@ -29,6 +29,7 @@ import numpy as np
 from numba import njit
 
 from _common import quick, row
+from _recording import RecordingQp
 from rcmplan import Iramis
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
@@ -38,8 +39,6 @@ from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.warm import compile_all
 from rcmplan.control.loop import Controller
 from rcmplan.control.qp import QpSolver
-from rcmplan.control.qp_backends import QpResult
-from rcmplan.control.qp_problem import StepQP
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
@@ -47,28 +46,11 @@ from rcmplan.sim import KinematicPlant
 BATCH = 8
 
 
-class RecordingQp(QpSolver):
-    """A QpSolver that keeps every state (q, lambda, target) it builds a QP at (a subclass: it
-    runs on the reference path)."""
-
-    states: list[FloatArray]
-
-    def _solve(
-        self, robot: Iramis, q: FloatArray, lam: float, target: FloatArray
-    ) -> tuple[StepQP, QpResult]:
-        before = self.last
-        out = super()._solve(robot, q, lam, target)
-        if out is not before:
-            self.states.append(np.concatenate([q, [lam], target]))
-        return out
-
-
 def record_states() -> tuple[FloatArray, QpSolver]:
     """Every state of the default injection's QP steps (N, 13) = (q, lambda, X_ext target)."""
     robot = Iramis()
     eye = default_eye(robot)
     solver = RecordingQp(robot, eye)
-    solver.states = []
     Controller(KinematicPlant(robot), solver).run(injection(robot, eye, default_points(eye)))
     return np.array(solver.states), QpSolver(robot, eye)
 
