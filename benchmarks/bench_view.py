@@ -1,8 +1,8 @@
-"""The 3D view (`rcmplan view`): a 34,000-record MuJoCo run opened and played, scrubbing, and
+"""The 3D view (`rcmplan view`): a 54,000-record MuJoCo run opened and played, scrubbing, and
 live control while the view redraws.
 
-Run alone: MUJOCO_GL=egl python benchmarks/bench_view.py [--run DIR]
-A MuJoCo injection (`rcmplan inject --plant mujoco`, 34,052 records) is run first (10-30 s)
+Run alone: MUJOCO_GL=egl python benchmarks/bench_view.py [--run DIR] [--parts]
+A MuJoCo injection (`rcmplan inject --plant mujoco`, 53,989 records) is run first (5-30 s)
 unless --run (or RCMPLAN_BENCH_VIEW_RUN) names one. Browser figures use the system's Chromium
 with software WebGL (SwiftShader) on the same cores as the server; the machine's load average
 is printed beside them. Rows follow benchmarks/README.md.
@@ -26,22 +26,46 @@ from typing import Any
 import numpy as np
 
 from _common import quick, row
-from rcmplan.view import probe
+from rcmplan.view import colors, probe
 from rcmplan.view.replay import ReplayView
 from rcmplan.view.run_folder import load_runs
 from rcmplan.view.server import address, start_server, stop_server
 
 SEED = 20180507
-LATENCY_JS = """() => {
-  window.__latency = []; let t0 = null;
-  document.addEventListener('pointerdown', () => { t0 = performance.now(); }, true);
-  new MutationObserver((ms) => {
-    if (t0 === null) return;
-    if (ms.some((m) => (m.target.textContent || '').includes('(record '))) {
-      window.__latency.push(performance.now() - t0); t0 = null;
-    }
+# Installed before the page loads: times the click on the timeline (pointerdown), the update
+# the page sends (posted to viser's websocket worker), each batch of scene and panel messages
+# the worker hands to the page, the panel's text change, and the end of every frame (a task
+# posted from an animation-frame callback runs once the frame's callbacks, the scene's render
+# among them, have run). viser applies a batch in the next frame and draws it in that frame.
+SCRUB_JS = """(() => {
+  const now = () => performance.now();
+  const ev = window.__scrub = [];
+  const W = window.Worker;
+  window.Worker = function (...args) {
+    const w = new W(...args);
+    w.addEventListener('message', (e) => {
+      if (e.data && e.data.type === 'message_batch') ev.push(['batch', now()]);
+    });
+    return w;
+  };
+  window.Worker.prototype = W.prototype;
+  const post = W.prototype.postMessage;
+  W.prototype.postMessage = function (m, ...rest) {
+    if (m && m.type === 'send') ev.push(['sent', now()]);
+    return post.call(this, m, ...rest);
+  };
+  const ch = new MessageChannel();
+  ch.port1.onmessage = () => ev.push(['frame_end', now()]);
+  const tick = () => {
+    ev.push(['frame', now()]); ch.port2.postMessage(0); requestAnimationFrame(tick);
+  };
+  requestAnimationFrame(tick);
+  document.addEventListener('pointerdown', () => ev.push(['down', now()]), true);
+  const watch = () => new MutationObserver((ms) => {
+    if (ms.some((m) => (m.target.textContent || '').includes('(record '))) ev.push(['text', now()]);
   }).observe(document.body, {subtree: true, childList: true, characterData: true});
-}"""
+  if (document.body) watch(); else document.addEventListener('DOMContentLoaded', watch);
+})();"""
 COUNT_JS = """() => {
   window.__updates = 0;
   new MutationObserver((ms) => {
@@ -153,20 +177,101 @@ def render_pose_ms(view: ReplayView, n: int) -> float:
     return statistics.median(times)
 
 
-def scrub_latency_ms(browser: Any, server: Any, width: int, height: int) -> list[float]:
-    """Click-to-panel latencies [ms] of scrubs on a page of the given size."""
-    page = browser.new_page(viewport={"width": width, "height": height})
-    page.goto(address(server, "127.0.0.1"))
+class Scrubs:
+    """Times [ms after the click] of scrubs on one page, per stage (see SCRUB_JS): the update
+    sent by the page, received by the server, its reply on the page, the panel's new text, and
+    the scene drawn (the end of the frame that applies the reply)."""
+
+    STAGES = ("sent", "server", "reply", "text", "drawn")
+
+    def __init__(self) -> None:
+        self.times: dict[str, list[float]] = {k: [] for k in self.STAGES}
+        self.received: list[float] = []  # server wall-clock times [s] of the updates
+
+    def hook(self, on_index: Callable[[int], None]) -> Callable[[int], None]:
+        """on_index, noting when the server receives each update."""
+
+        def noted(i: int) -> None:
+            self.received.append(time.time())
+            on_index(i)
+
+        return noted
+
+    def add(self, events: list[list[float]], origin_ms: float) -> None:
+        """One click's page events (SCRUB_JS), the page's time origin [ms since the epoch]."""
+        at = {k: [e[1] for e in events if e[0] == k] for k in ("down", "sent", "batch", "text")}
+        down = at["down"][0]
+        text = next(t for t in at["text"] if t > down)
+        reply = max(t for t in at["batch"] if down < t <= text)  # carried the panel's text
+        starts = [e[1] for e in events if e[0] == "frame" and e[1] >= reply]
+        drawn = min(e[1] for e in events if e[0] == "frame_end" and e[1] >= starts[0])
+        server = 1e3 * self.received[-1] - origin_ms
+        for k, t in zip(self.STAGES, (at["sent"][0], server, reply, text, max(text, drawn)),
+                        strict=True):  # fmt: skip
+            self.times[k].append(t - down)
+
+    def median(self, stage: str) -> float:
+        return statistics.median(self.times[stage])
+
+
+def scrub_page(browser: Any, url: str, scrubs: Scrubs, ready: Callable[[Any], bool]) -> float:
+    """Click the timeline at random places on a 1200x800 page, timing each scrub; the seconds
+    from loading the page to its first frame with `ready` true."""
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.add_init_script(SCRUB_JS)
+    t = time.perf_counter()
+    page.goto(url)
     page.wait_for_selector("canvas", timeout=60_000)
-    probe.wait_for(lambda: len(probe.needle_pixels(probe.screenshot(page))) > 10, 120, 0.2)
-    page.evaluate(LATENCY_JS)
+    probe.wait_for(lambda: ready(page), 120, 0.05)
+    first = time.perf_counter() - t
+    time.sleep(1.0)  # past viser's settle frames after loading
     rng = np.random.default_rng(SEED)
     for f in rng.uniform(0.05, 0.95, 8 if quick() else 20):
+        page.evaluate("() => { window.__scrub.length = 0; }")
+        origin = page.evaluate("() => performance.timeOrigin")
         probe.click_track(page, "time [s]", float(f))
         time.sleep(0.4)
-    latencies: list[float] = page.evaluate("() => window.__latency")
+        scrubs.add(page.evaluate("() => window.__scrub"), origin)
     page.close()
-    return latencies
+    return first
+
+
+def minimal_scrubs(browser: Any) -> tuple[Scrubs, float]:
+    """The peer: viser's floor on this browser and machine, a page with nothing but a timeline
+    slider, one needle-coloured line it moves and one line of text, scrubbed and timed the same
+    way."""
+    server = start_server("127.0.0.1", 0)
+    scrubs = Scrubs()
+    line = np.array([[[0.0, 0.0, 0.0], [0.0, 0.0, 1.0]]])
+    needle = server.scene.add_line_segments("/needle", line, colors.NEEDLE, thickness=4.0,
+                                            thickness_units="screen")  # fmt: skip
+    text = server.gui.add_markdown("")
+    slider = server.gui.add_slider("time [s]", min=0.0, max=1.0, step=1e-3, initial_value=0.0)
+
+    def show(i: int) -> None:
+        with server.atomic():
+            needle.position = (0.5 * i / 1000, 0.0, 0.0)
+            text.content = f"time (record {i})"
+
+    on_index = scrubs.hook(show)
+    slider.on_update(lambda _e: on_index(round(1000 * slider.value)))
+    try:
+        first = scrub_page(browser, address(server, "127.0.0.1"), scrubs, seen)
+    finally:
+        stop_server(server)
+    return scrubs, first
+
+
+def view_scrubs(browser: Any, server: Any, view: ReplayView) -> tuple[Scrubs, float]:
+    """Scrubs of the run's view (its timeline's updates timed on the server too)."""
+    scrubs = Scrubs()
+    view.timeline.on_index = scrubs.hook(view.timeline.on_index)
+    return scrubs, scrub_page(browser, address(server, "127.0.0.1"), scrubs, seen)
+
+
+def seen(page: Any) -> bool:
+    """The needle's colour is on screen (the view's needle; the floor page's line)."""
+    return len(probe.needle_pixels(probe.screenshot(page))) > 30
 
 
 def browser_rows(server: Any, view: ReplayView) -> list[dict[str, Any]]:
@@ -174,12 +279,12 @@ def browser_rows(server: Any, view: ReplayView) -> list[dict[str, Any]]:
     pw = probe.start_playwright()
     browser = probe.launch(pw)
     try:
+        scrubs, first = view_scrubs(browser, server, view)
+        floor, floor_first = minimal_scrubs(browser)
         page = browser.new_page(viewport={"width": 1200, "height": 800})
-        t = time.perf_counter()
         page.goto(address(server, "127.0.0.1"))
         page.wait_for_selector("canvas", timeout=60_000)
-        probe.wait_for(lambda: len(probe.needle_pixels(probe.screenshot(page))) > 30, 120, 0.05)
-        first = time.perf_counter() - t
+        probe.wait_for(lambda: seen(page), 120, 0.05)
         page.evaluate(COUNT_JS)
         page.get_by_role("button", name="Play").click()
         probe.wait_for(lambda: view.timeline.playing, 30.0, 0.01)
@@ -189,20 +294,63 @@ def browser_rows(server: Any, view: ReplayView) -> list[dict[str, Any]]:
         dom_hz = (page.evaluate("() => window.__updates") - dom) / (time.perf_counter() - t)
         page.get_by_role("button", name="Pause").click()
         page.close()
-        large = scrub_latency_ms(browser, server, 1200, 800)
-        small = scrub_latency_ms(browser, server, 640, 480)
     finally:
         browser.close()
         pw.stop()
     return [
         row("open: page load to the first frame drawn (1200x800, software WebGL)", first, "s",
-            "", None, ""),
+            "the floor page", floor_first, "<= 2 s"),
         row("play at 1x: records shown per second (server)", played_hz, "1/s", "", None,
             ">= 30/s"),
         row("play at 1x: panel updates per second in the browser", dom_hz, "1/s", "", None, ""),
-        row(f"scrub in the browser: click on the timeline to the panel updated, 1200x800 "
-            f"(median of {len(large)})", statistics.median(large), "ms", "the same at 640x480",
-            statistics.median(small), "<= 50 ms"),
+        row(f"scrub in the browser: click on the timeline to the scene drawn, 1200x800 "
+            f"(median of {len(scrubs.times['drawn'])})", scrubs.median("drawn"), "ms",
+            "viser's floor here: a page with only a slider, a line and a line of text",
+            floor.median("drawn"), "<= 50 ms"),
+        *[row(f"scrub in the browser, stage: click to {what}", scrubs.median(k), "ms",
+              "the floor page", floor.median(k), "")
+          for k, what in (("sent", "the update sent (the slider's next animation frame)"),
+                          ("server", "the update received by the server"),
+                          ("reply", "the scene and panel update received by the page"),
+                          ("text", "the panel's text changed"))],
+    ]  # fmt: skip
+
+
+PARTS = {
+    "robot": lambda v: list(getattr(v.links, "frames", {}).values()),
+    "trace": lambda v: [t for t in v.traces if t is not None],
+    "retina": lambda v: [v.server.scene.add_frame("/eye/retina", show_axes=False)],
+    "eye wall": lambda v: [v.server.scene.add_frame("/eye/sclera", show_axes=False)],
+    "markers and labels": lambda v: [v.server.scene.add_frame("/points", show_axes=False)],
+}
+
+
+def parts_rows(runs: list[Any]) -> list[dict[str, Any]]:
+    """Scrub in the browser with one part of the scene hidden at a time (`--parts`): what each
+    part costs a scrub, beside the whole scene and the floor page, in one browser."""
+    pw = probe.start_playwright()
+    browser = probe.launch(pw)
+    medians: dict[str, float] = {}
+    try:
+        for part in ("none", *PARTS):
+            server = start_server("127.0.0.1", 0)
+            view = ReplayView(server, runs)
+            try:
+                for handle in PARTS[part](view) if part in PARTS else []:
+                    handle.visible = False
+                medians[part] = view_scrubs(browser, server, view)[0].median("drawn")
+            finally:
+                view.close()
+                stop_server(server)
+        floor = minimal_scrubs(browser)[0].median("drawn")
+    finally:
+        browser.close()
+        pw.stop()
+    return [
+        row(f"scrub in the browser, click to scene drawn, {what}", medians[part], "ms",
+            "viser's floor page", floor, "<= 50 ms")
+        for part, what in (("none", "the whole scene"),
+                           *((p, f"the {p} hidden") for p in PARTS))
     ]  # fmt: skip
 
 
@@ -338,4 +486,15 @@ if __name__ == "__main__":
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--run", type=Path, help="a MuJoCo run folder (default: make one)")
-    print_table(rows(ap.parse_args().run))
+    ap.add_argument(
+        "--parts",
+        action="store_true",
+        help="only the browser scrub with each part of the scene hidden in turn",
+    )
+    args = ap.parse_args()
+    if args.parts:
+        if args.run is None:
+            ap.error("--parts needs --run DIR")
+        print_table(parts_rows(load_runs(args.run)))
+    else:
+        print_table(rows(args.run))

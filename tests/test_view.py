@@ -26,7 +26,7 @@ from rcmplan.scene.record import SceneRecord, read_scene_record, scene_record
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.view.colors import FREE_SPACE, deviation_colors
 from rcmplan.view.run_folder import load_runs
-from rcmplan.view.trace import trace_segments
+from rcmplan.view.trace import Trace, simplify_trace, trace_of
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 
@@ -152,18 +152,81 @@ def test_a_comparison_folder_gives_one_run_per_method(tmp_path) -> None:
 
 
 # --- what is drawn ----------------------------------------------------------------------------
-def test_thinning_the_trace_keeps_the_largest_deviation_of_every_span() -> None:
-    rng = np.random.default_rng(3)
-    tip = rng.normal(size=(1001, 3))
-    dev = rng.uniform(0, 1e-6, size=1001)
-    dev[:100] = np.nan  # free space
-    dev[537] = 5e-6  # a peak between two kept records
-    seg, span = trace_segments(tip, dev, max_segments=50)
-    assert len(seg) == 50
-    assert np.nanmax(span) == 5e-6
-    assert np.isnan(span[0])  # the first span lies in free space
-    np.testing.assert_array_equal(seg[0, 0], tip[0])
-    np.testing.assert_array_equal(seg[-1, 1], tip[-1])
+def drawn_distances(tip: np.ndarray, trace: Trace) -> np.ndarray:
+    """Each record's distance from the trace segment drawn through it (brute force)."""
+    out = np.zeros(len(tip))
+    pairs = zip(trace.records[:-1], trace.records[1:], strict=True)
+    for (i, j), (a, b) in zip(pairs, trace.segments, strict=True):
+        p = tip[i : j + 1]
+        ab = b - a
+        t = np.clip((p - a) @ ab / max(ab @ ab, 1e-300), 0.0, 1.0)
+        out[i : j + 1] = np.maximum(out[i : j + 1], np.linalg.norm(p - a - t[:, None] * ab, axis=1))
+    return out
+
+
+def random_walk(n: int, seed: int) -> np.ndarray:
+    return np.cumsum(np.random.default_rng(seed).normal(0.0, 1e-5, size=(n, 3)), axis=0)
+
+
+def test_the_trace_draws_every_record_within_its_tolerance() -> None:
+    tip = random_walk(5000, 3)
+    trace = simplify_trace(tip, np.zeros(len(tip)), 2e-5, 1e-3, max_segments=100_000)
+    far = drawn_distances(tip, trace)
+    assert far.max() <= 2e-5
+    assert trace.position_error_m == pytest.approx(far.max(), rel=1e-12)
+    assert trace.longest_m <= 1e-3
+    assert 10 < len(trace.deviation) < len(tip) / 3  # simplified, not every record
+    assert trace.records[0] == 0 and trace.records[-1] == len(tip) - 1
+
+
+def test_a_straight_move_with_a_dwell_is_a_few_segments_no_longer_than_allowed() -> None:
+    line = np.linspace([0.0, 0.0, 0.0], [10e-3, 0.0, 0.0], 3000)
+    tip = np.vstack([line, np.repeat(line[-1:], 500, axis=0), line[::-1]])  # in, dwell, out
+    trace = simplify_trace(tip, np.full(len(tip), 1e-7), 1e-6, 1e-3)
+    # 10 mm each way in segments of at most 1 mm: at least 20; halving gives at most twice that
+    assert 20 <= len(trace.deviation) <= 40
+    assert trace.longest_m <= 1e-3
+    assert drawn_distances(tip, trace).max() <= 1e-6
+
+
+def test_a_spent_budget_reports_the_error_left() -> None:
+    tip = random_walk(5000, 4)
+    trace = simplify_trace(tip, np.zeros(len(tip)), 1e-7, 1e-3, max_segments=20)
+    assert len(trace.deviation) == 20
+    far = drawn_distances(tip, trace)
+    assert far.max() > 1e-7  # the tolerance is not met, and the trace says by how much
+    assert trace.position_error_m == pytest.approx(far.max(), rel=1e-12)
+
+
+def test_each_segment_carries_the_largest_deviation_it_draws_and_free_space_stays_grey() -> None:
+    tip = np.linspace([0.0, 0.0, 0.0], [5e-3, 0.0, 0.0], 1001)
+    dev = np.full(len(tip), 1e-7)
+    dev[:100] = np.nan  # free space before the needle enters the eye
+    dev[537] = 5e-6  # a one-record peak on a straight stretch
+    trace = simplify_trace(tip, dev, 1e-6, 1e-3)
+    assert np.nanmax(trace.deviation) == 5e-6
+    assert {99, 100} <= set(trace.records.tolist())  # the entry is a vertex
+    assert np.isnan(trace.deviation[0]) and np.nanmin(trace.deviation) == 1e-7
+    with_peak = np.searchsorted(trace.records, 537, side="right") - 1
+    assert trace.deviation[with_peak] == 5e-6
+    assert trace.longest_m <= 1e-3
+
+
+def test_the_view_trace_is_scaled_to_the_eye_and_describes_itself(run_dir) -> None:
+    run = load_runs(run_dir)[0]
+    from rcmplan.view.trace import rcm_deviation_norm
+
+    trace = trace_of(run.log.tip, rcm_deviation_norm(run.log), run.scene.eye_radius)
+    assert trace.position_error_m <= 1e-3 * run.scene.eye_radius
+    text = trace.describe()
+    assert f"{len(run.log):,} records as {len(trace.deviation):,} segments" in text
+
+
+@pytest.mark.parametrize(("tol", "length", "budget"), [(0.0, 1e-3, 10), (1e-6, -1.0, 10),
+                                                       (1e-6, 1e-3, 0)])  # fmt: skip
+def test_bad_trace_settings_are_refused(tol: float, length: float, budget: int) -> None:
+    with pytest.raises(ValueError, match="must be"):
+        simplify_trace(random_walk(10, 1), np.zeros(10), tol, length, budget)
 
 
 def test_deviation_colours_run_from_green_to_red_and_grey_in_free_space() -> None:

@@ -23,7 +23,7 @@ from rcmplan.view.panels import ActuatorPanel, StatePanel, length, travel
 from rcmplan.view.run_folder import RunData
 from rcmplan.view.scene import SceneDrawing
 from rcmplan.view.timeline import Timeline
-from rcmplan.view.trace import rcm_deviation_norm, trace_segments
+from rcmplan.view.trace import rcm_deviation_norm, trace_of
 
 
 def run_robot(run: RunData) -> tuple[RobotModel | None, str]:
@@ -58,7 +58,7 @@ class RunArrays:
         self.tip_error = np.linalg.norm(log.tip - log.target_tip, axis=1)
         self.max_deviation = float(np.nanmax(self.deviation)) if np.isfinite(
             self.deviation).any() else 0.0  # fmt: skip
-        self.segments, self.segment_deviation = trace_segments(log.tip, self.deviation)
+        self.trace = trace_of(log.tip, self.deviation, run.scene.eye_radius)
 
 
 class ReplayView:
@@ -82,7 +82,7 @@ class ReplayView:
         self.notes = [n for n in (why, self.links.note) if n]
         self.drawing = SceneDrawing(server.scene, runs[0].scene)
         self.traces = [
-            self.drawing.show_trace(f"/trace/{k}", a.segments, a.segment_deviation, a.max_deviation)
+            self.drawing.show_trace(f"/trace/{k}", a.trace, a.max_deviation)
             for k, a in enumerate(self.runs)
         ]
         self._run_menu(gui)
@@ -142,7 +142,7 @@ class ReplayView:
         notes = "".join(f"  \n_{n}_" for n in self.notes)
         self.legend.content = (
             f"Tip trace colour: RCM deviation from 0 (green) to {length(a.max_deviation)} "
-            f"(red); grey outside the eye.{notes}"
+            f"(red); grey outside the eye. {a.trace.describe()}{notes}"
         )
 
     def show(self, index: int) -> None:

@@ -13,6 +13,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.scene.record import SceneRecord
 from rcmplan.view import colors
 from rcmplan.view.needle import segments
+from rcmplan.view.trace import Trace
 
 RING_POINTS = 48
 
@@ -47,13 +48,14 @@ class SceneDrawing:
         self.target = scene.add_icosphere("/target", radius=0.6 * r, color=colors.TARGET,
                                           wireframe=True)  # fmt: skip
 
-    def show_trace(self, name: str, seg: FloatArray, deviation: FloatArray, scale: float) -> Any:
-        """A tip trace (segments (k, 2, 3)) coloured by RCM deviation (k,) against `scale` [m]."""
-        if len(seg) == 0:
+    def show_trace(self, name: str, trace: Trace, scale: float) -> Any:
+        """A tip trace (`trace.simplify_trace`), each segment coloured by its RCM deviation
+        against `scale` [m]."""
+        if len(trace.deviation) == 0:
             return None
-        rgb = colors.deviation_colors(deviation, scale)
+        rgb = colors.deviation_colors(trace.deviation, scale)
         return self.scene.add_line_segments(
-            name, seg, np.repeat(rgb[:, None, :], 2, axis=1), thickness=2.0,
+            name, trace.segments, np.repeat(rgb[:, None, :], 2, axis=1), thickness=2.0,
             thickness_units="screen",
         )  # fmt: skip
 
