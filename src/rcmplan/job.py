@@ -89,6 +89,7 @@ def _result(
     extra: dict[str, Any] | None = None,
 ) -> RunResult:  # fmt: skip
     times = controller.phase_times if controller is not None else {}
+    paths = controller.phase_paths if controller is not None else {}
     tracking = limit_figures(scenario, robot, log)
     return RunResult(
         scenario=scenario,
@@ -99,5 +100,17 @@ def _result(
         robot=robot,
         error=error,
         message=message,
-        extra={**tracking, **(extra or {})},
+        extra={**tracking, **execution_paths(paths), **(extra or {})},
     )
+
+
+def execution_paths(paths: dict[str, str]) -> dict[str, Any]:
+    """summary.json's account of the code that moved the robot, from what ran, per phase
+    (`Controller.phase_paths`): `execution_path` "compiled" (every phase), "reference" (none,
+    or no phase ran) or "mixed", and the names of the compiled phases."""
+    kinds = set(paths.values())
+    overall = kinds.pop() if len(kinds) == 1 and kinds <= {"compiled", "reference"} else "mixed"
+    return {
+        "execution_path": overall if paths else "reference",
+        "compiled_phases": [name for name, path in paths.items() if path == "compiled"],
+    }

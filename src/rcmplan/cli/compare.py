@@ -40,25 +40,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run, out_default="rcmplan-out/compare")
 
 
-def execution_path(scenario: Scenario, pinned: str) -> str:
-    """ "compiled" if the pinned path is compiled and the method has a compiled kernel (the QP:
-    on the kinematic plant, `qp_phase.runs_compiled`), else "reference"."""
-    from rcmplan.compiled.qp_phase import runs_compiled
-    from rcmplan.compiled.records import method_code
-    from rcmplan.control.methods import make_solver
-    from rcmplan.robot.iramis import Iramis
-
-    if pinned != "on":
-        return "reference"
-    robot = Iramis()
-    solver = make_solver(scenario.method, scenario.method_settings, robot,
-                         eye=scenario.eye(robot), dt=scenario.dt)  # fmt: skip
-    if method_code(solver) is not None or runs_compiled(solver, scenario.plant == "kinematic"):
-        return "compiled"
-    return "reference"
-
-
-def measure(scenario: Scenario, pinned: str, out: Path | None = None) -> dict[str, Any]:
+def measure(scenario: Scenario, out: Path | None = None) -> dict[str, Any]:
     """One row: a warm-up run, then the measured run of the scenario's method; with `out`, the
     measured run's log and summary.json go to out/<method>/ (`rcmplan view` reads them)."""
     from rcmplan.analysis.report import prepare_folder, write_summary
@@ -69,7 +51,10 @@ def measure(scenario: Scenario, pinned: str, out: Path | None = None) -> dict[st
         write_summary(result, prepare_folder(out / scenario.method))
     s = result.summary()
     row = {k: s[k] for k in COLUMNS}
-    row["execution_path"] = execution_path(scenario, pinned)
+    # What moved the robot, as the run itself recorded it, per phase.
+    row["execution_path"] = s["execution_path"]
+    row["compiled_phases"] = s["compiled_phases"]
+    row["phase_count"] = len(s["phases"])
     its = s["iterations"]
     row["wall_time_per_iteration_s"] = s["wall_time_s"] / its if its else None
     return row
@@ -87,14 +72,15 @@ def compare_rows(
     with fast_cache.pinned() as path:
         for method in args.method or METHODS:
             try:
-                rows.append(measure(base.with_method(method), path, out))
+                rows.append(measure(base.with_method(method), out))
             except MissingExtraError as exc:
                 rows.append({"method": method, "status": exc.status,
                              "message": f"MissingExtraError: {exc}",
                              "max_rcm_deviation_m": None, "max_tip_error_m": None,
                              "iterations": 0, "wall_time_s": None,
                              "wall_time_per_iteration_s": None,
-                             "execution_path": None})  # fmt: skip
+                             "execution_path": None, "compiled_phases": [],
+                             "phase_count": 0})  # fmt: skip
     return "compiled where a method has a kernel" if path == "on" else "reference"
 
 
@@ -106,13 +92,21 @@ def print_table(rows: list[dict[str, Any]], path: str) -> None:
     body = [
         [r["method"], fmt(r["max_rcm_deviation_m"], "um"), fmt(r["max_tip_error_m"], "um"),
          f"{r['iterations']:,}", fmt(r["wall_time_s"], "ms"),
-         fmt(r["wall_time_per_iteration_s"], "us"), r["execution_path"] or "-",
+         fmt(r["wall_time_per_iteration_s"], "us"), path_cell(r),
          one_line(r["message"] or r["status"])[:60]]
         for r in rows
     ]  # fmt: skip
     print(table(HEAD, body))
     print(f"execution path pinned for every method: {path}; wall times from the second of "
           "two runs in this process")  # fmt: skip
+
+
+def path_cell(row: dict[str, Any]) -> str:
+    """The table's path column: compiled, reference, or how many phases ran compiled."""
+    path = row.get("execution_path")
+    if path == "mixed":
+        return f"{len(row['compiled_phases'])}/{row['phase_count']} compiled"
+    return str(path or "-")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -79,6 +79,9 @@ class Controller:
             f"{n}_{u}" for n, u in zip(self.robot.actuator_names, units, strict=True)
         )
         self.phase_times: dict[str, float] = {}
+        # Per phase, the code that ran its motion: "compiled" (the runner ran it), "reference"
+        # (the Python loop), or "mixed" (a phase name run more than once, on both).
+        self.phase_paths: dict[str, str] = {}
         self._planned = 0  # targets planned so far in this run (at most MAX_TARGETS)
         self._check_seed: FloatArray | None = None
         self.on_phase: Callable[[Phase], None] | None = None
@@ -156,7 +159,9 @@ class Controller:
                 self.lam = self._closest_lambda(q, targets[0][-3:])
             first = len(self.log)
             try:
-                if not self.runner.run_phase(self, solver, targets, pid, sid):
+                ran = self.runner.run_phase(self, solver, targets, pid, sid)
+                self._note_path(phase.name, "compiled" if ran else "reference")
+                if not ran:
                     for k, target in enumerate(targets):
                         self.converge(solver, target, pid, sid, k)
             except KeyboardInterrupt:
@@ -168,6 +173,10 @@ class Controller:
         finally:
             spent = time.perf_counter() - start
             self.phase_times[phase.name] = self.phase_times.get(phase.name, 0.0) + spent
+
+    def _note_path(self, name: str, path: str) -> None:
+        before = self.phase_paths.get(name, path)
+        self.phase_paths[name] = path if before == path else "mixed"
 
     def _check_target_steps(self, name: str, q: FloatArray, targets: FloatArray) -> None:
         """Refuse an RCM phase whose target tips jump farther than `max_target_step`, from the

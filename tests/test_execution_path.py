@@ -1,0 +1,55 @@
+"""summary.json says which code moved the robot in each phase, from what ran, not from what
+the configuration suggests."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.job import execution_paths, run_scenario
+from rcmplan.scene.scenario import load_scenario
+
+
+@pytest.fixture(autouse=True)
+def mode_restored() -> Iterator[None]:
+    yield
+    fast_cache.set_mode(None)
+
+
+def summary(mode: str, method: str = "pinv") -> dict:
+    fast_cache.set_mode(mode)
+    result = run_scenario(load_scenario("default").with_method(method))
+    assert result.ok, result.message
+    return result.summary()
+
+
+def test_the_reference_path_says_so() -> None:
+    s = summary("off")
+    assert s["execution_path"] == "reference"
+    assert s["compiled_phases"] == []
+
+
+def test_the_compiled_path_names_every_phase_it_ran() -> None:
+    pytest.importorskip("numba")
+    s = summary("on")
+    assert s["execution_path"] == "compiled"
+    assert s["compiled_phases"] == [p["name"] for p in s["phases"]]
+
+
+def test_a_qp_run_with_free_phases_in_python_is_mixed() -> None:
+    pytest.importorskip("numba")
+    s = summary("on", "qp")
+    assert s["execution_path"] == "mixed"
+    # the QP's limited free-space step (approach, withdraw) has no compiled kernel
+    assert "approach" not in s["compiled_phases"] and "p3-p4" in s["compiled_phases"]
+
+
+@pytest.mark.parametrize(
+    ("paths", "overall"),
+    [({}, "reference"), ({"a": "compiled"}, "compiled"), ({"a": "reference"}, "reference"),
+     ({"a": "compiled", "b": "reference"}, "mixed"), ({"a": "mixed"}, "mixed")],
+)  # fmt: skip
+def test_the_overall_path_follows_the_phases(paths: dict[str, str], overall: str) -> None:
+    assert execution_paths(paths)["execution_path"] == overall
