@@ -135,6 +135,9 @@ def test_dragging_the_live_target_moves_the_tip_with_the_rcm_held(browser):
         assert abs(goal[k]) > 1e-3 and np.abs(np.delete(goal, k)).max() < 1e-9  # along one axis
         assert state["max_rcm_deviation_m"] <= 1e-6
         assert state["retina_distance_m"] > 0.0
+        page.get_by_label("clutch engaged").click()  # released in the page: the needle holds
+        probe.wait_for(lambda: view.state()["status"].startswith("released"), 30.0)
+        assert view.clutch.value is False
         page.close()
     finally:
         view.close()

@@ -209,3 +209,39 @@ def test_the_view_does_not_send_a_gizmo_position_the_input_refuses(settings) -> 
     finally:
         view.close()
         stop_server(server)
+
+
+def test_the_clutch_checkbox_lets_the_gizmo_move_alone_and_the_needle_moves_on_from_there(
+    settings,
+) -> None:
+    from rcmplan.view.live import LiveView
+    from rcmplan.view.server import start_server, stop_server
+
+    server = start_server("127.0.0.1", 0)
+    view = LiveView(server, settings)
+    start = np.asarray(settings.start_tip)
+    try:
+        probe_wait(lambda: view.state()["period"] > 100)
+        tip0 = np.array(view.state()["tip_m"])
+        view.clutch.value = False
+        view.gizmo.position = start + np.array([2e-3, 0.0, 0.0])  # the redraw thread sends it
+        probe_wait(lambda: view.state()["status"].startswith("released"))
+        time.sleep(0.3)
+        np.testing.assert_allclose(view.state()["tip_m"], tip0, atol=1e-12)  # the needle held
+        view.clutch.value = True
+        view.send()  # engaged with the gizmo 2 mm from the needle: the session re-indexes
+        probe_wait(lambda: not view.state()["status"].startswith("released"))
+        np.testing.assert_allclose(view.state()["goal_m"], tip0, atol=1e-9)  # no jump
+        view.gizmo.position = start + np.array([2e-3, 1e-3, 0.0])  # 1 mm on from there
+        goal = tip0 + np.array([0.0, 1e-3, 0.0])
+        probe_wait(lambda: np.linalg.norm(np.subtract(view.state()["tip_m"], goal)) < 1e-6)
+        assert view.state()["max_rcm_deviation_m"] <= 1e-6
+    finally:
+        view.close()
+        stop_server(server)
+
+
+def probe_wait(check, timeout_s: float = 30.0) -> None:
+    from rcmplan.view.probe import wait_for
+
+    wait_for(check, timeout_s, 0.01)

@@ -92,20 +92,27 @@ class LiveView:
         )  # fmt: skip
         self.moves = 0  # gizmo updates from a browser
         self.refused = ""  # why the gizmo's last position was not sent
+        gui = server.gui
+        self.clutch = gui.add_checkbox(
+            "clutch engaged", initial_value=True,
+            hint="Release to move the gizmo without moving the needle; engaged again, the "
+            "needle moves on from where it is by the gizmo's motion from there.",
+        )  # fmt: skip
 
         def moved(_event: Any) -> None:
             self.moves += 1
             self.send()
 
         self.gizmo.on_update(moved)
-        gui = server.gui
+        self.clutch.on_update(lambda _event: self.send())
         self.panel = StatePanel(gui, "Live")
         with gui.add_folder("Actuators"):
             self.actuators = ActuatorPanel(gui, robot.actuator_names, robot.actuator_units,
                                            robot.lower, robot.upper)  # fmt: skip
         gui.add_markdown("Drag the gizmo's arrows: the needle tip follows with the RCM held at "
                          f"the trocar and the tip {length(settings.retina_margin, 'mm')} off "
-                         "the retina.  \n_" + self.links.note + "_")  # fmt: skip
+                         "the retina. Release the clutch to move the gizmo alone.  \n_"
+                         + self.links.note + "_")  # fmt: skip
         self.cameras = CameraViews(server, record, robot)
         self.lock = threading.Lock()
         self.updates = 0
@@ -115,12 +122,15 @@ class LiveView:
         self.redraw.start()
 
     def send(self) -> None:
-        """Push the gizmo's position as the master position (clutch engaged). A position the
-        input refuses (beyond +-1 m of the base: `teleop.samples.check_position`) is not sent:
-        the needle holds (the session releases the clutch when no position comes) and the panel
-        says why."""
+        """Push the gizmo's position as the master position, with the clutch checkbox's state
+        (released: the needle holds while the gizmo moves; engaged again, the session
+        re-indexes, so the needle does not jump to the gizmo). A position the input refuses
+        (beyond +-1 m of the base: `teleop.samples.check_position`) is not sent: the needle
+        holds (the session releases the clutch when no position comes) and the panel says
+        why."""
         try:
-            self.input.push(self.settings.to_master(np.array(self.gizmo.position)))
+            master = self.settings.to_master(np.array(self.gizmo.position))
+            self.input.push(master, clutch=bool(self.clutch.value))
             self.refused = ""
         except InvalidInputError as exc:
             self.refused = " ".join(str(exc).split())[:160]
