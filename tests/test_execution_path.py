@@ -53,3 +53,15 @@ def test_a_qp_run_with_free_phases_in_python_is_mixed() -> None:
 )  # fmt: skip
 def test_the_overall_path_follows_the_phases(paths: dict[str, str], overall: str) -> None:
     assert execution_paths(paths)["execution_path"] == overall
+
+
+def test_a_run_stopped_inside_compiled_code_names_the_phase_it_stopped_in() -> None:
+    pytest.importorskip("numba")
+    from dataclasses import replace
+
+    fast_cache.set_mode("on")
+    scenario = load_scenario("default")
+    scenario = replace(scenario, loop=replace(scenario.loop, max_iterations=1))
+    s = run_scenario(scenario).summary()
+    assert s["status"] == "no_convergence" and "phase 'align'" in s["message"]
+    assert s["compiled_phases"] == ["approach", "align"] and s["execution_path"] == "compiled"

@@ -159,7 +159,12 @@ class Controller:
                 self.lam = self._closest_lambda(q, targets[0][-3:])
             first = len(self.log)
             try:
-                ran = self.runner.run_phase(self, solver, targets, pid, sid)
+                try:
+                    ran = self.runner.run_phase(self, solver, targets, pid, sid)
+                except BaseException:
+                    if len(self.log) > first:  # stopped in the runner's code, after moving
+                        self._note_path(phase.name, "compiled")
+                    raise
                 self._note_path(phase.name, "compiled" if ran else "reference")
                 if not ran:
                     for k, target in enumerate(targets):
