@@ -316,6 +316,8 @@ def browser_rows(server: Any, view: ReplayView) -> list[dict[str, Any]]:
     ]  # fmt: skip
 
 
+# What to hide per part: handles to make invisible (a frame added at a node's name replaces
+# that node, so the eye's spheres and the markers go with it).
 PARTS = {
     "robot": lambda v: list(getattr(v.links, "frames", {}).values()),
     "trace": lambda v: [t for t in v.traces if t is not None],
