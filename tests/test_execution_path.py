@@ -38,12 +38,30 @@ def test_the_compiled_path_names_every_phase_it_ran() -> None:
     assert s["compiled_phases"] == [p["name"] for p in s["phases"]]
 
 
-def test_a_qp_run_with_free_phases_in_python_is_mixed() -> None:
+def test_the_qp_runs_every_phase_compiled_its_free_steps_too() -> None:
     pytest.importorskip("numba")
     s = summary("on", "qp")
-    assert s["execution_path"] == "mixed"
-    # the QP's limited free-space step (approach, withdraw) has no compiled kernel
-    assert "approach" not in s["compiled_phases"] and "p3-p4" in s["compiled_phases"]
+    assert s["execution_path"] == "compiled"
+    assert s["compiled_phases"] == [p["name"] for p in s["phases"]]
+
+
+def test_free_phases_without_a_kernel_make_the_run_mixed() -> None:
+    pytest.importorskip("numba")
+    from rcmplan import Iramis
+    from rcmplan.control import Controller, PinvSolver
+    from rcmplan.control.limited_tip import LimitedTipSolver
+    from rcmplan.scene.eye import default_eye, default_points
+    from rcmplan.scene.procedures import injection
+    from rcmplan.sim import KinematicPlant
+
+    fast_cache.set_mode("on")
+    robot = Iramis()
+    eye = default_eye(robot)
+    free = LimitedTipSolver(tip_speed=0.01)  # a tip speed bound: no compiled kernel
+    ctl = Controller(KinematicPlant(robot), PinvSolver(), free)
+    ctl.run(injection(robot, eye, default_points(eye)))
+    assert ctl.phase_paths["approach"] == "reference" and ctl.phase_paths["p3-p4"] == "compiled"
+    assert execution_paths(ctl.phase_paths)["execution_path"] == "mixed"
 
 
 @pytest.mark.parametrize(

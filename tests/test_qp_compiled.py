@@ -15,9 +15,11 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled import qp_phase
 from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.runner import fast_converge_phase
-from rcmplan.control import Controller, LoopSettings, Phase
+from rcmplan.control import Controller, LoopSettings, Phase, PinvSolver
 from rcmplan.control.augmented import extended_task
+from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.log import RunLog
+from rcmplan.control.phase import split_steps
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_backends import solve
 from rcmplan.control.qp_limits import QpLimits
@@ -248,3 +250,41 @@ def test_compiled_qp_declines_what_it_does_not_reproduce(
     targets = injection(robot, eye, default_points(eye))[2].plan(robot.home)
     assert not fast_converge_phase(ctl, solver, targets, ctl.log.phase_id("p"), 0)
     assert len(ctl.log) == 0
+
+
+# --- the QP's free-space step, compiled (TIP_LIMITED) -------------------------------------------
+def approach_with(robot: Iramis, free: LimitedTipSolver) -> tuple:  # type: ignore[type-arg]
+    eye = default_eye(robot)
+    phases = injection(robot, eye, default_points(eye))[:1]  # the approach, in free space
+    return both(robot, lambda: Controller(KinematicPlant(robot), PinvSolver(), free), phases)
+
+
+def test_the_limited_free_step_runs_compiled_and_equals_the_reference(robot: Iramis) -> None:
+    (ref, _), (fast, cb) = approach_with(robot, LimitedTipSolver())
+    assert isinstance(ref, RunLog) and isinstance(fast, RunLog)
+    assert cb.phase_paths == {"approach": "compiled"}
+    assert_same_log(ref, fast)
+    moves = np.abs(np.diff(fast.sliders, axis=0))
+    bound = robot.speed * 1e-3
+    assert np.all(moves <= bound * (1 + 1e-9))
+    assert np.any(moves >= bound * (1 - 1e-9))  # the speed bound was active
+
+
+def test_the_compiled_limited_step_stops_at_the_travel_margin_as_the_reference_does(
+    robot: Iramis,
+) -> None:
+    q = robot.home
+    tip = robot.tip(q)
+    axis = (tip - robot.needle_point(q, 0.0)) / np.linalg.norm(tip - robot.needle_point(q, 0.0))
+    # pushed 55 mm along the needle: the insertion stage L5 (travel to 50 mm) must stop short
+    phases = [Phase("beyond", split_steps(tip, tip + 55e-3 * axis, 0.5e-3), "free")]
+    free = LimitedTipSolver()
+    (ref, _), (fast, cb) = both(
+        robot, lambda: Controller(KinematicPlant(robot), PinvSolver(), free), phases
+    )
+    assert isinstance(ref, ConvergenceError) and isinstance(fast, ConvergenceError)
+    assert str(ref) == str(fast)
+    assert cb.phase_paths == {"beyond": "compiled"}
+    assert_same_log(ref.log, fast.log)
+    top = robot.upper[4] - free.travel_margin
+    assert fast.log.sliders[:, 4].max() == pytest.approx(top, abs=1e-12)  # at the band's edge

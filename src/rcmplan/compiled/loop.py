@@ -10,6 +10,10 @@ The kernel stops with a status code instead of raising; `rcmplan.compiled.runner
 into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
 `REC_COLUMNS` (`rcmplan.compiled.records`), `irec` (cap, 2) with (step, iteration).
 
+The QP's free-space step (TIP_LIMITED, `LimitedTipSolver`) is the TIP step scaled in actuator
+space to hold each actuator's speed and travel less the margin (`limit_step`); K then carries
+those bounds (`records.iramis_method`).
+
 A curved needle (`CurvedTipRobot` on iRAM!S, method codes from CURVED on) takes the same loop:
 its error, step and tip come from `curved_iramis` (P then carries the arc, `curved_iramis.params`),
 the roll q5 moves with the other joints, records have the roll error column
@@ -55,6 +59,7 @@ from rcmplan.compiled.records import (
     SLIDER_LIMIT,
     STEPPED,
     TIP,
+    TIP_LIMITED,
 )
 from rcmplan.control.solvers import PIVOT_DISTANCE
 
@@ -69,7 +74,13 @@ def put(dst: FloatArray, i: int, src: FloatArray, j: int, n: int) -> None:
 @njit(cache=True, inline="always")
 def holds_rcm(method: int) -> bool:
     """True for a method with RCM targets (False: the free-space tip and whole-pose solvers)."""
-    return method != TIP and method != CURVED_POSE
+    return method != TIP and method != TIP_LIMITED and method != CURVED_POSE
+
+
+@njit(cache=True, inline="always")
+def tip_only(method: int) -> bool:
+    """True for the free-space tip steps (error and step on the tip position alone)."""
+    return method in (TIP, TIP_LIMITED)
 
 
 @njit(cache=True)
@@ -109,8 +120,8 @@ def task_error(
         return 6
     point(P, q, tr, 1.0, w[:3])
     for i in range(3):
-        e[i] = (target[i] if method == TIP else tip_t[i]) - w[i]
-    if method == TIP:
+        e[i] = (target[i] if tip_only(method) else tip_t[i]) - w[i]
+    if tip_only(method):
         return 3
     if pivot:  # the needle base to its place on the target axis, l6 behind the tip
         axis_from_angles(target[1], target[2], w[3:])
@@ -231,10 +242,49 @@ def iterate(
     else:
         solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
     moved = 6 if curved else 5  # a curved needle's roll q5 is active
+    if method == TIP_LIMITED:
+        limit_step(P, K, q, d, sn, qn, w)
     for i in range(6):
         qn[i] = q[i] + d[i] if i < moved else q[i]
     state[0] += d[moved]
     return command_status(P, qn, sn, info)
+
+
+@njit(cache=True)
+def limit_step(
+    P: FloatArray,
+    K: FloatArray,
+    q: FloatArray,
+    d: FloatArray,
+    s: FloatArray,
+    x: FloatArray,
+    ds: FloatArray,
+) -> None:
+    """`LimitedTipSolver.step` on the tip step d (dq0..dq4): the actuator increment ds of the
+    step, from s = actuators(q), scaled by the largest f in [0, 1] keeping every actuator
+    within its move per period K[i] and inside its travel less the margin K[6] (one outside
+    that band may only move back); d becomes joints(s + f ds) - q. s, x, ds (6,) are scratch.
+    A step no sliders realise is left as it is (the travel check then stops the loop)."""
+    for i in range(6):
+        x[i] = q[i] + d[i] if i < 5 else q[i]
+    if not actuators_from_joints(P, q, s) or not actuators_from_joints(P, x, ds):
+        return
+    f = 1.0
+    for i in range(6):
+        ds[i] -= s[i]
+        if abs(ds[i]) > 0.0:
+            f = min(f, K[i] / abs(ds[i]))
+    for i in range(6):
+        lo, hi = P[7 + i] + K[6], P[13 + i] - K[6]
+        if ds[i] > 0.0 and s[i] + f * ds[i] > hi:
+            f = min(f, max(0.0, (hi - s[i]) / ds[i]))
+        elif ds[i] < 0.0 and s[i] + f * ds[i] < lo:
+            f = min(f, max(0.0, (lo - s[i]) / ds[i]))
+    for i in range(6):
+        s[i] += f * ds[i]
+    joints_from_actuators(P, s, x)
+    for i in range(5):
+        d[i] = x[i] - q[i]
 
 
 @njit(cache=True)

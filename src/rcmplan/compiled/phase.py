@@ -23,6 +23,7 @@ from rcmplan.compiled.records import (
     PAUSED,
     STEPPED,
     append_records,
+    iramis_method,
     method_code,
     raise_stop,
     robot_params,
@@ -44,8 +45,11 @@ def run_phase_compiled(
     """Algorithm 1 on each target in turn, compiled; see the module docstring."""
     loop = fast_cache.loop_kernels()
     robot, cfg = controller.robot, controller.settings
-    code = method_code(solver)
-    K, damping, tol = solver_arrays(solver)
+    method = iramis_method(solver, robot)
+    if method is None:
+        raise ValueError(f"the iRAM!S loop does not run solver {solver.name!r}")
+    code, K = method
+    _, damping, tol = solver_arrays(solver)
     thr = singular_threshold(controller)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(24)

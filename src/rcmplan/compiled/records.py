@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, CurvedPoseSolver
+from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.log import LogBuilder
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
 from rcmplan.control.targets import tip_of_target
@@ -27,6 +28,9 @@ if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
 
 PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3  # method codes of the kernels
+# The QP's free-space step on iRAM!S (`LimitedTipSolver`): the TIP step scaled to hold the
+# actuators' speed and travel. Only the iRAM!S loop runs it (`iramis_method`).
+TIP_LIMITED = 4
 QP = 4  # the QP controller: its own loop (`qp_loop`), see `qp_phase.qp_applies`
 # A curved needle's methods (`rcmplan.control.curved`): codes from CURVED on (X_c, 7 rows)
 CURVED = 16
@@ -85,6 +89,20 @@ def method_code(solver: Solver) -> int | None:
     curved: dict[type, int] = {CurvedPinvSolver: CURVED_PINV, CurvedDlsSolver: CURVED_DLS,
                                CurvedPoseSolver: CURVED_POSE}  # fmt: skip
     return curved.get(type(solver))
+
+
+def iramis_method(solver: Solver, robot: RobotModel) -> tuple[int, FloatArray] | None:
+    """(method code, K) of a solver the iRAM!S loop (`loop.iterate`) reproduces, else None.
+
+    `method_code`'s solvers keep their K. The QP's limited free-space step without a tip speed
+    bound (`LimitedTipSolver`) runs as TIP_LIMITED; its K (7,) carries what the step holds:
+    each actuator's largest move per period (speed x dt, 6) and the travel margin."""
+    if type(solver) is LimitedTipSolver and solver.tip_speed is None:
+        K = np.append(np.asarray(robot.speed, dtype=np.float64) * solver.dt,
+                      solver.travel_margin)  # fmt: skip
+        return TIP_LIMITED, K
+    code = method_code(solver)
+    return None if code is None else (code, solver_arrays(solver)[0])
 
 
 def solver_arrays(solver: Solver) -> tuple[FloatArray, float, FloatArray]:

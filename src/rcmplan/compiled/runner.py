@@ -30,7 +30,7 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import check_arm_targets
 from rcmplan.compiled.curved import check_curved_targets
 from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
-from rcmplan.compiled.records import method_code, robot_params
+from rcmplan.compiled.records import iramis_method, method_code, robot_params
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
 from rcmplan.control.targets import solve_pose
 from rcmplan.control.tasks import VARIANTS, JacobianVariant
@@ -82,10 +82,15 @@ def fast_converge_phase(
         if kernel_params(controller.robot) is None:
             return False
         return qp_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
-    if method_code(solver) is None:
+    exact = getattr(controller.plant, "exact_commands", False)
+    # The QP's free-space step (`LimitedTipSolver`) has no `method_code`: it runs compiled on
+    # iRAM!S with exact commands (`records.iramis_method`).
+    if method_code(solver) is None and not (
+        exact and iramis_method(solver, controller.robot) is not None
+    ):
         return False
     # Whether compiling pays is asked first: checking the robot loads the kernels.
-    if getattr(controller.plant, "exact_commands", False):
+    if exact:
         if not fast_cache.use_fast(len(targets)) or kernel_params(controller.robot) is None:
             return False
         run_phase_compiled(controller, solver, targets, pid, sid)
