@@ -5,7 +5,8 @@ fixtures, and the time the pipeline adds to each 1 kHz period.
 Run: python benchmarks/bench_teleop.py [--no-mujoco]
 
 Peers measured in the same run: the same session with no filter (scaling alone) and with the
-low-pass filter; the control step (QP step and plant period) the pipeline adds to; the WFLC's
+low-pass filter; the control step (QP step and plant period) the pipeline adds to, compiled
+(where numba and DAQP's C binding serve) beside the reference Python QP step; the WFLC's
 published reduction (67 % of the 6-16 Hz RMS on recorded hands, Riviere et al. 1998, quoted).
 """
 
@@ -54,6 +55,23 @@ def pipeline_cost(result: TeleopResult) -> tuple[float, float]:
     return per_call(one, n), float(statistics.median(result.trace.control_s))
 
 
+def reference_control(compiled: dict[str, Any]) -> float:
+    """The control step's median [s] of the same wflc session on the reference path
+    (RCMPLAN_FAST off for it), checked to give the same figures as the compiled run."""
+    from rcmplan.compiled import cache as fast_cache
+
+    before = fast_cache.mode()
+    fast_cache.set_mode("off")
+    try:
+        result, s = session("wflc")
+    finally:
+        fast_cache.set_mode(before)
+    for key in ("max_rcm_deviation_m", "tip_tremor_rms_m", "tracking_rms_m"):
+        if not np.isclose(s[key], compiled[key], rtol=1e-9, atol=1e-15):
+            raise RuntimeError(f"{key}: reference {s[key]} against compiled {compiled[key]}")
+    return float(statistics.median(result.trace.control_s))
+
+
 def rows() -> list[dict[str, Any]]:
     """Every figure of the teleoperation benchmark."""
     mujoco = "--no-mujoco" not in sys.argv and not quick()
@@ -84,11 +102,15 @@ def rows() -> list[dict[str, Any]]:
             "s", "", None, "> 0 (the input pushes through)"),
     ]  # fmt: skip
     pipe, control = pipeline_cost(wflc)
+    path = "compiled QP step" if wflc.session.fast_step is not None else "reference Python QP"
+    reference = reference_control(w)
     out += [
         row("pipeline per 1 kHz period (wflc, tight loop)", pipe * UM, "us",
-            "control step (QP + plant), median", control * UM, "<= 20 us"),
+            f"control step (QP + plant), median, {path}", control * UM, "<= 20 us"),
         row("pipeline per period inside the session, median",
             w["pipeline_time_us"]["median"], "us", "", None, "<= 20 us"),
+        row(f"control step (QP step, command, plant period), median, {path}", control * UM,
+            "us", "the same session, reference Python QP step", reference * UM, "< 1,000 us"),
     ]  # fmt: skip
     if mujoco:
         _, m = session("wflc", "mujoco")

@@ -18,6 +18,7 @@ from rcmplan.compiled.runner import fast_converge_phase
 from rcmplan.control import Controller, LoopSettings, Phase, PinvSolver
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.limited_tip import LimitedTipSolver
+from rcmplan.control.limits.workspace import WorkspaceBound
 from rcmplan.control.log import RunLog
 from rcmplan.control.phase import split_steps
 from rcmplan.control.qp import QpSolver
@@ -27,7 +28,7 @@ from rcmplan.control.qp_problem import SCALE, StepInput, build_step
 from rcmplan.control.targets import rcm_target
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, QPError
 from rcmplan.scene.constrained import grazing_spiral
-from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
 
@@ -55,10 +56,16 @@ def reference(run):  # type: ignore[no-untyped-def]
 
 def solvers(robot: Iramis) -> list[QpSolver]:
     """QP solvers that exercise every row: the default one, an RCM equality, a retina contact
-    listed at a point, other gains and damping, and no eye."""
+    listed at a point, other gains and damping, no eye, and teleoperation's workspace box
+    (turned, and small enough that random states lie on both sides of its faces)."""
     eye = default_eye(robot)
     contact = tuple(default_points(eye).p5)
+    turn = eye_frame(eye)
+    box = WorkspaceBound(tuple(eye.center), tuple(map(tuple, turn)), (-3e-3, -2e-3, -4e-3),
+                         (2e-3, 3e-3, 1e-3), gain=0.3)  # fmt: skip
     return [
+        QpSolver(robot, eye, extra_limits=(box,)),
+        QpSolver(robot, eye, limits=QpLimits(rcm_tolerance=0.0), extra_limits=(box,)),
         QpSolver(robot, eye),
         QpSolver(robot, eye, limits=QpLimits(rcm_tolerance=0.0)),
         QpSolver(robot, eye, K=(0.5, 1.2, 0.8, 1.0, 1.5, 0.7), damping=3e-3,
@@ -101,7 +108,7 @@ def test_compiled_qp_equals_build_step_at_many_states(robot: Iramis, rng) -> Non
             # cost's q is compared on the same error, everything else on the reference's.
             inp = StepInput(q, lam, target, fast.e.copy(), solver.K, solver.damping, solver.dt,
                             solver.eye, solver.limits)  # fmt: skip
-            ref = build_step(robot, inp)
+            ref = build_step(robot, inp, solver.rows)
             for name in ("P", "q", "G", "h", "A", "b", "lb", "ub"):
                 gap = relative_gap(getattr(ref.problem, name), getattr(step.problem, name))
                 assert gap <= 1e-12, (name, gap)
@@ -118,7 +125,7 @@ def test_compiled_step_solves_to_the_reference_solvers_step(robot: Iramis, rng) 
             e = solver.task_error(robot, q, lam, target)
             inp = StepInput(q, lam, target, e, solver.K, solver.damping, solver.dt, solver.eye,
                             solver.limits)  # fmt: skip
-            ref = build_step(robot, inp)
+            ref = build_step(robot, inp, solver.rows)
             try:
                 x_ref = solve(ref.problem).x
             except QPError as exc:
@@ -288,3 +295,39 @@ def test_the_compiled_limited_step_stops_at_the_travel_margin_as_the_reference_d
     assert_same_log(ref.log, fast.log)
     top = robot.upper[4] - free.travel_margin
     assert fast.log.sliders[:, 4].max() == pytest.approx(top, abs=1e-12)  # at the band's edge
+
+
+# --- one QP step per period, compiled (teleoperation) -------------------------------------------
+def test_a_teleoperation_session_runs_its_qp_compiled_with_the_reference_records() -> None:
+    from rcmplan.teleop import SyntheticSurgeon, TeleopSettings, run_replay
+    from rcmplan.teleop.motion_plan import MotionPlan, Move
+    from rcmplan.teleop.session import Session
+
+    # 2.5 mm towards the retina, 0.75 mm past its margin, held there; then 10 mm sideways,
+    # past the workspace box
+    push = MotionPlan(duration=3.5, moves=(Move(0.5, 1.2, (0.0, 0.0, 50e-3)),
+                                           Move(1.9, 1.0, (200e-3, 0.0, 0.0))))  # fmt: skip
+    settings = TeleopSettings()
+    assert Session(settings, periods=3501).fast_step is not None  # mode "on" (the fixture)
+    track = SyntheticSurgeon(plan=push, seed=3).track()
+    fast = run_replay(settings, track)
+    ref = reference(lambda: run_replay(settings, track))
+    assert fast.status == ref.status == "ok"
+    assert_same_log(ref.log, fast.log)
+    from rcmplan.teleop.summary import summary
+
+    held = summary(fast)["fixture_active_s"]
+    assert held["retina"] > 0.5 and held["workspace"] > 0.1, held  # both fixtures held the tip
+
+
+def test_the_period_step_declines_what_it_does_not_reproduce(robot: Iramis) -> None:
+    from rcmplan.compiled.qp_period import period_step
+    from rcmplan.robot.registry import make_robot
+
+    eye = default_eye(robot)
+    assert period_step(QpSolver(robot, eye), 10_000) is not None
+    assert period_step(QpSolver(robot, eye, limits=QpLimits(tip_speed=0.01)), 10_000) is None
+    ur5 = make_robot("ur5")
+    assert period_step(QpSolver(ur5, default_eye(ur5)), 10_000) is None
+    fast_cache.set_mode("off")
+    assert period_step(QpSolver(robot, eye), 10_000) is None

@@ -5,8 +5,9 @@ Every row repeats the reference arithmetic (`control/qp_problem.py`, `control/li
 in the same order, so the assembled QP equals the reference's to rounding (tests check 1e-12
 relative): variables x = (ds[L1..L5], l dlambda) / SCALE; the cost of the weighted X_ext error
 plus damping; actuator travel, speed over dt and lambda in [0, 1] as bounds; then the rows G x
-<= h of the RCM box, the retina barrier and the singular margin (or the RCM as an equality
-A x = b when its tolerance is 0), in the order DAQP receives them from `qp_backends`.
+<= h of the RCM box, the retina barrier, the singular margin and a workspace box (or the RCM
+as an equality A x = b when its tolerance is 0), in the order DAQP receives them from
+`qp_backends`.
 
 Settings travel as one float64 vector Q (`qp_params`), the robot as the kernels' P
 (`kernels.PARAMS`), retina contact points as a (k, 3) array, and the buffers of one solve as
@@ -39,11 +40,17 @@ from rcmplan.compiled.kernels import (
 )
 from rcmplan.compiled.qp_params import (
     ANGLE_WEIGHT,
+    BOX_GAIN,
+    BOX_LOWER,
+    BOX_ORIGIN,
+    BOX_R,
+    BOX_UPPER,
     CENTER,
     CONTACT_TOL,
     DAMPING,
     DT,
     EYE_GAIN,
+    HAS_BOX,
     HAS_EYE,
     PORT,
     PORT_ZONE,
@@ -60,7 +67,7 @@ from rcmplan.control.limits.base import RECOVERY, SCALE, SPEED_ACTIVE
 
 N_VAR = 6  # L1..L5 and l dlambda
 N_BOUNDS = 6
-MAX_ROWS = 7  # RCM box 4, retina 1, singular 2
+MAX_ROWS = 13  # RCM box 4, retina 1, singular 2, workspace box 6
 
 
 X = 10  # index of the solution x in `buffers()`
@@ -259,16 +266,22 @@ def target_tip(target: FloatArray) -> tuple:
 
 
 @njit(cache=True)
+def tip_point(P: FloatArray, q: FloatArray, tr: tuple) -> tuple:
+    """The needle tip p(1) (`kernels.point`)."""
+    c1, s1, c3, s3 = tr
+    w = q[4] + P[5]
+    return (P[1] * s1 - c1 * c3 * w - P[4] * c1 * s3, P[2] + P[3] + q[2] - s3 * w + P[4] * c3,
+            P[0] + q[0] + P[1] * c1 + s1 * c3 * w + P[4] * s1 * s3)  # fmt: skip
+
+
+@njit(cache=True)
 def retina_row(P: FloatArray, Q: FloatArray, contacts: FloatArray, q: FloatArray, tr: tuple,
                target: FloatArray, r: int, A: FloatArray, upper: FloatArray, lower: FloatArray,
                sense: np.ndarray, T: FloatArray, J: FloatArray) -> int:  # fmt: skip
     """The retina barrier's row at r (`RetinaBarrier`), or none; returns the next row."""
     if Q[HAS_EYE] == 0.0:
         return r
-    c1, s1, c3, s3 = tr
-    w = q[4] + P[5]  # the tip, p(1) as `kernels.point`
-    tip = (P[1] * s1 - c1 * c3 * w - P[4] * c1 * s3, P[2] + P[3] + q[2] - s3 * w + P[4] * c3,
-           P[0] + q[0] + P[1] * c1 + s1 * c3 * w + P[4] * s1 * s3)  # fmt: skip
+    tip = tip_point(P, q, tr)
     acc = 0.0
     for i in range(3):
         acc += (tip[i] - Q[PORT + i]) ** 2
@@ -309,6 +322,36 @@ def singular_rows(Q: FloatArray, q: FloatArray, tr: tuple, r: int, A: FloatArray
 
 
 @njit(cache=True)
+def workspace_rows(P: FloatArray, Q: FloatArray, q: FloatArray, tr: tuple, r: int, A: FloatArray,
+                   upper: FloatArray, lower: FloatArray, sense: np.ndarray, T: FloatArray,
+                   J: FloatArray) -> int:  # fmt: skip
+    """The workspace box's rows from r (`WorkspaceBound`: per box axis i the lower then the
+    upper face, each a damper on the tip's box coordinate c_i = (R^T (tip - origin))_i), or
+    none; returns the next row."""
+    if Q[HAS_BOX] == 0.0:
+        return r
+    tip = tip_point(P, q, tr)
+    for i in range(3):
+        c = 0.0
+        for m in range(3):
+            c += Q[BOX_R + 3 * m + i] * (tip[m] - Q[BOX_ORIGIN + m])
+        for j in range(N_VAR):
+            acc = 0.0
+            for k in range(N_VAR):  # (R^T J_tip)[i, k] T[k, j]
+                rj = 0.0
+                for m in range(3):
+                    rj += Q[BOX_R + 3 * m + i] * J[m, k]
+                acc += rj * T[k, j]
+            A[r, j] = -acc  # G = -grad for the lower face, grad = d c_i / dx
+            A[r + 1, j] = acc  # and for the upper face, grad = -d c_i / dx
+        damper_row(c - Q[BOX_LOWER + i], 0.0, Q[BOX_GAIN], N_BOUNDS + r, upper, lower, sense)
+        damper_row(Q[BOX_UPPER + i] - c, 0.0, Q[BOX_GAIN], N_BOUNDS + r + 1, upper, lower,
+                   sense)  # fmt: skip
+        r += 2
+    return r
+
+
+@njit(cache=True)
 def build_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
                q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
                e: FloatArray, qp: tuple) -> int:  # fmt: skip
@@ -327,6 +370,7 @@ def build_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray
     r = 0 if eq else rcm_rows(P, Q, q, tr, lam, target, 0, A, upper, lower, sense, T, J)
     r = retina_row(P, Q, contacts, q, tr, target, r, A, upper, lower, sense, T, J)
     r = singular_rows(Q, q, tr, r, A, upper, lower, sense, T)
+    r = workspace_rows(P, Q, q, tr, r, A, upper, lower, sense, T, J)
     if eq:
         r = rcm_rows(P, Q, q, tr, lam, target, r, A, upper, lower, sense, T, J)
     return r

@@ -12,6 +12,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.eye_model import EyeModel
+from rcmplan.control.limits.workspace import WorkspaceBound
 from rcmplan.robot.model import RobotModel
 
 if TYPE_CHECKING:
@@ -22,7 +23,10 @@ if TYPE_CHECKING:
 RCM_TOL, TRAVEL_MARGIN, RETINA_MARGIN, EYE_GAIN, PORT_ZONE, CONTACT_TOL = range(6)
 SINGULAR_FLOOR, SINGULAR_GAIN, ANGLE_WEIGHT, RCM_WEIGHT, DT, DAMPING = range(6, 12)
 HAS_EYE, RETINA_RADIUS, CENTER, PORT, SPEED = 12, 13, 14, 17, 20
-Q_SIZE = 26
+# A workspace box (`limits.workspace.WorkspaceBound`, the one extra limit the kernels hold):
+# HAS_BOX 1 or 0, origin (3,), rotation R (3, 3) row by row, lower (3,), upper (3,), gain.
+HAS_BOX, BOX_ORIGIN, BOX_R, BOX_LOWER, BOX_UPPER, BOX_GAIN = 26, 27, 30, 39, 42, 45
+Q_SIZE = 46
 
 _PROBES = np.array([[0.0, 0.0, 0.0], [3e-3, -2e-3, 7e-3], [-0.02, 0.01, 0.03]])
 
@@ -39,12 +43,21 @@ def spherical_eye(eye: EyeModel) -> bool:
 
 def qp_params(robot: RobotModel, solver: QpSolver) -> tuple[FloatArray, FloatArray] | None:
     """(Q, contacts (k, 3) [m]) of a QP solver driving `robot`; None if its eye is not one the
-    kernels reproduce (`spherical_eye`), it bounds the tip's speed or holds extra limits (no
-    compiled rows)."""
+    kernels reproduce (`spherical_eye`), it bounds the tip's speed, or it holds extra limits
+    other than one workspace box (no compiled rows)."""
     lim, eye = solver.limits, solver.eye
-    if lim.tip_speed is not None or solver.extra_limits:
+    extra = solver.extra_limits
+    if lim.tip_speed is not None or len(extra) > 1:
+        return None
+    box = extra[0] if extra else None
+    if box is not None and not (isinstance(box, WorkspaceBound) and type(box) is WorkspaceBound):
         return None
     Q = np.zeros(Q_SIZE)
+    if box is not None:
+        Q[HAS_BOX], Q[BOX_GAIN] = 1.0, box.gain
+        Q[BOX_ORIGIN : BOX_ORIGIN + 3] = box.origin
+        Q[BOX_R : BOX_R + 9] = np.asarray(box.rotation, dtype=float).ravel()
+        Q[BOX_LOWER : BOX_LOWER + 3], Q[BOX_UPPER : BOX_UPPER + 3] = box.lower, box.upper
     Q[RCM_TOL], Q[TRAVEL_MARGIN], Q[RETINA_MARGIN] = (
         lim.rcm_tolerance, lim.travel_margin, lim.retina_margin
     )  # fmt: skip

@@ -77,9 +77,9 @@ def run_replay(
 ) -> TeleopResult:
     """Run a track's whole duration, one period per dt, as fast as the computer goes; the
     sample of each period is the latest one at or before its time (sample and hold)."""
-    session = Session(settings)
-    player = track.player()
     n = int(np.floor(track.duration / settings.dt + 1e-9)) + 1
+    session = Session(settings, periods=n)
+    player = track.player()
     start = time.perf_counter()
 
     def loop() -> None:

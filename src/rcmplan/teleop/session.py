@@ -10,6 +10,7 @@ step. The needle starts inserted through the trocar with its tip at `TeleopSetti
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
@@ -19,7 +20,7 @@ from rcmplan.control.augmented import extended_task
 from rcmplan.control.log import LogBuilder
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.targets import rcm_target, solve_pose
-from rcmplan.exceptions import RcmBoundError
+from rcmplan.exceptions import MissingExtraError, RcmBoundError
 from rcmplan.robot.needle import closest_lambda
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
@@ -31,7 +32,22 @@ from rcmplan.teleop.scaling import MotionScaling
 from rcmplan.teleop.settings import TeleopSettings
 from rcmplan.teleop.trace import TraceBuilder
 
+StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 PHASES = ("released", "engaged")
+LIVE_PERIODS = 60_000  # a live session's expected length, in periods (a minute at 1 kHz)
+
+
+def fast_period_step(solver: QpSolver, periods: int) -> StepFunction | None:
+    """The QP's compiled single step where it applies (`rcmplan.compiled.qp_period`), else
+    None; without numba or DAQP's C binding, None."""
+    try:
+        from rcmplan.compiled.qp_period import period_step
+    except ImportError:
+        return None
+    try:
+        return period_step(solver, periods)
+    except MissingExtraError:
+        return None
 
 
 class TeleopState(NamedTuple):
@@ -59,9 +75,15 @@ class TeleopState(NamedTuple):
 
 
 class Session:
-    """Everything one session needs, built and checked before any motion."""
+    """Everything one session needs, built and checked before any motion.
 
-    def __init__(self, settings: TeleopSettings) -> None:
+    Args:
+        settings: The session's settings.
+        periods: How many periods to expect (None: a live session of unknown length); the QP
+            step runs compiled where it applies and pays (`rcmplan.compiled.qp_period`).
+    """
+
+    def __init__(self, settings: TeleopSettings, periods: int | None = None) -> None:
         self.settings = cfg = settings
         self.robot = robot = make_robot(cfg.robot)
         self.eye = eye = default_eye(robot)
@@ -77,6 +99,7 @@ class Session:
         held = cfg.fixtures.workspace(eye, guard)  # the fixture the QP holds
         self.solver = QpSolver(robot, eye, cfg.dt, limits=cfg.fixtures.qp_limits(guard),
                                extra_limits=(held,))  # fmt: skip
+        self.fast_step = fast_period_step(self.solver, LIVE_PERIODS if periods is None else periods)
         self.pipeline = Pipeline(cfg.make_filter(), MotionScaling(cfg.scale, R))
         allowed = eye.retina_radius - cfg.fixtures.retina_margin - guard
         self.targets = TargetMaker(eye.port, held, eye.center, allowed)
@@ -115,7 +138,10 @@ class Session:
         target = self.targets.target(desired)
         mid = time.perf_counter()
         e = target - extended_task(robot, q, lam)
-        dq, _ = self.solver.step(robot, q, lam, target, e)
+        if self.fast_step is not None:
+            dq = self.fast_step(q, lam, target)
+        else:
+            dq, _ = self.solver.step(robot, q, lam, target, e)
         q_new = q.copy()
         q_new[self._active] += dq
         plant.command_actuators(robot.actuators_from_joints(q_new))

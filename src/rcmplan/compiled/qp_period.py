@@ -1,0 +1,62 @@
+"""The QP's step one period at a time, compiled: for loops that take ONE step per control
+period towards a target that moves (teleoperation), where the controller's phase loop
+(`qp_phase`) does not apply.
+
+`period_step` returns a function (q, lam, target) -> dq that equals `QpSolver.step` to rounding
+(the same QP assembled and solved in compiled code, `FastQpStep`; the joints recovered exactly
+from the actuator step as the reference does), or None where the compiled step does not
+apply. A solve that fails in compiled code is repeated on the reference path, which raises its
+own QPError (or, at the edge of DAQP's tolerances, returns its step).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.qp_params import qp_params
+from rcmplan.compiled.qp_phase import FastQpStep
+from rcmplan.compiled.runner import kernel_params
+from rcmplan.control.limits.base import SCALE
+from rcmplan.control.qp import QpSolver
+from rcmplan.exceptions import QPError
+
+# One period's reference QP step (about 200 us) counted in targets of the reference loop
+# (about 0.1 ms each) towards mode "auto"'s payoff (`fast_cache.use_fast`).
+PERIOD_WEIGHT = 2
+
+StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
+
+
+def period_step(solver: QpSolver, periods: int) -> StepFunction | None:
+    """A compiled `solver.step` for about `periods` calls, or None: not a plain QpSolver with
+    DAQP and a straight needle, a servo plan, a robot or eye or limit the kernels do not
+    reproduce (`qp_params`: one workspace box is the only extra limit), DAQP's C binding
+    unusable, or the fast path off (or not paying yet in mode "auto")."""
+    if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
+        return None
+    if solver.servo is not None or not fast_cache.use_fast(PERIOD_WEIGHT * periods):
+        return None
+    robot = solver.robot
+    if kernel_params(robot) is None or fast_cache.qp_loop() is None:
+        return None
+    if qp_params(robot, solver) is None:
+        return None
+    fast = FastQpStep(solver)
+    active = list(robot.active)
+    m = len(active)
+
+    def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+        try:
+            x, _ = fast.solve(q, lam, target)
+        except QPError:
+            e = solver.task_error(robot, q, lam, target)
+            return solver.step(robot, q, lam, target, e)[0]
+        s = fast.s.copy()
+        s[active] += x[:m] * SCALE
+        return np.asarray((robot.joints_from_actuators(s) - q)[active])
+
+    return step
