@@ -13,15 +13,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import numpy as np
-
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.runner import kernel_params
-from rcmplan.control.limits.base import SCALE
-from rcmplan.control.qp import QpSolver
+from rcmplan.control.qp import QpSolver, joints_step
 from rcmplan.exceptions import QPError
 
 # One period's reference QP step (about 200 us) counted in targets of the reference loop
@@ -46,8 +43,6 @@ def period_step(solver: QpSolver, periods: int) -> StepFunction | None:
     if qp_params(robot, solver) is None:
         return None
     fast = FastQpStep(solver)
-    active = list(robot.active)
-    m = len(active)
 
     def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         try:
@@ -55,8 +50,6 @@ def period_step(solver: QpSolver, periods: int) -> StepFunction | None:
         except QPError:
             e = solver.task_error(robot, q, lam, target)
             return solver.step(robot, q, lam, target, e)[0]
-        s = fast.s.copy()
-        s[active] += x[:m] * SCALE
-        return np.asarray((robot.joints_from_actuators(s) - q)[active])
+        return joints_step(robot, fast.s, x, q)[0]
 
     return step

@@ -169,12 +169,7 @@ class QpSolver:
         """The QP's step: joint increments recovered exactly from the actuator increments
         (with a servo: from the measured joints q to the planned command)."""
         step, result = self._solve(robot, self.planned_joints(robot, q), lam, target)
-        active = list(robot.active)
-        m = len(active)
-        s = step.sliders.copy()
-        s[active] += result.x[:m] * SCALE
-        dq = robot.joints_from_actuators(s) - q
-        return dq[active], float(result.x[m] * SCALE / robot.needle_length)
+        return joints_step(robot, step.sliders, result.x, q)
 
     def free_solver(self) -> LimitedTipSolver:
         """The free-space solver that holds this QP's actuator travel and speed outside the eye
@@ -285,3 +280,16 @@ def make_qp(
     from rcmplan.control.method_settings import MethodSettings
 
     return QpSolver.from_settings(MethodSettings(), robot, eye, dt, **options)
+
+
+def joints_step(
+    robot: RobotModel, sliders: FloatArray, x: FloatArray, q: FloatArray
+) -> tuple[FloatArray, float]:
+    """The step of a QP solution x at actuators `sliders`: (joint increments of the active
+    joints from q, recovered exactly from the actuators moved by x, d lambda)."""
+    active = list(robot.active)
+    m = len(active)
+    s = np.array(sliders, dtype=float)
+    s[active] += x[:m] * SCALE
+    dq = robot.joints_from_actuators(s) - q
+    return dq[active], float(x[m] * SCALE / robot.needle_length)
