@@ -29,16 +29,23 @@ def can_fork() -> bool:
 
 def run_jobs(jobs: Sequence[Job]) -> list[Path]:
     """Run every job and return the paths they wrote: the first job in this process, the
-    others in forked children. Raises RcmplanError naming the files whose child failed."""
+    others in forked children. Raises RcmplanError naming the files whose child failed.
+
+    A job run in this process runs with SIGINT and SIGTERM deferred to its end: matplotlib's
+    C code turns an exception raised inside it (the interrupt's) into a ValueError ("Invalid
+    bounding box"), so an interrupt there would end the command with a traceback instead of
+    its partial outputs."""
     if len(jobs) < 2 or not can_fork():
         for _, job in jobs:
-            job()
+            with signals_deferred():
+                job()
         return [path for path, _ in jobs]
     children: list[tuple[int, Path]] = []
     try:
         for path, job in jobs[1:]:
             children.append((_fork(job), path))
-        jobs[0][1]()
+        with signals_deferred():
+            jobs[0][1]()
         failed = [str(path) for pid, path in children if os.waitpid(pid, 0)[1] != 0]
     except BaseException:  # interrupted (SIGINT, SIGTERM): stop and reap the children
         _stop(pid for pid, _ in children)
