@@ -11,6 +11,7 @@ own QPError (or, at the edge of DAQP's tolerances, returns its step).
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 
 from rcmplan._validate import FloatArray
@@ -18,8 +19,9 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.runner import kernel_params
+from rcmplan.control.augmented import extended_task
 from rcmplan.control.qp import QpSolver, joints_step
-from rcmplan.exceptions import QPError
+from rcmplan.exceptions import QPError, RcmplanError
 
 # One period's reference QP step (about 200 us) counted in targets of the reference loop
 # (about 0.1 ms each) towards mode "auto"'s payoff (`fast_cache.use_fast`).
@@ -43,6 +45,15 @@ def period_step(solver: QpSolver, periods: int) -> StepFunction | None:
     if qp_params(robot, solver) is None:
         return None
     fast = FastQpStep(solver)
+    # Load the compiled code now (numba's cache, the first call's dispatch), and the reference
+    # step a failed solve falls back to (its first call imports and builds what it needs:
+    # about 45 ms), so a loop paced at 1 kHz pays for neither in a period.
+    home = robot.home
+    target = extended_task(robot, home, 1.0)
+    with contextlib.suppress(QPError):
+        fast.solve(home, 1.0, target)
+    with contextlib.suppress(RcmplanError):
+        solver.step(robot, home, 1.0, target, solver.task_error(robot, home, 1.0, target))
 
     def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         try:

@@ -34,7 +34,6 @@ from rcmplan.teleop.trace import TraceBuilder
 
 StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 PHASES = ("released", "engaged")
-LIVE_PERIODS = 60_000  # a live session's expected length, in periods (a minute at 1 kHz)
 
 
 def fast_period_step(solver: QpSolver, periods: int) -> StepFunction | None:
@@ -79,8 +78,10 @@ class Session:
 
     Args:
         settings: The session's settings.
-        periods: How many periods to expect (None: a live session of unknown length); the QP
-            step runs compiled where it applies and pays (`rcmplan.compiled.qp_period`).
+        periods: How many periods to expect; the QP step then runs compiled where it applies
+            and pays (`rcmplan.compiled.qp_period`). None (a live session): the reference
+            step, because a process that has loaded numba takes 30-45 ms for a full garbage
+            collection, 30-45 missed 1 kHz periods, where the reference step's 200 us fit.
     """
 
     def __init__(self, settings: TeleopSettings, periods: int | None = None) -> None:
@@ -99,7 +100,7 @@ class Session:
         held = cfg.fixtures.workspace(eye, guard)  # the fixture the QP holds
         self.solver = QpSolver(robot, eye, cfg.dt, limits=cfg.fixtures.qp_limits(guard),
                                extra_limits=(held,))  # fmt: skip
-        self.fast_step = fast_period_step(self.solver, LIVE_PERIODS if periods is None else periods)
+        self.fast_step = None if periods is None else fast_period_step(self.solver, periods)
         self.pipeline = Pipeline(cfg.make_filter(), MotionScaling(cfg.scale, R))
         allowed = eye.retina_radius - cfg.fixtures.retina_margin - guard
         self.targets = TargetMaker(eye.port, held, eye.center, allowed)
