@@ -39,10 +39,8 @@ PHASES = ("released", "engaged")
 def fast_period_step(solver: QpSolver, periods: int) -> StepFunction | None:
     """The QP's compiled single step where it applies (`rcmplan.compiled.qp_period`), else
     None; without numba or DAQP's C binding, None."""
-    try:
-        from rcmplan.compiled.qp_period import period_step
-    except ImportError:
-        return None
+    from rcmplan.compiled.qp_period import period_step
+
     try:
         return period_step(solver, periods)
     except MissingExtraError:
