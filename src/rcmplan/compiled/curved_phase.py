@@ -19,12 +19,11 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.curved import CurvedArrays, curved_arrays, screen
+from rcmplan.compiled.phase import IntArray, run_in_blocks
 from rcmplan.compiled.records import (
     CURVED_POSE,
     DONE,
     FAIL_WIDTH,
-    PAUSED,
-    append_records,
     is_curved,
     method_code,
     raise_stop,
@@ -76,26 +75,19 @@ def run_iramis_phase(
     """Algorithm 1 on each target in turn in the iRAM!S loop, with iRAM!S holding the curved
     needle (`arrays.P`); the plant ends at the last command with its time advanced."""
     loop = fast_cache.loop_kernels()
-    plant, cfg = controller.plant, controller.settings
+    cfg = controller.settings
     K, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    s = plant.read_actuators()
-    state = np.array([controller.lam, plant.time, plant.dt])
-    cap = (ITERATIONS_PER_TARGET + 1) * targets.shape[0] + cfg.max_iterations
-    rec = np.empty((cap, record_width(6, roll=True)))
-    irec = np.empty((cap, 2), dtype=np.int64)
-    info, fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)
+    fail = np.empty(FAIL_WIDTH)
     args = (arrays.P, method_code(solver), K, damping, tol, cfg.max_iterations,
             cfg.drift_correction, float(singular_threshold(controller)), targets)  # fmt: skip
-    status, k0 = PAUSED, 0
-    while status == PAUSED:
-        status = loop.run_targets(*args, k0, s, state, rec, irec, info, fail)
-        append_records(controller.log, rec, irec, int(info[0]), pid, sid)
-        k0 = int(info[1])
-    plant.command_actuators(s)
-    plant.advance()
-    plant.time = float(state[1])
-    controller.lam = float(state[0])
+
+    def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
+            info: IntArray) -> int:  # fmt: skip
+        return int(loop.run_targets(*args, k0, s, state, rec, irec, info, fail))
+
+    status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET + 1,
+                                 record_width(6, roll=True))  # fmt: skip
     if status != DONE:
         k = int(info[1])
         where = f"phase {controller.log.phase_names[pid]!r} step {k}"

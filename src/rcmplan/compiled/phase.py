@@ -72,18 +72,18 @@ BlockRunner = Callable[[int, FloatArray, FloatArray, FloatArray, IntArray, IntAr
 
 def run_in_blocks(
     controller: Controller, targets: FloatArray, pid: int, sid: int, run: BlockRunner,
-    per_target: int = 4,
+    per_target: int = 4, width: int = 35,
 ) -> tuple[int, IntArray]:  # fmt: skip
     """Call a compiled phase loop `run(k0, s, state, rec, irec, info)` on the kinematic plant
     (the `loop.run_targets` protocol) until it stops pausing, its records appended to the
     log; the plant ends at the last command with its time advanced and controller.lam holds
     the last lambda. Returns (status, info); the record buffer holds `per_target` records per
-    target (a full buffer pauses the loop, which is then resumed)."""
+    target (a full buffer pauses the loop, which is then resumed) of `width` columns."""
     plant, cfg = controller.plant, controller.settings
     s = plant.read_actuators()
     state = np.array([controller.lam, plant.time, plant.dt])
     cap = per_target * targets.shape[0] + cfg.max_iterations
-    rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
+    rec, irec = np.empty((cap, width)), np.empty((cap, 2), dtype=np.int64)
     info = np.zeros(3, dtype=np.int64)
     status, k0 = PAUSED, 0
     while status == PAUSED:
