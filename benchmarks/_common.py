@@ -10,9 +10,10 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled import CompiledRunner
 from rcmplan.compiled.runner import fast_check_targets, fast_converge_phase
-from rcmplan.control import Controller, Phase, RunLog
+from rcmplan.control import Controller, Phase
+from rcmplan.control.runner import ReferenceRunner, register_default
 
 THESIS_ITERATION_S = 180.0 / 1350  # V-REP loop: about 3 min for 1350 iterations (sec. 4.1.2)
 
@@ -45,16 +46,14 @@ def row(
             "peer_value": peer_value, "ratio": ratio, "target": target}  # fmt: skip
 
 
-class FastController(Controller):
-    """A Controller that always takes the compiled path (what loop.py's dispatch does when on)."""
+def use_path(mode: str | None) -> None:
+    """ "off": the Python loop runs every phase (the reference runner registered as the
+    default); "on" or None: the compiled runner, where it applies (the default)."""
+    register_default(ReferenceRunner() if mode == "off" else CompiledRunner())
 
-    def run(self, phases: list[Phase]) -> RunLog:
-        previous = fast_cache.mode()
-        fast_cache.set_mode("on")
-        try:
-            return super().run(phases)
-        finally:
-            fast_cache.set_mode(previous)
+
+class FastController(Controller):
+    """A Controller that always takes the compiled path, or raises."""
 
     def check_targets(self, targets: np.ndarray) -> None:
         if not fast_check_targets(self.robot, targets):
@@ -70,4 +69,4 @@ class FastController(Controller):
                 self.check_targets(targets)
             self.lam = self._closest_lambda(q, targets[0][3:])
         if not fast_converge_phase(self, solver, targets, pid, sid):
-            raise RuntimeError("the compiled path declined (numba missing or RCMPLAN_FAST=off)")
+            raise RuntimeError("the compiled path declined this phase")

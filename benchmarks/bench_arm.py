@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from _common import per_call, quick, row
+from _common import per_call, quick, row, use_path
 from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm, check_arm_targets
@@ -145,11 +145,11 @@ def phase_us(arm: Any, mode: str) -> float:
     plant = KinematicPlant(arm)
     plant.reset(q0)
     ctl = Controller(plant, PinvSolver())
-    fast_cache.set_mode(mode)
+    use_path(mode)
     try:
         log = ctl.run([phase])
     finally:
-        fast_cache.set_mode(None)
+        use_path(None)
     return 1e6 * ctl.phase_times[phase.name] / len(log)
 
 

@@ -14,7 +14,6 @@ injection on the compiled and the reference path.
 
 from __future__ import annotations
 
-import os
 import statistics
 import subprocess
 import sys
@@ -36,6 +35,7 @@ from rcmplan.compiled.records import (
     robot_params,
     solver_arrays,
 )
+from rcmplan.compiled.runner import compile_kernels
 from rcmplan.control import Controller, PinvSolver
 from rcmplan.control.curved import CurvedPinvSolver
 from rcmplan.control.curved_targets import solve_curved_pose
@@ -149,25 +149,22 @@ def step_rows(name: str) -> list[dict[str, Any]]:
     ]  # fmt: skip
 
 
-def inject_seconds(name: str, mode: str, out: str) -> float:
+def inject_seconds(name: str, out: str) -> float:
     """Wall time in [s] of `rcmplan inject --scenario curved --no-plots` in a new process."""
     cmd = [sys.executable, "-m", "rcmplan", "inject", "--scenario", "curved", "--robot", name,
            "--no-plots", "--out", out]  # fmt: skip
     t = time.perf_counter()
-    subprocess.run(cmd, env={**os.environ, "RCMPLAN_FAST": mode}, check=True,
-                   capture_output=True)  # fmt: skip
+    subprocess.run(cmd, check=True, capture_output=True)
     return time.perf_counter() - t
 
 
 def inject_rows(name: str) -> list[dict[str, Any]]:
-    """The curved injection's wall time, compiled (warm cache) and reference."""
-    subprocess.run([sys.executable, "-m", "rcmplan.compiled.warm"], check=True,
-                   capture_output=True)  # fmt: skip
+    """The curved injection's wall time (numba's cache warmed first)."""
+    compile_kernels()
     with tempfile.TemporaryDirectory() as tmp:
-        on = inject_seconds(name, "on", f"{tmp}/on")
-        off = inject_seconds(name, "off", f"{tmp}/off")
-    figure = f"`rcmplan inject --scenario curved --robot {name} --no-plots`, RCMPLAN_FAST=on"
-    return [row(figure, on, "s", "RCMPLAN_FAST=off", off)]
+        seconds = inject_seconds(name, f"{tmp}/run")
+    figure = f"`rcmplan inject --scenario curved --robot {name} --no-plots`, warm cache"
+    return [row(figure, seconds, "s")]
 
 
 def rows() -> list[dict[str, Any]]:

@@ -16,7 +16,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from _common import quick, row
+from _common import quick, row, use_path
 from rcmplan import Iramis
 from rcmplan.sim.mujoco.plant import MujocoPlant
 
@@ -86,11 +86,10 @@ def injection(path: str) -> dict[str, Any]:
 
     path: "closed" (the whole loop compiled, MuJoCo called from it), "per-iteration" (compiled
     control, the plant stepped from Python) or "reference" (Python control and plant)."""
-    from rcmplan.compiled import cache as fast_cache
     from rcmplan.job import run_scenario
     from rcmplan.scene.scenario import load_scenario
 
-    fast_cache.set_mode("off" if path == "reference" else "on")
+    use_path("off" if path == "reference" else "on")
     init = MujocoPlant.__init__
 
     def stepped_init(plant: MujocoPlant, *args: Any, **kwargs: Any) -> None:
@@ -104,7 +103,7 @@ def injection(path: str) -> dict[str, Any]:
         result = run_scenario(load_scenario("default").with_plant("mujoco"))
         wall, cpu = time.perf_counter() - t, time.process_time() - c
     finally:
-        fast_cache.set_mode(None)
+        use_path(None)
         MujocoPlant.__init__ = init  # type: ignore[method-assign]
     s = result.summary()
     sim = float(result.log.time[-1]) if len(result.log) else 0.0

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from _common import per_call, quick, row
+from _common import per_call, quick, row, use_path
 from rcmplan.teleop import SyntheticSurgeon, TeleopSettings, run_replay
 from rcmplan.teleop.run import TeleopResult
 from rcmplan.teleop.samples import MasterSample
@@ -58,14 +58,12 @@ def pipeline_cost(result: TeleopResult) -> tuple[float, float]:
 def reference_control(compiled: dict[str, Any]) -> float:
     """The control step's median [s] of the same wflc session on the reference path
     (RCMPLAN_FAST off for it), checked to give the same figures as the compiled run."""
-    from rcmplan.compiled import cache as fast_cache
 
-    before = fast_cache.mode()
-    fast_cache.set_mode("off")
+    use_path("off")
     try:
         result, s = session("wflc")
     finally:
-        fast_cache.set_mode(before)
+        use_path(None)
     for key in ("max_rcm_deviation_m", "tip_tremor_rms_m", "tracking_rms_m"):
         if not np.isclose(s[key], compiled[key], rtol=1e-9, atol=1e-15):
             raise RuntimeError(f"{key}: reference {s[key]} against compiled {compiled[key]}")

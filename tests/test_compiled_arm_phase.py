@@ -9,9 +9,7 @@ import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they
 import numpy as np
 import pytest
 
-from logcheck import assert_same_log as same_log
 from rcmplan.compiled import arm_phase
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.control import Controller, DlsSolver, LoopSettings, Phase, PinvSolver, TipSolver
 from rcmplan.control.log import RunLog
 from rcmplan.control.solvers import Solver
@@ -23,13 +21,16 @@ from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
 
+from logcheck import assert_same_log as same_log
+from paths import use_path
+
 TOL = 1e-12
 
 
 @pytest.fixture(autouse=True)
 def mode_restored() -> Iterator[None]:
     yield
-    fast_cache.set_mode(None)
+    use_path(None)
 
 
 @pytest.fixture(scope="module")
@@ -60,7 +61,7 @@ class SteppedPlant(KinematicPlant):
 def run(mode: str, robot: SerialArm, solver: Solver, phase: Phase, q0: np.ndarray,
         settings: LoopSettings | None = None,
         plant_type: type[KinematicPlant] = KinematicPlant) -> tuple[Controller, RunLog]:  # fmt: skip
-    fast_cache.set_mode(mode)
+    use_path(mode)
     plant = plant_type(robot)
     plant.reset(robot.actuators_from_joints(q0))
     ctl = Controller(plant, solver, settings=settings)
@@ -127,7 +128,7 @@ def test_the_free_approach_with_the_damped_tip_solver_gives_the_reference_log(
     tip_dls = TipSolver(damping=1e-3)
     logs = []
     for mode in ("off", "on"):
-        fast_cache.set_mode(mode)
+        use_path(mode)
         plant = KinematicPlant(ur5)
         ctl = Controller(plant, PinvSolver(), free_solver=tip_dls)
         logs.append((ctl, ctl.run([phase])))
@@ -141,7 +142,7 @@ def stops(robot: SerialArm, solver: Solver, phase: Phase, q0: np.ndarray, error:
     """Both paths raise `error` with the same message, log, plant state and lambda."""
     got = []
     for mode in ("off", "on"):
-        fast_cache.set_mode(mode)
+        use_path(mode)
         plant = plant_type(robot)
         plant.reset(robot.actuators_from_joints(q0))
         ctl = Controller(plant, solver, settings=settings)
@@ -193,7 +194,7 @@ def test_a_joint_leaving_its_travel_raises_the_reference_error(
     fixed = Phase(phase.name, phase.plan(q0))  # run_phase checks no fixed targets (run does)
     got = []
     for mode in ("off", "on"):
-        fast_cache.set_mode(mode)
+        use_path(mode)
         plant = plant_type(ur5)
         plant.reset(q0)
         ctl = Controller(plant, PinvSolver())

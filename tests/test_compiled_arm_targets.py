@@ -22,11 +22,13 @@ from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
 
+from paths import use_path
+
 
 @pytest.fixture(autouse=True)
 def mode_restored() -> Iterator[None]:
     yield
-    fast_cache.set_mode(None)
+    use_path(None)
 
 
 @pytest.fixture(scope="module", params=["ur5", "panda"])
@@ -43,11 +45,11 @@ def injection_targets(robot: SerialArm) -> list[np.ndarray]:
 
 
 def reference_check(robot: SerialArm, targets: np.ndarray) -> None:
-    fast_cache.set_mode("off")
+    use_path("off")
     try:
         Controller(KinematicPlant(robot), PinvSolver()).check_targets(targets)
     finally:
-        fast_cache.set_mode(None)
+        use_path(None)
 
 
 def same_error(robot: SerialArm, targets: np.ndarray, error: type[Exception]) -> None:
@@ -86,7 +88,7 @@ def test_the_runner_screens_arm_targets(robot: SerialArm, monkeypatch) -> None:
     calls = []
     monkeypatch.setattr(arm, "check_arm_targets", lambda *a: calls.append(a) or True)
     monkeypatch.setattr("rcmplan.compiled.runner.check_arm_targets", arm.check_arm_targets)
-    fast_cache.set_mode("on")
+    use_path("on")
     assert fast_check_targets(robot, injection_targets(robot)[1])
     assert len(calls) == 1
 

@@ -11,8 +11,6 @@ import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they
 import numpy as np
 import pytest
 
-from logcheck import assert_same_log as same_log
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled import curved_arm, curved_iramis, curved_phase
 from rcmplan.compiled import curved_kernels as ck
 from rcmplan.compiled.curved import CurvedArrays, arm_work_shape, curved_arrays
@@ -41,6 +39,9 @@ from rcmplan.scene.procedures import Steps, injection
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.sim import KinematicPlant
 
+from logcheck import assert_same_log as same_log
+from paths import use_path
+
 TOL = 1e-12
 ROBOTS = ("iramis", "ur5")
 METHODS = {"pinv": CURVED_PINV, "dls": CURVED_DLS}
@@ -49,7 +50,7 @@ METHODS = {"pinv": CURVED_PINV, "dls": CURVED_DLS}
 @pytest.fixture(autouse=True)
 def mode_restored() -> Iterator[None]:
     yield
-    fast_cache.set_mode(None)
+    use_path(None)
 
 
 @pytest.fixture(scope="module", params=ROBOTS)
@@ -152,11 +153,11 @@ def curved_run(name: str, method: str, mode: str, phases: int = 5,
     ctl = Controller(plant, solver, make_free_solver(robot, scenario.method_settings),
                      settings=settings or replace(scenario.loop, rcm_bound=None),
                      robot=robot)  # fmt: skip
-    fast_cache.set_mode(mode)
+    use_path(mode)
     try:
         return ctl, ctl.run(scenario.phases(robot)[:phases])
     finally:
-        fast_cache.set_mode(None)
+        use_path(None)
 
 
 @pytest.mark.parametrize("name", ROBOTS)
@@ -206,7 +207,7 @@ def test_a_roll_beyond_its_travel_raises_the_reference_error() -> None:
         plant.reset(robot.actuators_from_joints(q0))
         ctl = Controller(plant, CurvedPinvSolver(), robot=robot)
         ctl.lam = start.lam
-        fast_cache.set_mode(mode)
+        use_path(mode)
         with pytest.raises(SliderLimitError) as info:
             ctl.run_phase(Phase("roll", target[None, :]))
         messages.append(str(info.value))
@@ -220,7 +221,7 @@ class SteppedPlant(KinematicPlant):
 
 
 def test_a_plant_without_exact_commands_takes_the_reference_loop(robot: CurvedTipRobot) -> None:
-    fast_cache.set_mode("on")
+    use_path("on")
     ctl = Controller(SteppedPlant(robot.base), CurvedPinvSolver(), robot=robot)
     target = stack_value(CURVED_TASKS, robot, robot.home, 0.5)[None, :]
     assert not curved_phase.run_if_fast(ctl, ctl.solver, target, 0, 0)
@@ -229,7 +230,7 @@ def test_a_plant_without_exact_commands_takes_the_reference_loop(robot: CurvedTi
 def test_the_whole_pose_step_of_a_redundant_arm_takes_the_reference_loop() -> None:
     base = make_robot("panda")
     robot = curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.25))
-    fast_cache.set_mode("on")
+    use_path("on")
     plant = KinematicPlant(base)
     ctl = Controller(plant, CurvedPinvSolver(), robot=robot)
     target = stack_value(CURVED_POSE_TASKS, robot, robot.home, 0.0)[None, :]
@@ -245,7 +246,7 @@ def test_a_straight_needle_keeps_the_straight_records_on_the_compiled_path() -> 
         eye = default_eye(robot)
         plant = KinematicPlant(base)
         plant.reset(robot.home_actuators)
-        fast_cache.set_mode("on")
+        use_path("on")
         ctl = Controller(plant, PinvSolver(), robot=robot)
         logs.append(ctl.run(injection(robot, eye, default_points(eye), visits=("p4",))))
     assert_same_log(logs[1], logs[0])
@@ -262,7 +263,7 @@ def test_the_target_screen_follows_the_reference_newton_path(robot: CurvedTipRob
                                                              monkeypatch) -> None:  # fmt: skip
     seeds = []
     for mode in ("off", "on"):
-        fast_cache.set_mode(mode)
+        use_path(mode)
         ctl = Controller(KinematicPlant(robot.base), CurvedPinvSolver(), robot=robot)
         if mode == "on":  # every target cleared: no reference solve
             monkeypatch.setattr("rcmplan.control.curved_targets.solve_curved_pose", None)
@@ -288,7 +289,7 @@ def test_a_target_the_needle_cannot_take_raises_the_reference_error(
         targets[20, 5] = np.nan
     messages = []
     for mode in ("off", "on"):
-        fast_cache.set_mode(mode)
+        use_path(mode)
         ctl = Controller(KinematicPlant(robot.base), CurvedPinvSolver(), robot=robot)
         if accepted:
             ctl.check_targets(targets)

@@ -7,7 +7,6 @@ import math
 import numpy as np
 import pytest
 
-from fd import fd_jacobian
 from rcmplan.control.curved import (
     CURVED_TASKS,
     CurvedDlsSolver,
@@ -26,6 +25,8 @@ from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim.kinematic import KinematicPlant
+
+from fd import fd_jacobian
 
 
 def _curved(name: str, arc_angle: float = 0.4) -> CurvedTipRobot:

@@ -7,12 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from fd import fd_jacobian
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.curved import CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.needle import angles_from_axis
 from rcmplan.robot.registry import make_robot
+
+from fd import fd_jacobian
 
 
 @pytest.fixture(scope="module", params=["iramis", "ur5"])

@@ -10,8 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fd import fd_jacobian
 from rcmplan.analysis.limits import violations
+
+from fd import fd_jacobian
 
 for _module in ("dqrobotics", "quadprog"):
     pytest.importorskip(_module, reason=f"the DQ Robotics peer needs {_module} (dev extra)")

@@ -7,19 +7,20 @@ from collections.abc import Iterator
 
 import pytest
 
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.job import execution_paths, run_scenario
 from rcmplan.scene.scenario import load_scenario
+
+from paths import use_path
 
 
 @pytest.fixture(autouse=True)
 def mode_restored() -> Iterator[None]:
     yield
-    fast_cache.set_mode(None)
+    use_path(None)
 
 
 def summary(mode: str, method: str = "pinv") -> dict:
-    fast_cache.set_mode(mode)
+    use_path(mode)
     result = run_scenario(load_scenario("default").with_method(method))
     assert result.ok, result.message
     return result.summary()
@@ -54,7 +55,7 @@ def test_free_phases_without_a_kernel_make_the_run_mixed() -> None:
     from rcmplan.scene.procedures import injection
     from rcmplan.sim import KinematicPlant
 
-    fast_cache.set_mode("on")
+    use_path("on")
     robot = Iramis()
     eye = default_eye(robot)
     free = LimitedTipSolver(tip_speed=0.01)  # a tip speed bound: no compiled kernel
@@ -77,7 +78,7 @@ def test_a_run_stopped_inside_compiled_code_names_the_phase_it_stopped_in() -> N
     pytest.importorskip("numba")
     from dataclasses import replace
 
-    fast_cache.set_mode("on")
+    use_path("on")
     scenario = load_scenario("default")
     scenario = replace(scenario, loop=replace(scenario.loop, max_iterations=1))
     s = run_scenario(scenario).summary()

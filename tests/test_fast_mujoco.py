@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from rcmplan import Iramis
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled import mujoco_loop as fm
 from rcmplan.control import (
     Controller,
@@ -28,6 +27,8 @@ from rcmplan.sim.mujoco.actuators import PiezoParameters
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.plant import MujocoPlant
 
+from paths import use_path
+
 # MuJoCo through rcmplan (which picks headless EGL first); without the `sim` extra these tests
 # fail, they do not skip.
 mujoco = mujoco_module()
@@ -35,9 +36,9 @@ mujoco = mujoco_module()
 
 @pytest.fixture(autouse=True)
 def fast_on() -> Iterator[None]:
-    fast_cache.set_mode("on")
+    use_path("on")
     yield
-    fast_cache.set_mode(None)
+    use_path(None)
 
 
 def phases(robot: Iramis, n: int = 12) -> list[Phase]:
@@ -166,21 +167,3 @@ def test_library_path_finds_the_loaded_mujoco_library() -> None:
     assert path is not None and path.exists()
     addresses = compiled.function_addresses(mujoco)
     assert addresses is not None and all(a > 0 for a in addresses)
-
-
-@pytest.mark.parametrize("n, compiled", [(80, True), (12, False)])
-def test_auto_mode_counts_a_whole_dynamic_job_towards_the_payoff(
-    n: int, compiled: bool, monkeypatch: pytest.MonkeyPatch, tmp_path: Any
-) -> None:
-    stamp = tmp_path / "warm.ok"
-    stamp.write_text("warm\n")
-    fast_cache.set_mode("auto")
-    monkeypatch.setattr(fast_cache, "loaded", lambda: False)  # as in a new process
-    monkeypatch.setattr(fast_cache, "stamp_path", lambda: stamp)  # numba's cache is warm
-    monkeypatch.setitem(fast_cache._state, "reference_targets", 0)
-    monkeypatch.setattr(fm, "run_phase_on_mujoco", counted(fm.run_phase_on_mujoco))
-    calls.clear()
-    robot = Iramis()
-    Controller(MujocoPlant(robot), PinvSolver()).run(phases(robot, n)[:1])
-    # 80 targets x 40 periods pay for loading the kernels (3,000); 12 do not
-    assert calls == ([1] if compiled else [])

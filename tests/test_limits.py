@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fd import fd_jacobian
 from rcmplan.control.limits import (
     ActuatorLimit,
     RcmLimit,
@@ -20,6 +19,8 @@ from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points
+
+from fd import fd_jacobian
 
 
 @pytest.fixture(scope="module", params=["iramis", "ur5", "panda"])

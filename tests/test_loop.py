@@ -29,6 +29,8 @@ from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import Steps, line_targets
 from rcmplan.sim import KinematicPlant
 
+from paths import use_path
+
 UM = 1e-6
 
 
@@ -186,13 +188,12 @@ def test_log_builder_keeps_a_copy_of_each_block() -> None:
 
 @pytest.mark.parametrize("mode", ["off", "on"])
 def test_a_phase_beyond_the_rcm_bound_stops_the_run_on_either_path(robot: Iramis, mode) -> None:
-    from rcmplan.compiled import cache as fast_cache
     from rcmplan.exceptions import RcmBoundError
     from rcmplan.scene.procedures import injection
 
     eye = default_eye(robot)
     phases = injection(robot, eye, default_points(eye))
-    fast_cache.set_mode(mode)
+    use_path(mode)
     try:
         ctl = Controller(
             KinematicPlant(robot), PinvSolver(), settings=LoopSettings(rcm_bound=0.2e-6)
@@ -200,7 +201,7 @@ def test_a_phase_beyond_the_rcm_bound_stops_the_run_on_either_path(robot: Iramis
         with pytest.raises(RcmBoundError, match=r"beyond the bound of 0\.200 um") as info:
             ctl.run(phases)
     finally:
-        fast_cache.set_mode(None)
+        use_path(None)
     err = info.value
     assert err.deviation > 0.2e-6
     assert err.log is not None

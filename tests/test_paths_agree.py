@@ -11,11 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import scenario_from_dict
 
-pytestmark = pytest.mark.skipif(not fast_cache.numba_available(), reason="needs numba")
+from paths import use_path
 
 controllers = st.fixed_dictionaries(
     {"method": st.sampled_from(["pinv", "pinv-thesis", "dls"])},
@@ -36,12 +35,12 @@ steps = st.fixed_dictionaries(
 @pytest.fixture(autouse=True)
 def _mode_restored() -> Iterator[None]:
     yield
-    fast_cache.set_mode(None)
+    use_path(None)
 
 
 def outcome(data: dict[str, Any], mode: str) -> tuple[str, str, int]:
     """(status, message, records) of the scenario on one path."""
-    fast_cache.set_mode(mode)
+    use_path(mode)
     result = run_scenario(scenario_from_dict(data))
     return result.status, result.message, len(result.log)
 

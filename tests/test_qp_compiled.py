@@ -9,7 +9,6 @@ import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they
 import numpy as np
 import pytest
 
-from logcheck import assert_same_log as same_log
 from rcmplan import Iramis
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled import qp_phase
@@ -33,6 +32,8 @@ from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
 
 from conftest import random_joints
+from logcheck import assert_same_log as same_log
+from paths import use_path
 
 # DAQP's primal tolerance is 1e-6 in the variables' unit (um): 1e-12 m per step.
 X_TOL = 1e-6
@@ -41,17 +42,17 @@ RUN_TOL = 1e-11
 
 @pytest.fixture(autouse=True)
 def fast_on() -> Iterator[None]:
-    fast_cache.set_mode("on")
+    use_path("on")
     yield
-    fast_cache.set_mode(None)
+    use_path(None)
 
 
 def reference(run):  # type: ignore[no-untyped-def]
-    fast_cache.set_mode("off")
+    use_path("off")
     try:
         return run()
     finally:
-        fast_cache.set_mode("on")
+        use_path("on")
 
 
 def solvers(robot: Iramis) -> list[QpSolver]:
@@ -233,17 +234,13 @@ class SteepEye:
         return 2.0 * (self.retina_radius - float(np.linalg.norm(p - self.center)))
 
 
-@pytest.mark.parametrize(
-    "case", ["mode off", "other back end", "subclass", "daqp binding unusable", "odd eye"]
-)
+@pytest.mark.parametrize("case", ["other back end", "subclass", "daqp binding unusable", "odd eye"])
 def test_compiled_qp_declines_what_it_does_not_reproduce(
     robot: Iramis, case: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     eye = default_eye(robot)
     solver: QpSolver = QpSolver(robot, eye)
-    if case == "mode off":
-        fast_cache.set_mode("off")
-    elif case == "other back end":
+    if case == "other back end":
         solver = QpSolver(robot, eye, backend="quadprog")
     elif case == "subclass":
         solver = RecordingQp(robot, eye)
@@ -329,5 +326,3 @@ def test_the_period_step_declines_what_it_does_not_reproduce(robot: Iramis) -> N
     assert period_step(QpSolver(robot, eye, limits=QpLimits(tip_speed=0.01)), 10_000) is None
     ur5 = make_robot("ur5")
     assert period_step(QpSolver(ur5, default_eye(ur5)), 10_000) is None
-    fast_cache.set_mode("off")
-    assert period_step(QpSolver(robot, eye), 10_000) is None

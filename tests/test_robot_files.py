@@ -10,7 +10,6 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from fd import fd_jacobian
 from rcmplan import Iramis
 from rcmplan.exceptions import (
     InvalidInputError,
@@ -22,6 +21,8 @@ from rcmplan.robot.chain import JointChain
 from rcmplan.robot.library import ROBOT_FILES, panda_chain, robot_file, ur5_chain
 from rcmplan.robot.mjcf import load_mjcf
 from rcmplan.robot.urdf import load_urdf
+
+from fd import fd_jacobian
 
 TIPS = {"ur5": "tool0", "panda": "panda_link8"}
 CHAINS = {"ur5": ur5_chain, "panda": panda_chain}

@@ -5,7 +5,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fd import fd_jacobian
 from rcmplan import Iramis, IramisParameters, JointChain, SerialArm, StraightNeedle
 from rcmplan.compiled.runner import kernel_params
 from rcmplan.control import Controller, PinvSolver
@@ -26,6 +25,8 @@ from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.sim.kinematic import KinematicPlant
+
+from fd import fd_jacobian
 
 TASKS = (TipPosition(), NeedleAngles(), RcmPoint(), NeedleBase(), Posture())
 
@@ -108,15 +109,9 @@ def test_an_iramis_subclass_with_other_kinematics_runs_on_the_reference_path() -
         def needle_point(self, q, lam):  # type: ignore[no-untyped-def]
             return super().needle_point(q, lam) + np.array([0.0, 0.0, 1e-3 * lam])
 
-    assert kernel_params(Iramis()) is not None or not _numba()
+    assert kernel_params(Iramis()) is not None
     assert kernel_params(Tilted()) is None
-    assert kernel_params(Iramis(IramisParameters(l6=0.08))) is not None or not _numba()
-
-
-def _numba() -> bool:
-    from rcmplan.compiled import cache
-
-    return cache.numba_available()
+    assert kernel_params(Iramis(IramisParameters(l6=0.08))) is not None
 
 
 def test_the_subclass_run_matches_its_own_reference_loop() -> None:

@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from fd import fd_jacobian
 from rcmplan.control.limits import StepInput, WorkspaceBound, kinematics
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.qp import QpSolver
@@ -15,6 +14,8 @@ from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
+
+from fd import fd_jacobian
 
 
 def box_about(eye, half: float = 2e-3, gain: float = 0.5) -> WorkspaceBound:

@@ -1,9 +1,8 @@
 """`rcmplan compare`: the same procedure with every method, one table and one chart.
 
-Every method is measured on the same execution path: the path is pinned for the whole
-comparison (`fast_cache.pinned`: compiled when numba is installed, else the reference code),
-and each method runs once untimed before its measured run, so no method pays for loading or
-compiling code that a later method then gets for free.
+Every method runs once untimed before its measured run, so no method pays for loading or
+compiling code that a later method then gets for free; each row says which code moved the
+robot (`execution_path`).
 """
 
 from __future__ import annotations
@@ -63,25 +62,22 @@ def measure(scenario: Scenario, out: Path | None = None) -> dict[str, Any]:
 def compare_rows(
     args: argparse.Namespace, rows: list[dict[str, Any]], out: Path | None = None
 ) -> str:
-    """Run the scenario once per method on one pinned path, appending a row to `rows` as each
-    method finishes (its run written to out/<method>/ when `out` is given); a method whose
-    extra is missing is reported, not run. Returns the path."""
-    from rcmplan.compiled import cache as fast_cache
-
+    """Run the scenario once per method, appending a row to `rows` as each method finishes
+    (its run written to out/<method>/ when `out` is given); a method whose extra is missing is
+    reported, not run. Returns how the execution path was chosen."""
     base = scenario_from_args(argparse.Namespace(**{**vars(args), "method": None}))
-    with fast_cache.pinned() as path:
-        for method in args.method or METHODS:
-            try:
-                rows.append(measure(base.with_method(method), out))
-            except MissingExtraError as exc:
-                rows.append({"method": method, "status": exc.status,
-                             "message": f"MissingExtraError: {exc}",
-                             "max_rcm_deviation_m": None, "max_tip_error_m": None,
-                             "iterations": 0, "wall_time_s": None,
-                             "wall_time_per_iteration_s": None,
-                             "execution_path": None, "compiled_phases": [],
-                             "phase_count": 0})  # fmt: skip
-    return "compiled where a method has a kernel" if path == "on" else "reference"
+    for method in args.method or METHODS:
+        try:
+            rows.append(measure(base.with_method(method), out))
+        except MissingExtraError as exc:
+            rows.append({"method": method, "status": exc.status,
+                         "message": f"MissingExtraError: {exc}",
+                         "max_rcm_deviation_m": None, "max_tip_error_m": None,
+                         "iterations": 0, "wall_time_s": None,
+                         "wall_time_per_iteration_s": None,
+                         "execution_path": None, "compiled_phases": [],
+                         "phase_count": 0})  # fmt: skip
+    return "compiled where a method has a kernel"
 
 
 def print_table(rows: list[dict[str, Any]], path: str) -> None:
@@ -97,7 +93,7 @@ def print_table(rows: list[dict[str, Any]], path: str) -> None:
         for r in rows
     ]  # fmt: skip
     print(table(HEAD, body))
-    print(f"execution path pinned for every method: {path}; wall times from the second of "
+    print(f"execution path: {path}; wall times from the second of "
           "two runs in this process")  # fmt: skip
 
 

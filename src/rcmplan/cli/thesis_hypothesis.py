@@ -22,7 +22,6 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.analysis import thesis
 from rcmplan.analysis.metrics import overall, phase_metrics
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.loop import Controller, LoopSettings, Phase, interpolate
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, Tolerance
@@ -64,13 +63,10 @@ def run(name: str, robot: Iramis, solver: Solver, phases: list[Phase], q: FloatA
     )
     ctl.lam = lam
     start, status = time.perf_counter(), "ok"
-    fast_cache.set_mode("off")
-    try:
+    try:  # TableSolver is a subclass: the compiled runner declines it, the Python loop runs
         log = ctl.run(phases)
     except RcmplanError as exc:
         log, status = exc.log, f"{type(exc).__name__}: {exc}"
-    finally:
-        fast_cache.set_mode(None)
     wall = time.perf_counter() - start
     rcm = [p for p in phase_metrics(log) if p.inside_eye]
     dev = overall(rcm)["max_rcm_deviation_m"]

@@ -83,11 +83,11 @@ def _reproduces(robot: RobotModel, packed: ArmArrays) -> bool:
 
 def arm_arrays(robot: RobotModel) -> ArmArrays | None:
     """The kernels' arrays for `robot` if they reproduce it (see the module docstring), else
-    None (also without numba). Checked once per model object."""
+    None. Checked once per model object."""
     if robot in _checked:
         return _checked[robot]
     packed: ArmArrays | None = None
-    if fast_cache.numba_available() and _arm_like(robot):
+    if _arm_like(robot):
         packed = pack_arm(robot)
         with np.errstate(all="ignore"):
             if not _reproduces(robot, packed):

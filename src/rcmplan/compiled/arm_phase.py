@@ -58,11 +58,8 @@ def applies(controller: Controller, solver: Solver) -> bool:
 def run_if_fast(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
-    """Run the phase compiled if the fast path is on for it (`cache.use_fast`) and the kernels
-    reproduce the arm (the whole loop compiled on a plant with `exact_commands`); False
-    (nothing done) otherwise."""
-    if not fast_cache.use_fast(ITERATIONS_PER_TARGET * len(targets)):
-        return False
+    """Run the phase compiled if the kernels reproduce the arm (the whole loop compiled on a
+    plant with `exact_commands`); False (nothing done) otherwise."""
     if arm_arrays(controller.robot) is None:
         return False
     if getattr(controller.plant, "exact_commands", False):

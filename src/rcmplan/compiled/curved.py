@@ -33,7 +33,6 @@ PROBE_TOL = 1e-12
 # Newton steps within which the screen clears a target: the `curved` scenario's targets take at
 # most 3 of the 60 (measured); a slower solve might end otherwise in the reference
 CLEAR_ITERATIONS = 15
-CHECK_WEIGHT = 4  # a curved target's reference check costs about a phase target's 4 iterations
 _IRAMIS_PROBES = np.array([[4e-3, 0.3, -6e-3, -0.2, 5e-3, 0.4],
                            [-9e-3, -0.5, 2e-3, 0.6, -3e-3, -1.1],
                            [1e-3, 0.05, 1e-2, 0.12, 2e-2, 0.0]])  # fmt: skip
@@ -145,7 +144,7 @@ def curved_arrays(robot: RobotModel) -> CurvedArrays | None:
         return _checked[robot]
     arrays: CurvedArrays | None = None
     curved = isinstance(robot, CurvedTipRobot) and robot.needle.curved
-    if curved and type(robot) is CurvedTipRobot and fast_cache.numba_available():
+    if curved and type(robot) is CurvedTipRobot:
         arrays = _pack(robot)
         with np.errstate(all="ignore"):
             if arrays is not None and not _reproduces(robot, arrays):
@@ -170,8 +169,6 @@ def check_curved_targets(
 
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     if targets.ndim != 2 or targets.shape[1] != 7:
-        return None
-    if not fast_cache.use_fast(CHECK_WEIGHT * targets.shape[0]):
         return None
     arrays = curved_arrays(robot)
     if arrays is None:

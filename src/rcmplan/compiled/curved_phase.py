@@ -51,12 +51,9 @@ def applies(controller: Controller, solver: Solver) -> bool:
 def run_if_fast(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
-    """Run the phase compiled if the plant reaches its commands exactly, the fast path is on
-    for it (`cache.use_fast`) and the kernels reproduce the robot; False (nothing done)
-    otherwise."""
+    """Run the phase compiled if the plant reaches its commands exactly and the kernels
+    reproduce the robot; False (nothing done) otherwise."""
     if not getattr(controller.plant, "exact_commands", False):
-        return False
-    if not fast_cache.use_fast(ITERATIONS_PER_TARGET * len(targets)):
         return False
     arrays = curved_arrays(controller.robot)
     if arrays is None or (method_code(solver) == CURVED_POSE and arrays.m > POSE_JOINTS):

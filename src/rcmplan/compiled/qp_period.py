@@ -23,10 +23,6 @@ from rcmplan.control.augmented import extended_task
 from rcmplan.control.qp import QpSolver, joints_step
 from rcmplan.exceptions import QPError, RcmplanError
 
-# One period's reference QP step (about 200 us) counted in targets of the reference loop
-# (about 0.1 ms each) towards mode "auto"'s payoff (`fast_cache.use_fast`).
-PERIOD_WEIGHT = 2
-
 StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 
 
@@ -34,10 +30,10 @@ def period_step(solver: QpSolver, periods: int) -> StepFunction | None:
     """A compiled `solver.step` for about `periods` calls, or None: not a plain QpSolver with
     DAQP and a straight needle, a servo plan, a robot or eye or limit the kernels do not
     reproduce (`qp_params`: one workspace box is the only extra limit), DAQP's C binding
-    unusable, or the fast path off (or not paying yet in mode "auto")."""
+    unusable."""
     if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
         return None
-    if solver.servo is not None or not fast_cache.use_fast(PERIOD_WEIGHT * periods):
+    if solver.servo is not None:
         return None
     robot = solver.robot
     if kernel_params(robot) is None or fast_cache.qp_loop() is None:

@@ -8,11 +8,9 @@ of the methods the kernels implement (exact types: a subclass may change `step`)
 one that says what it can do (`exact_commands`: a command is reached exactly in one period;
 `compiled_physics`: its period can run in compiled code).
 
-Needs numba (the `fast` extra); without it every entry point here either raises
-MissingExtraError (explicit use: `FastIramis`) or returns False so that the caller runs the
-reference Python code (`fast_converge_phase`, `fast_check_targets`). Results equal the
-reference to rounding (tests/test_fast.py checks 1e-12). When the compiled path is used is
-decided in `rcmplan.compiled.cache` (mode "auto", "on" or "off"; see docs/performance.md).
+Where it applies it always runs, from the first target on (numba compiles each kernel once
+per installation and caches it: `rcmplan.compiled.cache`). Results equal the reference Python
+loop's to rounding (tests/test_fast.py checks 1e-12).
 """
 
 from __future__ import annotations
@@ -40,13 +38,11 @@ from rcmplan.robot.model import RobotModel, SerialArm
 from rcmplan.sim.kinematic import KinematicPlant
 
 if TYPE_CHECKING:
-    from rcmplan.control.phase import Phase
     from rcmplan.control.runner import ControlState as Controller
 
 __all__ = [
     "FastIramis",
     "compile_kernels",
-    "expect_job",
     "fast_check_targets",
     "fast_converge_phase",
     "method_code",
@@ -54,21 +50,17 @@ __all__ = [
 ]
 
 
-DYNAMIC_ITERATIONS_PER_TARGET = 40  # measured on the MuJoCo injection: 34,092 / 805 targets
-
-
 def fast_converge_phase(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
     """Run Algorithm 1 on every target of a phase in compiled code, if it applies.
 
-    Applies when the solver is a PinvSolver, DlsSolver or TipSolver and the fast path is
-    enabled (see `fast_cache.use_fast`); a QpSolver on the kinematic plant runs its own
-    compiled loop (`qp_phase`), a curved needle's solver its own phases (`curved_phase`, on the
-    kinematic plant). On a KinematicPlant, and on a dynamic MujocoPlant
-    (physics through MuJoCo's C functions, `fast_mujoco`), the whole loop is compiled; on any
-    other plant the plant steps in Python and each iteration's control work is one compiled
-    call. Records go to controller.log, the plant and controller.lam end where the
+    Applies when the solver is a PinvSolver, DlsSolver or TipSolver; a QpSolver on the
+    kinematic plant runs its own compiled loop (`qp_phase`), a curved needle's solver its own
+    phases (`curved_phase`, on the kinematic plant). On a KinematicPlant, and on a dynamic
+    MujocoPlant (physics through MuJoCo's C functions, `fast_mujoco`), the whole loop is
+    compiled; on any other plant the plant steps in Python and each iteration's control work
+    is one compiled call. Records go to controller.log, the plant and controller.lam end where the
     reference loop leaves them, and an early stop raises the reference loop's exception.
     Returns False (nothing done) otherwise.
     """
@@ -77,8 +69,6 @@ def fast_converge_phase(
     if arm_phase.applies(controller, solver):  # any serial arm, on any plant
         return arm_phase.run_if_fast(controller, solver, targets, pid, sid)
     if qp_phase.applies(controller, solver):  # the QP controller, on the kinematic plant
-        if not fast_cache.use_fast(qp_phase.TARGET_WEIGHT * len(targets)):
-            return False
         if kernel_params(controller.robot) is None:
             return False
         return qp_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
@@ -89,40 +79,17 @@ def fast_converge_phase(
         exact and iramis_method(solver, controller.robot) is not None
     ):
         return False
-    # Whether compiling pays is asked first: checking the robot loads the kernels.
-    if exact:
-        if not fast_cache.use_fast(len(targets)) or kernel_params(controller.robot) is None:
-            return False
-        run_phase_compiled(controller, solver, targets, pid, sid)
-        return True
-    # A plant with dynamics needs tens of iterations per target, each a physics step.
-    if not fast_cache.use_fast(DYNAMIC_ITERATIONS_PER_TARGET * len(targets)):
-        return False
     if kernel_params(controller.robot) is None:
         return False
+    if exact:
+        run_phase_compiled(controller, solver, targets, pid, sid)
+        return True
     if getattr(controller.plant, "compiled_physics", False):
         done = fast_cache.closed_loop().run_phase_on_mujoco(controller, solver, targets, pid, sid)
         if done:
             return True
     run_phase_on_plant(controller, solver, targets, pid, sid)
     return True
-
-
-def expect_job(controller: Controller, phases: list[Phase]) -> None:
-    """Before a job on a plant with dynamics, count all its planned targets towards mode
-    "auto"'s payoff: there every control period costs about 0.5 ms on the reference path and
-    0.1 ms compiled, so a whole injection pays for loading the kernels from its first phase on.
-    A kinematic plant keeps counting phase by phase (its reference loop is cheap), except with
-    the QP controller, whose reference step costs about 200 us: its RCM targets count
-    `qp_phase.TARGET_WEIGHT` times each from the start."""
-    n = sum(len(ph.targets) for ph in phases if not callable(ph.targets))
-    if not getattr(controller.plant, "exact_commands", False):
-        fast_cache.expect(DYNAMIC_ITERATIONS_PER_TARGET * n)
-        return
-    solver = getattr(controller, "solver", None)
-    if solver is not None and qp_phase.applies(controller, solver):
-        rcm = sum(len(ph.targets) for ph in phases if ph.kind == "rcm" and not callable(ph.targets))
-        fast_cache.expect(qp_phase.TARGET_WEIGHT * rcm)
 
 
 _PROBES = np.array([[4e-3, 0.3, -6e-3, -0.2, 5e-3, 0.4], [-9e-3, -0.5, 2e-3, 0.6, -3e-3, -1.1],
@@ -136,7 +103,7 @@ def kernel_params(robot: RobotModel) -> FloatArray | None:
     if robot in _kernel_ok:
         return _kernel_ok[robot]
     P: FloatArray | None = None
-    if isinstance(robot, Iramis) and fast_cache.numba_available():
+    if isinstance(robot, Iramis):
         P = robot_params(robot)
         k = fast_cache.kernels()
         out = np.empty(3)
@@ -157,14 +124,15 @@ def kernel_params(robot: RobotModel) -> FloatArray | None:
 
 
 def fast_check_targets(robot: RobotModel, targets: FloatArray) -> bool:
-    """`solve_pose` on every X_ext target, screened in compiled code; False if not enabled.
+    """`solve_pose` on every X_ext target, screened in compiled code; False if not done (not an
+    (N, 6) array, or a robot the kernels do not reproduce).
 
     The kernel flags every target that might fail (same formulas, margin 1e-12); flagged
     targets go through `solve_pose` in order, which raises the reference exception. A serial
     arm is screened by `arm.check_arm_targets` (Newton's method compiled).
     """
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    if targets.ndim != 2 or targets.shape[1] != 6 or not fast_cache.use_fast(len(targets)):
+    if targets.ndim != 2 or targets.shape[1] != 6:
         return False
     if isinstance(robot, SerialArm):
         return check_arm_targets(robot, targets)
@@ -244,7 +212,9 @@ class FastIramis:
 
 
 def compile_kernels() -> None:
-    """Compile (or load from numba's cache) every kernel with the argument types used here."""
+    """Compile (or load from numba's cache) every kernel with the argument types used here:
+    `python -c "from rcmplan.compiled.runner import compile_kernels; compile_kernels()"` fills
+    the cache ahead of a first run (in a container build, say)."""
     from rcmplan.control.loop import Controller, interpolate
     from rcmplan.control.targets import rcm_target
 
@@ -276,6 +246,7 @@ def compile_kernels() -> None:
             ctl.lam = 1.0 - 8e-3 / robot.params.l6
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
     arm_phase.compile_arm_kernels()
+    curved_phase.compile_curved_kernels()
     if importlib.util.find_spec("daqp") is not None:
         _compile_qp_loop(robot, trocar)
     if importlib.util.find_spec("mujoco") is not None:
@@ -318,10 +289,6 @@ class _SteppedPlant(KinematicPlant):
 
 class CompiledRunner:
     """The compiled path behind the controller's seam (see the module docstring)."""
-
-    def expect_job(self, controller: Controller, phases: list[Phase]) -> None:
-        """Count a job on a plant with dynamics towards mode "auto"'s payoff."""
-        expect_job(controller, phases)
 
     def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
         """Screen targets in compiled code, where it applies."""

@@ -50,8 +50,8 @@ class Controller:
             `free_solver()` if it has one, as the QP does to hold its limits in every phase,
             else the tip pseudoinverse).
         settings: Loop settings.
-        runner: Runs phases faster where it applies (default: the compiled runner when
-            `rcmplan.compiled` is loaded, else the reference code); see `control.runner`.
+        runner: Runs phases in compiled code where it applies (default: the compiled runner,
+            registered by `import rcmplan`); see `control.runner`.
         robot: The model the controller drives, with the plant's actuators (default: the
             plant's own; a curved needle's model on a plant built for its shaft).
     """
@@ -71,7 +71,7 @@ class Controller:
         own = getattr(solver, "free_solver", None)
         self.free_solver: Solver = free_solver or (own() if own is not None else TipSolver())
         self.settings = settings or LoopSettings()
-        self.runner = runner or default_runner()
+        self._runner = runner
         self.lam = 1.0
         self.log = LogBuilder()
         units = self.robot.actuator_units
@@ -85,6 +85,11 @@ class Controller:
         self._planned = 0  # targets planned so far in this run (at most MAX_TARGETS)
         self._check_seed: FloatArray | None = None
         self.on_phase: Callable[[Phase], None] | None = None
+
+    @property
+    def runner(self) -> Runner:
+        """The runner given, else the default one registered when the run starts."""
+        return self._runner or default_runner()
 
     def check_targets(self, targets: FloatArray) -> None:
         """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose), and
@@ -117,7 +122,6 @@ class Controller:
         Phases with target arrays are all checked before any motion; a planned phase is checked
         when it is planned, before its own motion.
         """
-        self.runner.expect_job(self, phases)
         try:
             sizes = [len(ph.targets) for ph in phases if not callable(ph.targets)]
             self._planned = check_plan_size(sum(sizes), "targets of the run")

@@ -3,9 +3,10 @@
 `Controller` asks its runner, before the reference Python code, whether it will check a phase's
 targets or run a whole phase itself; a runner that says yes leaves the controller, its log and
 the plant exactly as the reference loop would. The compiled runner (`rcmplan.compiled`) decides
-by itself, from the robot, solver and plant, whether it applies, and says no otherwise.
-`rcmplan.compiled` registers itself as the default runner when it is imported (`import
-rcmplan` does); without it the reference code runs.
+by itself, from the robot, solver and plant, whether it applies, and says no otherwise (a
+solver or robot subclass, a plant it does not know). `rcmplan.compiled` registers itself as
+the default runner when it is imported (`import rcmplan` does); `Controller(runner=
+ReferenceRunner())` runs the Python loop explicitly.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from typing import Protocol
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.log import LogBuilder
-from rcmplan.control.phase import LoopSettings, Phase
+from rcmplan.control.phase import LoopSettings
 from rcmplan.control.plant import Plant
 from rcmplan.control.solvers import Solver
 from rcmplan.robot.model import RobotModel
@@ -33,10 +34,6 @@ class ControlState(Protocol):
 
 class Runner(Protocol):
     """Runs parts of Algorithms 1 and 2 instead of the reference loop, where it applies."""
-
-    def expect_job(self, controller: ControlState, phases: list[Phase]) -> None:
-        """Told the whole job before it starts (to decide whether compiling pays)."""
-        ...
 
     def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
         """Check RCM targets as `solve_pose` would (raising its errors); False: not done."""
@@ -58,9 +55,6 @@ class Runner(Protocol):
 
 class ReferenceRunner:
     """Runs nothing: the controller's own Python code does everything."""
-
-    def expect_job(self, controller: ControlState, phases: list[Phase]) -> None:
-        """Nothing to prepare."""
 
     def check_targets(self, robot: RobotModel, targets: FloatArray) -> bool:
         """Not done here."""

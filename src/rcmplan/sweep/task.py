@@ -19,7 +19,6 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.analysis.metrics import phase_metrics
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_solver
 from rcmplan.control.plant import Plant
@@ -156,11 +155,10 @@ def run_target(motion: MotionSettings, target_id: int, point: Sequence[float]) -
 def run_chunk(motion: MotionSettings, items: Sequence[TargetItem]) -> list[TargetResult]:
     """run_target on each (id, point) of a chunk, in order (the unit of work of an executor).
 
-    Every chunk runs on the same control path (compiled when numba is installed), so results
-    are identical to the last bit whichever process or executor ran them.
+    Every chunk runs on the same control path (compiled), so results are identical to the
+    last bit whichever process or executor ran them.
     """
-    with fast_cache.pinned():
-        return [run_target(motion, i, p) for i, p in items]
+    return [run_target(motion, i, p) for i, p in items]
 
 
 def _finite(x: float) -> float | None:
