@@ -39,6 +39,7 @@ from rcmplan.compiled.runner import compile_kernels
 from rcmplan.control import Controller, PinvSolver
 from rcmplan.control.curved import CurvedPinvSolver
 from rcmplan.control.curved_targets import solve_curved_pose
+from rcmplan.control.phase import LoopSettings
 from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.robot.iramis import Iramis
@@ -97,7 +98,8 @@ def kernel_run(problem: Problem) -> Any:
         P = robot_params(robot) if arrays is None else arrays.P
         width = REC_WIDTH if arrays is None else record_width(6, roll=True)
         rec, fail = np.empty((cap, width)), np.empty(FAIL_WIDTH)
-        head = (P, code, K, damping, tol, 100, True, float(robot.singular_threshold), targets, 0)
+        bounds = np.array([robot.singular_threshold, LoopSettings().rcm_tolerance])
+        head = (P, code, K, damping, tol, 100, True, bounds, targets, 0)
         kernel = fast_cache.loop_kernels().run_targets
 
         def once() -> tuple[float, int]:

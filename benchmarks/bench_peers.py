@@ -25,6 +25,7 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.records import robot_params
 from rcmplan.compiled.runner import FastIramis
 from rcmplan.control import extended_task, rcm_target, solve_pose
+from rcmplan.control.phase import LoopSettings
 from rcmplan.scene.eye import default_eye
 
 SEED = 20180507
@@ -100,7 +101,8 @@ class CompiledSolve:
         self.rec, self.irec = np.empty((101, 35)), np.empty((101, 2), dtype=np.int64)
         self.info, self.fail = np.zeros(3, dtype=np.int64), np.empty(24)
         tol = np.full(6, 1e-8)
-        self.args = (robot_params(robot), method, np.ones(6), 0.0, tol, 100, method != 3, 0.1)
+        bounds = np.array([0.1, LoopSettings().rcm_tolerance])  # singular floor, RCM step bound
+        self.args = (robot_params(robot), method, np.ones(6), 0.0, tol, 100, method != 3, bounds)
 
     def __call__(self, target: np.ndarray) -> int:
         """Solve; returns the iterations (raises if the loop stopped early)."""

@@ -23,6 +23,7 @@ from rcmplan.compiled.records import robot_params
 from rcmplan.compiled.runner import FastIramis
 from rcmplan.control import Controller, PinvSolver, extended_task, solve_pose
 from rcmplan.control.augmented import augmented_jacobian
+from rcmplan.control.phase import LoopSettings
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection, spiral
 from rcmplan.sim import KinematicPlant
@@ -66,7 +67,19 @@ def loop_rows() -> list[dict[str, Any]]:
     cap = 4 * len(targets) + 100
     rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
     info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
-    args = (robot_params(robot), 0, np.ones(6), 0.0, np.full(6, 1e-8), 100, True, 0.1, targets, 0)
+    bounds = np.array([0.1, LoopSettings().rcm_tolerance])  # singular floor, RCM step bound
+    args = (
+        robot_params(robot),
+        0,
+        np.ones(6),
+        0.0,
+        np.full(6, 1e-8),
+        100,
+        True,
+        bounds,
+        targets,
+        0,
+    )
     s0 = robot.actuators_from_joints(pose.q)
 
     def once() -> float:

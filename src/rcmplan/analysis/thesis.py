@@ -61,7 +61,9 @@ def _run(
     ctl = Controller(
         plant,
         solver,
-        settings=LoopSettings(max_iterations=2000, drift_correction=drift, rcm_bound=None),
+        settings=LoopSettings(
+            max_iterations=2000, drift_correction=drift, rcm_bound=None, rcm_tolerance=None
+        ),
     )
     ctl.lam = lam
     t0 = time.perf_counter()

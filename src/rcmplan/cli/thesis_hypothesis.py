@@ -59,7 +59,9 @@ def run(name: str, robot: Iramis, solver: Solver, phases: list[Phase], q: FloatA
     plant = KinematicPlant(robot)
     plant.reset(robot.actuators_from_joints(q))
     ctl = Controller(
-        plant, solver, settings=LoopSettings(2000, drift_correction=drift, rcm_bound=None)
+        plant,
+        solver,
+        settings=LoopSettings(2000, drift_correction=drift, rcm_bound=None, rcm_tolerance=None),
     )
     ctl.lam = lam
     start, status = time.perf_counter(), "ok"

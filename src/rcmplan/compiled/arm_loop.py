@@ -57,6 +57,7 @@ from rcmplan.compiled.records import (
     STEPPED,
     TIP,
 )
+from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 
 
 @njit(cache=True)
@@ -141,7 +142,7 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
 @njit(cache=True, inline="always")  # inlined into run_arm_targets: a call costs ~0.2 us
 def arm_iterate(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, thr: float, target: FloatArray, pivot: bool,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, target: FloatArray, pivot: bool,
     tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
     row: FloatArray, fail: FloatArray, W: FloatArray, d: FloatArray, framed: bool = False,
 ) -> int:  # fmt: skip
@@ -158,14 +159,11 @@ def arm_iterate(
         fail[i] = s[i]
     if not framed:
         frames(A, ix, s, W)
-    if holds_rcm(method) and drift:
-        base, tip = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
-        num, den = 0.0, 0.0
-        for i in range(3):
-            axis = tip[i] - base[i]
-            num += (trocar[i] - base[i]) * axis
-            den += axis * axis
-        state[0] = min(1.0, max(0.0, num / den))  # the needle point closest to the trocar
+    now = 0.0  # the needle's distance to the trocar [m]
+    if holds_rcm(method):
+        lam, now = closest_point(A, n, W, trocar)
+        if drift:
+            state[0] = lam
     if curved:
         ne = curved_arm.task_error(A, ix, W, method, state[0], target, e)
     else:
@@ -178,18 +176,51 @@ def arm_iterate(
         return DONE
     if it == max_it:
         return NO_CONVERGENCE
-    if is_singular(A, ix, W, thr):
+    if is_singular(A, ix, W, bounds[0]):
         return SINGULAR
     if curved:
         curved_arm.step(A, ix, W, method, K, gain, damping, s, state[0], e, d)
     else:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
+    for _ in range(STEP_TRIES if holds_rcm(method) and bounds[1] > 0.0 else 0):
+        stepped(n, ix, first, m, s, d, fail)
+        frames(A, ix, fail[n : 2 * n], W)  # W then holds the stepped frames
+        f = step_scale(closest_point(A, n, W, trocar)[1], now, bounds[1])
+        if f == 1.0:
+            break
+        for j in range(m + 1):
+            d[j] *= f
+    stepped(n, ix, first, m, s, d, fail)
+    state[0] += d[m]
+    return STEPPED
+
+
+@njit(cache=True)
+def stepped(n: int, ix: IntArray, first: int, m: int, s: FloatArray, d: FloatArray,
+            fail: FloatArray) -> None:  # fmt: skip
+    """The stepped joints s + d (d over the moving joints ix[first:first + m]) into
+    fail[n:2n]."""
     for i in range(n):
         fail[n + i] = s[i]
     for j in range(m):
         fail[n + ix[first + j]] += d[j]
-    state[0] += d[m]
-    return STEPPED
+
+
+@njit(cache=True)
+def closest_point(A: FloatArray, n: int, W: FloatArray, trocar: FloatArray) -> tuple[float, float]:
+    """(lambda in [0, 1], distance [m]) of the needle point closest to the trocar, at the
+    frames in W (the drift correction of thesis chapter 5, and the RCM deviation)."""
+    base, tip = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
+    num, den = 0.0, 0.0
+    for i in range(3):
+        axis = tip[i] - base[i]
+        num += (trocar[i] - base[i]) * axis
+        den += axis * axis
+    lam = min(1.0, max(0.0, num / den))
+    dist = 0.0
+    for i in range(3):
+        dist += (base[i] + lam * (tip[i] - base[i]) - trocar[i]) ** 2
+    return lam, math.sqrt(dist)
 
 
 @njit(cache=True)
@@ -211,7 +242,8 @@ def command_status(fail: FloatArray, n: int, lower: FloatArray, upper: FloatArra
 @njit(cache=True)
 def run_arm_targets(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, thr: float, lower: FloatArray, upper: FloatArray,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, lower: FloatArray,
+    upper: FloatArray,
     targets: FloatArray, k0: int, s: FloatArray, state: FloatArray, rec: FloatArray,
     irec: IntArray, info: IntArray, fail: FloatArray, W: FloatArray, d: FloatArray,
 ) -> int:  # fmt: skip
@@ -235,7 +267,7 @@ def run_arm_targets(
         if kind < 0:
             return NO_TIP
         for it in range(max_it + 1):  # the first reuses the last target's final frames
-            status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, thr,
+            status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds,
                                  target, kind == 1, tip_t, trocar, s, state, it, rec[count],
                                  fail, W, d, it == 0 and k > k0)  # fmt: skip
             if it > 0:

@@ -30,10 +30,10 @@ from rcmplan.compiled.records import (
     STEPPED,
     TIP,
     append_rows,
+    loop_bounds,
     method_code,
     raise_arm_stop,
     record_width,
-    singular_threshold,
     solver_arrays,
 )
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
@@ -83,7 +83,7 @@ class _Setup:
         self.code, self.tol = int(code), tol  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
         self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
-                     bool(cfg.drift_correction), float(singular_threshold(controller)))  # fmt: skip
+                     bool(cfg.drift_correction), loop_bounds(controller))  # fmt: skip
         if curved is None:
             self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
             self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)

@@ -25,10 +25,10 @@ from rcmplan.compiled.records import (
     DONE,
     FAIL_WIDTH,
     is_curved,
+    loop_bounds,
     method_code,
     raise_stop,
     record_width,
-    singular_threshold,
     solver_arrays,
 )
 from rcmplan.control.solvers import Solver
@@ -77,7 +77,7 @@ def run_iramis_phase(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
     args = (arrays.P, method_code(solver), K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, float(singular_threshold(controller)), targets)  # fmt: skip
+            cfg.drift_correction, loop_bounds(controller), targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip

@@ -61,6 +61,7 @@ from rcmplan.compiled.records import (
     TIP,
     TIP_LIMITED,
 )
+from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.control.solvers import PIVOT_DISTANCE
 
 
@@ -96,6 +97,39 @@ def closest_lambda(
         num += (trocar[i] - w[i]) * axis
         den += axis * axis
     return min(1.0, max(0.0, num / den))
+
+
+@njit(cache=True)
+def rcm_distance(P: FloatArray, q: FloatArray, trocar: FloatArray, w: FloatArray) -> float:
+    """Distance in [m] from the trocar to the needle (shaft) at joints q; w (6,) is scratch."""
+    tr = trig(q)
+    point(P, q, tr, closest_lambda(P, q, tr, trocar, w), w[:3])
+    return math.sqrt((w[0] - trocar[0]) ** 2 + (w[1] - trocar[1]) ** 2 + (w[2] - trocar[2]) ** 2)
+
+
+@njit(cache=True)
+def bound_rcm_step(
+    P: FloatArray, q: FloatArray, d: FloatArray, moved: int, trocar: FloatArray, bound: float,
+    w: FloatArray, x: FloatArray,
+) -> float:  # fmt: skip
+    """Shorten the step d (joints 0..moved-1, then lambda in d[moved]) until the needle passes
+    within `bound` [m] of the trocar after it, or no farther than before it (`step_scale`);
+    returns the factor applied (1.0: d untouched). bound <= 0: no bound. x (6,) and w (6,)
+    are scratch."""
+    total = 1.0
+    if not bound > 0.0:
+        return total
+    now = rcm_distance(P, q, trocar, w)
+    for _ in range(STEP_TRIES):
+        for i in range(6):
+            x[i] = q[i] + d[i] if i < moved else q[i]
+        f = step_scale(rcm_distance(P, x, trocar, w), now, bound)
+        if f == 1.0:
+            break
+        total *= f
+        for i in range(moved + 1):
+            d[i] *= f
+    return total
 
 
 @njit(cache=True)
@@ -205,7 +239,7 @@ def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
 @njit(cache=True)
 def iterate(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, thr: float, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    drift: bool, bounds: FloatArray, target: FloatArray, pivot: bool, tip_t: FloatArray,
     trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
     fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray, f: FloatArray,
     J: FloatArray, A: FloatArray,
@@ -235,7 +269,7 @@ def iterate(
         return DONE
     if it == max_it:
         return NO_CONVERGENCE
-    if min(abs(tr[0]), abs(tr[2])) < thr:
+    if min(abs(tr[0]), abs(tr[2])) < bounds[0]:
         return SINGULAR
     if curved:
         curved_iramis.step(P, method, K, damping, q, tr, state[0], e, J, d, f)
@@ -244,6 +278,8 @@ def iterate(
     moved = 6 if curved else 5  # a curved needle's roll q5 is active
     if method == TIP_LIMITED:
         limit_step(P, K, q, d, sn, qn, w)
+    elif holds_rcm(method):
+        bound_rcm_step(P, q, d, moved, trocar, bounds[1], w, qn)
     for i in range(6):
         qn[i] = q[i] + d[i] if i < moved else q[i]
     state[0] += d[moved]
@@ -302,14 +338,14 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
 @njit(cache=True)
 def iterate_recorded(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, thr: float, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    drift: bool, bounds: FloatArray, target: FloatArray, pivot: bool, tip_t: FloatArray,
     trocar: FloatArray, s: FloatArray, state: FloatArray, k: int, it: int, n: int,
     rec: FloatArray, irec: np.ndarray, fail: FloatArray, info: np.ndarray, w: FloatArray,
     d: FloatArray, f: FloatArray, J: FloatArray, A: FloatArray,
 ) -> tuple[int, int]:  # fmt: skip
     """`iterate` on target k, its record kept in rec[n], irec[n] from the second iteration on;
     returns (status, records written), the count also in info[0]."""
-    status = iterate(P, method, K, damping, tol, max_it, drift, thr, target, pivot, tip_t,
+    status = iterate(P, method, K, damping, tol, max_it, drift, bounds, target, pivot, tip_t,
                      trocar, s, state, it, rec[n], fail, info, w, d, f, J, A)  # fmt: skip
     if it > 0:
         irec[n, 0], irec[n, 1] = k, it
@@ -339,7 +375,7 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
 @njit(cache=True)
 def run_targets(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, thr: float, targets: FloatArray, k0: int, s: FloatArray, state: FloatArray,
+    drift: bool, bounds: FloatArray, targets: FloatArray, k0: int, s: FloatArray, state: FloatArray,
     rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] from sliders s, on the kinematic plant; returns a status.
@@ -361,7 +397,7 @@ def run_targets(
         if kind < 0:
             return NO_TIP
         for it in range(max_it + 1):
-            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, thr,
+            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds,
                                          targets[k], kind == 1, tip_t, trocar, s, state, k,
                                          it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
             if status == DONE:

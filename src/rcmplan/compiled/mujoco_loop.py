@@ -25,10 +25,10 @@ from rcmplan.compiled.records import (
     PAUSED,
     STEPPED,
     append_records,
+    loop_bounds,
     method_code,
     raise_stop,
     robot_params,
-    singular_threshold,
     solver_arrays,
 )
 from rcmplan.control.solvers import Solver
@@ -46,7 +46,7 @@ CAPACITY = 1 << 15  # records per block
 @njit(cache=True)
 def run_targets_on_mujoco(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, thr: float, targets: FloatArray, k0: int, it0: int, s: FloatArray,
+    drift: bool, bounds: FloatArray, targets: FloatArray, k0: int, it0: int, s: FloatArray,
     cmd: FloatArray, state: FloatArray, rec: FloatArray, irec: NDArray[np.int64],
     info: NDArray[np.int64], fail: FloatArray, slider_qpos: NDArray[np.intp],
     fns: NDArray[np.intp], model: int, data: int, substeps: int, dt: float, steps: FloatArray,
@@ -77,7 +77,7 @@ def run_targets_on_mujoco(
                 return PAUSED
             for i in range(6):
                 s[i] = qpos[slider_qpos[i]]
-            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, thr,
+            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds,
                                          targets[k], kind == 1, tip_t, trocar, s, state, k,
                                          it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
             if status == STEPPED:
@@ -113,7 +113,7 @@ def run_phase_on_mujoco(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     head: tuple[Any, ...] = (
         robot_params(controller.robot), method_code(solver), K, damping, tol,
-        cfg.max_iterations, cfg.drift_correction, float(singular_threshold(controller)), targets,
+        cfg.max_iterations, cfg.drift_correction, loop_bounds(controller), targets,
     )  # fmt: skip
     s, cmd = np.empty(6), plant.command
     state = np.array([controller.lam, plant.time, plant.dt])

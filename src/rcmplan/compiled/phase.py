@@ -24,10 +24,10 @@ from rcmplan.compiled.records import (
     STEPPED,
     append_records,
     iramis_method,
+    loop_bounds,
     method_code,
     raise_stop,
     robot_params,
-    singular_threshold,
     solver_arrays,
 )
 from rcmplan.control.solvers import Solver
@@ -50,11 +50,11 @@ def run_phase_compiled(
         raise ValueError(f"the iRAM!S loop does not run solver {solver.name!r}")
     code, K = method
     _, damping, tol = solver_arrays(solver)
-    thr = singular_threshold(controller)
+    bounds = loop_bounds(controller)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(24)
     args = (robot_params(robot), code, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, float(thr), targets)  # fmt: skip
+            cfg.drift_correction, bounds, targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip
@@ -106,7 +106,7 @@ def run_phase_on_plant(
     robot, plant, cfg = controller.robot, controller.plant, controller.settings
     code = method_code(solver)
     K, damping, tol = solver_arrays(solver)
-    thr = singular_threshold(controller)
+    bounds = loop_bounds(controller)
     P, state = robot_params(robot), np.array([controller.lam, plant.time, plant.dt])
     rec, irec = np.empty((BLOCK, 35)), np.empty((BLOCK, 2), dtype=np.int64)
     info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
@@ -121,7 +121,7 @@ def run_phase_on_plant(
             if kind >= 0:
                 state[1] = plant.time
                 status = loop.iterate(P, code, K, damping, tol, cfg.max_iterations,
-                                      cfg.drift_correction, float(thr), targets[k], kind == 1,
+                                      cfg.drift_correction, bounds, targets[k], kind == 1,
                                       tip_t, trocar, plant.read_actuators(), state, it, rec[n],
                                       fail, info, w, d, f, J, A)  # fmt: skip
             if it > 0 and kind >= 0:

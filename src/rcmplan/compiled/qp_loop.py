@@ -22,6 +22,7 @@ from rcmplan.compiled.kernels import (
     trig,
 )
 from rcmplan.compiled.loop import (
+    bound_rcm_step,
     closest_lambda,
     command_status,
     converged,
@@ -44,7 +45,7 @@ from rcmplan.compiled.records import (
 @njit(cache=True)
 def iterate_qp(
     P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray, tol: FloatArray,
-    max_it: int, drift: bool, thr: float, target: FloatArray, tip_t: FloatArray,
+    max_it: int, drift: bool, bounds: FloatArray, target: FloatArray, tip_t: FloatArray,
     trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
     fail: FloatArray, info: np.ndarray, w: FloatArray, qp: tuple,
 ) -> int:  # fmt: skip
@@ -66,16 +67,25 @@ def iterate_qp(
         return DONE
     if it == max_it:
         return NO_CONVERGENCE
-    if min(abs(tr[0]), abs(tr[2])) < thr:
+    if min(abs(tr[0]), abs(tr[2])) < bounds[0]:
         return SINGULAR
-    state[0] += step_joints(P, q, s_qp, qp[X], qn, w)
+    dlam = step_joints(P, q, s_qp, qp[X], qn, w)
+    for i in range(5):  # the step in joints and lambda, bounded from the RCM tolerance
+        sn[i] = qn[i] - q[i]
+    sn[5] = dlam
+    if bound_rcm_step(P, q, sn, 5, trocar, bounds[1], w, qn) != 1.0:
+        for i in range(5):
+            qn[i] = q[i] + sn[i]
+    else:
+        step_joints(P, q, s_qp, qp[X], qn, w)  # qn as the QP's step left it
+    state[0] += sn[5]
     return command_status(P, qn, sn, info)
 
 
 @njit(cache=True)
 def run_targets_qp(
     P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray, tol: FloatArray,
-    max_it: int, drift: bool, thr: float, targets: FloatArray, k0: int, s: FloatArray,
+    max_it: int, drift: bool, bounds: FloatArray, targets: FloatArray, k0: int, s: FloatArray,
     state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
     qp: tuple,
 ) -> int:  # fmt: skip
@@ -91,7 +101,7 @@ def run_targets_qp(
         if target_frame(targets[k], True, w, tip_t, trocar) < 0:
             return NO_TIP
         for it in range(max_it + 1):
-            status = iterate_qp(P, Q, contacts, K, tol, max_it, drift, thr, targets[k], tip_t,
+            status = iterate_qp(P, Q, contacts, K, tol, max_it, drift, bounds, targets[k], tip_t,
                                 trocar, s, state, it, rec[n], fail, info, w, qp)  # fmt: skip
             if it > 0 and status != QP_FAILED:
                 irec[n, 0], irec[n, 1] = k, it

@@ -28,9 +28,9 @@ from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.records import (
     DONE,
     QP_FAILED,
+    loop_bounds,
     raise_stop,
     robot_params,
-    singular_threshold,
     solver_arrays,
 )
 from rcmplan.control.limits.base import SCALE
@@ -96,7 +96,7 @@ def run_qp_phase(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail, qp = np.empty(30), fast_cache.qp_kernels().buffers()
     args = (robot_params(robot), *params, K, tol, cfg.max_iterations, cfg.drift_correction,
-            float(singular_threshold(controller)), targets)  # fmt: skip
+            loop_bounds(controller), targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip

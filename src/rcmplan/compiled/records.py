@@ -121,6 +121,13 @@ def singular_threshold(controller: Controller) -> float:
     return float(controller.robot.singular_threshold if own is None else own)
 
 
+def loop_bounds(controller: Controller) -> FloatArray:
+    """The compiled loops' `bounds` (2,): the singular threshold and the RCM tolerance of one
+    step in [m] (0: none)."""
+    bound = controller.settings.rcm_tolerance
+    return np.array([singular_threshold(controller), 0.0 if bound is None else bound])
+
+
 def append_records(
     log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n: int, pid: int, sid: int
 ) -> None:

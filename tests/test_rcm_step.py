@@ -1,0 +1,88 @@
+"""The controller bounds its own step from the stated RCM tolerance (`control.rcm_step`): the
+rule itself, and the default injection on the shipped arms, which holds the RCM within 1 um
+without smaller target steps."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from rcmplan.control.phase import LoopSettings
+from rcmplan.control.rcm_step import SHRINK_FLOOR, step_scale
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.job import run_scenario
+from rcmplan.scene.scenario import load_scenario
+
+from paths import use_path
+
+UM = 1e-6
+
+
+def test_a_step_within_the_bound_is_kept() -> None:
+    assert step_scale(0.5 * UM, 0.0, 0.8 * UM) == 1.0
+
+
+def test_a_step_that_leaves_the_needle_no_farther_than_before_is_kept() -> None:
+    assert step_scale(2.0 * UM, 3.0 * UM, 0.8 * UM) == 1.0
+
+
+def test_a_step_beyond_the_bound_is_scaled_so_a_second_order_deviation_lands_under_it() -> None:
+    f = step_scale(3.2 * UM, 0.0, 0.8 * UM)
+    assert f == pytest.approx(0.9 * math.sqrt(0.8 / 3.2))
+    assert 3.2 * UM * f * f < 0.8 * UM  # the deviation scales with the square of the step
+
+
+def test_a_far_deviation_shrinks_the_step_by_at_most_the_floor_per_try() -> None:
+    assert step_scale(1.0, 0.0, 0.8 * UM) == SHRINK_FLOOR
+    assert step_scale(float("nan"), 0.0, 0.8 * UM) == SHRINK_FLOOR
+
+
+def test_the_loop_settings_refuse_a_tolerance_that_is_not_positive() -> None:
+    with pytest.raises(InvalidInputError, match="rcm_tolerance"):
+        LoopSettings(rcm_tolerance=0.0)
+
+
+def deviations(robot: str, method: str, tolerance: float | None) -> tuple[str, float, float]:
+    """(status, max RCM deviation inside the eye, max tip error) of the default injection."""
+    sc = load_scenario("default").with_robot(robot).with_method(method)
+    sc = replace(sc, loop=replace(sc.loop, rcm_tolerance=tolerance))
+    result = run_scenario(sc)
+    log = result.log
+    inside = np.isfinite(log.trocar[:, 0])
+    dev = float(np.linalg.norm(log.rcm_deviation(), axis=1)[inside].max())
+    tip = max(p.final_tip_error_m for p in result.phases if p.inside_eye)
+    return result.status, dev, tip
+
+
+@pytest.mark.parametrize("robot", ["ur5", "panda"])
+@pytest.mark.parametrize("method", ["pinv", "dls"])
+def test_the_default_injection_holds_the_rcm_within_a_micrometre_on_the_arms(
+    robot: str, method: str
+) -> None:
+    status, dev, tip = deviations(robot, method, LoopSettings().rcm_tolerance)
+    assert status == "ok"
+    assert dev <= LoopSettings().rcm_tolerance  # type: ignore[operator]
+    assert tip < 1.0 * UM
+
+
+def test_without_the_bound_the_ur5_leaves_the_rcm_farther_than_a_micrometre() -> None:
+    """The bound is what holds it: the same plan with the solver's steps as they are."""
+    status, dev, _ = deviations("ur5", "pinv", None)
+    assert status == "ok" and dev > 1.0 * UM
+
+
+@pytest.mark.parametrize("mode", ["off", "on"])
+def test_both_loops_bound_the_step_alike(mode: str) -> None:
+    """The Python loop (any solver, any plant) and the compiled arm loop shorten the same
+    steps: the same record count and the same deviations."""
+    use_path(mode)
+    try:
+        status, dev, _ = deviations("ur5", "pinv", LoopSettings().rcm_tolerance)
+    finally:
+        use_path(None)
+    reference = deviations("ur5", "pinv", LoopSettings().rcm_tolerance)
+    assert status == reference[0] == "ok"
+    assert dev == pytest.approx(reference[1], abs=1e-12)
