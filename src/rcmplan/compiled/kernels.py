@@ -1,12 +1,10 @@
-"""Compiled closed-form kinematics of iRAM!S: needle points, X_ext, J_a and the step solves.
+"""iRAM!S's X_ext, J_a in closed form and the step solves, compiled, on the kinematics of
+`rcmplan.robot.iramis_kernels` (the one definition the `Iramis` model calls too; re-exported
+here for the compiled loops). The augmented Jacobian's closed form and the solves repeat the
+arithmetic of the generic tasks (`control/tasks.py`, `augmented.py`, `solvers.py`), which any
+robot model uses, so results agree to rounding.
 
-The one module that imports numba (the `fast` extra); `rcmplan.compiled.runner` imports it only
-when numba is installed. Every kernel repeats the arithmetic of the reference code in the same
-order (`Iramis.needle_point`, `augmented.py`, `solvers.py`), so results agree to rounding.
-
-Parameters travel as one float64 array P (see `PARAMS`): link lengths l1..l6 [m], PCJM slider
-spacing d [m], slider travel lower (6,) and upper (6,) [m, rad for q5]. Joint vectors q are
-(q0..q5) [m, rad]; slider vectors s are (L1, L2, L3, L4, L5, q5).
+Parameters travel as one float64 array P (`iramis_kernels.PARAMS`).
 """
 
 from __future__ import annotations
@@ -17,109 +15,20 @@ import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
-
-PARAMS = ("l1", "l2", "l3", "l4", "l5", "l6", "d", "lower[6]", "upper[6]")
-LOWER, UPPER = 7, 13
-HALF_PI = 0.5 * math.pi
-
-
-@njit(cache=True)
-def joints_from_actuators(P: FloatArray, s: FloatArray, q: FloatArray) -> None:
-    """q from s through both PCJMs (eqs. 2.1, 2.2), written into q (6,)."""
-    q[0] = 0.5 * (s[0] + s[1])
-    q[1] = math.atan((s[1] - s[0]) / P[6])
-    q[2] = 0.5 * (s[2] + s[3])
-    q[3] = math.atan((s[3] - s[2]) / P[6])
-    q[4] = s[4]
-    q[5] = s[5]
-
-
-@njit(cache=True)
-def actuators_from_joints(P: FloatArray, q: FloatArray, s: FloatArray) -> bool:
-    """s from q (inverse PCJM maps) into s (6,); False if q is not finite or |q1|, |q3| >= pi/2."""
-    for i in range(6):
-        if not math.isfinite(q[i]):
-            return False
-    if abs(q[1]) >= HALF_PI or abs(q[3]) >= HALF_PI:
-        return False
-    half = 0.5 * P[6] * math.tan(q[1])
-    s[0] = q[0] - half
-    s[1] = q[0] + half
-    half = 0.5 * P[6] * math.tan(q[3])
-    s[2] = q[2] - half
-    s[3] = q[2] + half
-    s[4] = q[4]
-    s[5] = q[5]
-    return True
-
-
-@njit(cache=True)
-def first_beyond_travel(P: FloatArray, s: FloatArray) -> int:
-    """Index of the first slider outside its travel, or -1."""
-    for i in range(6):
-        if s[i] < P[LOWER + i] or s[i] > P[UPPER + i]:
-            return i
-    return -1
-
-
-@njit(cache=True)
-def trig(q: FloatArray) -> tuple[float, float, float, float]:
-    """(cos q1, sin q1, cos q3, sin q3): computed once per configuration, passed as `tr`."""
-    return math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
-
-
-@njit(cache=True)
-def point(P: FloatArray, q: FloatArray, tr: tuple, lam: float, out: FloatArray) -> None:
-    """p(lambda) in [m], base frame (eqs. 2.7, 3.7), written into out (3,); tr = trig(q)."""
-    c1, s1, c3, s3 = tr
-    w = q[4] + lam * P[5]
-    out[0] = P[1] * s1 - c1 * c3 * w - P[4] * c1 * s3
-    out[1] = P[2] + P[3] + q[2] - s3 * w + P[4] * c3
-    out[2] = P[0] + q[0] + P[1] * c1 + s1 * c3 * w + P[4] * s1 * s3
-
-
-@njit(cache=True)
-def needle_point(P: FloatArray, q: FloatArray, lam: float, out: FloatArray) -> None:
-    """p(lambda) in [m] into out (3,)."""
-    point(P, q, trig(q), lam, out)
-
-
-@njit(cache=True)
-def point_jacobian(
-    P: FloatArray, q: FloatArray, tr: tuple, lam: float, J: FloatArray, r: int
-) -> None:
-    """d p(lambda) / d(q0..q4, lambda) (eq. 3.10) into rows r..r+2 of J (n, 6)."""
-    c1, s1, c3, s3 = tr
-    l2, l5, l6 = P[1], P[4], P[5]
-    w = q[4] + lam * l6
-    k = s3 * w - l5 * c3
-    J[r, 0] = 0.0
-    J[r, 1] = l2 * c1 + s1 * c3 * w + l5 * s1 * s3
-    J[r, 2] = 0.0
-    J[r, 3] = c1 * k
-    J[r, 4] = -c1 * c3
-    J[r, 5] = -l6 * c1 * c3
-    J[r + 1, 0] = 0.0
-    J[r + 1, 1] = 0.0
-    J[r + 1, 2] = 1.0
-    J[r + 1, 3] = -c3 * w - l5 * s3
-    J[r + 1, 4] = -s3
-    J[r + 1, 5] = -l6 * s3
-    J[r + 2, 0] = 1.0
-    J[r + 2, 1] = c1 * c3 * w - l2 * s1 + l5 * c1 * s3
-    J[r + 2, 2] = 0.0
-    J[r + 2, 3] = -s1 * k
-    J[r + 2, 4] = s1 * c3
-    J[r + 2, 5] = l6 * s1 * c3
-
-
-@njit(cache=True)
-def tip_jacobian(P: FloatArray, q: FloatArray, tr: tuple, J: FloatArray, r: int) -> None:
-    """d p_tip / d theta_ext with a zero lambda column into rows r..r+2 of J."""
-    point_jacobian(P, q, tr, 1.0, J, r)
-    J[r, 5] = 0.0
-    J[r + 1, 5] = 0.0
-    J[r + 2, 5] = 0.0
+from rcmplan.robot.iramis_kernels import (  # noqa: F401  (the compiled loops import them from here)
+    LOWER,
+    PARAMS,
+    UPPER,
+    actuators_from_joints,
+    axis_from_angles,
+    first_beyond_travel,
+    joints_from_actuators,
+    needle_point,
+    point,
+    point_jacobian,
+    tip_jacobian,
+    trig,
+)
 
 
 @njit(cache=True)
@@ -224,14 +133,6 @@ def dls_solve(
         for i in range(m):
             acc += J[i, k] * f[i]
         d[k] = acc
-
-
-@njit(cache=True)
-def axis_from_angles(phi: float, psi: float, a: FloatArray) -> None:
-    """The unit needle axis with needle angles (phi, psi) into a (3,)."""
-    a[0] = -math.cos(phi) * math.cos(psi)
-    a[1] = -math.sin(psi)
-    a[2] = math.sin(phi) * math.cos(psi)
 
 
 @njit(cache=True)

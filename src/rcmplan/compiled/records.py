@@ -69,13 +69,14 @@ def is_curved(code: int | None) -> bool:
     return code is not None and code >= CURVED
 
 
+LOWER_AT = 7  # P's travel starts here (`iramis_kernels.PARAMS`)
+
+
 def robot_params(robot: RobotModel) -> FloatArray:
     """The parameter vector P of the kernels: l1..l6 [m], PCJM spacing d [m], travel (6 + 6)."""
     if not isinstance(robot, Iramis):
         raise InvalidInputError("robot", robot.name, "an iRAM!S model (the kernels' closed form)")
-    p = robot.params
-    head = [p.l1, p.l2, p.l3, p.l4, p.l5, p.l6, robot.pcjm.spacing]
-    return np.array([*head, *robot.lower, *robot.upper], dtype=np.float64)
+    return np.array([*robot.P[:LOWER_AT], *robot.lower, *robot.upper], dtype=np.float64)
 
 
 def method_code(solver: Solver) -> int | None:

@@ -24,6 +24,7 @@ from rcmplan.exceptions import (
     SliderLimitError,
     UnreachableTargetError,
 )
+from rcmplan.robot import iramis_kernels as kernels
 from rcmplan.robot.dh import DHChain, DHLink
 from rcmplan.robot.pcjm import Pcjm
 
@@ -110,6 +111,7 @@ class Iramis:
         self.needle_length: float = p.l6
         self.resolution: float = p.slider_resolution
         self.singular_threshold: float = p.singular_threshold
+        self.P = kernels.params(p)  # the kernels' parameter vector
 
     # --- DH tables -------------------------------------------------------------------------
     def dh_links(self, l6: float | None = None) -> list[DHLink]:
@@ -147,37 +149,31 @@ class Iramis:
         return T
 
     def needle_axis(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """Unit needle axis a(q) from base to tip, base frame.
+        """Unit needle axis a(q) from base to tip, base frame: a(q) = (-cos q1 cos q3, -sin q3,
+        sin q1 cos q3).
 
         Raises InvalidInputError unless q is 6 finite numbers."""
-        try:
-            c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
-            ok = len(q) == 6 and c1 + c3 == c1 + c3  # False for NaN
-        except (TypeError, ValueError, IndexError, OverflowError):
-            ok = False
-        if not ok:
-            vector("q", q, 6)
-        return np.array([-c1 * c3, -s3, s1 * c3])
+        a = np.empty(3)
+        kernels.needle_axis(_joints(q), a)
+        if not math.isfinite(a[0] + a[1] + a[2]):
+            vector("q", q, 6)  # raises, naming q
+        return a
 
     def needle_point(self, q: Sequence[float] | FloatArray, lam: float) -> FloatArray:
         """p(lambda) = p_base + lambda (p_tip - p_base) in [m], base frame (eqs. 2.7, 3.7).
 
         Raises InvalidInputError unless q is 6 finite numbers and lam a finite number. (The
-        check is one sum tested for finiteness: the controller calls this thousands of times.)
+        check is the result's finiteness: the controller calls this thousands of times.)
         """
-        p = self.params
+        out = np.empty(3)
         try:
-            c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
-            w = q[4] + lam * p.l6
-            x = p.l2 * s1 - c1 * c3 * w - p.l5 * c1 * s3
-            y = p.l3 + p.l4 + q[2] - s3 * w + p.l5 * c3
-            z = p.l1 + q[0] + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3
-            ok = len(q) == 6 and math.isfinite(x + y + z)  # every input but the roll q5
-        except (TypeError, ValueError, IndexError, OverflowError):
+            kernels.needle_point(self.P, _joints(q), lam, out)
+            ok = math.isfinite(out[0] + out[1] + out[2])  # every input but the roll q5
+        except (TypeError, ValueError, IndexError, OverflowError, InvalidInputError):
             ok = False
         if not ok:
             _invalid_point(q, lam)
-        return np.array([x, y, z])
+        return out
 
     def tip(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """Needle tip position O_6(q) in [m]."""
@@ -190,31 +186,10 @@ class Iramis:
     # --- Jacobians ------------------------------------------------------------------------
     def needle_point_jacobian(self, q: Sequence[float] | FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d(q0, q1, q2, q3, q4, lambda), a (3, 6) array (eq. 3.10 with J_0^5)."""
-        p = self.params
-        c1, s1, c3, s3 = math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
-        w = q[4] + lam * p.l6
-        k = s3 * w - p.l5 * c3
-        return np.array(
-            [
-                [
-                    0.0,
-                    p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3,
-                    0.0,
-                    c1 * k,
-                    -c1 * c3,
-                    -p.l6 * c1 * c3,
-                ],
-                [0.0, 0.0, 1.0, -c3 * w - p.l5 * s3, -s3, -p.l6 * s3],
-                [
-                    1.0,
-                    c1 * c3 * w - p.l2 * s1 + p.l5 * c1 * s3,
-                    0.0,
-                    -s1 * k,
-                    s1 * c3,
-                    p.l6 * s1 * c3,
-                ],
-            ]
-        )
+        J = np.empty((3, 6))
+        q = _joints(q)
+        kernels.point_jacobian(self.P, q, kernels.trig(q), float(lam), J, 0)
+        return J
 
     def jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """Geometric Jacobian J_0^6 (6, 6) at the tip, base frame (eq. 2.12)."""
@@ -273,16 +248,20 @@ class Iramis:
     def joints_from_actuators(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """q = (q0..q5) from s = (L1, L2, L3, L4, L5, q5) (eqs. 2.1, 2.2 for each PCJM)."""
         s = vector("s", s, 6)
-        q0, q1 = self.pcjm.joints(s[0], s[1])
-        q2, q3 = self.pcjm.joints(s[2], s[3])
-        return np.array([q0, q1, q2, q3, s[4], s[5]])
+        q = np.empty(6)
+        kernels.joints_from_actuators(self.P, s, q)
+        return q
 
     def actuators_from_joints(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """s = (L1, L2, L3, L4, L5, q5) from q (inverse of eqs. 2.1, 2.2; see pcjm.py)."""
+        """s = (L1, L2, L3, L4, L5, q5) from q (inverse of eqs. 2.1, 2.2; see pcjm.py).
+
+        Raises PcjmAngleError when |q1| or |q3| is pi/2 or more (no slider pair realises it)."""
         q = vector("q", q, 6)
-        L1, L2 = self.pcjm.sliders(q[0], q[1])
-        L3, L4 = self.pcjm.sliders(q[2], q[3])
-        return np.array([L1, L2, L3, L4, q[4], q[5]])
+        s = np.empty(6)
+        if not kernels.actuators_from_joints(self.P, q, s):
+            i = 1 if abs(q[1]) >= 0.5 * math.pi else 3
+            self.pcjm.sliders(q[i - 1], q[i])  # raises PcjmAngleError naming the pair
+        return s
 
     def joints_from_actuators_jacobian(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """dq/ds, a (6, 6) array."""
@@ -413,6 +392,21 @@ class Iramis:
                 p.sources["singular_threshold"],
             ),
         ]
+
+
+def _joints(q: Any) -> FloatArray:
+    """q as a float64 array for the kernels (the caller checks the result's finiteness);
+    InvalidInputError unless q holds 6 numbers."""
+    if isinstance(q, np.ndarray) and q.dtype == np.float64 and q.shape == (6,):
+        return q
+    try:
+        arr = np.asarray(q, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        arr = None
+    if arr is None or arr.shape != (6,):
+        vector("q", q, 6)  # raises, naming q
+        raise InvalidInputError("q", q, "6 finite numbers")
+    return arr
 
 
 def _invalid_point(q: Any, lam: Any) -> None:

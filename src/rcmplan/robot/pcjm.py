@@ -17,6 +17,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import PcjmAngleError
+from rcmplan.robot.iramis_kernels import pcjm_joints, pcjm_sliders
 
 
 @dataclass(frozen=True)
@@ -39,7 +40,7 @@ class Pcjm:
         """
         if not (math.isfinite(L1) and math.isfinite(L2)):
             raise PcjmAngleError("(L1, L2)", (L1, L2), "finite slider positions in m")
-        return 0.5 * (L1 + L2), math.atan((L2 - L1) / self.spacing)
+        return pcjm_joints(self.spacing, float(L1), float(L2))
 
     def sliders(self, q_lin: float, q_rot: float) -> tuple[float, float]:
         """(L1, L2) in [m] from (q_lin [m], q_rot [rad]); |q_rot| must be below pi/2."""
@@ -47,8 +48,7 @@ class Pcjm:
             raise PcjmAngleError(
                 "(q_lin, q_rot)", (q_lin, q_rot), "finite values with |q_rot| < pi/2 rad"
             )
-        half = 0.5 * self.spacing * math.tan(q_rot)
-        return q_lin - half, q_lin + half
+        return pcjm_sliders(self.spacing, float(q_lin), float(q_rot))
 
     def joints_jacobian(self, L1: float, L2: float) -> FloatArray:
         """d(q_lin, q_rot) / d(L1, L2), a (2, 2) array."""
