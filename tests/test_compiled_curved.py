@@ -142,7 +142,7 @@ def curved_run(name: str, method: str, mode: str, phases: int = 5,
                settings: LoopSettings | None = None) -> tuple[Controller, RunLog]:  # fmt: skip
     """The curved injection's first phases (approach and enter: whole poses; insert, p3-p4,
     p4-p3: X_c) on `mode`'s path, in 0.5 mm / 5 mrad steps (the RCM then moves about 12 um:
-    no RCM bound), as `rcmplan.job` sets them up."""
+    no RCM bound, and the steps as the solver gives them), as `rcmplan.job` sets them up."""
     scenario = replace(load_scenario("curved").with_robot(name).with_method(method),
                        visits=("p4",), steps=Steps(0.5e-3, 5e-3))  # fmt: skip
     robot = scenario.needle.fit(make_robot(name))
@@ -151,7 +151,7 @@ def curved_run(name: str, method: str, mode: str, phases: int = 5,
     plant.reset(robot.home_actuators)
     solver = make_solver(method, scenario.method_settings, robot)
     ctl = Controller(plant, solver, make_free_solver(robot, scenario.method_settings),
-                     settings=settings or replace(scenario.loop, rcm_bound=None),
+                     settings=settings or replace(scenario.loop, rcm_bound=None, rcm_tolerance=None),
                      robot=robot)  # fmt: skip
     use_path(mode)
     try:

@@ -45,6 +45,8 @@ DESCRIPTIONS: dict[Key, str] = {
     ("controller", "dt_s"): "control period",
     ("controller", "rcm_bound_um"): "largest RCM distance from the trocar; a phase beyond it "
     "ends the run (RcmBoundError)",
+    ("controller", "rcm_tolerance_um"): "largest RCM distance one step may leave: a longer step "
+    "is shortened (its deviation is second order in its length)",
     ("needle", "kind"): "`straight`, or `curved`: a shaft then an arc (the roll joins the "
     "controlled joints; the injection enters along the arc and visits lateral targets)",
     ("needle", "radius_mm"): "arc radius R of a curved needle",
@@ -92,6 +94,9 @@ def _defaults(sc: Scenario) -> dict[Key, Any]:
         ("controller", "drift_correction"): sc.loop.drift_correction,
         ("controller", "dt_s"): sc.dt,
         ("controller", "rcm_bound_um"): sc.loop.rcm_bound * 1e6 if sc.loop.rcm_bound else None,
+        ("controller", "rcm_tolerance_um"): (
+            sc.loop.rcm_tolerance * 1e6 if sc.loop.rcm_tolerance else None
+        ),
         ("needle", "kind"): sc.needle.kind, ("needle", "radius_mm"): mm(sc.needle.radius),
         ("needle", "arc_angle_rad"): sc.needle.arc_angle,
         ("lateral", "tolerance_mrad"): sc.needle.tolerance * 1e3,

@@ -58,6 +58,7 @@ from rcmplan.compiled.records import (
     TIP,
 )
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
+from rcmplan.robot.needle import closest_point
 
 
 @njit(cache=True)
@@ -161,7 +162,7 @@ def arm_iterate(
         frames(A, ix, s, W)
     now = 0.0  # the needle's distance to the trocar [m]
     if holds_rcm(method):
-        lam, now = closest_point(A, n, W, trocar)
+        lam, now = closest_on_needle(A, n, W, trocar)
         if drift:
             state[0] = lam
     if curved:
@@ -185,7 +186,7 @@ def arm_iterate(
     for _ in range(STEP_TRIES if holds_rcm(method) and bounds[1] > 0.0 else 0):
         stepped(n, ix, first, m, s, d, fail)
         frames(A, ix, fail[n : 2 * n], W)  # W then holds the stepped frames
-        f = step_scale(closest_point(A, n, W, trocar)[1], now, bounds[1])
+        f = step_scale(closest_on_needle(A, n, W, trocar)[1], now, bounds[1])
         if f == 1.0:
             break
         for j in range(m + 1):
@@ -207,20 +208,12 @@ def stepped(n: int, ix: IntArray, first: int, m: int, s: FloatArray, d: FloatArr
 
 
 @njit(cache=True)
-def closest_point(A: FloatArray, n: int, W: FloatArray, trocar: FloatArray) -> tuple[float, float]:
+def closest_on_needle(
+    A: FloatArray, n: int, W: FloatArray, trocar: FloatArray
+) -> tuple[float, float]:
     """(lambda in [0, 1], distance [m]) of the needle point closest to the trocar, at the
-    frames in W (the drift correction of thesis chapter 5, and the RCM deviation)."""
-    base, tip = needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0)
-    num, den = 0.0, 0.0
-    for i in range(3):
-        axis = tip[i] - base[i]
-        num += (trocar[i] - base[i]) * axis
-        den += axis * axis
-    lam = min(1.0, max(0.0, num / den))
-    dist = 0.0
-    for i in range(3):
-        dist += (base[i] + lam * (tip[i] - base[i]) - trocar[i]) ** 2
-    return lam, math.sqrt(dist)
+    frames in W (`needle.closest_point`)."""
+    return closest_point(needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0), trocar)
 
 
 @njit(cache=True)

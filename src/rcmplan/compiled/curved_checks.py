@@ -23,20 +23,10 @@ from rcmplan.compiled import curved_kernels as ck
 from rcmplan.compiled.chain_kinematics import IntArray, frames, needle_point
 from rcmplan.compiled.kernels import actuators_from_joints, point, trig
 from rcmplan.compiled.records import CURVED_PINV
+from rcmplan.robot.needle import closest_point
 
 MARGIN = 1e-9  # [m], [rad]: how far inside lambda's [0, 1] and the travel a cleared target lies
 LAMBDA_SLACK = 1e-9  # `solve_curved_pose` accepts lambda within this of [0, 1]
-
-
-@njit(cache=True)
-def closest(base: tuple, end: tuple, trocar: FloatArray) -> float:
-    """lambda in [0, 1] of the shaft point closest to the trocar (`closest_lambda`)."""
-    num, den = 0.0, 0.0
-    for i in range(3):
-        axis = end[i] - base[i]
-        num += (trocar[i] - base[i]) * axis
-        den += axis * axis
-    return min(1.0, max(0.0, num / den))
 
 
 @njit(cache=True)
@@ -70,7 +60,7 @@ def screen_iramis(P: FloatArray, seed: FloatArray, max_it: int, clear_it: int, t
         point(P, q, tr, 0.0, w)
         base = (w[0], w[1], w[2])
         point(P, q, tr, 1.0, w)
-        lam = closest(base, (w[0], w[1], w[2]), x[4:])
+        lam = closest_point(base, (w[0], w[1], w[2]), x[4:])[0]
         steps = -1
         for it in range(max_it):
             tr = trig(q)
@@ -110,7 +100,7 @@ def screen_arm(A: FloatArray, ix: IntArray, W: FloatArray, lower: FloatArray,
     for k in range(targets.shape[0]):
         x = targets[k]
         frames(A, ix, q, W)
-        lam = closest(needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0), x[4:])
+        lam = closest_point(needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0), x[4:])[0]
         steps = -1
         for it in range(max_it):
             if it > 0:

@@ -63,6 +63,7 @@ from rcmplan.compiled.records import (
 )
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.control.solvers import PIVOT_DISTANCE
+from rcmplan.robot.needle import closest_point
 
 
 @njit(cache=True)
@@ -91,20 +92,16 @@ def closest_lambda(
     """lambda in [0, 1] of the needle point closest to the trocar; w (6,) is scratch."""
     point(P, q, tr, 0.0, w[:3])
     point(P, q, tr, 1.0, w[3:])
-    num, den = 0.0, 0.0
-    for i in range(3):
-        axis = w[3 + i] - w[i]
-        num += (trocar[i] - w[i]) * axis
-        den += axis * axis
-    return min(1.0, max(0.0, num / den))
+    return closest_point(w[:3], w[3:], trocar)[0]
 
 
 @njit(cache=True)
 def rcm_distance(P: FloatArray, q: FloatArray, trocar: FloatArray, w: FloatArray) -> float:
     """Distance in [m] from the trocar to the needle (shaft) at joints q; w (6,) is scratch."""
     tr = trig(q)
-    point(P, q, tr, closest_lambda(P, q, tr, trocar, w), w[:3])
-    return math.sqrt((w[0] - trocar[0]) ** 2 + (w[1] - trocar[1]) ** 2 + (w[2] - trocar[2]) ** 2)
+    point(P, q, tr, 0.0, w[:3])
+    point(P, q, tr, 1.0, w[3:])
+    return closest_point(w[:3], w[3:], trocar)[1]
 
 
 @njit(cache=True)

@@ -34,7 +34,7 @@ from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, target_tip
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmBoundError, RcmplanError
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import closest_lambda
+from rcmplan.robot.needle import closest_lambda, closest_point
 
 NAN3 = np.full(3, np.nan)
 
@@ -277,8 +277,7 @@ class Controller:
     def _rcm_distance(self, q: FloatArray, trocar: FloatArray) -> float:
         """Distance in [m] from the trocar to the needle (its closest point) at joints q."""
         base, end = self.robot.needle_point(q, 0.0), self.robot.needle_point(q, 1.0)
-        lam = closest_lambda(base, end, trocar)
-        return float(np.linalg.norm(base + lam * (end - base) - trocar))
+        return float(closest_point(base, end, trocar)[1])
 
     def _record(
         self, s: FloatArray, q: FloatArray, base: FloatArray, end: FloatArray,

@@ -16,8 +16,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray, matrix, scalar
 
@@ -58,11 +60,26 @@ def needle_point(p_base: FloatArray, p_tip: FloatArray, lam: float) -> FloatArra
     return p_base + lam * (p_tip - p_base)
 
 
+@njit(cache=True)
+def closest_point(p_base: Any, p_tip: Any, point: Any) -> tuple[float, float]:
+    """(lambda in [0, 1], distance [m]) of the needle point closest to `point`: the drift
+    correction of thesis chapter 5 and the RCM deviation. Points are (3,) arrays or 3-tuples
+    (a kernel: the compiled loops call it too)."""
+    num, den = 0.0, 0.0
+    for i in range(3):
+        axis = p_tip[i] - p_base[i]
+        num += (point[i] - p_base[i]) * axis
+        den += axis * axis
+    lam = min(1.0, max(0.0, num / den))
+    dist = 0.0
+    for i in range(3):
+        dist += (p_base[i] + lam * (p_tip[i] - p_base[i]) - point[i]) ** 2
+    return lam, math.sqrt(dist)
+
+
 def closest_lambda(p_base: FloatArray, p_tip: FloatArray, point: FloatArray) -> float:
     """The lambda in [0, 1] of the needle point closest to `point` (drift correction, ch. 5)."""
-    axis = p_tip - p_base
-    lam = float(np.dot(point - p_base, axis) / np.dot(axis, axis))
-    return min(1.0, max(0.0, lam))
+    return float(closest_point(p_base, p_tip, point)[0])
 
 
 def angles_from_axis(axis: FloatArray) -> tuple[float, float]:
