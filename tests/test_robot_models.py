@@ -156,7 +156,7 @@ def test_an_eye_beyond_the_arm_is_refused_before_motion_naming_the_distance() ->
 
 
 def test_unknown_robot_names_list_the_registered_ones() -> None:
-    with pytest.raises(InvalidInputError, match="iramis, ur5, panda"):
+    with pytest.raises(InvalidInputError, match="iramis, panda, ur5"):
         make_robot("kuka")
     assert set(ROBOTS) == {"iramis", "ur5", "panda"}
 

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.cli.common import print_json, table
+from rcmplan.cli.common import announce_robot, print_json, robot_arg, table
 from rcmplan.robot.iramis import JOINT_NAMES, SLIDER_NAMES, Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import DEFAULT_ROBOT, ROBOTS, make_robot
@@ -23,8 +23,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "every assumed parameter with its source, the home pose and the slider ranges; an arm: "
         "its joints from its model file, their limits, the needle and the home pose.",
     )  # fmt: skip
-    p.add_argument("--robot", choices=tuple(ROBOTS), default=DEFAULT_ROBOT,
-                   help=f"the robot to print ({DEFAULT_ROBOT})")  # fmt: skip
+    p.add_argument("--robot", type=robot_arg, default=DEFAULT_ROBOT, metavar="NAME|FILE.toml",
+                   help=f"the robot to print: {', '.join(ROBOTS)}, or a robot file FILE.toml "
+                   f"({DEFAULT_ROBOT})")  # fmt: skip
     p.add_argument("--list", action="store_true", help="name every available robot and stop")
     p.add_argument("--json", action="store_true", help="print the model as JSON (SI units)")
     p.set_defaults(run=run)
@@ -138,6 +139,7 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(table(["robot", "description"], [[n, d] for n, d in ROBOTS.items()]))
         return 0
+    announce_robot(args.robot, "robot")
     robot = make_robot(args.robot)
     if args.json:
         print_json(model_dict(robot) if isinstance(robot, Iramis) else arm_dict(robot))

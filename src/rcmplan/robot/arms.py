@@ -4,6 +4,8 @@ rcmplan's scenes (`rcmplan.scene.eye`) place the eye in front of the needle tip 
 the needle pointing along the world's -x axis at home (as iRAM!S's does). `place_arm` turns an
 arm about the world z axis (vertical stays vertical) so that its needle's horizontal direction
 at home is -x; the shipped arms hold the needle horizontally at home, so it points along -x.
+Arms from robot files (`rcmplan.robot.robot_file`, the shipped ones in `rcmplan/robots/`) are
+placed the same way.
 """
 
 from __future__ import annotations
@@ -20,12 +22,6 @@ from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
 
 NEEDLE_LENGTH = 60e-3  # [m], a 60 mm straight needle on the flange (assumed)
-# Home joints [rad]: the needle horizontal, about 0.4-0.5 m in front of the base, away from
-# the arms' singular sets (chosen for the shipped injection; see docs/robots.md).
-HOMES = {
-    "ur5": (0.0, -1.2, 1.9, -0.7, 0.5 * math.pi, 0.0),
-    "panda": (0.0, -0.3, 0.0, -1.3, 0.0, 2.6, 0.25 * math.pi),
-}
 
 
 def place_arm(chain: JointChain, needle: StraightNeedle, home: Sequence[float]) -> JointChain:
@@ -58,12 +54,11 @@ def needle_arm(
 
 
 def shipped_arm(name: str) -> SerialArm:
-    """A shipped arm ("ur5" or "panda") from its URDF (`example-robot-data`, extra `robots`)."""
-    from rcmplan.robot.library import robot_chain
+    """A shipped arm (one of `rcmplan.robot.library.ROBOT_FILES`) from its robot file."""
+    from rcmplan.robot.library import shipped_robot_file
+    from rcmplan.robot.robot_file import load_robot_file
 
-    if name not in HOMES:
-        raise InvalidInputError("robot", name, "one of " + ", ".join(HOMES))
-    return needle_arm(robot_chain(name), HOMES[name], name)
+    return load_robot_file(shipped_robot_file(name)).arm
 
 
 def home_pose(arm: SerialArm) -> FloatArray:
