@@ -22,9 +22,12 @@ from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
 
 NEEDLE_LENGTH = 60e-3  # [m], a 60 mm straight needle on the flange (assumed)
+NEEDLE_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")  # a needle's direction in its flange frame
 
 
-def place_arm(chain: JointChain, needle: StraightNeedle, home: Sequence[float]) -> JointChain:
+def place_arm(
+    chain: JointChain, needle: StraightNeedle, home: Sequence[float] | FloatArray
+) -> JointChain:
     """The chain turned about the world z axis so that the needle points along -x at home
     (its horizontal part; raises if the needle is vertical at home)."""
     T = chain.forward_kinematics(vector("home", home, chain.n))
@@ -51,6 +54,30 @@ def needle_arm(
     placed = place_arm(chain, needle, home)
     return SerialArm(placed, needle, home, name=name, roll_joint=chain.n - 1,
                      singular_threshold=singular_threshold)  # fmt: skip
+
+
+def needle_mount(axis: str) -> FloatArray:
+    """The (4, 4) needle mount at the flange origin whose z axis is `axis` (one of NEEDLE_AXES);
+    its x axis (a curved needle's bend) is the flange's z for +-x and +-y, its x for +-z."""
+    if axis not in NEEDLE_AXES:
+        raise InvalidInputError("needle_axis", axis, "one of " + " ".join(NEEDLE_AXES))
+    z = np.zeros(3)
+    z["xyz".index(axis[1])] = 1.0 if axis[0] == "+" else -1.0
+    x = np.array([1.0, 0.0, 0.0]) if axis[1] == "z" else np.array([0.0, 0.0, 1.0])
+    M = np.eye(4)
+    M[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    return M
+
+
+def roll_joint(chain: JointChain, needle: StraightNeedle) -> int | None:
+    """The last joint if it turns the needle about its own axis (a revolute joint whose axis
+    holds the needle's base and tip), else None."""
+    k = chain.n - 1
+    if chain.prismatic[k]:
+        return None
+    ends = [chain.tip[:3, :3] @ needle.point_local(lam) + chain.tip[:3, 3] for lam in (0.0, 1.0)]
+    on_axis = all(np.linalg.norm(np.cross(chain.axes[k], p)) < 1e-9 for p in ends)
+    return k if on_axis else None
 
 
 def shipped_arm(name: str) -> SerialArm:

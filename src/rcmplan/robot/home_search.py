@@ -112,18 +112,24 @@ def search_home(
         return FoundHome(None, 0.0, (s.samples, 0))
     scores = [_score(arm, q) for q in samples]
     order = np.argsort(scores)[::-1][: s.starts]
-    best: tuple[float, FloatArray | None] = (0.0, None)
     r_min = s.distance * arm.reach
-    for q in (_refine(arm, samples[i], lo, hi, s.outward, r_min) for i in order):
-        inside = bool(np.all(q >= lo - 1e-12) and np.all(q <= hi + 1e-12))
-        ahead = min(_outward(arm, q) - s.outward, _radius(arm, q) - r_min, _height(arm, q)) >= -1e-9
-        if inside and ahead and abs(_a_z(arm, q)) <= HORIZONTAL_TOLERANCE:
-            kappa = arm.singularity_measure(q)
-            if kappa > best[0]:
-                best = (kappa, np.clip(q, chain.lower, chain.upper))
-    kappa, q = best
-    tried = (s.samples, len(order))
-    return FoundHome(q if kappa >= s.min_measure else None, kappa, tried)
+    best_kappa, best_q = 0.0, None
+    for i in order:
+        q = _refine(arm, samples[i], lo, hi, s.outward, r_min)
+        kappa = arm.singularity_measure(q)
+        if kappa > best_kappa and _meets(arm, q, lo, hi, s.outward, r_min):
+            best_kappa, best_q = kappa, np.clip(q, chain.lower, chain.upper)
+    found = best_q if best_kappa >= s.min_measure else None
+    return FoundHome(found, best_kappa, (s.samples, len(order)))
+
+
+def _meets(
+    arm: SerialArm, q: FloatArray, lo: FloatArray, hi: FloatArray, outward: float, r_min: float
+) -> bool:
+    """q in the box, the needle horizontal and away from the arm, the tip above the root."""
+    inside = bool(np.all(q >= lo - 1e-12) and np.all(q <= hi + 1e-12))
+    ahead = min(_outward(arm, q) - outward, _radius(arm, q) - r_min, _height(arm, q)) >= -1e-9
+    return inside and ahead and abs(_a_z(arm, q)) <= HORIZONTAL_TOLERANCE
 
 
 def _box(chain: JointChain, margin: float) -> tuple[FloatArray, FloatArray]:

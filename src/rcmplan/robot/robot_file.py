@@ -37,13 +37,13 @@ from rcmplan.exceptions import (
     RobotFileError,
     UnknownFrameError,
 )
+from rcmplan.robot.arms import NEEDLE_AXES, needle_mount, place_arm, roll_joint
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.home_search import HomeSearch, search_home
 from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
 
 KEYS = ("name", "description", "urdf", "mjcf", "flange", "needle_axis", "needle_length_mm", "home")
-NEEDLE_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
 NEEDLE_LENGTH_MM = 60.0
 MIN_MOVING_JOINTS = 5  # joints moving the needle, to hold an RCM and reach a point
 MAX_FILE_BYTES = 1 << 16
@@ -97,8 +97,8 @@ class LoadedRobot:
         q = ", ".join(f"{v:.4f}" for v in self.arm.home)
         how = "chose home" if self.home_searched else "home"
         where = f"no home in {self.spec.path}; " if self.home_searched else ""
-        return (f"robot {self.arm.name}: {where}{how} [{q}] rad (manipulability {self.measure:.3f}, "
-                "inverse condition number of the needle's Jacobian)")  # fmt: skip
+        measure = f"manipulability {self.measure:.3f}, inverse condition number of the needle's"
+        return f"robot {self.arm.name}: {where}{how} [{q}] rad ({measure} Jacobian)"
 
 
 def read_robot_file(path: str | Path) -> RobotSpec:
@@ -108,8 +108,10 @@ def read_robot_file(path: str | Path) -> RobotSpec:
 
     def text(key: str, default: str | None = None) -> str:
         value = table.get(key, default)
+        if key not in table and default is None:
+            raise RobotFileError(path, key, "missing", "a string (the key is required)")
         if not isinstance(value, str) or (not value and default is None):
-            raise RobotFileError(path, key, value if key in table else "missing", "a string")
+            raise RobotFileError(path, key, value, "a non-empty string")
         return value
 
     kinds = [k for k in ("urdf", "mjcf") if k in table]
@@ -169,19 +171,6 @@ def _home(path: Path, table: dict[str, Any]) -> tuple[float, ...] | None:
     return tuple(float(v) for v in value)
 
 
-def needle_mount(axis: str) -> FloatArray:
-    """The (4, 4) needle mount at the flange origin whose z axis is `axis` (one of NEEDLE_AXES);
-    its x axis (a curved needle's bend) is the flange's z for +-x and +-y, its x for +-z."""
-    if axis not in NEEDLE_AXES:
-        raise InvalidInputError("needle_axis", axis, "one of " + " ".join(NEEDLE_AXES))
-    z = np.zeros(3)
-    z["xyz".index(axis[1])] = 1.0 if axis[0] == "+" else -1.0
-    x = np.array([1.0, 0.0, 0.0]) if axis[1] == "z" else np.array([0.0, 0.0, 1.0])
-    M = np.eye(4)
-    M[:3, :3] = np.column_stack([x, np.cross(z, x), z])
-    return M
-
-
 def model_path(spec: RobotSpec) -> Path:
     """The model file: package://example-robot-data/..., absolute, or relative to the file."""
     from rcmplan.robot.library import PACKAGE_URI, package_file
@@ -219,21 +208,8 @@ def model_chain(spec: RobotSpec) -> JointChain:
         raise spec.error("flange", spec.flange, f"{exc.name} = {exc.value}: {exc.valid}") from exc
 
 
-def roll_joint(chain: JointChain, needle: StraightNeedle) -> int | None:
-    """The last joint if it turns the needle about its own axis (a revolute joint whose axis
-    holds the needle's base and tip), else None."""
-    k = chain.n - 1
-    if chain.prismatic[k]:
-        return None
-    ends = [chain.tip[:3, :3] @ needle.point_local(lam) + chain.tip[:3, 3] for lam in (0.0, 1.0)]
-    on_axis = all(np.linalg.norm(np.cross(chain.axes[k], p)) < 1e-9 for p in ends)
-    return k if on_axis else None
-
-
 def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> LoadedRobot:
     """The arm a robot file describes, checked before any motion (see module docstring)."""
-    from rcmplan.robot.arms import place_arm
-
     spec = read_robot_file(path)
     chain = model_chain(spec)
     needle = StraightNeedle(spec.needle_length, needle_mount(spec.needle_axis))
@@ -262,12 +238,13 @@ def _chosen_home(
     key = _search_key(spec, chain, search)
     q, kappa, tried = _searched(key, chain, needle, roll, search)
     if q is None:
+        best = f"best manipulability {kappa:.3g}" if kappa > 0 else "none met the conditions"
         raise NoHomeFoundError(
             spec.path, "home", "absent",
             f"a home given in the file: the search found no pose within the joint limits "
-            f"({search.margin:.0%} of each travel kept clear) with the needle horizontal and "
-            f"manipulability >= {search.min_measure:g} ({tried[0]} samples, {tried[1]} refined; "
-            f"best {kappa:.3g})",
+            f"({search.margin:.0%} of each travel kept clear) with the needle horizontal, "
+            f"pointing away from the arm, the tip above its base and manipulability >= "
+            f"{search.min_measure:g} ({tried[0]} samples, {tried[1]} refined; {best})",
         )  # fmt: skip
     return np.array(q), True
 
@@ -289,8 +266,9 @@ def _checked_home(spec: RobotSpec, home: tuple[float, ...], chain: JointChain) -
 
 def _search_key(spec: RobotSpec, chain: JointChain, search: HomeSearch) -> tuple[Any, ...]:
     """What a searched home depends on: the chain's numbers, the needle, the settings."""
-    numbers = np.concatenate([chain.base.ravel(), chain.origins.ravel(), chain.axes.ravel(),
-                              chain.tip.ravel(), chain.lower, chain.upper, chain.prismatic])  # fmt: skip
+    arrays = (chain.base, chain.origins, chain.axes, chain.tip, chain.lower, chain.upper,
+              chain.prismatic)  # fmt: skip
+    numbers = np.concatenate([np.ravel(a) for a in arrays])
     return (numbers.tobytes(), spec.needle_axis, spec.needle_length, search)
 
 
