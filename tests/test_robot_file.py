@@ -220,6 +220,8 @@ BAD = {  # case: (keys changed, error type, what the message names)
                                 RobotFileError,
                                 r"home\[2\] \(joint 'j2s6s200_joint_3'\) = -1\.5707.*"
                                 r"\[0\.331613, 5\.95157\] rad"),
+    "needle vertical at home": ({"home": "[0.0, 3.14159, 3.14159, 0.0, 3.14159, 0.0]"},
+                                RobotFileError, r"home = .*not vertical"),
     "home count": ({"home": "[0.0, 3.0]"}, RobotFileError, r"home = '2 values'.*6 values"),
     "too few joints": ({"flange": '"j2s6s200_link_4"'}, RobotFileError,
                        r"at least 5 joints moving the needle.*\(4 do: j2s6s200_joint_1"),

@@ -176,7 +176,7 @@ def test_robot_list_names_every_robot(capsys: pytest.CaptureFixture[str]) -> Non
     import json
 
     names = [r["name"] for r in json.loads(capsys.readouterr().out)["robots"]]
-    assert names == ["iramis", "ur5", "panda"]
+    assert names == ["iramis", "panda", "ur5"]
 
 
 def test_inject_with_robot_writes_the_robot_into_the_summary(tmp_path, capsys) -> None:

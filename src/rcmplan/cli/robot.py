@@ -12,7 +12,8 @@ import numpy as np
 from rcmplan.cli.common import announce_robot, print_json, robot_arg, table
 from rcmplan.robot.iramis import JOINT_NAMES, SLIDER_NAMES, Iramis
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.registry import DEFAULT_ROBOT, ROBOTS, make_robot
+from rcmplan.robot.registry import DEFAULT_ROBOT, ROBOTS, is_robot_file, make_robot
+from rcmplan.robot.robot_file import read_robot_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -96,8 +97,9 @@ def _slider(robot: Iramis, i: int, name: str) -> dict[str, Any]:
             f"speed_{unit}_per_s": float(robot.speed[i])}  # fmt: skip
 
 
-def describe_arm(robot: RobotModel) -> str:
-    """Any robot model as text: joints with limits and speeds, needle, home pose."""
+def describe_arm(robot: RobotModel, description: str | None = None) -> str:
+    """Any robot model as text: joints with limits and speeds, needle, home pose (the
+    description defaults to the registered robot's of that name)."""
     rows = []
     for i, name in enumerate(robot.actuator_names):
         unit = robot.actuator_units[i]
@@ -106,7 +108,7 @@ def describe_arm(robot: RobotModel) -> str:
                      f"{robot.speed[i]:.4g}", unit])  # fmt: skip
     q = robot.home
     return "\n".join([
-        f"{robot.name}: {ROBOTS.get(robot.name, '')}", "",
+        f"{robot.name}: {ROBOTS.get(robot.name, '') if description is None else description}", "",
         table(["joint", "lower", "upper", "speed /s", "unit"], rows), "",
         f"needle length: {1e3 * robot.needle_length:g} mm",
         "home pose: q = (" + ", ".join(f"{v:.4g}" for v in q) + ")",
@@ -141,9 +143,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     announce_robot(args.robot, "robot")
     robot = make_robot(args.robot)
+    text = read_robot_file(args.robot).description if is_robot_file(args.robot) else None
     if args.json:
         print_json(model_dict(robot) if isinstance(robot, Iramis) else arm_dict(robot))
         return 0
     np.set_printoptions(suppress=True)
-    print(describe(robot) if isinstance(robot, Iramis) else describe_arm(robot))
+    print(describe(robot) if isinstance(robot, Iramis) else describe_arm(robot, text))
     return 0

@@ -31,7 +31,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import minimize
 
 from rcmplan._validate import FloatArray
 from rcmplan.exceptions import InvalidInputError
@@ -222,6 +221,8 @@ def _refine(
 ) -> FloatArray:  # fmt: skip
     """SLSQP from `start`: the largest kappa with a_z = 0, the needle pointing away from the
     arm, in the box; then a_z polished."""
+    from scipy.optimize import minimize  # scipy.optimize takes a second to import
+
     act = list(arm.active)
     q = start.copy()
 

@@ -224,7 +224,8 @@ def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> Loade
         placed = place_arm(chain, needle, home)
         arm = SerialArm(placed, needle, home, spec.name, roll, SINGULAR_THRESHOLD)
     except InvalidInputError as exc:
-        raise spec.error("home", list(home), f"{exc.valid} ({exc.name} = {exc.value})") from exc
+        why = exc.valid if exc.name == "home" else f"{exc.valid} ({exc.name}: {exc.value})"
+        raise spec.error("home", home.tolist(), why) from exc
     return LoadedRobot(arm, spec, searched, arm.singularity_measure(arm.home))
 
 
