@@ -138,13 +138,13 @@ def test_the_searched_home_is_horizontal_within_the_limits_and_away_from_the_arm
 
 
 def test_the_home_search_is_deterministic_and_beats_the_hand_written_homes() -> None:
-    spec_ur5 = make_robot("ur5")
+    ur5 = make_robot("ur5")
     chain = load_urdf(robots_dir() / OLD_ARMS["ur5"][0], "tool0", name="ur5")
-    first = search_home(chain, spec_ur5.needle, 5)
-    again = search_home(chain, spec_ur5.needle, 5)
+    first = search_home(chain, ur5.needle, 5)
+    again = search_home(chain, ur5.needle, 5)
     assert first.q is not None and again.q is not None
     assert np.array_equal(first.q, again.q)
-    assert first.measure > spec_ur5.singularity_measure(spec_ur5.home)
+    assert first.measure > ur5.singularity_measure(ur5.home)
 
 
 def test_the_last_joint_is_the_needle_roll_only_when_the_needle_lies_on_its_axis() -> None:

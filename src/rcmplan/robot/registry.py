@@ -46,7 +46,7 @@ def check_robot(robot: str) -> str:
     raise InvalidInputError("robot", robot, VALID)
 
 
-def make_robot(name_or_path: str = DEFAULT_ROBOT) -> RobotModel:
+def make_robot(name_or_path: str | Path = DEFAULT_ROBOT) -> RobotModel:
     """The robot named `name_or_path` (one of ROBOTS) or described by that robot file."""
     robot = check_robot(str(name_or_path))
     if robot == "iramis":
