@@ -275,5 +275,5 @@ def test_ball_and_coupled_mjcf_joints_raise_naming_the_joint(tmp_path: Path) -> 
 
 
 def test_unknown_robot_name_raises_listing_the_shipped_robots() -> None:
-    with pytest.raises(InvalidInputError, match="ur5, panda"):
+    with pytest.raises(InvalidInputError, match="panda, ur5"):
         robot_file("kuka")

@@ -156,7 +156,7 @@ def test_an_eye_beyond_the_arm_is_refused_before_motion_naming_the_distance() ->
 
 
 def test_unknown_robot_names_list_the_registered_ones() -> None:
-    with pytest.raises(InvalidInputError, match="iramis, ur5, panda"):
+    with pytest.raises(InvalidInputError, match="iramis, panda, ur5"):
         make_robot("kuka")
     assert set(ROBOTS) == {"iramis", "ur5", "panda"}
 
@@ -176,7 +176,7 @@ def test_robot_list_names_every_robot(capsys: pytest.CaptureFixture[str]) -> Non
     import json
 
     names = [r["name"] for r in json.loads(capsys.readouterr().out)["robots"]]
-    assert names == ["iramis", "ur5", "panda"]
+    assert names == ["iramis", "panda", "ur5"]
 
 
 def test_inject_with_robot_writes_the_robot_into_the_summary(tmp_path, capsys) -> None:

@@ -358,3 +358,29 @@ class InputStreamError(InvalidInputError):
         self.column = column
         where = f"{source}: row {row} {column}" if row is not None else f"{source}: {column}"
         super().__init__(where, value, valid)
+
+
+class RobotFileError(InvalidInputError):
+    """A robot file (TOML) is malformed or describes an arm rcmplan cannot drive: the message
+    names the file, the key and the offending value (a frame, a joint's value and limits, a
+    count) and what is valid.
+
+    Attributes:
+        path: The robot file.
+        key: The key of its [robot] table at fault ("" for the file as a whole).
+    """
+
+    status = "invalid_robot_file"
+
+    def __init__(self, path: Any, key: str, value: Any, valid: str) -> None:
+        self.path = path
+        self.key = key
+        where = f"robot file {str(path)!r}" + (f": [robot] {key}" if key else "")
+        super().__init__(where, value, valid)
+
+
+class NoHomeFoundError(RobotFileError):
+    """A robot file gives no home and the search finds no pose within the joint limits with
+    the needle horizontal and the arm away from its singular set."""
+
+    status = "no_home_found"

@@ -15,7 +15,8 @@ from rcmplan.analysis.result import RunResult
 from rcmplan.cli import interrupts
 from rcmplan.control.loop import Phase
 from rcmplan.control.methods import METHODS
-from rcmplan.robot.registry import ROBOTS
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.registry import ROBOTS, check_robot, is_robot_file
 from rcmplan.scene.scenario import Scenario, load_scenario
 from rcmplan.sim.registry import PLANTS
 
@@ -29,13 +30,37 @@ def add_run_options(p: argparse.ArgumentParser, scenario: str, many_methods: boo
                        help=f"a method to run, repeatable: {listed} (all)")  # fmt: skip
     else:
         p.add_argument("--method", choices=METHODS, help="control method (default: the scenario's)")
-    p.add_argument("--robot", choices=tuple(ROBOTS), help="robot (default: the scenario's)")
+    p.add_argument("--robot", type=robot_arg, metavar="NAME|FILE.toml",
+                   help=f"{ROBOT_HELP} (default: the scenario's)")  # fmt: skip
     p.add_argument("--plant", choices=sorted(PLANTS), help="plant (default: the scenario's)")
     p.add_argument("--out", default=None, help="output folder (default: rcmplan-out/<command>)")
     written = "compare.json" if many_methods else "summary.json"
     p.add_argument("--json", action="store_true", help=f"print {written} instead of the table")
     skipped = "the chart" if many_methods else "figures and the HTML report"
     p.add_argument("--no-plots", action="store_true", help=f"skip {skipped}")
+
+
+ROBOT_HELP = "robot: " + ", ".join(ROBOTS) + ", or a robot file FILE.toml (docs/robots.md)"
+
+
+def robot_arg(value: str) -> str:
+    """argparse type of --robot: a robot name or an existing robot file (.toml)."""
+    try:
+        return check_robot(value)
+    except InvalidInputError as exc:
+        raise argparse.ArgumentTypeError(f"invalid robot {value!r}: {exc.valid}") from exc
+
+
+def announce_robot(robot: str, command: str) -> None:
+    """Load a robot file now (its errors stop the command before any motion) and, when the
+    file gives no home, say on stderr which home was chosen."""
+    if not is_robot_file(robot):
+        return
+    from rcmplan.robot.robot_file import load_robot_file
+
+    loaded = load_robot_file(robot)
+    if loaded.home_searched:
+        print(f"rcmplan {command}: {loaded.note()}", file=sys.stderr)
 
 
 def scenario_from_args(args: argparse.Namespace, procedure: str | None = None) -> Scenario:
@@ -48,6 +73,7 @@ def scenario_from_args(args: argparse.Namespace, procedure: str | None = None) -
     sc = load_scenario(args.scenario)
     if getattr(args, "robot", None):
         sc = sc.with_robot(args.robot)
+    announce_robot(sc.robot, args.command)
     if procedure is not None and sc.procedure != procedure:
         print(f"rcmplan {args.command}: scenario {sc.name!r} names procedure "
               f"{sc.procedure!r}; running the {procedure} on its eye, points, steps and controller "

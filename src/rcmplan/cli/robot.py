@@ -9,10 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.cli.common import print_json, table
+from rcmplan.cli.common import announce_robot, print_json, robot_arg, table
 from rcmplan.robot.iramis import JOINT_NAMES, SLIDER_NAMES, Iramis
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.registry import DEFAULT_ROBOT, ROBOTS, make_robot
+from rcmplan.robot.registry import DEFAULT_ROBOT, ROBOTS, is_robot_file, make_robot
+from rcmplan.robot.robot_file import read_robot_file
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -23,8 +24,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "every assumed parameter with its source, the home pose and the slider ranges; an arm: "
         "its joints from its model file, their limits, the needle and the home pose.",
     )  # fmt: skip
-    p.add_argument("--robot", choices=tuple(ROBOTS), default=DEFAULT_ROBOT,
-                   help=f"the robot to print ({DEFAULT_ROBOT})")  # fmt: skip
+    p.add_argument("--robot", type=robot_arg, default=DEFAULT_ROBOT, metavar="NAME|FILE.toml",
+                   help=f"the robot to print: {', '.join(ROBOTS)}, or a robot file FILE.toml "
+                   f"({DEFAULT_ROBOT})")  # fmt: skip
     p.add_argument("--list", action="store_true", help="name every available robot and stop")
     p.add_argument("--json", action="store_true", help="print the model as JSON (SI units)")
     p.set_defaults(run=run)
@@ -95,8 +97,9 @@ def _slider(robot: Iramis, i: int, name: str) -> dict[str, Any]:
             f"speed_{unit}_per_s": float(robot.speed[i])}  # fmt: skip
 
 
-def describe_arm(robot: RobotModel) -> str:
-    """Any robot model as text: joints with limits and speeds, needle, home pose."""
+def describe_arm(robot: RobotModel, description: str | None = None) -> str:
+    """Any robot model as text: joints with limits and speeds, needle, home pose (the
+    description defaults to the registered robot's of that name)."""
     rows = []
     for i, name in enumerate(robot.actuator_names):
         unit = robot.actuator_units[i]
@@ -105,7 +108,7 @@ def describe_arm(robot: RobotModel) -> str:
                      f"{robot.speed[i]:.4g}", unit])  # fmt: skip
     q = robot.home
     return "\n".join([
-        f"{robot.name}: {ROBOTS.get(robot.name, '')}", "",
+        f"{robot.name}: {ROBOTS.get(robot.name, '') if description is None else description}", "",
         table(["joint", "lower", "upper", "speed /s", "unit"], rows), "",
         f"needle length: {1e3 * robot.needle_length:g} mm",
         "home pose: q = (" + ", ".join(f"{v:.4g}" for v in q) + ")",
@@ -138,10 +141,12 @@ def run(args: argparse.Namespace) -> int:
         else:
             print(table(["robot", "description"], [[n, d] for n, d in ROBOTS.items()]))
         return 0
+    announce_robot(args.robot, "robot")
     robot = make_robot(args.robot)
+    text = read_robot_file(args.robot).description if is_robot_file(args.robot) else None
     if args.json:
         print_json(model_dict(robot) if isinstance(robot, Iramis) else arm_dict(robot))
         return 0
     np.set_printoptions(suppress=True)
-    print(describe(robot) if isinstance(robot, Iramis) else describe_arm(robot))
+    print(describe(robot) if isinstance(robot, Iramis) else describe_arm(robot, text))
     return 0

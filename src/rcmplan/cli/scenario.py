@@ -22,7 +22,8 @@ DESCRIPTIONS: dict[Key, str] = {
     ("", "procedure"): "`injection` or `spiral`",
     ("", "plant"): "plant the run uses (`rcmplan inject --help` lists them)",
     ("", "description"): "one line for people; not used by the run",
-    ("", "robot"): "the robot (`rcmplan robot --list` names them); the eye is placed for it",
+    ("", "robot"): "the robot: a name (`rcmplan robot --list`) or a robot file (.toml, a path "
+    "relative to the scenario file; docs/robots.md); the eye is placed for it",
     ("eye", "radius_mm"): "outer (scleral) radius of the eye",
     ("eye", "wall_mm"): "wall thickness; the retina is the inner sphere",
     ("eye", "trocar_radius_mm"): "radius of the trocar port (the RCM bound)",

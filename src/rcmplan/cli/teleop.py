@@ -10,9 +10,16 @@ from pathlib import Path
 from typing import Any
 
 from rcmplan.cli import interrupts
-from rcmplan.cli.common import interrupted_message, one_line, print_json, table
+from rcmplan.cli.common import (
+    ROBOT_HELP,
+    announce_robot,
+    interrupted_message,
+    one_line,
+    print_json,
+    robot_arg,
+    table,
+)
 from rcmplan.exceptions import RcmplanError
-from rcmplan.robot.registry import ROBOTS
 from rcmplan.sim.registry import PLANTS
 
 FILTERS = ("none", "lowpass", "wflc")  # rcmplan.teleop.FILTERS (a test checks they agree)
@@ -33,7 +40,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scale", type=float, default=20.0, help="motion scaling, 1-50 (20)")
     p.add_argument("--filter", choices=FILTERS, default="wflc", help="tremor filter (wflc)")
     p.add_argument("--plant", choices=sorted(PLANTS), default="kinematic", help="plant")
-    p.add_argument("--robot", choices=tuple(ROBOTS), default="iramis", help="robot")
+    p.add_argument("--robot", type=robot_arg, default="iramis", metavar="NAME|FILE.toml",
+                   help=f"{ROBOT_HELP} (iramis)")  # fmt: skip
     p.add_argument("--seed", type=int, default=0, help="seed of the synthetic surgeon (0)")
     p.add_argument("--tremor-um", type=float, default=100.0,
                    help="synthetic tremor, RMS of its 3-D magnitude in um (100)")  # fmt: skip
@@ -64,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
     result, doc = None, None
     try:
         with interrupts.surfaced():
+            announce_robot(args.robot, "teleop")
             settings = TeleopSettings(robot=args.robot, plant=args.plant, scale=args.scale,
                                       filter=args.filter)  # fmt: skip
             track = track_of(args, settings)

@@ -14,9 +14,9 @@ import threading
 from typing import Any
 
 from rcmplan.cli import interrupts
+from rcmplan.cli.common import ROBOT_HELP, robot_arg
 from rcmplan.cli.teleop import FILTERS  # not rcmplan.teleop: its import costs scipy.signal
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.robot.registry import ROBOTS
 from rcmplan.scene.scenario import PLANTS
 
 
@@ -36,7 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
     live = p.add_argument_group("live mode")
     live.add_argument("--scenario", default="default", help="scenario of the eye (default)")
-    live.add_argument("--robot", choices=tuple(ROBOTS), help="robot (default: the scenario's)")
+    live.add_argument("--robot", type=robot_arg, metavar="NAME|FILE.toml",
+                      help=f"{ROBOT_HELP} (default: the scenario's)")  # fmt: skip
     live.add_argument("--plant", choices=PLANTS, default="kinematic",
                       help="plant the live control drives (kinematic)")  # fmt: skip
     live.add_argument("--scale", type=float, default=1.0,

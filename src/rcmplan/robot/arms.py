@@ -4,6 +4,8 @@ rcmplan's scenes (`rcmplan.scene.eye`) place the eye in front of the needle tip 
 the needle pointing along the world's -x axis at home (as iRAM!S's does). `place_arm` turns an
 arm about the world z axis (vertical stays vertical) so that its needle's horizontal direction
 at home is -x; the shipped arms hold the needle horizontally at home, so it points along -x.
+Arms from robot files (`rcmplan.robot.robot_file`, the shipped ones in `rcmplan/robots/`) are
+placed the same way.
 """
 
 from __future__ import annotations
@@ -20,15 +22,12 @@ from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
 
 NEEDLE_LENGTH = 60e-3  # [m], a 60 mm straight needle on the flange (assumed)
-# Home joints [rad]: the needle horizontal, about 0.4-0.5 m in front of the base, away from
-# the arms' singular sets (chosen for the shipped injection; see docs/robots.md).
-HOMES = {
-    "ur5": (0.0, -1.2, 1.9, -0.7, 0.5 * math.pi, 0.0),
-    "panda": (0.0, -0.3, 0.0, -1.3, 0.0, 2.6, 0.25 * math.pi),
-}
+NEEDLE_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")  # a needle's direction in its flange frame
 
 
-def place_arm(chain: JointChain, needle: StraightNeedle, home: Sequence[float]) -> JointChain:
+def place_arm(
+    chain: JointChain, needle: StraightNeedle, home: Sequence[float] | FloatArray
+) -> JointChain:
     """The chain turned about the world z axis so that the needle points along -x at home
     (its horizontal part; raises if the needle is vertical at home)."""
     T = chain.forward_kinematics(vector("home", home, chain.n))
@@ -57,13 +56,36 @@ def needle_arm(
                      singular_threshold=singular_threshold)  # fmt: skip
 
 
-def shipped_arm(name: str) -> SerialArm:
-    """A shipped arm ("ur5" or "panda") from its URDF (`example-robot-data`, extra `robots`)."""
-    from rcmplan.robot.library import robot_chain
+def needle_mount(axis: str) -> FloatArray:
+    """The (4, 4) needle mount at the flange origin whose z axis is `axis` (one of NEEDLE_AXES);
+    its x axis (a curved needle's bend) is the flange's z for +-x and +-y, its x for +-z."""
+    if axis not in NEEDLE_AXES:
+        raise InvalidInputError("needle_axis", axis, "one of " + " ".join(NEEDLE_AXES))
+    z = np.zeros(3)
+    z["xyz".index(axis[1])] = 1.0 if axis[0] == "+" else -1.0
+    x = np.array([1.0, 0.0, 0.0]) if axis[1] == "z" else np.array([0.0, 0.0, 1.0])
+    M = np.eye(4)
+    M[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    return M
 
-    if name not in HOMES:
-        raise InvalidInputError("robot", name, "one of " + ", ".join(HOMES))
-    return needle_arm(robot_chain(name), HOMES[name], name)
+
+def roll_joint(chain: JointChain, needle: StraightNeedle) -> int | None:
+    """The last joint if it turns the needle about its own axis (a revolute joint whose axis
+    holds the needle's base and tip), else None."""
+    k = chain.n - 1
+    if chain.prismatic[k]:
+        return None
+    ends = [chain.tip[:3, :3] @ needle.point_local(lam) + chain.tip[:3, 3] for lam in (0.0, 1.0)]
+    on_axis = all(np.linalg.norm(np.cross(chain.axes[k], p)) < 1e-9 for p in ends)
+    return k if on_axis else None
+
+
+def shipped_arm(name: str) -> SerialArm:
+    """A shipped arm (one of `rcmplan.robot.library.ROBOT_FILES`) from its robot file."""
+    from rcmplan.robot.library import shipped_robot_file
+    from rcmplan.robot.robot_file import load_robot_file
+
+    return load_robot_file(shipped_robot_file(name)).arm
 
 
 def home_pose(arm: SerialArm) -> FloatArray:

@@ -1,7 +1,8 @@
-"""Real robot arms shipped by the `example-robot-data` package, as `JointChain`s by name.
+"""The arms shipped with rcmplan, one robot file each in `rcmplan/robots/` (the format of
+`rcmplan.robot.robot_file`), and the model files of the `example-robot-data` package they use.
 
-The chains end at the arm's flange, in a frame whose z axis is the last joint's axis (the
-flange normal), so a tool mounted along z rolls with the last joint:
+A shipped arm's name is its file's name. The chains end at the arm's flange, in a frame whose z
+axis is the last joint's axis (the flange normal), so a needle along z rolls with that joint:
 
 - UR5 (`ur_description/urdf/ur5_robot.urdf`): 6 revolute joints up to `tool0`. Its sibling
   `ee_link` has the last joint's axis as x (the ROS-Industrial convention), so `tool0` is used.
@@ -13,20 +14,15 @@ Both chains are placed at the URDF root (`base` identity). Lengths in m, angles 
 
 from __future__ import annotations
 
-from importlib import metadata
+from importlib import metadata, resources
 from pathlib import Path
 
 from rcmplan.exceptions import InvalidInputError, MissingExtraError
 from rcmplan.robot.chain import JointChain
-from rcmplan.robot.urdf import load_urdf
 
 PACKAGE = "example-robot-data"
 ROBOTS_DIR = "cmeel.prefix/share/example-robot-data/robots"
-_FILES = {
-    "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0"),
-    "panda": ("panda_description/urdf/panda.urdf", "panda_link8"),
-}
-ROBOT_FILES: tuple[str, ...] = tuple(_FILES)
+PACKAGE_URI = f"package://{PACKAGE}/"
 
 
 def robots_dir() -> Path:
@@ -45,24 +41,50 @@ def robots_dir() -> Path:
     return folder
 
 
+def package_file(uri: str) -> Path:
+    """The file a `package://example-robot-data/<path>` URI names, under `robots_dir()`."""
+    if not uri.startswith(PACKAGE_URI):
+        raise InvalidInputError("model file URI", uri, f"{PACKAGE_URI}<path under its robots>")
+    return robots_dir() / uri[len(PACKAGE_URI) :]
+
+
+def shipped_robot_files() -> dict[str, Path]:
+    """The robot files shipped with rcmplan by name (the file name without .toml), sorted."""
+    folder = resources.files("rcmplan.robots")
+    names = sorted(f.name[:-5] for f in folder.iterdir() if f.name.endswith(".toml"))
+    return {n: Path(str(folder.joinpath(f"{n}.toml"))) for n in names}
+
+
+ROBOT_FILES: tuple[str, ...] = tuple(shipped_robot_files())
+
+
+def shipped_robot_file(name: str) -> Path:
+    """The robot file of a shipped arm (one of ROBOT_FILES)."""
+    files = shipped_robot_files()
+    if name not in files:
+        raise InvalidInputError("robot name", name, "one of " + ", ".join(files))
+    return files[name]
+
+
 def robot_file(name: str) -> Path:
-    """The URDF file of a shipped robot (one of ROBOT_FILES)."""
-    if name not in _FILES:
-        raise InvalidInputError("robot name", name, "one of " + ", ".join(ROBOT_FILES))
-    return robots_dir() / _FILES[name][0]
+    """The model file (URDF) of a shipped arm (one of ROBOT_FILES)."""
+    from rcmplan.robot.robot_file import model_path, read_robot_file
+
+    return model_path(read_robot_file(shipped_robot_file(name)))
 
 
 def flange_frame(name: str) -> str:
-    """The link a shipped robot's chain ends at (its flange), one of ROBOT_FILES."""
-    if name not in _FILES:
-        raise InvalidInputError("robot name", name, "one of " + ", ".join(ROBOT_FILES))
-    return _FILES[name][1]
+    """The link a shipped arm's chain ends at (its flange), one of ROBOT_FILES."""
+    from rcmplan.robot.robot_file import read_robot_file
+
+    return read_robot_file(shipped_robot_file(name)).flange
 
 
 def robot_chain(name: str) -> JointChain:
-    """A shipped robot's chain from its URDF root to its flange frame."""
-    path = robot_file(name)
-    return load_urdf(path, _FILES[name][1], name=name)
+    """A shipped arm's chain from its URDF root to its flange frame."""
+    from rcmplan.robot.robot_file import model_chain, read_robot_file
+
+    return model_chain(read_robot_file(shipped_robot_file(name)))
 
 
 def ur5_chain() -> JointChain:

@@ -1,33 +1,58 @@
-"""Robots by name, so commands and scenario files can say `--robot ur5`.
+"""Robots by name or file, so commands and scenario files can say `--robot ur5` or
+`--robot my_arm.toml`.
 
-"iramis" is the thesis robot (closed forms, no extra needed); "ur5" and "panda" are arms from
-their URDF files in the `example-robot-data` package (the `robots` extra), each holding a
-straight needle on its flange (`rcmplan.robot.arms`).
+"iramis" is the thesis robot (closed forms, no extra needed). The other names are the robot
+files shipped in `rcmplan/robots/` (found by listing that folder); any other robot file (a
+path ending in .toml, format of `rcmplan.robot.robot_file`) is loaded the same way.
 """
 
 from __future__ import annotations
+
+from pathlib import Path
 
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 
-ROBOTS: dict[str, str] = {
+DEFAULT_ROBOT = "iramis"
+BUILT_IN = {
     "iramis": "iRAM!S eye-surgery robot of the reference thesis (Table 2.1): 2 PCJMs, "
     "a prismatic stage and a needle roll",
-    "ur5": "Universal Robots UR5 (6 revolute joints, URDF of example-robot-data), "
-    "60 mm needle on tool0",
-    "panda": "Franka Emika Panda (7 revolute joints, URDF of example-robot-data), "
-    "60 mm needle on panda_link8; redundant",
 }
-DEFAULT_ROBOT = "iramis"
 
 
-def make_robot(name: str = DEFAULT_ROBOT) -> RobotModel:
-    """The robot registered under `name` (one of ROBOTS)."""
-    if name not in ROBOTS:
-        raise InvalidInputError("robot", name, "one of " + ", ".join(ROBOTS))
-    if name == "iramis":
+def shipped_robots() -> dict[str, str]:
+    """Every robot available by name with its description: iramis, then the shipped files."""
+    from rcmplan.robot.library import shipped_robot_files
+    from rcmplan.robot.robot_file import read_robot_file
+
+    files = shipped_robot_files()
+    return {**BUILT_IN, **{n: read_robot_file(p).description for n, p in files.items()}}
+
+
+ROBOTS: dict[str, str] = shipped_robots()
+VALID = "one of " + ", ".join(ROBOTS) + ", or a robot file (an existing .toml file)"
+
+
+def is_robot_file(robot: str) -> bool:
+    """True when `robot` names a robot file rather than a robot by name."""
+    return robot not in ROBOTS and robot.endswith(".toml")
+
+
+def check_robot(robot: str) -> str:
+    """`robot` if it is a robot name or an existing .toml file, else InvalidInputError."""
+    if robot in ROBOTS or (is_robot_file(robot) and Path(robot).is_file()):
+        return robot
+    raise InvalidInputError("robot", robot, VALID)
+
+
+def make_robot(name_or_path: str | Path = DEFAULT_ROBOT) -> RobotModel:
+    """The robot named `name_or_path` (one of ROBOTS) or described by that robot file."""
+    robot = check_robot(str(name_or_path))
+    if robot == "iramis":
         return Iramis()
-    from rcmplan.robot.arms import shipped_arm
+    from rcmplan.robot.library import shipped_robot_file
+    from rcmplan.robot.robot_file import load_robot_file
 
-    return shipped_arm(name)
+    path = Path(robot) if is_robot_file(robot) else shipped_robot_file(robot)
+    return load_robot_file(path).arm

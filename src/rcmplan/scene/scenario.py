@@ -23,7 +23,7 @@ from rcmplan.control.solvers import Tolerance
 from rcmplan.exceptions import InvalidInputError, ScenarioError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.registry import ROBOTS
+from rcmplan.robot.registry import check_robot, is_robot_file
 from rcmplan.scene.curved_procedure import NeedleOptions, curved_injection
 from rcmplan.scene.eye import POINT_NAMES, Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
@@ -116,10 +116,9 @@ class Scenario:
         return _replace(self, method=method)
 
     def with_robot(self, robot: str) -> Scenario:
-        """The same scenario with another robot (the eye is placed for it)."""
-        if robot not in ROBOTS:
-            raise InvalidInputError("robot", robot, "one of " + ", ".join(ROBOTS))
-        return _replace(self, robot=robot)
+        """The same scenario with another robot, a name or a robot file (the eye is placed for
+        it)."""
+        return _replace(self, robot=check_robot(robot))
 
     def with_plant(self, plant: str) -> Scenario:
         """The same scenario on another plant."""
@@ -216,8 +215,9 @@ def _sections(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
     return out
 
 
-def scenario_from_dict(data: dict[str, Any]) -> Scenario:
-    """A Scenario from a parsed TOML table; raises ScenarioError naming the bad key."""
+def scenario_from_dict(data: dict[str, Any], folder: Path | None = None) -> Scenario:
+    """A Scenario from a parsed TOML table; raises ScenarioError naming the bad key. A robot
+    file named by a relative path is found from `folder` (the scenario file's), if given."""
     sec = _sections(data)
     top, eye, pts, st, ctl, sp, nd, lat = (
         sec[k] for k in ("", "eye", "points", "steps", "controller", "spiral", "needle", "lateral")
@@ -228,9 +228,7 @@ def scenario_from_dict(data: dict[str, Any]) -> Scenario:
     plant = top.get("plant", "kinematic")
     if plant not in PLANTS:
         raise ScenarioError("plant", plant, f"one of {sorted(PLANTS)}")
-    robot = top.get("robot", "iramis")
-    if robot not in ROBOTS:
-        raise ScenarioError("robot", robot, f"one of {tuple(ROBOTS)}")
+    robot = _robot(top.get("robot", "iramis"), folder)
     method = ctl.get("method", "pinv")
     if method not in METHODS:
         raise ScenarioError("[controller] method", method, f"one of {METHODS}")
@@ -287,6 +285,16 @@ def scenario_from_dict(data: dict[str, Any]) -> Scenario:
     )
 
 
+def _robot(robot: str, folder: Path | None) -> str:
+    """A robot name, or a robot file's path (relative paths from `folder`)."""
+    if is_robot_file(robot) and folder is not None and not Path(robot).is_absolute():
+        robot = str(folder / robot)
+    try:
+        return check_robot(robot)
+    except InvalidInputError as exc:
+        raise ScenarioError("robot", robot, exc.valid) from exc
+
+
 def _needle(nd: dict[str, Any], lat: dict[str, Any]) -> NeedleOptions:
     """[needle] and [lateral] as NeedleOptions (kind, R, alpha, directions, tolerance)."""
     kind = nd.get("kind", "straight")
@@ -310,7 +318,8 @@ def load_scenario(source: str | Path) -> Scenario:
         raise ScenarioError("scenario file", str(source), f"valid TOML ({exc})") from exc
     except RecursionError as exc:  # arrays or tables nested thousands deep
         raise ScenarioError("scenario file", str(source), "TOML nested less deeply") from exc
-    return scenario_from_dict(data)
+    shipped = str(source) in scenario_names()
+    return scenario_from_dict(data, None if shipped else Path(source).parent)
 
 
 MAX_FILE_BYTES = 1 << 20  # a scenario is a few hundred bytes; the shipped ones are under 2 KiB

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 from rcmplan._validate import scalar, vector
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.robot.registry import ROBOTS
+from rcmplan.robot.registry import check_robot
 from rcmplan.sim.registry import PLANTS
 from rcmplan.teleop.filters import FILTERS, LowPassFilter, NoFilter, TremorFilter
 from rcmplan.teleop.fixtures import Fixtures
@@ -20,7 +20,7 @@ class TeleopSettings:
     """A session: robot, plant, pipeline and fixtures (SI units).
 
     Attributes:
-        robot: A registered robot (`rcmplan.robot.registry.ROBOTS`).
+        robot: A robot name (`rcmplan.robot.registry.ROBOTS`) or a robot file (.toml).
         plant: "kinematic", "mujoco" or "mujoco-kinematic".
         scale: Motion scaling in [1, 50]: the tip moves 1/scale of the hand.
         filter: Tremor filter, "none", "lowpass" or "wflc".
@@ -50,8 +50,7 @@ class TeleopSettings:
     stale_after: float = 0.1
 
     def __post_init__(self) -> None:
-        if self.robot not in ROBOTS:
-            raise InvalidInputError("robot", self.robot, "one of " + ", ".join(ROBOTS))
+        check_robot(self.robot)
         if self.plant not in PLANTS:
             raise InvalidInputError("plant", self.plant, f"one of {sorted(PLANTS)}")
         if self.filter not in FILTERS:

@@ -1,0 +1,290 @@
+"""Robots from one file: a TOML `[robot]` table names the arm's model file, the flange frame, the
+needle on it and the home pose. The shipped arms (`rcmplan/robots/*.toml`) use the same format.
+
+    [robot]
+    name = "kinova"                  # shown in outputs (required)
+    description = "Kinova Jaco 2"    # one line for `rcmplan robot --list` (optional)
+    urdf = "package://example-robot-data/kinova_description/robots/kinova.urdf"
+    flange = "j2s6s200_end_effector" # URDF link (MJCF: body or site) holding the needle
+    needle_axis = "+x"               # the needle's direction in the flange frame ("+z")
+    needle_length_mm = 60.0          # (60)
+    home = [...]                     # joints at home, rad or m (absent: searched)
+
+`urdf` or `mjcf` (exactly one) is a path relative to the robot file, an absolute path, or
+`package://example-robot-data/<path under the package's robots folder>` (extra `robots`). The
+needle starts at the flange origin and runs along `needle_axis` (one of +x -x +y -y +z -z): its
+mount's z axis. The last joint is held as the needle roll when it turns the needle about its
+own axis. A home, given or searched (`rcmplan.robot.home_search`), lies within the joint limits;
+the arm is then turned about the vertical so that the needle points along -x at home
+(`rcmplan.robot.arms.place_arm`). Every fault raises `RobotFileError` naming the file and key.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.exceptions import (
+    InvalidInputError,
+    ModelFileError,
+    NoHomeFoundError,
+    RobotFileError,
+    UnknownFrameError,
+)
+from rcmplan.robot.arms import NEEDLE_AXES, needle_mount, place_arm, roll_joint
+from rcmplan.robot.chain import JointChain
+from rcmplan.robot.home_search import HomeSearch, search_home
+from rcmplan.robot.model import SerialArm
+from rcmplan.robot.needle import StraightNeedle
+
+KEYS = ("name", "description", "urdf", "mjcf", "flange", "needle_axis", "needle_length_mm", "home")
+NEEDLE_LENGTH_MM = 60.0
+MIN_MOVING_JOINTS = 5  # joints moving the needle, to hold an RCM and reach a point
+MAX_FILE_BYTES = 1 << 16
+SINGULAR_THRESHOLD = 0.01  # the arms' smallest accepted singularity measure
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """A robot file as read and checked, before its model is loaded.
+
+    Attributes:
+        path: The robot file. name, description, flange: As written.
+        model_kind: "urdf" or "mjcf"; model: the model file as written (see module docstring).
+        needle_axis: One of NEEDLE_AXES. needle_length: In [m].
+        home: Joints at home in [rad] or [m], or None (searched).
+    """
+
+    path: Path
+    name: str
+    description: str
+    model_kind: str
+    model: str
+    flange: str
+    needle_axis: str = "+z"
+    needle_length: float = NEEDLE_LENGTH_MM / 1e3
+    home: tuple[float, ...] | None = None
+
+    def error(self, key: str, value: Any, valid: str) -> RobotFileError:
+        """A RobotFileError naming this file and `key`."""
+        return RobotFileError(self.path, key, value, valid)
+
+
+@dataclass(frozen=True)
+class LoadedRobot:
+    """An arm from a robot file and how its home was chosen.
+
+    Attributes:
+        arm: The SerialArm. spec: The file as read.
+        home_searched: True when the file gives no home and the search chose it.
+        measure: The arm's singularity measure at home (its manipulability: the inverse
+            condition number of the needle's Jacobian, in [0, 1]).
+    """
+
+    arm: SerialArm
+    spec: RobotSpec
+    home_searched: bool
+    measure: float
+
+    def note(self) -> str:
+        """One line saying what home was chosen (for a searched home)."""
+        q = ", ".join(f"{v:.4f}" for v in self.arm.home)
+        how = "chose home" if self.home_searched else "home"
+        where = f"no home in {self.spec.path}; " if self.home_searched else ""
+        measure = f"manipulability {self.measure:.3f}, inverse condition number of the needle's"
+        return f"robot {self.arm.name}: {where}{how} [{q}] rad ({measure} Jacobian)"
+
+
+def read_robot_file(path: str | Path) -> RobotSpec:
+    """The checked [robot] table of a robot file (its model file is not opened here)."""
+    path = Path(path)
+    table = _table(path)
+
+    def text(key: str, default: str | None = None) -> str:
+        value = table.get(key, default)
+        if key not in table and default is None:
+            raise RobotFileError(path, key, "missing", "a string (the key is required)")
+        if not isinstance(value, str) or (not value and default is None):
+            raise RobotFileError(path, key, value, "a non-empty string")
+        return value
+
+    kinds = [k for k in ("urdf", "mjcf") if k in table]
+    if len(kinds) != 1:
+        value = "missing" if not kinds else "both urdf and mjcf"
+        raise RobotFileError(path, "urdf", value, "one model file: urdf = PATH or mjcf = PATH")
+    axis = text("needle_axis", "+z")
+    if axis not in NEEDLE_AXES:
+        raise RobotFileError(path, "needle_axis", axis, "one of " + " ".join(NEEDLE_AXES))
+    return RobotSpec(path, text("name"), text("description", ""), kinds[0], text(kinds[0]),
+                     text("flange"), axis, _length(path, table), _home(path, table))  # fmt: skip
+
+
+def _table(path: Path) -> dict[str, Any]:
+    """The file's [robot] table, every key known."""
+    try:
+        raw = path.read_bytes()[: MAX_FILE_BYTES + 1]
+        if len(raw) > MAX_FILE_BYTES:
+            raise RobotFileError(path, "", f"{len(raw)}+ bytes", f"at most {MAX_FILE_BYTES} bytes")
+        data = tomllib.loads(raw.decode("utf-8"))
+    except OSError as exc:
+        raise RobotFileError(path, "", str(path), f"a readable file ({exc.strerror})") from exc
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
+        raise RobotFileError(path, "", str(path), f"UTF-8 TOML ({exc})") from exc
+    table = data.get("robot")
+    extra = sorted(set(data) - {"robot"})
+    if not isinstance(table, dict) or extra:
+        raise RobotFileError(path, "", extra or "no [robot] table", "one [robot] table")
+    unknown = sorted(set(table) - set(KEYS))
+    if unknown:
+        raise RobotFileError(path, unknown[0], table[unknown[0]], "a key among " + ", ".join(KEYS))
+    return table
+
+
+def _number(value: Any) -> bool:
+    """An int (not a bool) or a finite float."""
+    if isinstance(value, bool):
+        return False
+    return isinstance(value, int) or (isinstance(value, float) and math.isfinite(value))
+
+
+def _length(path: Path, table: dict[str, Any]) -> float:
+    """needle_length_mm in (0, 1000] as metres."""
+    value = table.get("needle_length_mm", NEEDLE_LENGTH_MM)
+    if not _number(value) or not 0.0 < value <= 1000.0:
+        raise RobotFileError(path, "needle_length_mm", value, "a number in (0, 1000] mm")
+    return float(value) / 1e3
+
+
+def _home(path: Path, table: dict[str, Any]) -> tuple[float, ...] | None:
+    """home as a tuple of floats, or None when absent."""
+    if "home" not in table:
+        return None
+    value = table["home"]
+    if not isinstance(value, list) or not value or not all(_number(v) for v in value):
+        raise RobotFileError(path, "home", value, "a list of joint values in rad or m")
+    return tuple(float(v) for v in value)
+
+
+def model_path(spec: RobotSpec) -> Path:
+    """The model file: package://example-robot-data/..., absolute, or relative to the file."""
+    from rcmplan.robot.library import PACKAGE_URI, package_file
+
+    if spec.model.startswith("package://"):
+        if not spec.model.startswith(PACKAGE_URI):
+            raise spec.error(spec.model_kind, spec.model, f"{PACKAGE_URI}<path>, a path")
+        path = package_file(spec.model)
+    else:
+        path = Path(spec.model).expanduser()
+        path = path if path.is_absolute() else spec.path.parent / path
+    if not path.is_file():
+        raise spec.error(spec.model_kind, spec.model, f"an existing file (no file at {path})")
+    return path
+
+
+def model_chain(spec: RobotSpec) -> JointChain:
+    """The chain from the model's root to the flange, errors named after the robot file."""
+    from rcmplan.robot.mjcf import load_mjcf
+    from rcmplan.robot.urdf import load_urdf
+
+    path = model_path(spec)
+    try:
+        if spec.model_kind == "urdf":
+            return load_urdf(path, spec.flange, name=spec.name)
+        chain = load_mjcf(path, spec.flange)
+        return JointChain(chain.joints, chain.tip, chain.base, spec.name)
+    except ModelFileError as exc:
+        valid = f"a {spec.model_kind.upper()} file that loads ({exc.reason})"
+        raise spec.error(spec.model_kind, str(path), valid) from exc
+    except UnknownFrameError as exc:
+        valid = f"a frame of {path.name}: one of " + ", ".join(exc.frames)
+        raise spec.error("flange", spec.flange, valid) from exc
+    except InvalidInputError as exc:
+        raise spec.error("flange", spec.flange, f"{exc.name} = {exc.value}: {exc.valid}") from exc
+
+
+def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> LoadedRobot:
+    """The arm a robot file describes, checked before any motion (see module docstring)."""
+    spec = read_robot_file(path)
+    chain = model_chain(spec)
+    needle = StraightNeedle(spec.needle_length, needle_mount(spec.needle_axis))
+    roll = roll_joint(chain, needle)
+    moving = [n for i, n in enumerate(chain.joint_names) if i != roll]
+    if len(moving) < MIN_MOVING_JOINTS:
+        valid = (f"a frame with at least {MIN_MOVING_JOINTS} joints moving the needle above it "
+                 f"({len(moving)} do: {', '.join(moving) or 'none'})")  # fmt: skip
+        raise spec.error("flange", spec.flange, valid)
+    home, searched = _chosen_home(spec, chain, needle, roll, search or HomeSearch())
+    try:
+        placed = place_arm(chain, needle, home)
+        arm = SerialArm(placed, needle, home, spec.name, roll, SINGULAR_THRESHOLD)
+    except InvalidInputError as exc:
+        why = exc.valid if exc.name == "home" else f"{exc.valid} ({exc.name}: {exc.value})"
+        raise spec.error("home", home.tolist(), why) from exc
+    return LoadedRobot(arm, spec, searched, arm.singularity_measure(arm.home))
+
+
+def _chosen_home(
+    spec: RobotSpec, chain: JointChain, needle: StraightNeedle, roll: int | None,
+    search: HomeSearch,
+) -> tuple[FloatArray, bool]:  # fmt: skip
+    """The file's home, checked against the limits, or the searched one."""
+    if spec.home is not None:
+        return _checked_home(spec, spec.home, chain), False
+    key = _search_key(spec, chain, search)
+    q, kappa, tried = _searched(key, chain, needle, roll, search)
+    if q is None:
+        best = f"best manipulability {kappa:.3g}" if kappa > 0 else "none met the conditions"
+        raise NoHomeFoundError(
+            spec.path, "home", "absent",
+            f"a home given in the file: the search found no pose within the joint limits "
+            f"({search.margin:.0%} of each travel kept clear) with the needle horizontal, "
+            f"pointing away from the arm, the tip above its base and manipulability >= "
+            f"{search.min_measure:g} ({tried[0]} samples, {tried[1]} refined; {best})",
+        )  # fmt: skip
+    return np.array(q), True
+
+
+def _checked_home(spec: RobotSpec, home: tuple[float, ...], chain: JointChain) -> FloatArray:
+    """The file's home (n,), each joint within its limits."""
+    if len(home) != chain.n:
+        names = ", ".join(chain.joint_names)
+        valid = f"{chain.n} values, one per joint moving the flange ({names})"
+        raise spec.error("home", f"{len(home)} values", valid)
+    for i, (v, name) in enumerate(zip(home, chain.joint_names, strict=True)):
+        lo, hi = float(chain.lower[i]), float(chain.upper[i])
+        if not lo <= v <= hi:
+            unit = "m" if chain.prismatic[i] else "rad"
+            raise spec.error(f"home[{i}] (joint {name!r})", v,
+                             f"within the joint's limits [{lo:.6g}, {hi:.6g}] {unit}")  # fmt: skip
+    return np.array(home)
+
+
+def _search_key(spec: RobotSpec, chain: JointChain, search: HomeSearch) -> tuple[Any, ...]:
+    """What a searched home depends on: the chain's numbers, the needle, the settings."""
+    arrays = (chain.base, chain.origins, chain.axes, chain.tip, chain.lower, chain.upper,
+              chain.prismatic)  # fmt: skip
+    numbers = np.concatenate([np.ravel(a) for a in arrays])
+    return (numbers.tobytes(), spec.needle_axis, spec.needle_length, search)
+
+
+_SEARCHED: dict[tuple[Any, ...], tuple[tuple[float, ...] | None, float, tuple[int, int]]] = {}
+
+
+def _searched(
+    key: tuple[Any, ...], chain: JointChain, needle: StraightNeedle, roll: int | None,
+    search: HomeSearch,
+) -> tuple[tuple[float, ...] | None, float, tuple[int, int]]:  # fmt: skip
+    """search_home, remembered per key (a command loads a robot file more than once)."""
+    if key not in _SEARCHED:
+        if len(_SEARCHED) >= 16:
+            _SEARCHED.clear()
+        found = search_home(chain, needle, roll, search)
+        q = None if found.q is None else tuple(float(v) for v in found.q)
+        _SEARCHED[key] = (q, found.measure, found.tried)
+    return _SEARCHED[key]

@@ -1,0 +1,1 @@
+"""Robot files shipped with rcmplan (TOML, `rcmplan.robot.robot_file`), loaded by name."""

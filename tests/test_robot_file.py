@@ -1,0 +1,254 @@
+"""Robots from one TOML file (rcmplan.robot.robot_file): shipped and user arms, the home search,
+and the typed errors of bad files, from the API and from the command line."""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rcmplan.cli import main
+from rcmplan.exceptions import InvalidInputError, NoHomeFoundError, RobotFileError, ScenarioError
+from rcmplan.robot.arms import NEEDLE_AXES, needle_arm, needle_mount, roll_joint
+from rcmplan.robot.home_search import HomeSearch, search_home
+from rcmplan.robot.library import robots_dir, shipped_robot_files
+from rcmplan.robot.needle import StraightNeedle
+from rcmplan.robot.registry import ROBOTS, make_robot
+from rcmplan.robot.robot_file import load_robot_file, model_chain, read_robot_file
+from rcmplan.robot.urdf import load_urdf
+from rcmplan.scene.scenario import load_scenario
+from rcmplan.teleop.settings import TeleopSettings
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLE = ROOT / "docs" / "examples" / "kinova.toml"
+KINOVA_URDF = "package://example-robot-data/kinova_description/robots/kinova.urdf"
+# The homes the shipped arms had before they moved into robot files.
+OLD_ARMS = {
+    "ur5": ("ur_description/urdf/ur5_robot.urdf", "tool0",
+            (0.0, -1.2, 1.9, -0.7, 0.5 * math.pi, 0.0)),
+    "panda": ("panda_description/urdf/panda.urdf", "panda_link8",
+              (0.0, -0.3, 0.0, -1.3, 0.0, 2.6, 0.25 * math.pi)),
+}  # fmt: skip
+KINOVA_HOME = "[-0.86, 2.85, 0.89, -1.46, 4.97, 0.0]"  # written by hand, near the searched one
+# A 6-joint arm whose joints barely move (+-0.01 rad) holding its needle upright: no horizontal
+# needle within its limits.
+STIFF_URDF = "<robot name='stiff'><link name='base'/>{links}{joints}</robot>".format(
+    links="".join(f"<link name='l{i}'/>" for i in range(1, 7)),
+    joints="".join(
+        f"<joint name='j{i}' type='revolute'><parent link='{'base' if i == 1 else f'l{i - 1}'}'/>"
+        f"<child link='l{i}'/><origin xyz='{0.1 if i % 2 else 0.0} 0 0.2'/><axis xyz='{ax}'/>"
+        "<limit lower='-0.01' upper='0.01' velocity='1' effort='1'/></joint>"
+        for i, ax in enumerate(("0 0 1", "0 1 0", "0 1 0", "1 0 0", "0 1 0", "0 0 1"), start=1)
+    ),
+)
+
+
+def robot_toml(path: Path, **keys: str) -> Path:
+    """A robot file for the Kinova Jaco 2 with `keys` (TOML values as text) changed; a key set
+    to "" is left out."""
+    table = {"name": '"kinova"', "urdf": f'"{KINOVA_URDF}"', "flange": '"j2s6s200_end_effector"',
+             "needle_axis": '"+x"', **keys}  # fmt: skip
+    path.write_text("[robot]\n" + "".join(f"{k} = {v}\n" for k, v in table.items() if v))
+    return path
+
+
+def inject(tmp_path: Path, robot: Path, capsys: pytest.CaptureFixture[str]) -> tuple[int, dict]:
+    """`rcmplan inject --robot FILE --no-plots` (kinematic plant, pinv): exit code, summary."""
+    out = tmp_path / "out"
+    code = main(["inject", "--robot", str(robot), "--no-plots", "--json", "--out", str(out)])
+    capsys.readouterr()
+    return code, json.loads((out / "summary.json").read_text())
+
+
+@pytest.mark.parametrize("name", sorted(OLD_ARMS))
+def test_the_shipped_robot_files_load_to_the_arms_built_before(name: str) -> None:
+    urdf, flange, home = OLD_ARMS[name]
+    old = needle_arm(load_urdf(robots_dir() / urdf, flange, name=name), home, name)
+    new = make_robot(name)
+    for attr in ("base", "origins", "axes", "tip", "lower", "upper", "velocity", "prismatic"):
+        assert np.array_equal(getattr(new.chain, attr), getattr(old.chain, attr)), attr
+    assert np.array_equal(new.home, old.home)
+    assert new.needle.length == old.needle.length
+    assert np.array_equal(new.needle.mount, old.needle.mount)
+    assert (new.name, new.roll_joint, new.active) == (old.name, old.roll_joint, old.active)
+    assert new.singular_threshold == old.singular_threshold
+
+
+def test_the_registry_lists_every_file_in_the_shipped_robot_folder() -> None:
+    folder = ROOT / "src" / "rcmplan" / "robots"
+    stems = sorted(p.stem for p in folder.glob("*.toml"))
+    assert list(ROBOTS) == ["iramis", *stems]
+    for stem, path in shipped_robot_files().items():
+        assert read_robot_file(path).name == stem
+        assert ROBOTS[stem] == read_robot_file(path).description != ""
+
+
+def test_pyproject_ships_the_robot_files_as_package_data() -> None:
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    assert "robots/*.toml" in data["tool"]["setuptools"]["package-data"]["rcmplan"]
+
+
+@pytest.mark.parametrize("axis", NEEDLE_AXES)
+def test_the_needle_mount_is_a_rotation_whose_z_axis_is_the_needle_axis(axis: str) -> None:
+    M = needle_mount(axis)
+    z = np.zeros(3)
+    z["xyz".index(axis[1])] = float(axis[0] + "1")
+    assert np.array_equal(M[:3, 2], z)
+    assert np.allclose(M[:3, :3].T @ M[:3, :3], np.eye(3), atol=0)
+    assert np.linalg.det(M[:3, :3]) == pytest.approx(1.0, abs=1e-15)
+    assert np.array_equal(M[:3, 3], np.zeros(3))
+
+
+def test_a_file_with_a_home_runs_the_default_injection_to_status_ok(tmp_path, capsys) -> None:
+    code, summary = inject(tmp_path, robot_toml(tmp_path / "k.toml", home=KINOVA_HOME), capsys)
+    assert code == 0
+    assert (summary["status"], summary["robot"], summary["method"]) == ("ok", "kinova", "pinv")
+    assert summary["plant"] == "kinematic"
+
+
+def test_a_file_without_a_home_runs_the_default_injection_to_status_ok(tmp_path, capsys) -> None:
+    out = tmp_path / "out"
+    code = main(["inject", "--robot", str(EXAMPLE), "--no-plots", "--json", "--out", str(out)])
+    err = capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert code == 0
+    assert (summary["status"], summary["robot"]) == ("ok", "kinova")
+    home = load_robot_file(EXAMPLE).arm.home
+    said = f"robot kinova: no home in {EXAMPLE}; chose home [{home[0]:.4f}, "
+    assert said in err and "manipulability" in err
+
+
+def test_the_searched_home_is_horizontal_within_the_limits_and_away_from_the_arm() -> None:
+    loaded = load_robot_file(EXAMPLE)
+    arm = loaded.arm
+    assert loaded.home_searched
+    axis = arm.needle_axis(arm.home)
+    assert np.allclose(axis, [-1.0, 0.0, 0.0], rtol=0, atol=1e-9)  # placed: along -x
+    pad = 0.1 * (arm.upper - arm.lower)
+    assert np.all(arm.home >= arm.lower + pad - 1e-12)
+    assert np.all(arm.home <= arm.upper - pad + 1e-12)
+    tip = arm.tip(arm.home) - arm.chain.base[:3, 3]
+    assert axis[:2] @ tip[:2] / np.linalg.norm(tip[:2]) >= math.cos(math.pi / 6) - 1e-9
+    assert tip[2] >= 0.0
+    assert loaded.measure == arm.singularity_measure(arm.home) >= HomeSearch().min_measure
+
+
+def test_the_home_search_is_deterministic_and_beats_the_hand_written_homes() -> None:
+    ur5 = make_robot("ur5")
+    chain = load_urdf(robots_dir() / OLD_ARMS["ur5"][0], "tool0", name="ur5")
+    first = search_home(chain, ur5.needle, 5)
+    again = search_home(chain, ur5.needle, 5)
+    assert first.q is not None and again.q is not None
+    assert np.array_equal(first.q, again.q)
+    assert first.measure > ur5.singularity_measure(ur5.home)
+
+
+def test_the_last_joint_is_the_needle_roll_only_when_the_needle_lies_on_its_axis() -> None:
+    chain = model_chain(read_robot_file(EXAMPLE))
+    assert roll_joint(chain, StraightNeedle(0.06, needle_mount("+x"))) == chain.n - 1
+    assert roll_joint(chain, StraightNeedle(0.06, needle_mount("+z"))) is None
+
+
+def test_a_relative_model_path_is_found_from_the_robot_file(tmp_path: Path) -> None:
+    (tmp_path / "arm.urdf").write_bytes((robots_dir() / KINOVA_URDF.split("/", 3)[3]).read_bytes())
+    arm = load_robot_file(robot_toml(tmp_path / "k.toml", urdf='"arm.urdf"', home=KINOVA_HOME)).arm
+    assert arm.chain.n == 6 and arm.name == "kinova"
+
+
+def test_an_mjcf_robot_file_of_the_ur5_holds_the_ur5s_needle(tmp_path: Path) -> None:
+    pytest.importorskip("mujoco", reason="the MJCF is written by rcmplan's MuJoCo arm model")
+    from rcmplan.sim.mujoco.arm_model import arm_xml
+
+    ur5 = make_robot("ur5")
+    (tmp_path / "ur5.xml").write_text(arm_xml(ur5))  # the needle's base is the site needle_base
+    (tmp_path / "m.toml").write_text(
+        '[robot]\nname = "ur5-mjcf"\nmjcf = "ur5.xml"\n'
+        f'flange = "needle_base"\nhome = {ur5.home.tolist()}\n'
+    )
+    arm = load_robot_file(tmp_path / "m.toml").arm
+    assert (arm.name, arm.roll_joint) == ("ur5-mjcf", 5)
+    for q in (ur5.home, ur5.home + 0.1):
+        assert np.allclose(arm.tip(q), ur5.tip(q), rtol=0, atol=1e-10)  # the XML rounds
+        assert np.allclose(arm.needle_axis(q), ur5.needle_axis(q), rtol=0, atol=1e-10)
+
+
+def test_a_scenario_names_a_robot_file_relative_to_itself(tmp_path: Path) -> None:
+    robot_toml(tmp_path / "k.toml", home=KINOVA_HOME)
+    (tmp_path / "s.toml").write_text('name = "k"\nrobot = "k.toml"\n')
+    assert load_scenario(tmp_path / "s.toml").robot == str(tmp_path / "k.toml")
+    (tmp_path / "bad.toml").write_text('robot = "missing.toml"\n')
+    with pytest.raises(ScenarioError, match=r"missing\.toml"):
+        load_scenario(tmp_path / "bad.toml")
+
+
+def test_teleop_settings_and_scenarios_take_a_robot_file(tmp_path: Path) -> None:
+    path = str(robot_toml(tmp_path / "k.toml", home=KINOVA_HOME))
+    assert TeleopSettings(robot=path).robot == path
+    assert load_scenario("default").with_robot(path).robot == path
+    with pytest.raises(InvalidInputError, match=r"iramis, panda, ur5, or a robot file"):
+        load_scenario("default").with_robot("kuka")
+
+
+def test_robot_prints_a_robot_file_arm(tmp_path, capsys) -> None:
+    path = robot_toml(tmp_path / "k.toml", home=KINOVA_HOME)
+    assert main(["robot", "--robot", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["robot"] == "kinova" and len(doc["joints"]) == 6
+
+
+def test_an_unknown_robot_or_a_missing_file_is_refused_by_the_option(capsys) -> None:
+    with pytest.raises(SystemExit) as exc:
+        main(["inject", "--robot", "no-such-arm.toml", "--no-plots"])
+    assert exc.value.code == 2
+    assert "iramis, panda, ur5, or a robot file" in capsys.readouterr().err
+
+
+BAD = {  # case: (keys changed, error type, what the message names)
+    "missing key": ({"flange": ""}, RobotFileError, r"\[robot\] flange = 'missing'"),
+    "unknown key": ({"flang": '"x"'}, RobotFileError, r"\[robot\] flang .*needle_axis"),
+    "urdf that does not load": ({"urdf": '"broken.urdf"'}, RobotFileError,
+                                r"\[robot\] urdf = .*broken\.urdf.*malformed XML"),
+    "missing urdf": ({"urdf": '"nowhere.urdf"'}, RobotFileError, r"no file at .*nowhere\.urdf"),
+    "flange not in the file": ({"flange": '"tool0"'}, RobotFileError,
+                               r"flange = 'tool0'.*one of .*j2s6s200_link_6"),
+    "needle axis": ({"needle_axis": '"z"'}, RobotFileError, r"needle_axis = 'z'.*\+x -x \+y"),
+    "home outside the limits": ({"home": "[1.5707, 2.618, -1.5707, 3.1415, 2.618, 0.0]"},
+                                RobotFileError,
+                                r"home\[2\] \(joint 'j2s6s200_joint_3'\) = -1\.5707.*"
+                                r"\[0\.331613, 5\.95157\] rad"),
+    "needle vertical at home": ({"home": "[0.0, 3.14159, 3.14159, 0.0, 3.14159, 0.0]"},
+                                RobotFileError, r"home = .*not vertical"),
+    "home count": ({"home": "[0.0, 3.0]"}, RobotFileError, r"home = '2 values'.*6 values"),
+    "too few joints": ({"flange": '"j2s6s200_link_4"'}, RobotFileError,
+                       r"at least 5 joints moving the needle.*\(4 do: j2s6s200_joint_1"),
+    "no home found": ({"urdf": '"stiff.urdf"', "flange": '"l6"', "needle_axis": '"+z"'},
+                      NoHomeFoundError, r"home = 'absent'.*no pose within the joint limits.*"
+                      r"512 samples, 8 refined; none met the conditions"),
+}  # fmt: skip
+
+
+def bad_file(tmp_path: Path, case: str) -> Path:
+    (tmp_path / "broken.urdf").write_text("<robot name='x'><link name='a'></robot>")
+    (tmp_path / "stiff.urdf").write_text(STIFF_URDF)
+    return robot_toml(tmp_path / "bad.toml", **BAD[case][0])
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_a_bad_robot_file_raises_its_typed_error_naming_the_fault(tmp_path, case: str) -> None:
+    path = bad_file(tmp_path, case)
+    with pytest.raises(BAD[case][1], match=BAD[case][2]) as exc:
+        load_robot_file(path)
+    assert exc.value.path == path and str(path) in str(exc.value)
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_a_bad_robot_file_stops_inject_with_exit_2_and_its_status(tmp_path, capsys, case) -> None:
+    code, summary = inject(tmp_path, bad_file(tmp_path, case), capsys)
+    assert code == 2
+    assert summary["status"] == BAD[case][1].status
+    assert summary["message"].startswith(BAD[case][1].__name__)
+    assert not (tmp_path / "out" / "log.npz").exists()  # refused before any motion
