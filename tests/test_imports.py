@@ -40,3 +40,18 @@ def test_the_command_line_starts_without_the_heavy_optional_modules() -> None:
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]", out.stdout
+
+
+def test_every_name_the_package_exports_resolves() -> None:
+    for name in rcmplan.__all__:
+        assert getattr(rcmplan, name) is not None, name
+
+
+def test_importing_the_package_loads_no_numerical_library() -> None:
+    """`import rcmplan` is cheap: its names load on first use (numba, scipy, the models)."""
+    import subprocess
+    import sys
+
+    code = "import sys, rcmplan; print([m for m in ('numba', 'scipy', 'rcmplan.control') if m in sys.modules])"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout

@@ -17,8 +17,17 @@ def test_readme_has_the_iramis_and_the_own_robot_examples() -> None:
     assert len(BLOCKS) == 2
 
 
+def test_the_own_robot_example_is_at_most_ten_lines_with_one_import() -> None:
+    lines = [line for line in BLOCKS[1].splitlines() if line.strip()]
+    assert len(lines) <= 10
+    assert [line for line in lines if line.startswith(("import ", "from "))] == [
+        "import rcmplan as rp"
+    ]
+
+
 @pytest.mark.parametrize("block", BLOCKS, ids=["iramis", "own-robot"])
-def test_readme_python_examples_run(block: str, capsys) -> None:
+def test_readme_python_examples_run(block: str, capsys, monkeypatch) -> None:
+    monkeypatch.chdir(README.parent)  # the robot file's path is relative to the checkout
     exec(compile(block, "README.md", "exec"), {})
     printed = float(capsys.readouterr().out.strip().splitlines()[-1])
     assert 0.0 <= printed <= 1e-6  # each example prints the max RCM deviation in metres

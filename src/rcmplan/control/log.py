@@ -59,6 +59,13 @@ class RunLog:
         """p_rcm - trocar per record (N, 3) in [m]; NaN where no RCM is held."""
         return self.rcm - self.trocar
 
+    def max_rcm_deviation(self) -> float:
+        """The largest |p_rcm - trocar| in [m] over the records that hold an RCM (the needle
+        inside the eye); 0.0 for a log with none."""
+        norms = np.linalg.norm(self.rcm_deviation(), axis=1)
+        held = np.isfinite(norms)
+        return float(norms[held].max()) if held.any() else 0.0
+
     def line_distance(self) -> FloatArray:
         """Distance from the trocar to the needle line per record (N,) in [m]; NaN in free space."""
         axis = self.tip - self.base

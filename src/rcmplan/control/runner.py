@@ -11,6 +11,7 @@ ReferenceRunner())` runs the Python loop explicitly.
 
 from __future__ import annotations
 
+import importlib
 from typing import Protocol
 
 from rcmplan._validate import FloatArray
@@ -73,7 +74,7 @@ class ReferenceRunner:
         return False
 
 
-_default: list[Runner] = [ReferenceRunner()]
+_default: list[Runner | None] = [None]
 
 
 def register_default(runner: Runner) -> None:
@@ -82,5 +83,11 @@ def register_default(runner: Runner) -> None:
 
 
 def default_runner() -> Runner:
-    """The runner a Controller uses when given none."""
-    return _default[0]
+    """The runner a Controller uses when given none: the compiled runner, which registers
+    itself when `rcmplan.compiled` is imported (here, on first use, whichever way the caller
+    imported the controller), unless another was registered."""
+    if _default[0] is None:
+        importlib.import_module("rcmplan.compiled")  # registers CompiledRunner
+    runner = _default[0]
+    assert runner is not None  # rcmplan.compiled registered itself
+    return runner
