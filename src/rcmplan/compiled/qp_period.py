@@ -26,8 +26,8 @@ from rcmplan.exceptions import QPError, RcmplanError
 StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 
 
-def period_step(solver: QpSolver, periods: int) -> StepFunction | None:
-    """A compiled `solver.step` for about `periods` calls, or None: not a plain QpSolver with
+def period_step(solver: QpSolver) -> StepFunction | None:
+    """A compiled `solver.step`, or None: not a plain QpSolver with
     DAQP and a straight needle, a servo plan, a robot or eye or limit the kernels do not
     reproduce (`qp_params`: one workspace box is the only extra limit), DAQP's C binding
     unusable."""

@@ -36,13 +36,13 @@ StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 PHASES = ("released", "engaged")
 
 
-def fast_period_step(solver: QpSolver, periods: int) -> StepFunction | None:
+def fast_period_step(solver: QpSolver) -> StepFunction | None:
     """The QP's compiled single step where it applies (`rcmplan.compiled.qp_period`), else
-    None; without numba or DAQP's C binding, None."""
+    None; without DAQP's C binding, None."""
     from rcmplan.compiled.qp_period import period_step
 
     try:
-        return period_step(solver, periods)
+        return period_step(solver)
     except MissingExtraError:
         return None
 
@@ -75,14 +75,11 @@ class Session:
     """Everything one session needs, built and checked before any motion.
 
     Args:
-        settings: The session's settings.
-        periods: How many periods to expect; the QP step then runs compiled where it applies
-            and pays (`rcmplan.compiled.qp_period`). None (a live session): the reference
-            step, because a process that has loaded numba takes 30-45 ms for a full garbage
-            collection, 30-45 missed 1 kHz periods, where the reference step's 200 us fit.
+        settings: The session's settings. The QP step runs compiled where it applies
+            (`rcmplan.compiled.qp_period`), in replayed and live sessions alike.
     """
 
-    def __init__(self, settings: TeleopSettings, periods: int | None = None) -> None:
+    def __init__(self, settings: TeleopSettings) -> None:
         self.settings = cfg = settings
         self.robot = robot = make_robot(cfg.robot)
         self.eye = eye = default_eye(robot)
@@ -98,7 +95,7 @@ class Session:
         held = cfg.fixtures.workspace(eye, guard)  # the fixture the QP holds
         self.solver = QpSolver(robot, eye, cfg.dt, limits=cfg.fixtures.qp_limits(guard),
                                extra_limits=(held,))  # fmt: skip
-        self.fast_step = None if periods is None else fast_period_step(self.solver, periods)
+        self.fast_step = fast_period_step(self.solver)
         self.pipeline = Pipeline(cfg.make_filter(), MotionScaling(cfg.scale, R))
         allowed = eye.retina_radius - cfg.fixtures.retina_margin - guard
         self.targets = TargetMaker(eye.port, held, eye.center, allowed)

@@ -164,10 +164,12 @@ class Monitor:
         now = time.perf_counter() if started is None else started
         if st.period == 0:
             self._t0 = now
-        j = int((now - self._t0) / dt)
-        if j > self._last:
-            st.missed += j - self._last - 1
-            self._last = j
+        # The loop never runs ahead of its schedule, whose grid starts a few microseconds
+        # before the first period's read: a period that reads in the slot of the one before it
+        # serves the next slot.
+        j = max(int((now - self._t0) / dt), self._last + 1)
+        st.missed += j - self._last - 1
+        self._last = j
         st.slots = self._last + 1
         moved = float(np.linalg.norm(ts.tip - st.tip)) if st.period else np.inf
         self._still = self._still + 1 if moved < STILL else 0
