@@ -25,6 +25,7 @@ from rcmplan.control.targets import solve_pose
 from rcmplan.control.tasks import VARIANTS, JacobianVariant
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.chain import JointChain
+from rcmplan.robot.chain_kinematics import pack
 from rcmplan.robot.model import IK_ITERATIONS, IK_TOLERANCE, RobotModel, SerialArm
 from rcmplan.robot.needle import StraightNeedle
 
@@ -38,15 +39,8 @@ _checked: weakref.WeakKeyDictionary[object, ArmArrays | None] = weakref.WeakKeyD
 
 
 def pack_arm(robot: Any) -> ArmArrays:
-    """The kernels' arrays (A, ix) of a SerialArm-like model (layout in `chain_kernels`)."""
-    chain, needle, n = robot.chain, robot.needle, robot.chain.n
-    active = np.asarray(robot.active, dtype=np.int64)
-    blocks = np.concatenate([chain.origins, [chain.base, chain.tip, needle.mount]])
-    rows = np.column_stack([chain.axes, np.asarray(robot.home, dtype=np.float64)])
-    A = np.concatenate([blocks.reshape(4 * (n + 3), 4), rows, [[needle.length, 0.0, 0.0, 0.0]]])
-    head = np.array([n, active.size], dtype=np.int64)
-    ix = np.concatenate([head, chain.prismatic.astype(np.int64), active])
-    return np.ascontiguousarray(A, dtype=np.float64), ix
+    """The kernels' arrays (A, ix) of a SerialArm-like model (`chain_kinematics.pack`)."""
+    return pack(robot.chain, robot.needle, robot.home, robot.active)
 
 
 def _arm_like(robot: object) -> bool:

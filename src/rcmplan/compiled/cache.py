@@ -22,7 +22,7 @@ from typing import Any
 from rcmplan.exceptions import require_extra
 
 _state: dict[str, Any] = {"noticed": False, "daqp_abi": None}
-KERNEL_MODULES = ("kernels", "chain_kinematics", "chain_solve", "chain_checks", "arm_loop", "loop",
+KERNEL_MODULES = ("kernels", "chain_solve", "chain_checks", "arm_loop", "loop",
                   "mujoco_loop", "daqp_c", "qp_params", "qp_kernels", "qp_loop", "curved_kernels",
                   "curved_iramis", "curved_arm", "curved_checks")  # fmt: skip
 
@@ -97,7 +97,10 @@ def stamp_path() -> Path:
     their source, numba, Python and the cache folder)."""
     here = Path(__file__).parent
     key = hashlib.sha256()
+    robot = here.parent / "robot"
     for path in (*(here / f"{m}.py" for m in KERNEL_MODULES),
+                 *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics", "needle")),
+                 here.parent / "control" / "rcm_step.py",
                  here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
         key.update(path.read_bytes())
     key.update(metadata.version("numba").encode())

@@ -11,7 +11,8 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.chain_kinematics import (
+from rcmplan.compiled.kernels import dls_solve, gauss_solve, tip_of_target
+from rcmplan.robot.chain_kinematics import (
     CERTIFY,
     ROWS,
     SING,
@@ -26,7 +27,6 @@ from rcmplan.compiled.chain_kinematics import (
     needle_point,
     point_jacobian,
 )
-from rcmplan.compiled.kernels import dls_solve, gauss_solve, tip_of_target
 
 
 @njit(cache=True)

@@ -16,7 +16,16 @@ from rcmplan.compiled.chain_checks import (
     singular_gram,
     singularity_measure,
 )
-from rcmplan.compiled.chain_kinematics import (
+from rcmplan.compiled.chain_solve import (
+    dls_solve_at,
+    dls_step,
+    gram_solve,
+    lu_solve,
+    pinv_solve,
+    pinv_step,
+    square_solve,
+)
+from rcmplan.robot.chain_kinematics import (
     AXIS,
     CERTIFY,
     ROWS,
@@ -42,15 +51,6 @@ from rcmplan.compiled.chain_kinematics import (
     task_at,
     task_jacobian,
     work_shape,
-)
-from rcmplan.compiled.chain_solve import (
-    dls_solve_at,
-    dls_step,
-    gram_solve,
-    lu_solve,
-    pinv_solve,
-    pinv_step,
-    square_solve,
 )
 
 __all__ = [

@@ -9,7 +9,9 @@ import math
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.chain_kinematics import (
+from rcmplan.compiled.kernels import tip_of_target
+from rcmplan.control.solvers import PIVOT_DISTANCE
+from rcmplan.robot.chain_kinematics import (
     AXIS,
     ROWS,
     TIP,
@@ -23,8 +25,6 @@ from rcmplan.compiled.chain_kinematics import (
     needle_point,
     point_jacobian,
 )
-from rcmplan.compiled.kernels import tip_of_target
-from rcmplan.control.solvers import PIVOT_DISTANCE
 
 
 @njit(cache=True)

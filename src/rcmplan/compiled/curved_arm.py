@@ -20,7 +20,8 @@ from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import curved_kernels as ck
-from rcmplan.compiled.chain_kinematics import (
+from rcmplan.compiled.records import CURVED_PINV, CURVED_POSE
+from rcmplan.robot.chain_kinematics import (
     IntArray,
     axes_row,
     frames,
@@ -29,7 +30,6 @@ from rcmplan.compiled.chain_kinematics import (
     needle_point,
     rotate,
 )
-from rcmplan.compiled.records import CURVED_PINV, CURVED_POSE
 
 
 def work_shape(n: int, m: int, m_c: int) -> tuple[int, int]:

@@ -22,8 +22,9 @@ from rcmplan.exceptions import (
     SliderLimitError,
     UnreachableTargetError,
 )
+from rcmplan.robot import chain_kinematics as kin
 from rcmplan.robot.chain import JointChain
-from rcmplan.robot.needle import StraightNeedle, angles_from_axis, angles_jacobian, cross3
+from rcmplan.robot.needle import StraightNeedle, angles_from_axis, cross3
 
 IK_ITERATIONS = 100  # Newton iterations of `SerialArm.needle_pose`
 IK_TOLERANCE = 1e-12  # [m] and [rad]
@@ -142,6 +143,10 @@ class SerialArm:
         self.home_actuators = self.home.copy()
         self._key: bytes = b""
         self._T = np.empty((n + 1, 4, 4))
+        # the chain kernels' arrays and work array (`chain_kinematics`), frames of the last q
+        self._A, self._ix = kin.pack(chain, needle, self.home, self.active)
+        self._W = np.empty(kin.work_shape(n, len(self.active)))
+        self._wkey: bytes = b""
         self._check_dofs(roll_joint)
 
     def _check_dofs(self, roll_joint: int | None) -> None:
@@ -205,14 +210,24 @@ class SerialArm:
             self._key = key
         return self._T
 
+    def _kernel_frames(self, q: FloatArray) -> FloatArray:
+        """The chain kernels' work array holding the frames at q (checked: shape (n,), finite),
+        computed once for the last q."""
+        q = vector("q", q, self.chain.n)
+        key = q.tobytes()
+        if key != self._wkey:
+            kin.frames(self._A, self._ix, q, self._W)
+            self._wkey = key
+        return self._W
+
     def needle_point(self, q: FloatArray, lam: float) -> FloatArray:
         """p(lambda) in [m] (eq. 3.7); lambda a finite number (the needle for lambda in [0, 1])."""
-        T = self._frames(q)[-1]
-        return T[:3, :3] @ self.needle.point_local(scalar("lam", lam)) + T[:3, 3]
+        W = self._kernel_frames(q)
+        return np.array(kin.needle_point(self._A, self.chain.n, W, scalar("lam", lam)))
 
     def needle_axis(self, q: FloatArray) -> FloatArray:
         """Unit needle axis, base to tip."""
-        return self._frames(q)[-1, :3, :3] @ self.needle.axis_local()
+        return np.array(kin.needle_axis(self._A, self.chain.n, self._kernel_frames(q)))
 
     def tip(self, q: FloatArray) -> FloatArray:
         """Needle tip in [m]."""
@@ -232,8 +247,8 @@ class SerialArm:
     def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d(q[active], lambda), (3, m + 1) (eq. 3.10)."""
         out = np.empty((3, len(self.active) + 1))
-        out[:, :-1] = self._point_jacobian(q, scalar("lam", lam))[:3, list(self.active)]
-        out[:, -1] = self.needle_length * self.needle_axis(q)
+        W = self._kernel_frames(q)
+        kin.point_jacobian(self._A, self._ix, W, scalar("lam", lam), out, 0)
         return out
 
     def tip_jacobian(self, q: FloatArray) -> FloatArray:
@@ -253,13 +268,15 @@ class SerialArm:
 
     def needle_angular_jacobian(self, q: FloatArray) -> FloatArray:
         """Angular velocity of the needle per (q[active], lambda), (3, m + 1)."""
-        out = np.zeros((3, len(self.active) + 1))
-        out[:, :-1] = self._point_jacobian(q, 1.0)[3:, list(self.active)]
+        out = np.empty((3, len(self.active) + 1))
+        kin.angular_jacobian(self._A, self._ix, self._kernel_frames(q), out, 0)
         return out
 
     def needle_angles_jacobian(self, q: FloatArray) -> FloatArray:
         """Exact d(phi, psi) / d(q[active], lambda), (2, m + 1)."""
-        return angles_jacobian(self.needle_axis(q), self.needle_angular_jacobian(q))
+        out = np.empty((2, len(self.active) + 1))
+        kin.angle_rows(self._A, self._ix, self._kernel_frames(q), False, out, 0)
+        return out
 
     # --- singularities --------------------------------------------------------------------
     def singularity_measure(self, q: FloatArray) -> float:

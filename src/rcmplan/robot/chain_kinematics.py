@@ -1,12 +1,9 @@
-"""Compiled kinematics of any serial arm holding a straight needle: frames, needle points, the
-point and angle Jacobians, X_ext and J_a (the memory layout every chain kernel shares).
+"""The kinematics of any serial arm holding a straight needle, as numba kernels: frames, needle
+points, the point and angle Jacobians, X_ext and J_a (the memory layout every chain kernel
+shares). The one definition: `SerialArm` (`robot/model.py`) calls these kernels from Python,
+the compiled loops from compiled code.
 
-The same maths as `SerialArm` (`robot/model.py`), `angles_jacobian` (`robot/needle.py`), the
-X_ext stacking (`control/augmented.py`) and `PinvSolver` / `DlsSolver` (`control/solvers.py`),
-so results agree with the reference to rounding. Imports numba (the `fast` extra); loaded only
-through `rcmplan.compiled.cache.chain_kernels`.
-
-An arm travels as two arrays (`rcmplan.compiled.arm.pack_arm` builds them):
+An arm travels as two arrays (`pack` builds them):
 - A (float64, (5 n + 13, 4)): (4, 4) blocks at rows 4 b (b < n: joint b's origin; b = n: the
   chain base, n + 1: its end frame `tip`, n + 2: the needle mount), then row 4 (n + 3) + k =
   (joint k's unit axis, joint k's home), then row 5 n + 12 = (needle length l [m], 0, 0, 0).
@@ -24,6 +21,7 @@ W": a compiled loop computes them once per iteration and every later quantity re
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numba import njit
@@ -222,3 +220,28 @@ def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam
                   thesis: bool, x: FloatArray, J: FloatArray) -> None:  # fmt: skip
     """X_ext (6,) and J_a (6, m + 1) at (q, lambda) into x and J."""
     evaluate(A, ix, W, q, lam, thesis, x, J)
+
+
+def pack(chain: Any, needle: Any, home: Any, active: Any) -> tuple[FloatArray, IntArray]:
+    """The kernels' arrays (A, ix) of a JointChain holding a StraightNeedle (layout above)."""
+    n = chain.n
+    active = np.asarray(active, dtype=np.int64)
+    blocks = np.concatenate([chain.origins, [chain.base, chain.tip, needle.mount]])
+    rows = np.column_stack([chain.axes, np.asarray(home, dtype=np.float64)])
+    A = np.concatenate([blocks.reshape(4 * (n + 3), 4), rows, [[needle.length, 0.0, 0.0, 0.0]]])
+    head = np.array([n, active.size], dtype=np.int64)
+    ix = np.concatenate([head, chain.prismatic.astype(np.int64), active])
+    return np.ascontiguousarray(A, dtype=np.float64), ix
+
+
+@njit(cache=True)
+def angular_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, J: FloatArray, r: int) -> None:
+    """The needle's angular velocity per (q[active], lambda) into rows r..r+2 of J: the world
+    axis of each active revolute joint (eq. 2.11), zero for prismatic joints and lambda."""
+    n, m = ix[0], ix[1]
+    for j in range(m + 1):
+        J[r, j], J[r + 1, j], J[r + 2, j] = 0.0, 0.0, 0.0
+    for j in range(m):
+        k = ix[2 + n + j]
+        if ix[2 + k] == 0:
+            J[r, j], J[r + 1, j], J[r + 2, j] = joint_axis(A, n, W, k)
