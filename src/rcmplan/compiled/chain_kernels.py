@@ -8,14 +8,7 @@ so results agree with the reference to rounding. Imports numba (the `fast` extra
 through `rcmplan.compiled.cache.chain_kernels`.
 """
 
-from rcmplan.compiled.chain_checks import (
-    gram_extremes,
-    is_singular,
-    needle_pose,
-    screen_targets,
-    singular_gram,
-    singularity_measure,
-)
+from rcmplan.compiled.chain_checks import needle_pose, screen_targets
 from rcmplan.compiled.chain_solve import (
     dls_solve_at,
     dls_step,
@@ -41,6 +34,8 @@ from rcmplan.robot.chain_kinematics import (
     compose,
     evaluate,
     frames,
+    gram_extremes,
+    is_singular,
     jacobian_at,
     joint_axis,
     move,
@@ -48,6 +43,8 @@ from rcmplan.robot.chain_kinematics import (
     needle_point,
     point_jacobian,
     rotate,
+    singular_gram,
+    singularity_measure,
     task_at,
     task_jacobian,
     work_shape,

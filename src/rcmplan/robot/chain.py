@@ -17,6 +17,7 @@ import numpy as np
 from rcmplan._validate import FloatArray, matrix, scalar, vector
 from rcmplan.exceptions import InvalidInputError, UnknownJointTypeError
 from rcmplan.robot.dh import JOINT_TYPES, DHChain, JointType, dh_transform
+from rcmplan.robot.needle import cross3
 
 
 @dataclass(frozen=True)
@@ -179,9 +180,9 @@ class JointChain:
         early = (kk <= jj) & revolute[None, :]  # z_k x J_v,j
         late = (kk > jj) & revolute[:, None]  # z_j x J_k
         out = np.zeros((n, 6, n))
-        lin_early = np.cross(z[None, :, :], J[:3].T[:, None, :])  # [j, k] = z_k x J_v,j
-        lin_late = np.cross(z[:, None, :], J[:3].T[None, :, :])  # [j, k] = z_j x J_v,k
-        ang_late = np.cross(z[:, None, :], J[3:].T[None, :, :])  # [j, k] = z_j x J_w,k
+        lin_early = cross3(z[None, :, :], J[:3].T[:, None, :])  # [j, k] = z_k x J_v,j
+        lin_late = cross3(z[:, None, :], J[:3].T[None, :, :])  # [j, k] = z_j x J_v,k
+        ang_late = cross3(z[:, None, :], J[3:].T[None, :, :])  # [j, k] = z_j x J_w,k
         lin = np.where(early[..., None], lin_early, 0.0) + np.where(late[..., None], lin_late, 0.0)
         out[:, :3, :] = lin.transpose(0, 2, 1)
         out[:, 3:, :] = np.where(late[..., None], ang_late, 0.0).transpose(0, 2, 1)

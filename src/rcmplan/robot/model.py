@@ -280,18 +280,11 @@ class SerialArm:
 
     # --- singularities --------------------------------------------------------------------
     def singularity_measure(self, q: FloatArray) -> float:
-        """Inverse condition number of [J_tip / l; N J_omega] over the active joints, in [0, 1]:
-        zero exactly where the needle loses a direction of motion (N: the two normals to it)."""
-        a = self.needle_axis(q)
-        helper = np.zeros(3)
-        helper[int(np.argmin(np.abs(a)))] = 1.0
-        n1 = cross3(a, helper)
-        n1 /= np.linalg.norm(n1)
-        N = np.array([n1, cross3(a, n1)])
-        J = self._point_jacobian(q, 1.0)[:, list(self.active)]
-        M = np.vstack([J[:3] / self.needle_length, N @ J[3:]])
-        sv = np.linalg.svd(M, compute_uv=False)
-        return float(sv[-1] / sv[0]) if sv[0] > 0 else 0.0
+        """Inverse condition number of M = [J_tip / l; N J_omega] over the active joints, in
+        [0, 1]: zero exactly where the needle loses a direction of motion (N: the two normals to
+        it). The square roots of the extreme eigenvalues of M M^T (`chain_kinematics`)."""
+        W = self._kernel_frames(q)
+        return float(kin.singularity_measure(self._A, self._ix, W))
 
     def singular_values(self, q: FloatArray) -> FloatArray:
         """The singular terms' values (1,) without their gradient (the measure)."""
@@ -320,10 +313,10 @@ class SerialArm:
             return np.array([0.0]), grad
         kappa = S[-1] / S[0]
         dJ = self.chain.jacobian_derivatives(T, J)[act][:, :, act]  # (m, 6, m)
-        da = np.cross(J[3:, act].T, a)  # (m, 3): omega_j x a
-        dc = np.cross(da, helper)
+        da = cross3(J[3:, act].T, a)  # (m, 3): omega_j x a
+        dc = cross3(da, helper)
         dn1 = (dc - np.outer(dc @ n1, n1)) / np.linalg.norm(c)
-        dn2 = np.cross(da, n1) + np.cross(a, dn1)
+        dn2 = cross3(da, n1) + cross3(a, dn1)
         dN = np.stack([dn1, dn2], axis=1)  # (m, 2, 3)
         dM = np.concatenate([dJ[:, :3] / length, dN @ J[3:, act] + N @ dJ[:, 3:]], axis=1)
         ds_min = np.einsum("i,jik,k->j", U[:, -1], dM, Vt[-1])
