@@ -115,7 +115,7 @@ class QpSolver:
         self._planned_error: FloatArray = np.zeros(0)  # the task error of the last solve
         self._plan, self._plan_key = np.zeros(0), b""
         self._key: bytes = b""
-        self._checked: bytes = b""
+        self._checked: set[bytes] = set()  # targets already checked (their bytes)
 
     @classmethod
     def from_settings(
@@ -222,11 +222,12 @@ class QpSolver:
         Pose within slider travel and the singular range (solve_pose), and with an eye the
         target tip inside the eye (on or within the retina) and in front of the trocar.
         """
-        key = target.tobytes()
-        if key == self._checked:
+        key = np.ascontiguousarray(target, dtype=np.float64).tobytes()
+        if key in self._checked:
             return
-        if self.curved:
+        if self.curved:  # each check continues from the last pose: only the last is kept
             self._seed = solve_curved_pose(self.robot, target, self._seed).q
+            self._checked.clear()
         else:
             solve_pose(self.robot, target)
         if self.eye is not None:
@@ -238,7 +239,7 @@ class QpSolver:
                     "keeps the tip inside the eye",
                     target,
                 )
-        self._checked = key
+        self._checked.add(key)
 
     def check_targets(self, targets: FloatArray) -> None:
         """check_target for every row of (N, 6) targets (call before a run)."""
