@@ -17,8 +17,9 @@ returned in dB, 10 log10(intensity).
 What the image shows (reflectivities relative to the ILM, assumed; docs/subretinal.md):
 vitreous dark; a bright ILM/nerve-fibre edge decaying into the retina, darker outer retina; the
 RPE as a 15.5 um band (PMC6042244: 13.5-17.5 um) at the RPE surface; the choroid decaying
-below it, then the sclera; the needle (a flat-ended cannula in the scan plane) as a bright top surface with a
-shadow under it. Layer positions come from `BScanScene`, the truth the segmentation is scored on.
+below it, then the sclera; the needle (a flat-ended cannula in the scan plane) as a bright top
+surface with a shadow under it. Layer positions come from `BScanScene`, the truth the
+segmentation is scored on.
 """
 
 from __future__ import annotations
@@ -86,16 +87,18 @@ class IoctModel:
 
     def depth_axis_m(self) -> FloatArray:
         """Depth z [m] of each row's centre (depth_px,)."""
-        return -self.top_m + (np.arange(self.depth_px) + 0.5) * self.axial_pixel_m
+        rows = np.arange(self.depth_px, dtype=np.float64)
+        return np.asarray(-self.top_m + (rows + 0.5) * self.axial_pixel_m, dtype=np.float64)
 
     def lateral_axis_m(self) -> FloatArray:
         """Lateral x [m] of each A-line (lateral_px,)."""
-        return (np.arange(self.lateral_px) - 0.5 * (self.lateral_px - 1)) * self.lateral_pixel_m
+        cols = np.arange(self.lateral_px, dtype=np.float64) - 0.5 * (self.lateral_px - 1)
+        return np.asarray(cols * self.lateral_pixel_m, dtype=np.float64)
 
     def acquisition_times(self, duration_s: float, start_s: float = 0.0) -> FloatArray:
         """Acquisition instants [s] in [start_s, duration_s], one volume period apart."""
-        n = int(math.floor((duration_s - start_s) * self.volume_rate_hz + 1e-9)) + 1
-        return start_s + np.arange(max(n, 0)) * self.period_s
+        n = math.floor((duration_s - start_s) * self.volume_rate_hz + 1e-9) + 1
+        return np.asarray(start_s + np.arange(max(n, 0)) * self.period_s, dtype=np.float64)
 
 
 @dataclass(frozen=True)
@@ -187,8 +190,10 @@ def reflectivity(scene: BScanScene, x: FloatArray, z: FloatArray) -> FloatArray:
     ilm, rpe = scene.ilm_depth_m(x), scene.rpe_depth_m(x)
     u, v = z - ilm, z - rpe
     frac = np.clip(u / np.maximum(rpe - ilm, 1e-9), 0.0, 1.0)
-    retina = ILM_EDGE * np.exp(-np.maximum(u, 0) / ILM_DECAY_M) + INNER_RETINA + frac * (
-        OUTER_RETINA - INNER_RETINA
+    retina = (
+        ILM_EDGE * np.exp(-np.maximum(u, 0) / ILM_DECAY_M)
+        + INNER_RETINA
+        + frac * (OUTER_RETINA - INNER_RETINA)
     )
     choroid = CHOROID * np.exp(-np.maximum(v - RPE_BAND_M, 0) / CHOROID_DECAY_M)
     in_rpe = (v >= 0) & (v < RPE_BAND_M)

@@ -112,7 +112,8 @@ class MotionTrajectory:
 
     def _times(self, t: object) -> FloatArray:
         arr = np.asarray(t, dtype=np.float64)
-        if not np.isfinite(arr).all() or arr.size and (arr.min() < 0 or arr.max() > self.t_s[-1]):
+        outside = arr.size > 0 and (arr.min() < 0 or arr.max() > self.t_s[-1])
+        if not np.isfinite(arr).all() or outside:
             raise InvalidInputError("t", t, f"finite times in [0, {self.duration_s:g}] s")
         return arr
 
@@ -122,10 +123,8 @@ class MotionTrajectory:
     def components(self, t: object) -> FloatArray:
         """Breathing and cardiac displacements (..., 2) [m] at times t [s]."""
         tt = self._times(t)
-        out = [
-            self._interp(tt, self.amplitude_m[:, k]) * np.sin(self._interp(tt, self.phase_rad[:, k]))
-            for k in range(2)
-        ]
+        amp, phase = self.amplitude_m, self.phase_rad
+        out = [self._interp(tt, amp[:, k]) * np.sin(self._interp(tt, phase[:, k])) for k in (0, 1)]
         return np.stack(out, axis=-1)
 
     def displacement(self, t: object) -> FloatArray:

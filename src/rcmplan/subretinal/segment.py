@@ -122,34 +122,48 @@ def _shadow_start(linear: FloatArray, level: float, min_rows: int) -> FloatArray
     rows = linear.shape[0]
     dark = ndimage.uniform_filter1d(linear, 7, axis=0, mode="nearest") < level
     run = np.flip(np.cumprod(np.flip(dark, axis=0), axis=0), axis=0).sum(axis=0)
-    return np.where(run >= min_rows, rows - run, rows)  # type: ignore[no-any-return]
+    return np.where(run >= min_rows, rows - run, rows)
 
 
-def _peak(
-    grad: FloatArray, col: int, lo: int, hi: int, least: float, first: bool = False
-) -> float | None:
-    """Sub-row position of a gradient peak in rows [lo, hi) of a column: the largest, or with
-    `first` the first local maximum of a run at or above `least`; None when no gradient there
-    reaches `least`."""
-    lo, hi = max(lo, 1), min(hi, grad.shape[0] - 1)
-    if hi - lo < 1:
-        return None
-    g = grad[lo:hi, col]
+def _peaks(
+    arr: FloatArray, lo: FloatArray, hi: FloatArray, least: float, first: bool = False
+) -> FloatArray:
+    """Per A-line, the row of a peak of `arr` in rows [lo, hi): the largest, or with `first`
+    the local maximum closing the first run at or above `least`; nan where none reaches it."""
+    rows, cols = arr.shape
+    j = np.arange(cols)
+    lo, hi = np.clip(lo, 1, rows - 2), np.clip(hi, 1, rows - 1)
+    r = np.arange(rows)[:, None]
+    inside = (r >= lo[None, :]) & (r < hi[None, :])
     if first:
-        above = np.flatnonzero(g >= least)
-        if above.size == 0:
-            return None
-        k = int(above[0])
-        while k + 1 < g.size and g[k + 1] > g[k]:
-            k += 1
+        cond = inside & (arr >= least)
+        ok = cond.any(axis=0)
+        k = cond.argmax(axis=0)
+        for _ in range(rows):
+            nxt = np.minimum(k + 1, rows - 1)
+            up = ok & (nxt < hi) & (arr[nxt, j] > arr[k, j])
+            if not up.any():
+                break
+            k = np.where(up, nxt, k)
     else:
-        k = int(np.argmax(g))
-        if g[k] < least:
-            return None
-    k += lo
-    a, b, c = grad[k - 1, col], grad[k, col], grad[k + 1, col]
+        masked = np.where(inside, arr, -np.inf)
+        k = masked.argmax(axis=0)
+        ok = masked[k, j] >= least
+    return np.where(ok, k, np.nan)
+
+
+def _refine(grad: FloatArray, k: FloatArray, before: int, after: int) -> FloatArray:
+    """Per A-line, the sub-row of the largest gradient in rows [k - before, k + after], placed
+    by a parabola through it and its neighbours (nan where k is nan)."""
+    rows, cols = grad.shape
+    j = np.arange(cols)
+    base = np.nan_to_num(k).astype(int)
+    idx = np.clip(base[None, :] + np.arange(-before, after + 1)[:, None], 1, rows - 2)
+    best = idx[grad[idx, j].argmax(axis=0), j]
+    a, b, c = grad[best - 1, j], grad[best, j], grad[best + 1, j]
     den = a - 2 * b + c
-    return k + (0.5 * (a - c) / den if den < 0 else 0.0)
+    frac = np.where(den < 0, 0.5 * (a - c) / np.where(den < 0, den, -1.0), 0.0)
+    return np.where(np.isnan(k), np.nan, best + frac)
 
 
 def _tip(x: FloatArray, top: FloatArray, dx: float, radius: float) -> tuple[float, float] | None:
@@ -173,18 +187,16 @@ def _needle_surface(
     cfg: SegmentationSettings,
 ) -> FloatArray:  # fmt: skip
     """Sub-row of the needle's surface per A-line (nan where none is seen): step 3."""
-    smooth = ndimage.gaussian_filter1d(linear, 1.0, axis=0)
-    grad_z = np.gradient(ndimage.gaussian_filter1d(img, cfg.sigma_px[0], axis=0), axis=0)
     rows = img.shape[0]
-    top = np.full(img.shape[1], np.nan)
-    for j in np.flatnonzero((shadow > 0) & (shadow < rows)):
-        lo, hi = max(int(shadow[j]) - cfg.surface_rows, 0), int(shadow[j]) + 1
-        if smooth[lo:hi, j].max() < bright:
-            continue
-        k = _peak(grad_z, int(j), lo, hi, cfg.min_edge_db)
-        if k is not None:
-            top[j] = k
-    return top
+    lo = shadow - cfg.surface_rows
+    near = (np.arange(rows)[:, None] >= lo) & (np.arange(rows)[:, None] <= shadow)
+    smooth = ndimage.gaussian_filter1d(linear, 1.0, axis=0)
+    seen = (shadow > 0) & (shadow < rows) & (np.where(near, smooth, 0.0).max(axis=0) >= bright)
+    if not seen.any():
+        return np.full(img.shape[1], np.nan)
+    grad_z = np.gradient(ndimage.gaussian_filter1d(img, cfg.sigma_px[0], axis=0), axis=0)
+    k = _peaks(grad_z, lo, shadow + 1, cfg.min_edge_db)
+    return _refine(grad_z, np.where(seen, k, np.nan), 0, 0)
 
 
 def _step(img: FloatArray, rows: int) -> FloatArray:
@@ -196,17 +208,6 @@ def _step(img: FloatArray, rows: int) -> FloatArray:
     k = np.arange(rows, img.shape[0] - rows + 1)
     out[k] = (csum[k + rows] - 2 * csum[k] + csum[k - rows]) / rows
     return out
-
-
-def _edge(step: FloatArray, grad: FloatArray, col: int, lo: int, hi: int, least: float,
-          first: bool) -> float | None:  # fmt: skip
-    """An edge in rows [lo, hi): found on the step detector (the first or the largest above
-    `least`), placed by the smoothed gradient's peak within 3 rows of it."""
-    k = _peak(step, col, lo, hi, least, first)
-    if k is None:
-        return None
-    # the detector at row k spans the boundary k - 1/2; the gradient peaks there too
-    return _peak(grad, col, int(round(k)) - 3, int(round(k)) + 2, -np.inf)
 
 
 def _layers(
@@ -223,16 +224,11 @@ def _layers(
     across = ndimage.gaussian_filter1d(masked, cfg.sigma_px[1], axis=1, mode="nearest")
     grad = np.gradient(ndimage.gaussian_filter1d(across, cfg.sigma_px[0], axis=0), axis=0)
     step = _step(across, cfg.step_rows)
-    ilm, rpe = np.full(cols, np.nan), np.full(cols, np.nan)
-    for j in range(cols):
-        end = int(limit[j]) - cfg.step_rows // 2
-        k = _edge(step, grad, j, cfg.step_rows, end, cfg.min_step_db, first=True)
-        if k is None:
-            continue
-        ilm[j] = k
-        k = _edge(step, grad, j, int(k) + sep, end, cfg.min_step_db, first=False)
-        rpe[j] = np.nan if k is None else k
-    return ilm, rpe
+    end = limit - cfg.step_rows // 2
+    k_ilm = _peaks(step, np.full(cols, cfg.step_rows), end, cfg.min_step_db, first=True)
+    k_rpe = _peaks(step, np.nan_to_num(k_ilm, nan=rows) + sep, end, cfg.min_step_db)
+    # the detector at row k spans the boundary k - 1/2, where the gradient peaks too
+    return _refine(grad, k_ilm, 3, 1), _refine(grad, k_rpe, 3, 1)
 
 
 def segment_bscan(
@@ -257,11 +253,11 @@ def segment_bscan(
         raise InvalidInputError("image_db", img.shape, f"a finite array of shape {want}")
     linear = 10.0 ** (img / 10.0)
     noise = float(np.median(linear[: model.depth_px // 4])) / math.log(2.0)
-    min_rows = int(math.ceil(cfg.min_shadow_m / model.axial_pixel_m))
+    min_rows = math.ceil(cfg.min_shadow_m / model.axial_pixel_m)
     shadow = _shadow_start(linear, cfg.shadow_factor * noise, min_rows)
     top_row = _needle_surface(img, linear, shadow, cfg.needle_factor * noise, cfg)
     limit = np.where(np.isnan(top_row), shadow, np.floor(np.nan_to_num(top_row)) - 2)
-    sep = int(math.ceil(cfg.min_thickness_m / model.axial_pixel_m))
+    sep = math.ceil(cfg.min_thickness_m / model.axial_pixel_m)
     ilm_row, rpe_row = _layers(img, limit, sep, cfg)
     x, z0, dz = model.lateral_axis_m(), model.depth_axis_m()[0], model.axial_pixel_m
     ilm, rpe, top = (z0 + dz * np.nan_to_num(r, nan=0.0) for r in (ilm_row, rpe_row, top_row))
