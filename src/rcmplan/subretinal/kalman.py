@@ -23,9 +23,11 @@ the sampling rate fs. A harmonic whose band straddles a zone edge cannot be told
 aliases (at fs = 1.6 Hz the cardiac band 1-2 Hz holds fs itself, which aliases to a constant):
 it is left out of the model, and what it leaves in the acquisition residual is added to r^2.
 
-Divergence. The normalised innovation squared, averaged over about 10 updates, is about 1 for a
-filter that fits; above `reacquire_nis` the filter starts again from a periodogram of the last
-`acquire_s` of estimates.
+Divergence. The normalised innovation squared, exponentially averaged over about 10 updates
+(weight 0.1), is about 1 for a filter that fits (a mean of 10 chi-square variables with one
+degree of freedom exceeds 4 with probability 2e-5); above `reacquire_nis` (4) the filter
+starts again from a periodogram of the last `acquire_s` of estimates (a lost lock, a jump of
+the heart rate).
 
 Why not the WFLC (`rcmplan.teleop.wflc`): it runs at a fixed rate of at least 100 Hz, tracks one
 harmonic through a band-pass prefilter and cancels tremor at the current sample; here the
@@ -82,7 +84,7 @@ class KalmanPredictor(Predictor):
         frequency_walk: float = 0.025,
         offset_walk_m: float = 1e-6,
         acquire_s: float = 8.0,
-        reacquire_nis: float = 16.0,
+        reacquire_nis: float = 4.0,
     ) -> None:
         super().__init__()
         for k, (lo, hi) in enumerate(bands_hz):

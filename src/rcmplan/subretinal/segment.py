@@ -13,8 +13,8 @@ No truth enters. Steps:
    the noise level, the needle's surface is the strongest rising edge there (of the image
    smoothed along the A-line only: the steep shaft moves rows from one A-line to the next);
    an A-line shadowed from its first row sees no surface (the shaft passes above the window).
-4. Layers: the needle and its shadow are set to the noise level, the image is smoothed
-   across A-lines, and in each A-line, above any needle surface, a step detector (the mean of
+4. Layers: the image is clipped from below `clip_db` under the noise's median, the needle and
+   its shadow are set to the noise level, the image is smoothed across A-lines, and in each A-line, above any needle surface, a step detector (the mean of
    `step_rows` rows below less the mean of those above) finds the ILM as its first local peak
    above `min_step_db` and the RPE as its largest peak at least `min_thickness_m` below; each
    edge is then placed to a fraction of a row by a parabola through the peak of the gradient
@@ -56,6 +56,8 @@ class SegmentationSettings:
         min_edge_db: Least rise [dB per row] of the smoothed image at the needle's surface.
         step_rows: Rows averaged on each side by the layer step detector.
         min_step_db: Least step [dB] between those means at a layer edge.
+        clip_db: The layers are found on the image clipped from below at this far [dB] under
+            the noise's median (the log of speckle has a long dark tail).
     """
 
     sigma_px: tuple[float, float] = (1.5, 2.0)
@@ -68,6 +70,7 @@ class SegmentationSettings:
     min_edge_db: float = 2.0
     step_rows: int = 6
     min_step_db: float = 7.0
+    clip_db: float = 6.0
 
     def __post_init__(self) -> None:
         scalar("sigma_px[0]", self.sigma_px[0], 0.0, 20.0)
@@ -83,6 +86,7 @@ class SegmentationSettings:
         if not isinstance(self.step_rows, int) or not 2 <= self.step_rows <= 32:
             raise InvalidInputError("step_rows", self.step_rows, "an integer in [2, 32]")
         scalar("min_step_db", self.min_step_db, 0.0, 100.0)
+        scalar("clip_db", self.clip_db, 0.0, 100.0)
 
 
 @dataclass(frozen=True)
@@ -258,7 +262,9 @@ def segment_bscan(
     top_row = _needle_surface(img, linear, shadow, cfg.needle_factor * noise, cfg)
     limit = np.where(np.isnan(top_row), shadow, np.floor(np.nan_to_num(top_row)) - 2)
     sep = math.ceil(cfg.min_thickness_m / model.axial_pixel_m)
-    ilm_row, rpe_row = _layers(img, limit, sep, cfg)
+    # the log of speckle has a long dark tail: clip it so that a few dark pixels make no edge
+    floor = 10.0 * math.log10(noise * math.log(2.0)) - cfg.clip_db
+    ilm_row, rpe_row = _layers(np.maximum(img, floor), limit, sep, cfg)
     x, z0, dz = model.lateral_axis_m(), model.depth_axis_m()[0], model.axial_pixel_m
     ilm, rpe, top = (z0 + dz * np.nan_to_num(r, nan=0.0) for r in (ilm_row, rpe_row, top_row))
     top[np.isnan(top_row)] = np.inf
