@@ -74,7 +74,9 @@ def test_the_eye_is_still_by_default_and_drifts_with_the_stated_spread_when_aske
     np.testing.assert_allclose(pooled.std(axis=0), 2e-3, rtol=0.2)
     traj = sample_motion(model, 300.0, 1)
     n = np.array([0.0, 0.6, 0.8])
-    np.testing.assert_allclose(traj.ilm_offset(t, n), traj.displacement(t) + traj.translation(t) @ n)
+    np.testing.assert_allclose(
+        traj.ilm_offset(t, n), traj.displacement(t) + traj.translation(t) @ n
+    )
 
 
 def test_times_outside_the_trajectory_and_bad_parameters_raise() -> None:

@@ -1,7 +1,8 @@
 """Segment the ILM, the RPE and the needle tip from a B-scan image alone.
 
 Input: a B-scan in dB (`ioct.render_bscan`) and the scan geometry (`IoctModel`); the known
-instrument (cannula diameter) and the retina's curvature radius are the only prior knowledge.
+instrument (cannula diameter), the retina's curvature radius and a least ILM-to-RPE distance are the
+only prior knowledge.
 No truth enters. Steps:
 
 1. Noise: the noise level is the mean intensity of the top quarter of the image (vitreous
@@ -14,12 +15,13 @@ No truth enters. Steps:
    smoothed along the A-line only: the steep shaft moves rows from one A-line to the next);
    an A-line shadowed from its first row sees no surface (the shaft passes above the window).
 4. Layers: the image is clipped from below `clip_db` under the noise's median, the needle and
-   its shadow are set to the noise level, the image is smoothed across A-lines, and in each A-line, above any needle surface, a step detector (the mean of
-   `step_rows` rows below less the mean of those above) finds the ILM as its first local peak
-   above `min_step_db` and the RPE as its largest peak at least `min_thickness_m` below; each
-   edge is then placed to a fraction of a row by a parabola through the peak of the gradient
-   of the image smoothed along the A-line as well (`sigma_px`). A-lines whose ILM departs more
-   than `outlier_m` from the median of its neighbours are dropped.
+   its shadow are set to the noise level, the image is smoothed across A-lines, and in each
+   A-line, above any needle surface, a step detector (the mean of `step_rows` rows below less
+   the mean of those above) finds the ILM as its first local peak above `min_step_db` and the
+   RPE as its largest peak at least `min_thickness_m` below; each edge is then placed to a
+   fraction of a row by a parabola through the peak of the gradient of the image smoothed
+   along the A-line as well (`sigma_px`). A-lines whose ILM departs more than `outlier_m` from
+   the median of its neighbours are dropped.
 5. Tip: a line through the needle's surface points gives the needle's tilt; the surface ends at
    the cannula's upper corner (between the last A-line that meets it and the next); the tip on
    the axis lies one radius from that corner, perpendicular to the axis.
