@@ -1,9 +1,8 @@
 """Segment the ILM, the RPE and the needle tip from a B-scan image alone.
 
 Input: a B-scan in dB (`ioct.render_bscan`) and the scan geometry (`IoctModel`); the known
-instrument (cannula diameter), the retina's curvature radius and a least ILM-to-RPE distance are the
-only prior knowledge.
-No truth enters. Steps:
+instrument (cannula diameter), the retina's curvature radius and a least ILM-to-RPE distance
+are the only prior knowledge. No truth enters. Steps:
 
 1. Noise: the noise level is the mean intensity of the top quarter of the image (vitreous
    by the window's design; exponential noise has mean = median / ln 2).
