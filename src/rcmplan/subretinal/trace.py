@@ -27,7 +27,7 @@ from rcmplan.subretinal.predict import make_predictor
 from rcmplan.subretinal.segment import segment_bscan
 from rcmplan.subretinal.segment_error import SegmentationError, segmentation_error
 
-POLE = (0.0, 0.0, 1.0)  # the B-scan's depth axis at the posterior pole, eye frame
+POLE = (0.0, 0.0, 1.0)  # the B-scan's depth axis, at the posterior pole (x: the eye frame's x)
 
 
 @dataclass(frozen=True)
