@@ -156,8 +156,9 @@ def run(episodes: int, image_episodes: int) -> tuple[list[dict], dict[str, Any]]
 
 
 def rows() -> list[dict]:
-    """The benchmark's rows (run.py); --quick uses 10 episodes."""
-    n = 10 if quick() else 200
+    """The benchmark's rows for run.py: 50 episodes (10 with --quick); the figures of
+    docs/subretinal.md come from `main` with 200 (about 25 min on 2 shared cores)."""
+    n = 10 if quick() else 50
     return run(n, n)[0]
 
 
