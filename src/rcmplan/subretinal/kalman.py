@@ -1,0 +1,213 @@
+"""rcmplan's predictor of the ILM displacement: an extended Kalman filter on a drifting
+two-harmonic model (breathing and cardiac).
+
+Model. Each harmonic k is a rotating phasor (c_k, s_k) with angular rate w_k [rad/s]; the
+measured displacement is the sum of the in-phase parts plus a slowly wandering offset b:
+
+    state x = (c_1, s_1, c_2, s_2, b, w_1, w_2),     y = c_1 + c_2 + b + v,  v ~ N(0, r^2)
+    over dt: (c_k, s_k) <- R(w_k dt) (c_k, s_k);  b, w_k unchanged
+
+with process noise (random walks): each phasor component q_a,k^2 dt (q_a,k = `amplitude_walk`
+times the harmonic's amplitude at acquisition), each rate (2 pi f_mid,k `frequency_walk`)^2 dt
+(f_mid the band's centre), the offset `offset_walk_m`^2 dt. The transition is nonlinear in w_k
+only; its Jacobian has d(c', s')/dw = dt (-s', c'). After each update w_k is clipped to its
+band. The prediction at time t rotates each phasor by w_k (t - t_k) from the newest state.
+
+Acquisition. The filter needs each harmonic's rate, amplitude and phase to start from: once
+the estimates span `acquire_s`, a least-squares periodogram over each band (breathing first,
+then cardiac on the residual, then breathing again on what the cardiac fit leaves) gives them;
+the filter starts at the newest sample. Before that, the predictor holds the newest estimate.
+Because the rates are searched inside their physiological bands, a rate above the Nyquist
+frequency is still found if its band lies inside one Nyquist zone [m fs/2, (m + 1) fs/2] of
+the sampling rate fs. A harmonic whose band straddles a zone edge cannot be told from its
+aliases (at fs = 1.6 Hz the cardiac band 1-2 Hz holds fs itself, which aliases to a constant):
+it is left out of the model, and what it leaves in the acquisition residual is added to r^2.
+
+Divergence. The normalised innovation squared, exponentially averaged over about 10 updates
+(weight 0.1), is about 1 for a filter that fits (a mean of 10 chi-square variables with one
+degree of freedom exceeds 4 with probability 2e-5); above `reacquire_nis` (4) the filter
+starts again from a periodogram of the last `acquire_s` of estimates (a lost lock, a jump of
+the heart rate).
+
+Why not the WFLC (`rcmplan.teleop.wflc`): it runs at a fixed rate of at least 100 Hz, tracks one
+harmonic through a band-pass prefilter and cancels tremor at the current sample; here the
+samples arrive at 1.6-51 Hz, two harmonics matter and the estimate is needed 0-300 ms ahead.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, scalar
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.subretinal.motion import BREATHING_BAND_HZ, CARDIAC_BAND_HZ
+from rcmplan.subretinal.predict import Predictor, sinusoid_fit
+
+H = np.array([1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0])
+GRID = 64  # candidate rates per band in the acquisition periodogram
+
+
+def band_search(t: FloatArray, y: FloatArray, band_hz: tuple[float, float]) -> float:
+    """The rate [Hz] in `band_hz` whose least-squares sinusoid (with offset) leaves the
+    smallest residual on y(t)."""
+    freqs = np.linspace(band_hz[0], band_hz[1], GRID)
+    best = min(freqs, key=lambda f: float(np.sum(sinusoid_fit(t, y, np.array([f]))[1] ** 2)))
+    return float(best)
+
+
+class KalmanPredictor(Predictor):
+    """The EKF predictor (module docstring).
+
+    Args:
+        bands_hz: (breathing, cardiac) rate bands [Hz].
+        measurement_std_m: r, the standard deviation of one estimate [m].
+        amplitude_walk: Phasor random walk per sqrt(s), relative to the amplitude.
+        frequency_walk: Rate random walk per sqrt(s), relative to the band's centre.
+        offset_walk_m: Offset random walk [m per sqrt(s)].
+        acquire_s: Span of estimates [s] the acquisition periodogram waits for.
+        reacquire_nis: Mean normalised innovation squared that restarts the filter.
+    """
+
+    name = "kalman"
+
+    def __init__(
+        self,
+        bands_hz: tuple[tuple[float, float], tuple[float, float]] = (
+            BREATHING_BAND_HZ,
+            CARDIAC_BAND_HZ,
+        ),
+        measurement_std_m: float = 2e-6,
+        amplitude_walk: float = 0.05,
+        frequency_walk: float = 0.025,
+        offset_walk_m: float = 1e-6,
+        acquire_s: float = 8.0,
+        reacquire_nis: float = 4.0,
+    ) -> None:
+        super().__init__()
+        for k, (lo, hi) in enumerate(bands_hz):
+            scalar(f"bands_hz[{k}][0]", lo, 0.0, 50.0, low_open=True)
+            scalar(f"bands_hz[{k}][1]", hi, lo, 50.0)
+        if len(bands_hz) != 2:
+            raise InvalidInputError("bands_hz", bands_hz, "two bands (breathing, cardiac)")
+        self.bands_hz = bands_hz
+        self.r2 = scalar("measurement_std_m", measurement_std_m, 1e-9, 1e-3) ** 2
+        self.amplitude_walk = scalar("amplitude_walk", amplitude_walk, 0.0, 10.0)
+        self.frequency_walk = scalar("frequency_walk", frequency_walk, 0.0, 10.0)
+        self.offset_walk_m = scalar("offset_walk_m", offset_walk_m, 0.0, 1e-3)
+        self.acquire_s = scalar("acquire_s", acquire_s, 0.5, 600.0)
+        self.reacquire_nis = scalar("reacquire_nis", reacquire_nis, 1.0, 1e6)
+        self._t: deque[float] = deque()
+        self._y: deque[float] = deque()
+        self.x: FloatArray | None = None
+        self.P = np.zeros((7, 7))
+        self._q = np.zeros(7)
+        self._r2 = self.r2
+        self._nis = 1.0
+        self.acquisitions = 0
+
+    @property
+    def rates_hz(self) -> tuple[float, float] | None:
+        """The tracked (breathing, cardiac) rates [Hz], or None before acquisition."""
+        if self.x is None:
+            return None
+        return float(self.x[5] / (2 * np.pi)), float(self.x[6] / (2 * np.pi))
+
+    def _update(self, t: float, value: float) -> None:
+        self._t.append(t)
+        self._y.append(value)
+        while len(self._t) > 1 and t - self._t[1] >= self.acquire_s:
+            self._t.popleft()  # keep the last acquire_s, and one sample before
+            self._y.popleft()
+        if self.x is not None:
+            self._step(t - self.t_last_s)
+            self._correct(value)
+        if (self.x is None or self._nis > self.reacquire_nis) and t - self._t[0] >= self.acquire_s:
+            self._acquire(np.array(self._t) - t, np.array(self._y))
+
+    def _acquire(self, t: FloatArray, y: FloatArray) -> None:
+        """Start the filter at t = 0 (the newest sample) from a periodogram (docstring)."""
+        fs = 1.0 / float(np.median(np.diff(t)))
+        active = [_one_zone(band, fs) for band in self.bands_hz]
+        freqs = [0.5 * (lo + hi) for lo, hi in self.bands_hz]
+        for k in [0, 1, 0] if all(active) else [k for k in range(2) if active[k]]:
+            other = [f for i, f in enumerate(freqs) if i != k and active[i]]
+            rest = y - _harmonics(t, y, other) if other else y
+            freqs[k] = band_search(t, rest, self.bands_hz[k])
+        fitted = [f for f, a in zip(freqs, active, strict=True) if a]
+        coef, resid = sinusoid_fit(t, y, np.array(fitted))
+        phasors, i = np.zeros(4), 1
+        for k in range(2):
+            if active[k]:  # at t = 0 a cos(wt) + b sin(wt) = a: the phasor is (a, -b)
+                phasors[2 * k : 2 * k + 2] = coef[i], -coef[i + 1]
+                i += 2
+        self.x = np.array([*phasors, coef[0], *(2 * np.pi * np.array(freqs))])
+        self._initial_covariance(np.hypot(phasors[[0, 2]], phasors[[1, 3]]), active, resid)
+        self._nis = 1.0
+        self.acquisitions += 1
+
+    def _initial_covariance(self, amps: FloatArray, active: list[bool], resid: FloatArray) -> None:
+        """P, process noise and r^2 at acquisition; an inactive harmonic stays at 0."""
+        mids = np.array([0.5 * (lo + hi) for lo, hi in self.bands_hz])
+        widths = np.array([hi - lo for lo, hi in self.bands_hz])
+        on = np.array(active, dtype=float)
+        q_a = self.amplitude_walk * amps * on
+        q_w = self.frequency_walk * 2 * np.pi * mids * on
+        self._q = np.array([q_a[0], q_a[0], q_a[1], q_a[1], self.offset_walk_m, *q_w]) ** 2
+        var = float(np.mean(resid**2))
+        self._r2 = self.r2 if all(active) else max(self.r2, var)
+        p0 = max(var, self.r2)
+        self.P = np.diag([p0 * on[0]] * 2 + [p0 * on[1]] * 2 + [p0]
+                         + list((2 * np.pi * widths / 8 * on) ** 2))  # fmt: skip
+
+    def _step(self, dt: float) -> None:
+        """Propagate state and covariance over dt [s]."""
+        assert self.x is not None  # only called after acquisition
+        x, jac = self.x.copy(), np.eye(7)
+        for k in range(2):
+            c, s, w = x[2 * k], x[2 * k + 1], x[5 + k]
+            cos, sin = math.cos(w * dt), math.sin(w * dt)
+            c2, s2 = cos * c - sin * s, sin * c + cos * s
+            x[2 * k], x[2 * k + 1] = c2, s2
+            jac[2 * k : 2 * k + 2, 2 * k : 2 * k + 2] = [[cos, -sin], [sin, cos]]
+            jac[2 * k, 5 + k], jac[2 * k + 1, 5 + k] = -dt * s2, dt * c2
+        self.x = x
+        self.P = jac @ self.P @ jac.T + np.diag(self._q * dt)
+
+    def _correct(self, value: float) -> None:
+        """Measurement update with one estimate; rates clipped to their bands."""
+        assert self.x is not None
+        ph = self.P @ H
+        var = H @ ph + self._r2
+        gain = ph / var
+        innovation = value - H @ self.x
+        self._nis += 0.1 * (innovation * innovation / var - self._nis)
+        self.x = self.x + gain * innovation
+        self.P = self.P - np.outer(gain, ph)
+        self.P = 0.5 * (self.P + self.P.T)
+        for k, (lo, hi) in enumerate(self.bands_hz):
+            self.x[5 + k] = min(max(self.x[5 + k], 2 * np.pi * lo), 2 * np.pi * hi)
+
+    def _predict(self, t: FloatArray) -> FloatArray:
+        if self.x is None:
+            return super()._predict(t)
+        dt = t - self.t_last_s
+        out = np.full(t.shape, self.x[4])
+        for k in range(2):
+            c, s, w = self.x[2 * k], self.x[2 * k + 1], self.x[5 + k]
+            out += c * np.cos(w * dt) - s * np.sin(w * dt)
+        return out
+
+
+def _harmonics(t: FloatArray, y: FloatArray, freqs: list[float]) -> FloatArray:
+    """The least-squares sinusoids at `freqs` [Hz] in y(t), without their offset."""
+    coef, resid = sinusoid_fit(t, y, np.array(freqs))
+    return y - resid - coef[0]
+
+
+def _one_zone(band_hz: tuple[float, float], fs_hz: float) -> bool:
+    """True when the band lies inside one Nyquist zone of the sampling rate fs_hz."""
+    half = 0.5 * fs_hz
+    return band_hz[1] <= (math.floor(band_hz[0] / half) + 1) * half + 1e-12

@@ -1,0 +1,96 @@
+"""Predictors of the ILM displacement across the iOCT latency."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.subretinal.ioct import IoctModel
+from rcmplan.subretinal.kalman import KalmanPredictor
+from rcmplan.subretinal.motion import MotionModel, sample_motion
+from rcmplan.subretinal.predict import PREDICTORS, make_predictor
+from rcmplan.subretinal.trace import noisy_trace, prediction_errors, rms
+
+
+def two_harmonics(t: np.ndarray, f2: float = 1.5) -> np.ndarray:
+    return 50e-6 * np.sin(2 * np.pi * 0.25 * t + 0.3) + 10e-6 * np.sin(2 * np.pi * f2 * t + 1.0)
+
+
+def run(name: str, t: np.ndarray, y: np.ndarray, ahead: float, after: float, **kw: object):
+    """Feed (t, y) one by one; return the predictor and its errors `ahead` of each sample
+    once t > after."""
+    model = make_predictor(name, **kw)
+    errors = []
+    for tk, yk in zip(t, y, strict=True):
+        model.update(float(tk), float(yk))
+        if tk > after:
+            errors.append(float(model.predict(tk + ahead)) - float(two_harmonics(tk + ahead)))
+    return model, np.array(errors)
+
+
+def test_predictors_are_chosen_by_name_and_an_unknown_name_lists_the_valid_ones() -> None:
+    assert list(PREDICTORS) == ["none", "hold", "fft", "kalman"]
+    for name in PREDICTORS:
+        assert make_predictor(name).name == name
+    with pytest.raises(InvalidInputError, match="none, hold, fft, kalman"):
+        make_predictor("lstm")
+
+
+@pytest.mark.parametrize("name", list(PREDICTORS))
+def test_estimates_must_come_in_time_order_and_be_finite(name: str) -> None:
+    model = make_predictor(name)
+    model.update(1.0, 5e-6)
+    with pytest.raises(InvalidInputError):
+        model.update(1.0, 6e-6)
+    with pytest.raises(InvalidInputError):
+        model.update(2.0, float("nan"))
+    with pytest.raises(InvalidInputError):
+        model.predict(float("inf"))
+
+
+def test_none_predicts_zero_and_hold_the_newest_estimate() -> None:
+    none, hold = make_predictor("none"), make_predictor("hold")
+    assert float(hold.predict(0.0)) == 0.0  # nothing seen yet
+    for t, y in ((0.0, 3e-6), (0.1, -7e-6)):
+        none.update(t, y)
+        hold.update(t, y)
+    np.testing.assert_array_equal(none.predict([0.2, 0.3]), [0.0, 0.0])
+    np.testing.assert_array_equal(hold.predict([0.2, 0.3]), [-7e-6, -7e-6])
+
+
+@pytest.mark.parametrize(("name", "tolerance"), [("fft", 1e-6), ("kalman", 0.1e-6)])
+def test_a_clean_two_harmonic_motion_is_predicted_150_ms_ahead(name: str, tolerance: float) -> None:
+    t = np.arange(0.0, 20.0, 1 / 9)
+    model, errors = run(name, t, two_harmonics(t), 0.15, after=12.0)
+    assert errors.size > 60 and np.abs(errors).max() < tolerance
+    if name == "kalman":
+        assert model.rates_hz == pytest.approx((0.25, 1.5), abs=1e-3)  # type: ignore[attr-defined]
+
+
+def test_the_kalman_rates_follow_a_heart_rate_change_and_it_restarts_when_lost() -> None:
+    t = np.arange(0.0, 40.0, 1 / 9)
+    f2 = np.where(t < 20.0, 1.1, 1.8)  # a jump no random walk follows
+    phase = 2 * np.pi * np.cumsum(f2) / 9
+    y = 50e-6 * np.sin(2 * np.pi * 0.25 * t) + 10e-6 * np.sin(phase)
+    model = KalmanPredictor()
+    for tk, yk in zip(t, y, strict=True):
+        model.update(float(tk), float(yk))
+    assert model.acquisitions >= 2
+    assert model.rates_hz is not None and model.rates_hz[1] == pytest.approx(1.8, abs=0.02)
+
+
+def test_at_1_6_hz_the_aliased_cardiac_harmonic_is_left_out_and_breathing_still_predicted() -> None:
+    model_motion, ioct = MotionModel(), IoctModel(volume_rate_hz=1.6)
+    t_eval = np.arange(12.0, 40.0, 0.01)
+    kal, hold = [], []
+    for seed in range(10):
+        traj = sample_motion(model_motion, 40.0, seed)
+        trace = noisy_trace(traj, ioct, 1e-6, np.random.default_rng(seed))
+        kal.append(float(rms(prediction_errors("kalman", trace, [0.15], traj, t_eval))))
+        hold.append(float(rms(prediction_errors("hold", trace, [0.15], traj, t_eval))))
+    assert np.all(np.array(kal) < np.array(hold))
+    k = KalmanPredictor()
+    for tk, yk in zip(trace.t_acq_s, trace.estimate_m, strict=True):
+        k.update(float(tk), float(yk))
+    assert k.x is not None and not k.x[2:4].any()  # the cardiac phasor stays at zero
