@@ -9,7 +9,7 @@ injection on the compiled and the reference path.
   (X_c with the roll row, J_c 7 x 7), measured in the same run. The issue's target: curved
   <= 1.3 x straight.
 - `rcmplan inject --scenario curved --no-plots [--robot ur5]` wall time, one process each,
-  with RCMPLAN_FAST=on (numba's cache warmed first) and off.
+  numba's cache warmed first.
 """
 
 from __future__ import annotations

@@ -9,8 +9,8 @@ Run alone: python benchmarks/bench_qp_step.py [--states N]  (or: python benchmar
   batches of BATCH consecutive states inside compiled code (what the compiled loop pays), and
   once per call from Python (`FastQpStep.solve`, which adds the call from Python).
 - The whole default injection with `--method qp`: `wall_time_s` of `rcmplan inject` in a new
-  process, default mode (compiled, numba's cache warmed first) against RCMPLAN_FAST=off; and
-  the compiled loop's time per iteration in this process.
+  process (numba's cache warmed first), and the compiled loop's time per iteration in this
+  process.
 """
 
 from __future__ import annotations

@@ -57,7 +57,8 @@ def pipeline_cost(result: TeleopResult) -> tuple[float, float]:
 
 def reference_control(compiled: dict[str, Any]) -> float:
     """The control step's median [s] of the same wflc session on the reference path
-    (RCMPLAN_FAST off for it), checked to give the same figures as the compiled run."""
+    (the Python loop's runner registered for it), checked to give the same figures as the
+    compiled run."""
 
     use_path("off")
     try:
