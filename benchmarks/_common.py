@@ -10,7 +10,6 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.compiled import CompiledRunner
 from rcmplan.compiled.runner import fast_check_targets, fast_converge_phase
 from rcmplan.control import Controller, Phase
 from rcmplan.control.runner import ReferenceRunner, register_default
@@ -49,7 +48,7 @@ def row(
 def use_path(mode: str | None) -> None:
     """ "off": the Python loop runs every phase (the reference runner registered as the
     default); "on" or None: the compiled runner, where it applies (the default)."""
-    register_default(ReferenceRunner() if mode == "off" else CompiledRunner())
+    register_default(ReferenceRunner() if mode == "off" else None)
 
 
 class FastController(Controller):

@@ -40,8 +40,7 @@ from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm, check_arm_targets
 from rcmplan.control import Controller, PinvSolver, extended_task, rcm_target, solve_pose
-from rcmplan.robot.arms import shipped_arm
-from rcmplan.robot.library import robot_chain, robot_file
+from rcmplan.robot.shipped import robot_chain, robot_file, shipped_arm
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant

@@ -35,7 +35,7 @@ from rcmplan.compiled.records import (
     robot_params,
     solver_arrays,
 )
-from rcmplan.compiled.runner import compile_kernels
+from rcmplan.compiled.warmup import compile_kernels
 from rcmplan.control import Controller, PinvSolver
 from rcmplan.control.curved import CurvedPinvSolver
 from rcmplan.control.curved_targets import solve_curved_pose

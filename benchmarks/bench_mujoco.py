@@ -152,7 +152,7 @@ def injection_rows(physics: Callable[[], float]) -> list[dict[str, Any]]:
     """The dynamic default injection on the three paths; the closed compiled loop three times
     (median and slowest), each run next to a measurement of MuJoCo's bare step rate, since
     this host's speed drifts by up to 2x within a minute."""
-    from rcmplan.compiled.runner import compile_kernels
+    from rcmplan.compiled.warmup import compile_kernels
 
     compile_kernels()  # load (or compile) once, outside the timed runs
     closed, rates = [], []
@@ -217,7 +217,7 @@ def rows() -> list[dict[str, Any]]:
 def watch(runs: int, pause: float = 8.0) -> None:
     """Time the compiled closed-loop injection `runs` times, each beside MuJoCo's bare step rate,
     and print one line per run and the range (the host's speed drifts)."""
-    from rcmplan.compiled.runner import compile_kernels
+    from rcmplan.compiled.warmup import compile_kernels
 
     compile_kernels()
     dyn = MujocoPlant(Iramis(), mode="dynamic")

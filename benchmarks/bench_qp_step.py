@@ -34,7 +34,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import trig
 from rcmplan.compiled.qp_kernels import solve_step
 from rcmplan.compiled.qp_phase import FastQpStep
-from rcmplan.compiled.runner import compile_kernels
+from rcmplan.compiled.warmup import compile_kernels
 from rcmplan.control.loop import Controller
 from rcmplan.control.qp import QpSolver
 from rcmplan.scene.eye import default_eye, default_points

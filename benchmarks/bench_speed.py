@@ -166,7 +166,7 @@ def process_rows() -> list[dict[str, Any]]:
         inject = [py, "-m", "rcmplan", "inject", "--no-plots", "--out", f"{tmp}/out"]
         first = timed_process(inject, fresh)
         later = statistics.median(timed_process(inject, fresh) for _ in range(3))
-        load = [py, "-c", "from rcmplan.compiled.runner import compile_kernels; compile_kernels()"]
+        load = [py, "-c", "from rcmplan.compiled.warmup import compile_kernels; compile_kernels()"]
         compile_s = timed_process(load, {**fresh, "NUMBA_CACHE_DIR": f"{tmp}/numba2"})
         load_s = statistics.median(timed_process(load, fresh) for _ in range(3))
     note = "(fresh bytecode and numba caches)"

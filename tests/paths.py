@@ -4,7 +4,6 @@ Python), `use_path("on")` or `use_path(None)` the compiled runner again."""
 
 from __future__ import annotations
 
-from rcmplan.compiled import CompiledRunner
 from rcmplan.control.runner import ReferenceRunner, register_default
 
 
@@ -13,4 +12,4 @@ def use_path(mode: str | None) -> None:
     applies (the default)."""
     if mode not in ("on", "off", None):
         raise ValueError(f"mode {mode!r}: 'on', 'off' or None")
-    register_default(ReferenceRunner() if mode == "off" else CompiledRunner())
+    register_default(ReferenceRunner() if mode == "off" else None)

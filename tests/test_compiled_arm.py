@@ -14,10 +14,10 @@ from rcmplan.compiled.records import REC_COLUMNS, REC_WIDTH, record_columns, rec
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.solvers import DlsSolver, PinvSolver
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
-from rcmplan.robot.arms import shipped_arm
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
+from rcmplan.robot.shipped import shipped_arm
 
 TOL = 1e-12
 N_CONFIGS = 50

@@ -15,8 +15,8 @@ from rcmplan.control.log import RunLog
 from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import ConvergenceError, RcmBoundError, SingularPoseError, SliderLimitError
-from rcmplan.robot.arms import shipped_arm
 from rcmplan.robot.model import SerialArm
+from rcmplan.robot.shipped import shipped_arm
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant

@@ -16,8 +16,8 @@ from rcmplan.compiled.runner import fast_check_targets
 from rcmplan.control import Controller, PinvSolver
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
-from rcmplan.robot.arms import shipped_arm
 from rcmplan.robot.model import IK_ITERATIONS, IK_TOLERANCE, SerialArm
+from rcmplan.robot.shipped import shipped_arm
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant

@@ -11,10 +11,10 @@ from rcmplan.analysis.metrics import phase_metrics
 from rcmplan.control.loop import Controller
 from rcmplan.control.methods import make_solver
 from rcmplan.exceptions import InvalidInputError, SliderLimitError
-from rcmplan.robot.arms import shipped_arm
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
+from rcmplan.robot.shipped import shipped_arm
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim.kinematic import KinematicPlant

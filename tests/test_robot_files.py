@@ -18,8 +18,9 @@ from rcmplan.exceptions import (
     UnsupportedJointError,
 )
 from rcmplan.robot.chain import JointChain
-from rcmplan.robot.library import ROBOT_FILES, panda_chain, robot_file, ur5_chain
+from rcmplan.robot.library import ROBOT_FILES
 from rcmplan.robot.mjcf import load_mjcf
+from rcmplan.robot.shipped import panda_chain, robot_file, ur5_chain
 from rcmplan.robot.urdf import load_urdf
 
 from fd import fd_jacobian

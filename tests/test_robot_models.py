@@ -19,8 +19,9 @@ from rcmplan.control.tasks import (
 )
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.job import run_scenario
-from rcmplan.robot.arms import needle_arm, shipped_arm
+from rcmplan.robot.arms import needle_arm
 from rcmplan.robot.registry import ROBOTS, make_robot
+from rcmplan.robot.shipped import shipped_arm
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.scene.scenario import load_scenario

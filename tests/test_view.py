@@ -285,8 +285,8 @@ def test_an_arm_skeleton_ends_at_the_flange() -> None:
 
 
 def test_urdf_meshes_hang_where_the_arm_chain_puts_its_flange() -> None:
-    from rcmplan.robot.library import flange_frame, robot_file
     from rcmplan.robot.registry import make_robot
+    from rcmplan.robot.shipped import flange_frame, robot_file
     from rcmplan.view.links_urdf import arm_urdf
 
     for name in ("ur5", "panda"):

@@ -1,10 +1,7 @@
-"""Compiled kernels and the compiled runner (numba, the `fast` extra), above `control/` and
-`sim/`: importing this package makes the compiled runner the controller's default runner.
-Nothing here imports numba until a kernel is first needed (see `cache`)."""
+"""The compiled runner and its kernels: every phase a kernel implements runs here, called by
+the controller (`rcmplan.control.loop`) through its runner seam (`rcmplan.control.runner`).
+Nothing here imports a kernel module until a kernel is first needed (`cache`)."""
 
 from rcmplan.compiled.runner import CompiledRunner
-from rcmplan.control.runner import register_default
-
-register_default(CompiledRunner())
 
 __all__ = ["CompiledRunner"]

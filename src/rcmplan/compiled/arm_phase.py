@@ -20,7 +20,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.arm import FastArm, arm_arrays, check_arm_targets
+from rcmplan.compiled.arm import arm_arrays
 from rcmplan.compiled.curved import CurvedArrays, arm_work_shape
 from rcmplan.compiled.records import (
     BLOCK,
@@ -36,12 +36,8 @@ from rcmplan.compiled.records import (
     record_width,
     solver_arrays,
 )
-from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
-from rcmplan.control.targets import rcm_target
-from rcmplan.robot.chain import JointChain
-from rcmplan.robot.iramis import Iramis
+from rcmplan.control.solvers import Solver
 from rcmplan.robot.model import SerialArm
-from rcmplan.robot.needle import StraightNeedle
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -198,34 +194,3 @@ def run_arm_phase(
                 plant.advance()
     finally:  # also on a stop: the partial log keeps every record so far
         buf.flush()
-
-
-def compile_arm_kernels() -> None:
-    """Compile (or load from numba's cache) the arm kernels, both loops and the target screen
-    with the argument types used here, on iRAM!S's DH chain holding its needle (no robot
-    package needed)."""
-    from rcmplan.control.loop import Controller
-    from rcmplan.sim.kinematic import KinematicPlant
-
-    robot = Iramis()
-    mount = np.eye(4)
-    mount[2, 3] = -robot.params.l6  # the needle runs along the tip frame's z up to its origin
-    arm = SerialArm(JointChain.from_dh(robot.chain), StraightNeedle(robot.params.l6, mount),
-                    robot.home, name="warm", roll_joint=5)  # fmt: skip
-    fast, q = FastArm(arm), arm.home
-    x = fast.task(q, 0.5)
-    fast.augmented_jacobian(q, 0.5, "thesis")
-    fast.step(q, 0.5, x, np.ones(6), np.empty(6))
-    fast.dls_step(q, 0.5, x, 1e-4, np.empty(6))
-    tip, trocar = arm.tip(q), arm.needle_point(q, 0.5)
-    rcm = np.array([rcm_target(tip - 1e-4 * arm.needle_axis(q), trocar)])  # insert 0.1 mm
-    check_arm_targets(arm, rcm)
-    jobs: list[tuple[Solver, FloatArray]] = [
-        (PinvSolver(), rcm), (PinvSolver(variant="thesis"), rcm), (DlsSolver(), rcm),
-        (TipSolver(), tip[None, :] + 1e-5),
-    ]  # fmt: skip
-    for solver, targets in jobs:
-        for run in (run_arm_phase_exact, run_arm_phase):
-            ctl = Controller(KinematicPlant(arm), solver)
-            ctl.lam = 0.5
-            run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)

@@ -18,7 +18,7 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.curved import CurvedArrays, curved_arrays, screen
+from rcmplan.compiled.curved import CurvedArrays, curved_arrays
 from rcmplan.compiled.phase import IntArray, run_in_blocks
 from rcmplan.compiled.records import (
     CURVED_POSE,
@@ -89,45 +89,3 @@ def run_iramis_phase(
         k = int(info[1])
         where = f"phase {controller.log.phase_names[pid]!r} step {k}"
         raise_stop(controller, status, k, targets, fail, tol, where)
-
-
-def compile_curved_kernels() -> None:
-    """Compile (or load from numba's cache) the curved needle's loops and target screens with
-    the argument types used here: the screen and each curved solver on one target, on iRAM!S
-    and on iRAM!S's DH chain as an arm holding the needle (no robot package needed)."""
-    from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, CurvedPoseSolver
-    from rcmplan.control.loop import Controller
-    from rcmplan.robot.chain import JointChain
-    from rcmplan.robot.curved import CurvedTipRobot
-    from rcmplan.robot.curved_needle import CurvedNeedle
-    from rcmplan.robot.iramis import Iramis
-    from rcmplan.robot.model import SerialArm
-    from rcmplan.robot.needle import StraightNeedle
-    from rcmplan.sim.kinematic import KinematicPlant
-
-    iramis = Iramis()
-    mount = np.eye(4)
-    mount[2, 3] = -iramis.params.l6  # the needle runs along the tip frame's z up to its origin
-    arm = SerialArm(JointChain.from_dh(iramis.chain), StraightNeedle(iramis.params.l6, mount),
-                    iramis.home, name="warm", roll_joint=5)  # fmt: skip
-    for base in (iramis, arm):
-        robot = CurvedTipRobot(base, CurvedNeedle(base.needle_length))
-        q = robot.home
-        shaft = robot.needle_point(q, 0.5)
-        x = np.array([*robot.tip(q), robot.roll(q), *shaft]) + 1e-6
-        pose = np.array([*robot.tip(q), robot.roll(q), *robot.needle_point(q, 0.0)]) + 1e-6
-        jobs: list[tuple[Solver, FloatArray]] = [
-            (CurvedPinvSolver(), x), (CurvedDlsSolver(), x), (CurvedPoseSolver(), pose)
-        ]  # fmt: skip
-        arrays = curved_arrays(robot)
-        if arrays is None:
-            continue
-        screen(robot, arrays, x[None, :], np.ascontiguousarray(q, dtype=np.float64))
-        for solver, target in jobs:
-            ctl = Controller(KinematicPlant(base), solver, robot=robot)
-            ctl.lam = 0.5
-            pid = ctl.log.phase_id("warm")
-            if arrays.P is not None:
-                run_iramis_phase(ctl, solver, target[None, :], pid, 0, arrays)
-            else:
-                arm_phase.run_arm_phase_exact(ctl, solver, target[None, :], pid, 0, arrays)

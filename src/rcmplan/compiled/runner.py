@@ -15,7 +15,6 @@ loop's to rounding (tests/test_fast.py checks 1e-12).
 
 from __future__ import annotations
 
-import importlib.util
 import weakref
 from types import ModuleType
 from typing import TYPE_CHECKING
@@ -29,20 +28,18 @@ from rcmplan.compiled.arm import check_arm_targets
 from rcmplan.compiled.curved import check_curved_targets
 from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
 from rcmplan.compiled.records import iramis_method, method_code, robot_params
-from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
+from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import solve_pose
 from rcmplan.control.tasks import VARIANTS, JacobianVariant
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel, SerialArm
-from rcmplan.sim.kinematic import KinematicPlant
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
 
 __all__ = [
     "FastIramis",
-    "compile_kernels",
     "fast_check_targets",
     "fast_converge_phase",
     "method_code",
@@ -209,82 +206,6 @@ class FastIramis:
         J = np.empty((Q.shape[0], 6, 6))
         self._k.batch_task_jacobians(self.P, Q, lam, _variant(variant), X, J)
         return X, J
-
-
-def compile_kernels() -> None:
-    """Compile (or load from numba's cache) every kernel with the argument types used here:
-    `python -c "from rcmplan.compiled.runner import compile_kernels; compile_kernels()"` fills
-    the cache ahead of a first run (in a container build, say)."""
-    from rcmplan.control.loop import Controller, interpolate
-    from rcmplan.control.targets import rcm_target
-
-    robot = Iramis()
-    fast = FastIramis(robot)
-    q, K = robot.home.copy(), np.ones(6)
-    x = fast.task(q, 0.5)
-    variants: tuple[JacobianVariant, ...] = ("exact", "thesis")
-    for variant in variants:
-        fast.augmented_jacobian(q, 0.5, variant)
-        fast.step(q, 0.5, x, K, variant)
-        fast.batch_task_jacobians(q[None, :], np.array([0.5]), variant)
-    tip = robot.tip(q)
-    trocar = tip + np.array([8e-3, 0.0, 0.0])  # on the needle, 8 mm behind the tip
-    path = interpolate(tip, tip + np.array([-1e-3, 1e-4, 0.0]), 2)
-    rcm = np.array([rcm_target(t, trocar) for t in path])
-    fast_cache.loop_kernels().screen_targets(
-        robot_params(robot), 0.1, rcm, np.zeros(2, dtype=np.bool_)
-    )
-    free = interpolate(tip, tip + 1e-4, 2)
-    jobs: list[tuple[Solver, FloatArray]] = [
-        (PinvSolver(), rcm), (PinvSolver(variant="thesis"), rcm), (DlsSolver(), rcm),
-        (TipSolver(), free),
-    ]  # fmt: skip
-    for solver, targets in jobs:
-        for plant, run in ((KinematicPlant(robot), run_phase_compiled),
-                           (_SteppedPlant(robot), run_phase_on_plant)):  # fmt: skip
-            ctl = Controller(plant, solver)
-            ctl.lam = 1.0 - 8e-3 / robot.params.l6
-            run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
-    arm_phase.compile_arm_kernels()
-    curved_phase.compile_curved_kernels()
-    if importlib.util.find_spec("daqp") is not None:
-        _compile_qp_loop(robot, trocar)
-    if importlib.util.find_spec("mujoco") is not None:
-        _compile_mujoco_loop(robot, jobs)
-
-
-def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
-    """The compiled QP loop (and DAQP's binding), on a 20 um move about the trocar; nothing if
-    DAQP's C solver cannot be called from compiled code (`cache.qp_loop`)."""
-    from rcmplan.control.loop import Controller, interpolate
-    from rcmplan.control.qp import QpSolver
-    from rcmplan.control.targets import rcm_target
-
-    tip = robot.tip(robot.home)
-    path = interpolate(tip, tip + np.array([-2e-5, 2e-6, 0.0]), 2)
-    targets = np.array([rcm_target(t, trocar) for t in path])
-    solver = QpSolver(robot)
-    ctl = Controller(KinematicPlant(robot), solver)
-    ctl.lam = 1.0 - 8e-3 / robot.params.l6
-    qp_phase.run_if_ready(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
-
-
-def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -> None:
-    """The compiled loop around the dynamic MuJoCo plant, on a short move per solver (up to
-    0.5 mm: with the reference's 30 ms ramp it takes more than the default 100 periods)."""
-    from rcmplan.control.loop import Controller, LoopSettings
-    from rcmplan.sim.mujoco.plant import MujocoPlant
-
-    loop = fast_cache.closed_loop()
-    for solver, targets in jobs:
-        plant = MujocoPlant(robot, mode="dynamic")
-        ctl = Controller(plant, solver, settings=LoopSettings(max_iterations=1000))
-        ctl.lam = 1.0 - 8e-3 / robot.params.l6
-        loop.run_phase_on_mujoco(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0)
-
-
-class _SteppedPlant(KinematicPlant):
-    """A kinematic plant that takes the per-iteration path of plants with dynamics."""
 
 
 class CompiledRunner:

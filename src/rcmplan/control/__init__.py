@@ -1,10 +1,30 @@
-"""RCM control: tasks, the augmented Jacobian, step solvers and the thesis's control loops."""
+"""RCM control: tasks, limits, step solvers, the thesis's control loops, the run log.
 
-from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.log import RunLog
-from rcmplan.control.loop import Controller, LoopSettings, Phase, interpolate, split_steps
-from rcmplan.control.solvers import DlsSolver, PinvSolver, TipSolver, Tolerance
-from rcmplan.control.targets import rcm_target, solve_pose
+Names load on first use: the controller (`loop.py`) sits above the compiled runner that it
+calls, which itself uses the tasks and solvers here, so this package's face imports nothing.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+_EXPORTS: dict[str, str] = {
+    "Controller": "rcmplan.control.loop",
+    "DlsSolver": "rcmplan.control.solvers",
+    "LoopSettings": "rcmplan.control.phase",
+    "Phase": "rcmplan.control.phase",
+    "PinvSolver": "rcmplan.control.solvers",
+    "RunLog": "rcmplan.control.log",
+    "TipSolver": "rcmplan.control.solvers",
+    "Tolerance": "rcmplan.control.solvers",
+    "augmented_jacobian": "rcmplan.control.augmented",
+    "extended_task": "rcmplan.control.augmented",
+    "interpolate": "rcmplan.control.phase",
+    "rcm_target": "rcmplan.control.targets",
+    "solve_pose": "rcmplan.control.targets",
+    "split_steps": "rcmplan.control.phase",
+}
 
 __all__ = [
     "Controller",
@@ -22,3 +42,22 @@ __all__ = [
     "solve_pose",
     "split_steps",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """Load an exported name from its module on first use."""
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'rcmplan.control' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+if TYPE_CHECKING:
+    from rcmplan.control.augmented import augmented_jacobian, extended_task
+    from rcmplan.control.log import RunLog
+    from rcmplan.control.loop import Controller
+    from rcmplan.control.phase import LoopSettings, Phase, interpolate, split_steps
+    from rcmplan.control.solvers import DlsSolver, PinvSolver, TipSolver, Tolerance
+    from rcmplan.control.targets import rcm_target, solve_pose

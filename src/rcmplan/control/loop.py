@@ -18,6 +18,7 @@ from collections.abc import Callable
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.compiled.runner import CompiledRunner
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.phase import (
     LoopSettings,
@@ -29,7 +30,7 @@ from rcmplan.control.phase import (
 )
 from rcmplan.control.plant import Plant
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
-from rcmplan.control.runner import Runner, default_runner
+from rcmplan.control.runner import Runner, registered_default
 from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, target_tip
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmBoundError, RcmplanError
@@ -37,6 +38,7 @@ from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import closest_lambda, closest_point
 
 NAN3 = np.full(3, np.nan)
+_COMPILED = CompiledRunner()  # every phase a kernel implements runs compiled
 
 __all__ = ["Controller", "LoopSettings", "Phase", "TargetPlanner", "interpolate", "split_steps"]
 
@@ -52,7 +54,7 @@ class Controller:
             else the tip pseudoinverse).
         settings: Loop settings.
         runner: Runs phases in compiled code where it applies (default: the compiled runner,
-            registered by `import rcmplan`); see `control.runner`.
+            `rcmplan.compiled.runner`); see `control.runner`.
         robot: The model the controller drives, with the plant's actuators (default: the
             plant's own; a curved needle's model on a plant built for its shaft).
     """
@@ -89,8 +91,8 @@ class Controller:
 
     @property
     def runner(self) -> Runner:
-        """The runner given, else the default one registered when the run starts."""
-        return self._runner or default_runner()
+        """The runner given, else the registered default, else the compiled runner."""
+        return self._runner or registered_default() or _COMPILED
 
     def check_targets(self, targets: FloatArray) -> None:
         """Refuse, before motion, RCM targets the robot cannot realise (closed-form pose), and

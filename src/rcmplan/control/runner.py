@@ -4,14 +4,13 @@
 targets or run a whole phase itself; a runner that says yes leaves the controller, its log and
 the plant exactly as the reference loop would. The compiled runner (`rcmplan.compiled`) decides
 by itself, from the robot, solver and plant, whether it applies, and says no otherwise (a
-solver or robot subclass, a plant it does not know). `rcmplan.compiled` registers itself as
-the default runner when it is imported (`import rcmplan` does); `Controller(runner=
-ReferenceRunner())` runs the Python loop explicitly.
+solver or robot subclass, a plant it does not know). It is every Controller's default;
+`Controller(runner=ReferenceRunner())` runs the Python loop explicitly, and
+`register_default` changes the default of every Controller given none.
 """
 
 from __future__ import annotations
 
-import importlib
 from typing import Protocol
 
 from rcmplan._validate import FloatArray
@@ -77,17 +76,12 @@ class ReferenceRunner:
 _default: list[Runner | None] = [None]
 
 
-def register_default(runner: Runner) -> None:
-    """Make `runner` the one a Controller uses when given none."""
+def register_default(runner: Runner | None) -> None:
+    """Make `runner` the one a Controller uses when given none (None: the compiled runner)."""
     _default[0] = runner
 
 
-def default_runner() -> Runner:
-    """The runner a Controller uses when given none: the compiled runner, which registers
-    itself when `rcmplan.compiled` is imported (here, on first use, whichever way the caller
-    imported the controller), unless another was registered."""
-    if _default[0] is None:
-        importlib.import_module("rcmplan.compiled")  # registers CompiledRunner
-    runner = _default[0]
-    assert runner is not None  # rcmplan.compiled registered itself
-    return runner
+def registered_default() -> Runner | None:
+    """The runner registered as the default, or None (a Controller then uses the compiled
+    runner, `rcmplan.control.loop`)."""
+    return _default[0]

@@ -80,14 +80,6 @@ def roll_joint(chain: JointChain, needle: StraightNeedle) -> int | None:
     return k if on_axis else None
 
 
-def shipped_arm(name: str) -> SerialArm:
-    """A shipped arm (one of `rcmplan.robot.library.ROBOT_FILES`) from its robot file."""
-    from rcmplan.robot.library import shipped_robot_file
-    from rcmplan.robot.robot_file import load_robot_file
-
-    return load_robot_file(shipped_robot_file(name)).arm
-
-
 def home_pose(arm: SerialArm) -> FloatArray:
     """The arm's needle base and tip at home, (2, 3) in [m]."""
     return np.array([arm.needle_point(arm.home, 0.0), arm.tip(arm.home)])

@@ -111,7 +111,8 @@ class Iramis:
         self.needle_length: float = p.l6
         self.resolution: float = p.slider_resolution
         self.singular_threshold: float = p.singular_threshold
-        self.P = kernels.params(p)  # the kernels' parameter vector
+        head = [p.l1, p.l2, p.l3, p.l4, p.l5, p.l6, p.pcjm_spacing]  # `kernels.PARAMS`
+        self.P = np.array([*head, *p.slider_lower, *p.slider_upper], dtype=np.float64)
 
     # --- DH tables -------------------------------------------------------------------------
     def dh_links(self, l6: float | None = None) -> list[DHLink]:

@@ -1,7 +1,7 @@
 """The kinematics of iRAM!S in closed form, as numba kernels: the one definition that the
 `Iramis` model calls from Python and the compiled loops call from compiled code.
 
-Parameters travel as one float64 array P (`PARAMS`, built by `params`): link lengths l1..l6
+Parameters travel as one float64 array P (`PARAMS`, built by `Iramis`): link lengths l1..l6
 [m], PCJM slider spacing d [m], slider travel lower (6,) and upper (6,) [m, rad for q5]. Joint
 vectors q are (q0..q5) [m, rad]; slider vectors s are (L1, L2, L3, L4, L5, q5). Kernels write
 into output arrays given to them (no allocation in compiled code).
@@ -10,25 +10,14 @@ into output arrays given to them (no allocation in compiled code).
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
 
-import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
 
-if TYPE_CHECKING:
-    from rcmplan.robot.iramis import IramisParameters
-
 PARAMS = ("l1", "l2", "l3", "l4", "l5", "l6", "d", "lower[6]", "upper[6]")
 LOWER, UPPER = 7, 13
 HALF_PI = 0.5 * math.pi
-
-
-def params(p: IramisParameters) -> FloatArray:
-    """The parameter vector P (19,) of the kernels for a geometry and its travel."""
-    head = [p.l1, p.l2, p.l3, p.l4, p.l5, p.l6, p.pcjm_spacing]
-    return np.array([*head, *p.slider_lower, *p.slider_upper], dtype=np.float64)
 
 
 @njit(cache=True)

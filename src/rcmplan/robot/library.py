@@ -18,7 +18,6 @@ from importlib import metadata, resources
 from pathlib import Path
 
 from rcmplan.exceptions import InvalidInputError, MissingExtraError
-from rcmplan.robot.chain import JointChain
 
 PACKAGE = "example-robot-data"
 ROBOTS_DIR = "cmeel.prefix/share/example-robot-data/robots"
@@ -64,34 +63,3 @@ def shipped_robot_file(name: str) -> Path:
     if name not in files:
         raise InvalidInputError("robot name", name, "one of " + ", ".join(files))
     return files[name]
-
-
-def robot_file(name: str) -> Path:
-    """The model file (URDF) of a shipped arm (one of ROBOT_FILES)."""
-    from rcmplan.robot.robot_file import model_path, read_robot_file
-
-    return model_path(read_robot_file(shipped_robot_file(name)))
-
-
-def flange_frame(name: str) -> str:
-    """The link a shipped arm's chain ends at (its flange), one of ROBOT_FILES."""
-    from rcmplan.robot.robot_file import read_robot_file
-
-    return read_robot_file(shipped_robot_file(name)).flange
-
-
-def robot_chain(name: str) -> JointChain:
-    """A shipped arm's chain from its URDF root to its flange frame."""
-    from rcmplan.robot.robot_file import model_chain, read_robot_file
-
-    return model_chain(read_robot_file(shipped_robot_file(name)))
-
-
-def ur5_chain() -> JointChain:
-    """The UR5 from `base_link` (z up, at the URDF root) to `tool0` (z = wrist 3 axis)."""
-    return robot_chain("ur5")
-
-
-def panda_chain() -> JointChain:
-    """The Franka Panda from `panda_link0` to the flange `panda_link8` (z = joint 7 axis)."""
-    return robot_chain("panda")

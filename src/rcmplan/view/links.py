@@ -51,7 +51,8 @@ def robot_links(server: Any, robot: RobotModel | None, root: str = "/robot") -> 
 
 
 def _arm_links(server: Any, arm: SerialArm, root: str) -> Links:
-    from rcmplan.robot.library import ROBOT_FILES, flange_frame, robot_file
+    from rcmplan.robot.library import ROBOT_FILES
+    from rcmplan.robot.shipped import flange_frame, robot_file
     from rcmplan.view.links_chain import ChainLinks
 
     if arm.name in ROBOT_FILES:

@@ -167,7 +167,8 @@ def _link_inertials(arm: SerialArm) -> list[Any]:
 
 def _urdf_path(arm: SerialArm) -> Path | None:
     """The URDF of a shipped arm of the same name, or None (another arm, or not installed)."""
-    from rcmplan.robot.library import ROBOT_FILES, robot_file
+    from rcmplan.robot.library import ROBOT_FILES
+    from rcmplan.robot.shipped import robot_file
 
     if arm.name not in ROBOT_FILES:
         return None

@@ -1,0 +1,175 @@
+"""Compile (or load from numba's cache) every kernel ahead of a first run: each loop, screen
+and step with the argument types the runners use, on small jobs.
+
+`compile_kernels()` fills numba's cache (in a container build, say); a run does not need it,
+as every kernel compiles when first called. The one module of `rcmplan.compiled` that builds
+controllers (the runners only receive them).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.compiled import arm_phase, curved_phase, qp_phase
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.arm import FastArm, check_arm_targets
+from rcmplan.compiled.curved import curved_arrays, screen
+from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
+from rcmplan.compiled.records import robot_params
+from rcmplan.compiled.runner import FastIramis
+from rcmplan.control.loop import Controller, LoopSettings, interpolate
+from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
+from rcmplan.control.targets import rcm_target
+from rcmplan.control.tasks import JacobianVariant
+from rcmplan.robot.chain import JointChain
+from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import SerialArm
+from rcmplan.robot.needle import StraightNeedle
+from rcmplan.sim.kinematic import KinematicPlant
+
+
+def compile_kernels() -> None:
+    """Compile (or load from numba's cache) every kernel with the argument types used here:
+    `python -c "from rcmplan.compiled.warmup import compile_kernels; compile_kernels()"` fills
+    the cache ahead of a first run (in a container build, say)."""
+    from rcmplan.control.targets import rcm_target
+
+    robot = Iramis()
+    fast = FastIramis(robot)
+    q, K = robot.home.copy(), np.ones(6)
+    x = fast.task(q, 0.5)
+    variants: tuple[JacobianVariant, ...] = ("exact", "thesis")
+    for variant in variants:
+        fast.augmented_jacobian(q, 0.5, variant)
+        fast.step(q, 0.5, x, K, variant)
+        fast.batch_task_jacobians(q[None, :], np.array([0.5]), variant)
+    tip = robot.tip(q)
+    trocar = tip + np.array([8e-3, 0.0, 0.0])  # on the needle, 8 mm behind the tip
+    path = interpolate(tip, tip + np.array([-1e-3, 1e-4, 0.0]), 2)
+    rcm = np.array([rcm_target(t, trocar) for t in path])
+    fast_cache.loop_kernels().screen_targets(
+        robot_params(robot), 0.1, rcm, np.zeros(2, dtype=np.bool_)
+    )
+    free = interpolate(tip, tip + 1e-4, 2)
+    jobs: list[tuple[Solver, FloatArray]] = [
+        (PinvSolver(), rcm), (PinvSolver(variant="thesis"), rcm), (DlsSolver(), rcm),
+        (TipSolver(), free),
+    ]  # fmt: skip
+    for solver, targets in jobs:
+        for plant, run in ((KinematicPlant(robot), run_phase_compiled),
+                           (_SteppedPlant(robot), run_phase_on_plant)):  # fmt: skip
+            ctl = Controller(plant, solver)
+            ctl.lam = 1.0 - 8e-3 / robot.params.l6
+            run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
+    compile_arm_kernels()
+    compile_curved_kernels()
+    if importlib.util.find_spec("daqp") is not None:
+        _compile_qp_loop(robot, trocar)
+    if importlib.util.find_spec("mujoco") is not None:
+        _compile_mujoco_loop(robot, jobs)
+
+
+def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
+    """The compiled QP loop (and DAQP's binding), on a 20 um move about the trocar; nothing if
+    DAQP's C solver cannot be called from compiled code (`cache.qp_loop`)."""
+    from rcmplan.control.qp import QpSolver
+    from rcmplan.control.targets import rcm_target
+
+    tip = robot.tip(robot.home)
+    path = interpolate(tip, tip + np.array([-2e-5, 2e-6, 0.0]), 2)
+    targets = np.array([rcm_target(t, trocar) for t in path])
+    solver = QpSolver(robot)
+    ctl = Controller(KinematicPlant(robot), solver)
+    ctl.lam = 1.0 - 8e-3 / robot.params.l6
+    qp_phase.run_if_ready(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
+
+
+def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -> None:
+    """The compiled loop around the dynamic MuJoCo plant, on a short move per solver (up to
+    0.5 mm: with the reference's 30 ms ramp it takes more than the default 100 periods)."""
+    from rcmplan.sim.mujoco.plant import MujocoPlant
+
+    loop = fast_cache.closed_loop()
+    for solver, targets in jobs:
+        plant = MujocoPlant(robot, mode="dynamic")
+        ctl = Controller(plant, solver, settings=LoopSettings(max_iterations=1000))
+        ctl.lam = 1.0 - 8e-3 / robot.params.l6
+        loop.run_phase_on_mujoco(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0)
+
+
+class _SteppedPlant(KinematicPlant):
+    """A kinematic plant that takes the per-iteration path of plants with dynamics."""
+
+
+def compile_arm_kernels() -> None:
+    """Compile (or load from numba's cache) the arm kernels, both loops and the target screen
+    with the argument types used here, on iRAM!S's DH chain holding its needle (no robot
+    package needed)."""
+    from rcmplan.sim.kinematic import KinematicPlant
+
+    robot = Iramis()
+    mount = np.eye(4)
+    mount[2, 3] = -robot.params.l6  # the needle runs along the tip frame's z up to its origin
+    arm = SerialArm(JointChain.from_dh(robot.chain), StraightNeedle(robot.params.l6, mount),
+                    robot.home, name="warm", roll_joint=5)  # fmt: skip
+    fast, q = FastArm(arm), arm.home
+    x = fast.task(q, 0.5)
+    fast.augmented_jacobian(q, 0.5, "thesis")
+    fast.step(q, 0.5, x, np.ones(6), np.empty(6))
+    fast.dls_step(q, 0.5, x, 1e-4, np.empty(6))
+    tip, trocar = arm.tip(q), arm.needle_point(q, 0.5)
+    rcm = np.array([rcm_target(tip - 1e-4 * arm.needle_axis(q), trocar)])  # insert 0.1 mm
+    check_arm_targets(arm, rcm)
+    jobs: list[tuple[Solver, FloatArray]] = [
+        (PinvSolver(), rcm), (PinvSolver(variant="thesis"), rcm), (DlsSolver(), rcm),
+        (TipSolver(), tip[None, :] + 1e-5),
+    ]  # fmt: skip
+    for solver, targets in jobs:
+        for run in (arm_phase.run_arm_phase_exact, arm_phase.run_arm_phase):
+            ctl = Controller(KinematicPlant(arm), solver)
+            ctl.lam = 0.5
+            run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
+
+
+def compile_curved_kernels() -> None:
+    """Compile (or load from numba's cache) the curved needle's loops and target screens with
+    the argument types used here: the screen and each curved solver on one target, on iRAM!S
+    and on iRAM!S's DH chain as an arm holding the needle (no robot package needed)."""
+    from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, CurvedPoseSolver
+    from rcmplan.robot.chain import JointChain
+    from rcmplan.robot.curved import CurvedTipRobot
+    from rcmplan.robot.curved_needle import CurvedNeedle
+    from rcmplan.robot.iramis import Iramis
+    from rcmplan.robot.model import SerialArm
+    from rcmplan.robot.needle import StraightNeedle
+    from rcmplan.sim.kinematic import KinematicPlant
+
+    iramis = Iramis()
+    mount = np.eye(4)
+    mount[2, 3] = -iramis.params.l6  # the needle runs along the tip frame's z up to its origin
+    arm = SerialArm(JointChain.from_dh(iramis.chain), StraightNeedle(iramis.params.l6, mount),
+                    iramis.home, name="warm", roll_joint=5)  # fmt: skip
+    for base in (iramis, arm):
+        robot = CurvedTipRobot(base, CurvedNeedle(base.needle_length))
+        q = robot.home
+        shaft = robot.needle_point(q, 0.5)
+        x = np.array([*robot.tip(q), robot.roll(q), *shaft]) + 1e-6
+        pose = np.array([*robot.tip(q), robot.roll(q), *robot.needle_point(q, 0.0)]) + 1e-6
+        jobs: list[tuple[Solver, FloatArray]] = [
+            (CurvedPinvSolver(), x), (CurvedDlsSolver(), x), (CurvedPoseSolver(), pose)
+        ]  # fmt: skip
+        arrays = curved_arrays(robot)
+        if arrays is None:
+            continue
+        screen(robot, arrays, x[None, :], np.ascontiguousarray(q, dtype=np.float64))
+        for solver, target in jobs:
+            ctl = Controller(KinematicPlant(base), solver, robot=robot)
+            ctl.lam = 0.5
+            pid = ctl.log.phase_id("warm")
+            if arrays.P is not None:
+                curved_phase.run_iramis_phase(ctl, solver, target[None, :], pid, 0, arrays)
+            else:
+                arm_phase.run_arm_phase_exact(ctl, solver, target[None, :], pid, 0, arrays)
