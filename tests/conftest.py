@@ -24,3 +24,18 @@ def random_joints(rng: np.random.Generator, n: int, angle: float = 1.2) -> np.nd
     q[:, [0, 2, 4]] *= 0.03
     q[:, [1, 3, 5]] *= angle
     return q
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _kernels_already_announced(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Commands run as after their first run: the one line a first run prints while numba
+    compiles (`rcmplan.compiled.cache`) is stamped as said, in a cache folder of this session
+    (tests/test_fast.py checks the line itself with a folder of its own)."""
+    import os
+
+    from rcmplan.compiled import cache
+
+    os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
+    stamp = cache.stamp_path()
+    stamp.parent.mkdir(parents=True, exist_ok=True)
+    stamp.write_text("announced\n")
