@@ -28,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--ioct-rate-hz", type=float, default=9.0, help="iOCT volume rate, 0.5-200 (9)")
     p.add_argument("--latency-ms", type=float, default=150.0, help="iOCT latency, 0-1000 (150)")
     p.add_argument("--motion-um", type=float, default=50.0,
-                   help="breathing amplitude along the normal, 0-200 um; cardiac 0.2 of it (50)")  # fmt: skip
+                   help="breathing amplitude, 0-200 um; cardiac 0.2 of it (50)")  # fmt: skip
     p.add_argument("--seed", type=int, default=0, help="seed of the motion and iOCT noise (0)")
     p.add_argument("--robot", type=robot_arg, default="iramis", metavar="NAME|FILE.toml",
                    help=f"{ROBOT_HELP} (iramis)")  # fmt: skip
@@ -120,8 +120,9 @@ def print_table(doc: dict[str, Any]) -> None:
         v = doc.get(key)
         return "-" if v is None else f"{v * 1e6:.2f} um"
 
-    print(f"subretinal  robot {doc['robot']}  compensation {doc['compensation']}  iOCT "
-          f"{doc['ioct_rate_hz']:g} Hz, {doc['latency_s'] * 1e3:g} ms  status {doc['status']}")  # fmt: skip
+    rate, latency_ms = doc["ioct_rate_hz"], doc["latency_s"] * 1e3
+    print(f"subretinal  robot {doc['robot']}  compensation {doc['compensation']}  "
+          f"iOCT {rate:g} Hz, {latency_ms:g} ms  status {doc['status']}")  # fmt: skip
     rows = [
         ["max RCM deviation", um("max_rcm_deviation_m")],
         ["hover tracking RMS (height above the ILM)", um("tracking_rms_m")],

@@ -73,7 +73,7 @@ class EpisodeResult:
 
 def phase_durations(cfg: EpisodeSettings, layers: RetinaLayers) -> dict[str, float]:
     """Duration [s] of each phase, in order."""
-    travel = (cfg.standoff_m + layers.target_depth_m) / cfg.advance_speed_m_s
+    travel = (cfg.standoff_m + layers.target_depth_m + cfg.overshoot_m) / cfg.advance_speed_m_s
     return {
         "approach": (cfg.start_height_m - cfg.standoff_m) / cfg.approach_speed_m_s,
         "hover": cfg.hover_s,
@@ -89,7 +89,7 @@ def commanded_depth(
 ) -> float | None:
     """Commanded depth [m] below the predicted ILM at the fraction a in [0, 1] of a phase;
     None during the approach (a blend from the start point, `Episode.tip_radius`)."""
-    top, target = -cfg.standoff_m, layers.target_depth_m
+    top, target = -cfg.standoff_m, layers.target_depth_m + cfg.overshoot_m
     return {
         "approach": None,
         "hover": top,
@@ -126,7 +126,7 @@ class Episode:
         bounded = "hold" if cfg.compensation == "none" else cfg.compensation
         self.guard = self.predictor if bounded == cfg.compensation else make_predictor(bounded)
         self._next = 0
-        self.n_periods = int(round(self.length_s / cfg.dt))
+        self.n_periods = round(self.length_s / cfg.dt)
         self.wall_m = self.motion.displacement(cfg.warmup_s + cfg.dt * np.arange(self.n_periods))
         self.start_radius = layers.ilm_radius_m - cfg.start_height_m
         start_tip = self.to_base(self.start_radius)

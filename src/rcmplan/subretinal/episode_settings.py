@@ -37,6 +37,8 @@ class EpisodeSettings:
         band_fraction: Half-width of the target band as a fraction of the thickness.
         rpe_margin_m: The depth limit keeps the tip this far above the estimated RPE [m].
         depth_limit: Hold the depth limit in the QP (off only to show what it prevents).
+        overshoot_m: Added to the commanded depth of the advance and the hold [m]: an operator
+            pushing past the target (0 in a planned injection).
         direction: Target location: a direction from the eye centre in the eye frame.
         start_height_m: Start height of the tip above the undisplaced ILM [m].
         warmup_s: iOCT observation before the approach (the needle still) [s].
@@ -61,6 +63,7 @@ class EpisodeSettings:
     band_fraction: float = 0.1
     rpe_margin_m: float = 25e-6
     depth_limit: bool = True
+    overshoot_m: float = 0.0
     direction: tuple[float, float, float] = (0.1, 0.0, 1.0)
     start_height_m: float = 500e-6
     warmup_s: float = 10.0
@@ -76,9 +79,8 @@ class EpisodeSettings:
         if self.plant not in PLANTS_SUPPORTED:
             raise InvalidInputError("plant", self.plant, f"one of {list(PLANTS_SUPPORTED)}")
         if self.compensation not in PREDICTORS:
-            raise InvalidInputError(
-                "compensation", self.compensation, "one of " + ", ".join(PREDICTORS)
-            )
+            valid = "one of " + ", ".join(PREDICTORS)
+            raise InvalidInputError("compensation", self.compensation, valid)
         scalar("ioct_rate_hz", self.ioct_rate_hz, 0.5, 200.0)
         scalar("latency_s", self.latency_s, 0.0, 1.0)
         scalar("breathing_m", self.breathing_m, 0.0, 200e-6)
@@ -87,6 +89,7 @@ class EpisodeSettings:
         scalar("hold_s", self.hold_s, 0.0, 60.0, low_open=True)
         scalar("standoff_m", self.standoff_m, 20e-6, 1e-3)
         scalar("rpe_margin_m", self.rpe_margin_m, 0.0, 200e-6)
+        scalar("overshoot_m", self.overshoot_m, 0.0, 500e-6)
         object.__setattr__(self, "direction", tuple(vector("direction", self.direction, 3)))
         scalar("start_height_m", self.start_height_m, self.standoff_m, 3e-3)
         scalar("warmup_s", self.warmup_s, 0.0, 60.0)
