@@ -87,13 +87,14 @@ def write_outputs(settings: Any, out: Path, figures: bool) -> dict[str, Any]:
 
     from rcmplan._atomic import atomic_path, write_text
     from rcmplan.analysis.report import jsonable
-    from rcmplan.subretinal.episode import run_episode
+    from rcmplan.subretinal.episode import PHASES, run_episode
     from rcmplan.subretinal.episode_metrics import summarise
 
     result = run_episode(settings)
     result.log.save_npz(out / "log.npz")
     with atomic_path(out / "episode.npz") as tmp, open(tmp, "wb") as fh:
-        np.savez_compressed(fh, **result.series)
+        series: dict[str, Any] = dict(result.series)
+        np.savez_compressed(fh, **series, phase_names=np.array(PHASES, dtype=str))
     doc: dict[str, Any] = jsonable(summarise(result))
     write_text(out / "summary.json", json.dumps(doc, indent=2))
     if figures:

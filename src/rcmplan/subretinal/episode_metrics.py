@@ -51,7 +51,7 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
     height_error = -depth[hover] - cfg.standoff_m
     seen = result.trace.t_acq_s <= (s["t_s"][-1] if s["t_s"].size else 0.0)
     seg = result.trace.estimate_m[seen] - result.trace.truth_m[seen]
-    band = in_target_band(layers, depth[hold]) if hold.any() else np.zeros(0, dtype=bool)
+    band = np.asarray(in_target_band(layers, depth[hold]), dtype=bool)
     return {
         "command": "subretinal",
         "status": status,
