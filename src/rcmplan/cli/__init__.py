@@ -18,6 +18,7 @@ COMMANDS = (
     "reproduce",
     "robot",
     "scenario",
+    "subretinal",
     "sweep",
     "teleop",
     "view",

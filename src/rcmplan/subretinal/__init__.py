@@ -1,4 +1,4 @@
-"""Subretinal injection under intraoperative OCT: the models that do not depend on the
+"""Subretinal injection under intraoperative OCT: the models, and one episode on the RCM
 controller.
 
 - `layers`: the retina's ILM and RPE as spheres on the posterior wall, depths, the target.
@@ -9,6 +9,9 @@ controller.
 - `predict`: predictors of the ILM displacement across the iOCT latency (none, hold, fft,
   kalman), by name.
 - `trace`: one episode's acquisitions, segmented, and the prediction error across the latency.
+- `episode`, `episode_settings`, `episode_metrics`, `episode_plot`: one injection on the QP
+  controller (approach, hover, advance, hold, retract) with motion compensation and a depth
+  limit; `rcmplan subretinal`.
 
 Sources of every default: docs/subretinal.md.
 """

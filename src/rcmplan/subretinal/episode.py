@@ -1,0 +1,248 @@
+"""One simulated subretinal injection on the RCM controller, under iOCT with motion compensation.
+
+The needle starts inserted through the trocar, `start_height_m` above the target's ILM point.
+Every 1 kHz period does what a teleoperated session's period does (`rcmplan.teleop.session`):
+read the plant, lambda by `closest_lambda`, the target X_ext by `rcm_target(tip, trocar)`, one
+`QpSolver.step`, command the plant. The QP holds the RCM, actuator travel and speed and, as an
+extra limit, `TissueDepthLimit`: the tip above the ESTIMATED RPE less `rpe_margin_m`. The QP's
+retina barrier is off (no eye is given to it): the needle has to pass the ILM.
+
+The tip target lies on the target's normal n (the ray from the eye centre along `direction`):
+p = (R_ilm + d_pred(t) + c(t)) n, with d_pred the compensation's prediction of the ILM
+displacement and c(t) the commanded depth below it: a ramp from the start to -standoff
+(approach), -standoff (hover), a ramp to the target depth (advance), the target depth (hold),
+back to -standoff (retract, settle). The true wall moves with the motion model; the tip's depth
+in tissue comes from the tissue model (tenting until puncture). The iOCT estimates (every
+1 / rate, delivered `latency_s` after acquisition) are the measured-noise stand-in of
+`trace.noisy_trace`, fed to the predictor as they arrive; the `warmup_s` of estimates before
+the approach start the predictor (the kalman filter needs 8 s). The depth limit uses the
+compensation's prediction, or with `none` the newest estimate (`hold`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.augmented import extended_task
+from rcmplan.control.limits import TissueDepthLimit
+from rcmplan.control.log import LogBuilder, RunLog
+from rcmplan.control.qp import QpSolver
+from rcmplan.control.qp_limits import QpLimits
+from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.exceptions import RcmBoundError
+from rcmplan.robot.needle import closest_lambda
+from rcmplan.robot.registry import make_robot
+from rcmplan.scene.eye import default_eye, default_points, eye_frame
+from rcmplan.sim.registry import make_plant
+from rcmplan.subretinal.episode_settings import (
+    SEGMENTATION_BIAS_M,
+    SEGMENTATION_STD_M,
+    EpisodeSettings,
+)
+from rcmplan.subretinal.ioct import IoctModel
+from rcmplan.subretinal.layers import RetinaLayers, unit_direction
+from rcmplan.subretinal.motion import MotionModel, sample_motion
+from rcmplan.subretinal.predict import make_predictor
+from rcmplan.subretinal.tissue import TissueContact
+from rcmplan.subretinal.trace import IlmTrace, noisy_trace
+
+PHASES = ("approach", "hover", "advance", "hold", "retract", "settle")
+SERIES = ("t_s", "phase", "wall_m", "predicted_m", "limit_m", "command_depth_m",
+          "depth_vs_undeformed_m", "depth_m", "tissue_state", "rcm_deviation_m")  # fmt: skip
+
+
+@dataclass
+class EpisodeResult:
+    """One episode: settings, per-period series (`SERIES`, SI units), the run log, the iOCT
+    trace, the phase start times, and a status ("ok", or what stopped or broke it)."""
+
+    settings: EpisodeSettings
+    layers: RetinaLayers
+    series: dict[str, FloatArray]
+    log: RunLog
+    trace: IlmTrace
+    phase_starts_s: dict[str, float]
+    status: str = "ok"
+    message: str = ""
+    extra: dict[str, Any] = field(default_factory=dict)
+
+
+def phase_durations(cfg: EpisodeSettings, layers: RetinaLayers) -> dict[str, float]:
+    """Duration [s] of each phase, in order."""
+    travel = (cfg.standoff_m + layers.target_depth_m + cfg.overshoot_m) / cfg.advance_speed_m_s
+    return {
+        "approach": (cfg.start_height_m - cfg.standoff_m) / cfg.approach_speed_m_s,
+        "hover": cfg.hover_s,
+        "advance": travel,
+        "hold": cfg.hold_s,
+        "retract": travel,
+        "settle": cfg.settle_s,
+    }
+
+
+def commanded_depth(
+    phase: str, a: float, cfg: EpisodeSettings, layers: RetinaLayers
+) -> float | None:
+    """Commanded depth [m] below the predicted ILM at the fraction a in [0, 1] of a phase;
+    None during the approach (a blend from the start point, `Episode.tip_radius`)."""
+    top, target = -cfg.standoff_m, layers.target_depth_m + cfg.overshoot_m
+    return {
+        "approach": None,
+        "hover": top,
+        "advance": top + a * (target - top),
+        "hold": target,
+        "retract": target + a * (top - target),
+        "settle": top,
+    }[phase]
+
+
+class Episode:
+    """Everything one episode needs, built and checked before any motion."""
+
+    def __init__(self, cfg: EpisodeSettings) -> None:
+        self.cfg = cfg
+        self.robot = robot = make_robot(cfg.robot)
+        self.eye = eye = default_eye(robot)
+        self.R = eye_frame(eye)
+        self.layers = layers = RetinaLayers.from_eye(
+            eye, target_fraction=cfg.target_fraction, band_fraction=cfg.band_fraction
+        )
+        self.normal = unit_direction(cfg.direction)
+        self.durations = phase_durations(cfg, layers)
+        self.length_s = sum(self.durations.values())
+        motion = MotionModel(
+            breathing_amplitude_m=cfg.breathing_m, cardiac_amplitude_m=cfg.cardiac_m
+        )
+        rng = np.random.default_rng(cfg.seed)
+        self.motion = sample_motion(motion, cfg.warmup_s + self.length_s + 1.0, rng)
+        ioct = IoctModel(volume_rate_hz=cfg.ioct_rate_hz, latency_s=cfg.latency_s)
+        self.trace = noisy_trace(self.motion, ioct, SEGMENTATION_STD_M, rng, SEGMENTATION_BIAS_M)
+        self.arrival_s = self.trace.t_acq_s + cfg.latency_s
+        self.predictor = make_predictor(cfg.compensation)
+        bounded = "hold" if cfg.compensation == "none" else cfg.compensation
+        self.guard = self.predictor if bounded == cfg.compensation else make_predictor(bounded)
+        self._next = 0
+        self.n_periods = round(self.length_s / cfg.dt)
+        self.wall_m = self.motion.displacement(cfg.warmup_s + cfg.dt * np.arange(self.n_periods))
+        self.start_radius = layers.ilm_radius_m - cfg.start_height_m
+        start_tip = self.to_base(self.start_radius)
+        pose = solve_pose(robot, rcm_target(start_tip, eye.port))
+        scene = {"eye": eye, "points": default_points(eye)}
+        self.plant = make_plant(cfg.plant, robot, scene=scene, dt=cfg.dt)
+        self.plant.reset(robot.actuators_from_joints(pose.q))
+        self.depth_limit = TissueDepthLimit(eye.center, self.limit_radius(0.0))
+        extra = (self.depth_limit,) if cfg.depth_limit else ()
+        self.solver = QpSolver(robot, None, cfg.dt, limits=QpLimits(), extra_limits=extra)
+        self.tissue = TissueContact()
+        self.log = LogBuilder()
+        self.log.actuator_labels = tuple(
+            f"{n}_{u}" for n, u in zip(robot.actuator_names, robot.actuator_units, strict=True)
+        )
+        self._pids = {p: self.log.phase_id(p) for p in PHASES}
+        self._sid = self.log.solver_id(self.solver.name)
+        self.rows: dict[str, list[float]] = {k: [] for k in SERIES}
+
+    def to_base(self, radius_m: float) -> FloatArray:
+        """The point at `radius_m` [m] from the eye centre on the target's normal, base frame."""
+        return np.asarray(self.eye.center + self.R @ (radius_m * self.normal))
+
+    def limit_radius(self, displacement_m: float) -> float:
+        """Radius [m] the depth limit holds the tip within: the RPE displaced by
+        `displacement_m` less the margin."""
+        return self.layers.rpe_radius_m + displacement_m - self.cfg.rpe_margin_m
+
+    def deliver(self, t_s: float) -> None:
+        """Feed the predictors every estimate that has arrived by episode time t_s [s]."""
+        while self._next < self.arrival_s.size and self.arrival_s[self._next] <= t_s:
+            t_acq, value = (
+                float(self.trace.t_acq_s[self._next]),
+                float(self.trace.estimate_m[self._next]),
+            )
+            self.predictor.update(t_acq, value)
+            if self.guard is not self.predictor:
+                self.guard.update(t_acq, value)
+            self._next += 1
+
+    def phase_at(self, t_loop_s: float) -> tuple[str, float]:
+        """The phase at loop time t_loop_s [s] and the fraction of it done (None past the end)."""
+        start = 0.0
+        for name, length in self.durations.items():
+            if t_loop_s < start + length:
+                return name, (t_loop_s - start) / length
+            start += length
+        return "settle", 1.0
+
+    def tip_radius(self, phase: str, a: float, predicted_m: float) -> tuple[float, float]:
+        """Commanded radius of the tip [m] and depth below the predicted ILM [m]."""
+        ilm = self.layers.ilm_radius_m + predicted_m
+        c = commanded_depth(phase, a, self.cfg, self.layers)
+        if c is None:
+            r = (1.0 - a) * self.start_radius + a * (ilm - self.cfg.standoff_m)
+            return r, r - ilm
+        return ilm + c, c
+
+    def period(self) -> None:
+        """One control period (module docstring)."""
+        robot, plant, trocar, cfg = self.robot, self.plant, self.eye.port, self.cfg
+        t_loop = plant.time
+        t = cfg.warmup_s + t_loop
+        self.deliver(t)
+        predicted = float(self.predictor.predict(t))
+        bound = predicted if self.guard is self.predictor else float(self.guard.predict(t))
+        self.depth_limit.set_floor(self.limit_radius(bound))
+        phase, a = self.phase_at(t_loop)
+        radius, c = self.tip_radius(phase, a, predicted)
+        s = plant.read_actuators()
+        q = robot.joints_from_actuators(s)
+        base, end = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
+        lam = closest_lambda(base, end, trocar)
+        tip = robot.tip(q)
+        desired = self.to_base(radius)
+        target = rcm_target(desired, trocar)
+        e = target - extended_task(robot, q, lam)
+        dq, _ = self.solver.step(robot, q, lam, target, e)
+        q_new = q.copy()
+        q_new[list(robot.active)] += dq
+        plant.command_actuators(robot.actuators_from_joints(q_new))
+        plant.advance()
+        rcm = base + lam * (end - base)
+        self.log.append(time=t, sliders=s, joints=q, lam=lam, tip=tip, rcm=rcm, trocar=trocar,
+                        base=base, target_tip=desired, error=e, step=len(self.log), iteration=0,
+                        solver=self._sid, phase=self._pids[phase])  # fmt: skip
+        wall = float(self.wall_m[len(self.rows["t_s"])])
+        z = float(np.linalg.norm(tip - self.eye.center)) - (self.layers.ilm_radius_m + wall)
+        reading = self.tissue.update(z)
+        deviation = float(np.linalg.norm(rcm - trocar))
+        row = (t, self._pids[phase], wall, predicted, bound, c, z, reading.depth_in_tissue_m,
+               int(reading.state), deviation)  # fmt: skip
+        for key, value in zip(SERIES, row, strict=True):
+            self.rows[key].append(float(value))
+        if deviation > cfg.rcm_bound_m:
+            raise RcmBoundError(phase, deviation, cfg.rcm_bound_m)
+
+    def run(self) -> EpisodeResult:
+        """Feed the warm-up estimates, run every period, return the result (also when the RCM
+        bound stopped it: status "rcm_bound_exceeded")."""
+        self.deliver(self.cfg.warmup_s)
+        status, message = "ok", ""
+        try:
+            for _ in range(self.n_periods):
+                self.period()
+        except RcmBoundError as exc:
+            status, message = exc.status, str(exc)
+        series = {k: np.asarray(v) for k, v in self.rows.items()}
+        starts, t0 = {}, self.cfg.warmup_s
+        for name, length in self.durations.items():
+            starts[name] = t0
+            t0 += length
+        return EpisodeResult(self.cfg, self.layers, series, self.log.finish(), self.trace,
+                             starts, status, message)  # fmt: skip
+
+
+def run_episode(cfg: EpisodeSettings) -> EpisodeResult:
+    """Build and run one episode."""
+    return Episode(cfg).run()

@@ -1,0 +1,87 @@
+"""The figures of one subretinal episode, from its per-period series (SI units)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.subretinal.episode import PHASES, EpisodeResult
+from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, SEGMENTATION_STD_M
+from rcmplan.subretinal.layers import in_target_band
+from rcmplan.subretinal.tissue import TissueState
+
+IOCT_SOURCE = (
+    "measured-noise stand-in for the segmented B-scans "
+    f"(bias {SEGMENTATION_BIAS_M * 1e6:.2f} um, sd {SEGMENTATION_STD_M * 1e6:.2f} um)"
+)
+
+
+def _rms(x: FloatArray) -> float | None:
+    return float(np.sqrt(np.mean(np.square(x)))) if x.size else None
+
+
+def _mean(x: FloatArray) -> float | None:
+    return float(np.mean(x)) if x.size else None
+
+
+def episode_status(result: EpisodeResult, breach: bool, punctured: bool) -> tuple[str, str]:
+    """(status, message): the run's own status if it stopped, else "rpe_breach" if the tip
+    passed the RPE, "not_punctured" if it never entered the retina, else "ok"."""
+    if result.status != "ok":
+        return result.status, result.message
+    if breach:
+        return "rpe_breach", "the tip passed the RPE surface"
+    if not punctured:
+        return "not_punctured", "the tip never passed the ILM"
+    return "ok", ""
+
+
+def summarise(result: EpisodeResult) -> dict[str, Any]:
+    """summary.json of an episode: settings, status and the measured figures (SI units)."""
+    cfg, layers, s = result.settings, result.layers, result.series
+    phase = s["phase"].astype(int)
+    hover, hold = phase == PHASES.index("hover"), phase == PHASES.index("hold")
+    depth = s["depth_m"]
+    past = depth - layers.thickness_m
+    breach = bool(np.any(past > 0.0))
+    punctured = bool(np.any(s["tissue_state"] == int(TissueState.PUNCTURED)))
+    status, message = episode_status(result, breach, punctured)
+    height_error = -depth[hover] - cfg.standoff_m
+    seen = result.trace.t_acq_s <= (s["t_s"][-1] if s["t_s"].size else 0.0)
+    seg = result.trace.estimate_m[seen] - result.trace.truth_m[seen]
+    band = np.asarray(in_target_band(layers, depth[hold]), dtype=bool)
+    return {
+        "command": "subretinal",
+        "status": status,
+        "message": message,
+        "robot": cfg.robot,
+        "plant": cfg.plant,
+        "compensation": cfg.compensation,
+        "ioct_rate_hz": cfg.ioct_rate_hz,
+        "latency_s": cfg.latency_s,
+        "ioct_estimates": IOCT_SOURCE,
+        "breathing_amplitude_m": cfg.breathing_m,
+        "cardiac_amplitude_m": cfg.cardiac_m,
+        "seed": cfg.seed,
+        "hold_s": cfg.hold_s,
+        "standoff_m": cfg.standoff_m,
+        "target_depth_m": layers.target_depth_m,
+        "target_band_m": list(layers.band_m),
+        "thickness_m": layers.thickness_m,
+        "rpe_margin_m": cfg.rpe_margin_m,
+        "depth_limit": cfg.depth_limit,
+        "duration_s": float(s["t_s"].size * cfg.dt),
+        "max_rcm_deviation_m": float(s["rcm_deviation_m"].max()) if s["t_s"].size else 0.0,
+        "tracking_rms_m": _rms(height_error),
+        "depth_error_m": _mean(depth[hold] - layers.target_depth_m),
+        "depth_rms_error_m": _rms(depth[hold] - layers.target_depth_m),
+        "in_band_fraction": float(np.mean(band)) if band.size else 0.0,
+        "punctured": punctured,
+        "rpe_breach": breach,
+        "max_depth_past_rpe_m": float(past.max()) if past.size else None,
+        "segmentation_rms_m": _rms(seg),
+        "prediction_rms_m": _rms(s["predicted_m"] - s["wall_m"]),
+        "phase_starts_s": result.phase_starts_s,
+    }

@@ -1,0 +1,106 @@
+"""Settings of one simulated subretinal-injection episode, checked before anything is built."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from rcmplan._validate import scalar, vector
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.registry import check_robot
+from rcmplan.subretinal.predict import PREDICTORS
+
+# The measured error of the ILM offset segmented from the synthetic B-scans (docs/subretinal.md,
+# 54200 B-scans): the stand-in for the images in an episode.
+SEGMENTATION_BIAS_M = -1.26e-6
+SEGMENTATION_STD_M = 0.23e-6
+# Cardiac amplitude per unit of breathing amplitude: the MotionModel defaults (10 um / 50 um).
+CARDIAC_PER_BREATHING = 0.2
+PLANTS_SUPPORTED = ("kinematic",)
+
+
+@dataclass(frozen=True)
+class EpisodeSettings:
+    """One episode (SI units).
+
+    Attributes:
+        robot: A robot name or robot file (`rcmplan.robot.registry`).
+        plant: The plant; only "kinematic".
+        compensation: Predictor of the ILM displacement: none, hold, fft or kalman.
+        ioct_rate_hz: iOCT volume rate [Hz].
+        latency_s: iOCT latency, acquisition to delivery [s].
+        breathing_m: Breathing amplitude along the normal [m]; the cardiac amplitude is
+            `CARDIAC_PER_BREATHING` of it.
+        seed: Seed of the motion and of the iOCT noise.
+        hold_s: Injection time at the target depth [s].
+        standoff_m: Hover height above the ILM along the normal [m].
+        target_fraction: Target depth between ILM (0) and RPE (1).
+        band_fraction: Half-width of the target band as a fraction of the thickness.
+        rpe_margin_m: The depth limit keeps the tip this far above the estimated RPE [m].
+        depth_limit: Hold the depth limit in the QP (off only to show what it prevents).
+        overshoot_m: Added to the commanded depth of the advance and the hold [m]: an operator
+            pushing past the target (0 in a planned injection).
+        direction: Target location: a direction from the eye centre in the eye frame.
+        start_height_m: Start height of the tip above the undisplaced ILM [m].
+        warmup_s: iOCT observation before the approach (the needle still) [s].
+        hover_s: Hover above the target before the advance [s].
+        approach_speed_m_s: Tip speed of the approach to the stand-off [m/s].
+        advance_speed_m_s: Tip speed of the advance and the retraction [m/s].
+        settle_s: Time at the stand-off after the retraction [s].
+        dt: Control period [s].
+        rcm_bound_m: RCM deviation [m] that stops the episode.
+    """
+
+    robot: str = "iramis"
+    plant: str = "kinematic"
+    compensation: str = "kalman"
+    ioct_rate_hz: float = 9.0
+    latency_s: float = 0.15
+    breathing_m: float = 50e-6
+    seed: int = 0
+    hold_s: float = 5.0
+    standoff_m: float = 100e-6
+    target_fraction: float = 0.5
+    band_fraction: float = 0.1
+    rpe_margin_m: float = 25e-6
+    depth_limit: bool = True
+    overshoot_m: float = 0.0
+    direction: tuple[float, float, float] = (0.1, 0.0, 1.0)
+    start_height_m: float = 500e-6
+    warmup_s: float = 10.0
+    hover_s: float = 1.0
+    approach_speed_m_s: float = 0.5e-3
+    advance_speed_m_s: float = 0.2e-3
+    settle_s: float = 0.3
+    dt: float = 1e-3
+    rcm_bound_m: float = 45e-6
+
+    def __post_init__(self) -> None:
+        check_robot(self.robot)
+        if self.plant not in PLANTS_SUPPORTED:
+            raise InvalidInputError("plant", self.plant, f"one of {list(PLANTS_SUPPORTED)}")
+        if self.compensation not in PREDICTORS:
+            valid = "one of " + ", ".join(PREDICTORS)
+            raise InvalidInputError("compensation", self.compensation, valid)
+        scalar("ioct_rate_hz", self.ioct_rate_hz, 0.5, 200.0)
+        scalar("latency_s", self.latency_s, 0.0, 1.0)
+        scalar("breathing_m", self.breathing_m, 0.0, 200e-6)
+        if not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
+            raise InvalidInputError("seed", self.seed, "an integer in [0, 2**32)")
+        scalar("hold_s", self.hold_s, 0.0, 60.0, low_open=True)
+        scalar("standoff_m", self.standoff_m, 20e-6, 1e-3)
+        scalar("rpe_margin_m", self.rpe_margin_m, 0.0, 200e-6)
+        scalar("overshoot_m", self.overshoot_m, 0.0, 500e-6)
+        object.__setattr__(self, "direction", tuple(vector("direction", self.direction, 3)))
+        scalar("start_height_m", self.start_height_m, self.standoff_m, 3e-3)
+        scalar("warmup_s", self.warmup_s, 0.0, 60.0)
+        scalar("hover_s", self.hover_s, 0.0, 60.0)
+        scalar("approach_speed_m_s", self.approach_speed_m_s, 1e-5, 5e-3)
+        scalar("advance_speed_m_s", self.advance_speed_m_s, 1e-5, 5e-3)
+        scalar("settle_s", self.settle_s, 0.0, 10.0)
+        scalar("dt", self.dt, 1e-4, 1e-2)
+        scalar("rcm_bound_m", self.rcm_bound_m, 0.0, 1e-3, low_open=True)
+
+    @property
+    def cardiac_m(self) -> float:
+        """Cardiac amplitude along the normal [m]."""
+        return CARDIAC_PER_BREATHING * self.breathing_m
