@@ -25,7 +25,7 @@ from _common import quick, row
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.layers import RetinaLayers
 from rcmplan.subretinal.motion import MotionModel, sample_motion
-from rcmplan.subretinal.predict import PREDICTORS
+from rcmplan.subretinal.predictors import PREDICTORS
 from rcmplan.subretinal.segment_error import rms_m
 from rcmplan.subretinal.trace import (
     IlmTrace,

@@ -9,7 +9,7 @@ from rcmplan.exceptions import InvalidInputError
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.kalman import KalmanPredictor
 from rcmplan.subretinal.motion import MotionModel, sample_motion
-from rcmplan.subretinal.predict import PREDICTORS, make_predictor
+from rcmplan.subretinal.predictors import PREDICTORS, make_predictor
 from rcmplan.subretinal.trace import noisy_trace, prediction_errors, rms
 
 

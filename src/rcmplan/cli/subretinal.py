@@ -11,7 +11,7 @@ from typing import Any
 from rcmplan.cli.common import ROBOT_HELP, announce_robot, one_line, print_json, robot_arg, table
 from rcmplan.exceptions import RcmplanError
 
-COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predict.PREDICTORS
+COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predictors.PREDICTORS
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -46,7 +46,7 @@ from rcmplan.subretinal.episode_settings import (
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.layers import RetinaLayers, unit_direction
 from rcmplan.subretinal.motion import MotionModel, sample_motion
-from rcmplan.subretinal.predict import make_predictor
+from rcmplan.subretinal.predictors import make_predictor
 from rcmplan.subretinal.tissue import TissueContact
 from rcmplan.subretinal.trace import IlmTrace, noisy_trace
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from rcmplan._validate import scalar, vector
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.registry import check_robot
-from rcmplan.subretinal.predict import PREDICTORS
+from rcmplan.subretinal.predictors import PREDICTORS
 
 # The measured error of the ILM offset segmented from the synthetic B-scans (docs/subretinal.md,
 # 54200 B-scans): the stand-in for the images in an episode.

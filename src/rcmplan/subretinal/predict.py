@@ -20,8 +20,6 @@ from __future__ import annotations
 
 import math
 from collections import deque
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
@@ -156,24 +154,3 @@ class FftPredictor(Predictor):
             return super()._predict(t)
         t0, coef, freqs = self._model
         return sinusoid_eval(coef, freqs, t - t0)
-
-
-def _kalman(**kwargs: Any) -> Predictor:
-    from rcmplan.subretinal.kalman import KalmanPredictor
-
-    return KalmanPredictor(**kwargs)
-
-
-PREDICTORS: dict[str, Callable[..., Predictor]] = {
-    "none": NonePredictor,
-    "hold": HoldPredictor,
-    "fft": FftPredictor,
-    "kalman": _kalman,
-}
-
-
-def make_predictor(name: str, **kwargs: Any) -> Predictor:
-    """A new predictor by name (`PREDICTORS`), with its keyword arguments."""
-    if name not in PREDICTORS:
-        raise InvalidInputError("predictor", name, "one of " + ", ".join(PREDICTORS))
-    return PREDICTORS[name](**kwargs)

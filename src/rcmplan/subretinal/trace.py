@@ -23,7 +23,7 @@ from rcmplan.exceptions import InvalidInputError
 from rcmplan.subretinal.ioct import BScanScene, IoctModel, render_bscan
 from rcmplan.subretinal.layers import RetinaLayers
 from rcmplan.subretinal.motion import MotionTrajectory
-from rcmplan.subretinal.predict import make_predictor
+from rcmplan.subretinal.predictors import make_predictor
 from rcmplan.subretinal.segment import segment_bscan
 from rcmplan.subretinal.segment_error import SegmentationError, segmentation_error
 
