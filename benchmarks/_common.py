@@ -11,8 +11,9 @@ from typing import Any
 import numpy as np
 
 from rcmplan.compiled.runner import fast_check_targets, fast_converge_phase
-from rcmplan.control import Controller, Phase
+from rcmplan.control import Phase
 from rcmplan.control.runner import ReferenceRunner, register_default
+from rcmplan.controller import Controller
 
 THESIS_ITERATION_S = 180.0 / 1350  # V-REP loop: about 3 min for 1350 iterations (sec. 4.1.2)
 

@@ -39,7 +39,8 @@ from _common import per_call, quick, row, use_path
 from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm, check_arm_targets
-from rcmplan.control import Controller, PinvSolver, extended_task, rcm_target, solve_pose
+from rcmplan.control import PinvSolver, extended_task, rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.robot.shipped import robot_chain, robot_file, shipped_arm
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection

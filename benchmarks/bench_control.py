@@ -13,7 +13,6 @@ import numpy as np
 
 from rcmplan import Iramis
 from rcmplan.control import (
-    Controller,
     DlsSolver,
     LoopSettings,
     Phase,
@@ -23,6 +22,7 @@ from rcmplan.control import (
     rcm_target,
     solve_pose,
 )
+from rcmplan.controller import Controller
 from rcmplan.job import run_scenario
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import Steps, line_targets

@@ -35,13 +35,13 @@ from rcmplan.compiled.records import (
     robot_params,
     solver_arrays,
 )
-from rcmplan.compiled.warmup import compile_kernels
-from rcmplan.control import Controller, PinvSolver
+from rcmplan.control import PinvSolver
 from rcmplan.control.curved import CurvedPinvSolver
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.phase import LoopSettings
 from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
@@ -49,6 +49,7 @@ from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.sim import KinematicPlant
+from rcmplan.warmup import compile_kernels
 
 ROBOTS = {"iramis": "iRAM!S", "ur5": "UR5"}
 RATIO_TARGET = 1.3

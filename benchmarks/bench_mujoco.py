@@ -130,8 +130,8 @@ class SiteRecorder(MujocoPlant):
 def simulated_needle_rcm() -> tuple[float, float]:
     """(max trocar-to-needle-line distance from MuJoCo's sites, the same from the log's FK of
     the read sliders) over the records inside the eye of the dynamic default injection [m]."""
-    from rcmplan.control import Controller
     from rcmplan.control.methods import make_solver
+    from rcmplan.controller import Controller
     from rcmplan.scene.scenario import load_scenario
 
     robot, sc = Iramis(), load_scenario("default")
@@ -152,7 +152,7 @@ def injection_rows(physics: Callable[[], float]) -> list[dict[str, Any]]:
     """The dynamic default injection on the three paths; the closed compiled loop three times
     (median and slowest), each run next to a measurement of MuJoCo's bare step rate, since
     this host's speed drifts by up to 2x within a minute."""
-    from rcmplan.compiled.warmup import compile_kernels
+    from rcmplan.warmup import compile_kernels
 
     compile_kernels()  # load (or compile) once, outside the timed runs
     closed, rates = [], []
@@ -217,7 +217,7 @@ def rows() -> list[dict[str, Any]]:
 def watch(runs: int, pause: float = 8.0) -> None:
     """Time the compiled closed-loop injection `runs` times, each beside MuJoCo's bare step rate,
     and print one line per run and the range (the host's speed drifts)."""
-    from rcmplan.compiled.warmup import compile_kernels
+    from rcmplan.warmup import compile_kernels
 
     compile_kernels()
     dyn = MujocoPlant(Iramis(), mode="dynamic")

@@ -23,12 +23,12 @@ from _common import quick, row
 from _recording import RecordingQp
 from rcmplan import Iramis
 from rcmplan.analysis.limits import KINDS, violations
-from rcmplan.control.loop import Controller
 from rcmplan.control.methods import MethodSettings
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_backends import BACKENDS, solve
 from rcmplan.control.qp_problem import QPProblem
 from rcmplan.control.solvers import DlsSolver, PinvSolver
+from rcmplan.controller import Controller
 from rcmplan.exceptions import QPError, RcmplanError
 from rcmplan.scene.constrained import Scene, grazing_spiral, near_slider_limit
 from rcmplan.scene.eye import default_eye, default_points

@@ -34,9 +34,9 @@ from _common import quick, row
 from peers.visits import Visits, visits
 from rcmplan.analysis.limits import violations
 from rcmplan.control.log import RunLog
-from rcmplan.control.loop import Controller
 from rcmplan.control.qp import make_qp
 from rcmplan.control.targets import rcm_target
+from rcmplan.controller import Controller
 from rcmplan.sim import KinematicPlant
 
 PEER = "DQ Robotics + quadprog"

@@ -34,12 +34,12 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import trig
 from rcmplan.compiled.qp_kernels import solve_step
 from rcmplan.compiled.qp_phase import FastQpStep
-from rcmplan.compiled.warmup import compile_kernels
-from rcmplan.control.loop import Controller
 from rcmplan.control.qp import QpSolver
+from rcmplan.controller import Controller
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
+from rcmplan.warmup import compile_kernels
 
 BATCH = 8
 

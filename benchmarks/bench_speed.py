@@ -21,9 +21,10 @@ from rcmplan import Iramis
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.records import robot_params
 from rcmplan.compiled.runner import FastIramis
-from rcmplan.control import Controller, PinvSolver, extended_task, solve_pose
+from rcmplan.control import PinvSolver, extended_task, solve_pose
 from rcmplan.control.augmented import augmented_jacobian
 from rcmplan.control.phase import LoopSettings
+from rcmplan.controller import Controller
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection, spiral
 from rcmplan.sim import KinematicPlant
@@ -166,7 +167,7 @@ def process_rows() -> list[dict[str, Any]]:
         inject = [py, "-m", "rcmplan", "inject", "--no-plots", "--out", f"{tmp}/out"]
         first = timed_process(inject, fresh)
         later = statistics.median(timed_process(inject, fresh) for _ in range(3))
-        load = [py, "-c", "from rcmplan.compiled.warmup import compile_kernels; compile_kernels()"]
+        load = [py, "-c", "from rcmplan.warmup import compile_kernels; compile_kernels()"]
         compile_s = timed_process(load, {**fresh, "NUMBA_CACHE_DIR": f"{tmp}/numba2"})
         load_s = statistics.median(timed_process(load, fresh) for _ in range(3))
     note = "(fresh bytecode and numba caches)"

@@ -27,9 +27,10 @@ from rcmplan.analysis import thesis
 from rcmplan.analysis.plots import step_starts
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.log import RunLog
-from rcmplan.control.loop import Controller, LoopSettings, Phase, interpolate
+from rcmplan.control.phase import LoopSettings, Phase, interpolate
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Tolerance
 from rcmplan.control.targets import pivot_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.needle import angles_from_axis
 from rcmplan.scene.eye import default_eye, default_points

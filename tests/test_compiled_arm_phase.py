@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from rcmplan.compiled import arm_phase
-from rcmplan.control import Controller, DlsSolver, LoopSettings, Phase, PinvSolver, TipSolver
+from rcmplan.control import DlsSolver, LoopSettings, Phase, PinvSolver, TipSolver
 from rcmplan.control.log import RunLog
 from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.exceptions import ConvergenceError, RcmBoundError, SingularPoseError, SliderLimitError
 from rcmplan.robot.model import SerialArm
 from rcmplan.robot.shipped import shipped_arm

@@ -13,8 +13,9 @@ from rcmplan.compiled import arm
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays, check_arm_targets
 from rcmplan.compiled.runner import fast_check_targets
-from rcmplan.control import Controller, PinvSolver
+from rcmplan.control import PinvSolver
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.model import IK_ITERATIONS, IK_TOLERANCE, SerialArm
 from rcmplan.robot.shipped import shipped_arm

@@ -16,7 +16,7 @@ from rcmplan.compiled import curved_kernels as ck
 from rcmplan.compiled.curved import CurvedArrays, arm_work_shape, curved_arrays
 from rcmplan.compiled.kernels import trig
 from rcmplan.compiled.records import CURVED_DLS, CURVED_PINV, CURVED_POSE
-from rcmplan.control import Controller, LoopSettings, Phase, PinvSolver
+from rcmplan.control import LoopSettings, Phase, PinvSolver
 from rcmplan.control.curved import (
     CURVED_POSE_TASKS,
     CURVED_TASKS,
@@ -30,6 +30,7 @@ from rcmplan.control.log import RunLog
 from rcmplan.control.methods import make_free_solver, make_solver
 from rcmplan.control.solvers import Solver
 from rcmplan.control.tasks import stack_value
+from rcmplan.controller import Controller
 from rcmplan.exceptions import ConvergenceError, RcmplanError, SliderLimitError
 from rcmplan.robot.curved import CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle

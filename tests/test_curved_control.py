@@ -15,9 +15,10 @@ from rcmplan.control.curved import (
     task_jacobian,
 )
 from rcmplan.control.curved_targets import lateral_target, solve_curved_pose
-from rcmplan.control.loop import Controller, LoopSettings, Phase
+from rcmplan.control.phase import LoopSettings, Phase
 from rcmplan.control.runner import ReferenceRunner
 from rcmplan.control.solvers import PinvSolver
+from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.curved import CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle

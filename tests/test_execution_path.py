@@ -49,8 +49,9 @@ def test_the_qp_runs_every_phase_compiled_its_free_steps_too() -> None:
 def test_free_phases_without_a_kernel_make_the_run_mixed() -> None:
     pytest.importorskip("numba")
     from rcmplan import Iramis
-    from rcmplan.control import Controller, PinvSolver
+    from rcmplan.control import PinvSolver
     from rcmplan.control.limited_tip import LimitedTipSolver
+    from rcmplan.controller import Controller
     from rcmplan.scene.eye import default_eye, default_points
     from rcmplan.scene.procedures import injection
     from rcmplan.sim import KinematicPlant

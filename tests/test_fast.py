@@ -13,7 +13,6 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.records import robot_params
 from rcmplan.compiled.runner import FastIramis, fast_check_targets
 from rcmplan.control import (
-    Controller,
     DlsSolver,
     LoopSettings,
     Phase,
@@ -23,6 +22,7 @@ from rcmplan.control import (
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.log import RunLog
 from rcmplan.control.solvers import dls_solve
+from rcmplan.controller import Controller
 from rcmplan.exceptions import (
     ConvergenceError,
     SingularPoseError,

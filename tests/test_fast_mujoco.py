@@ -13,7 +13,6 @@ import pytest
 from rcmplan import Iramis
 from rcmplan.compiled import mujoco_loop as fm
 from rcmplan.control import (
-    Controller,
     DlsSolver,
     Phase,
     PinvSolver,
@@ -21,6 +20,7 @@ from rcmplan.control import (
     interpolate,
 )
 from rcmplan.control.log import ARRAY_FIELDS, RunLog
+from rcmplan.controller import Controller
 from rcmplan.exceptions import SimulationError
 from rcmplan.sim.mujoco import compiled
 from rcmplan.sim.mujoco.actuators import PiezoParameters

@@ -8,12 +8,13 @@ import pytest
 
 from rcmplan import Iramis
 from rcmplan.analysis.limits import reach_bound, violations, waypoints
-from rcmplan.control import Controller, PinvSolver
+from rcmplan.control import PinvSolver
 from rcmplan.control.limited_tip import LimitedTipSolver, scale_factor
-from rcmplan.control.loop import Phase
+from rcmplan.control.phase import Phase
 from rcmplan.control.qp import make_qp
 from rcmplan.control.solvers import TipSolver, Tolerance
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.job import run_scenario
 from rcmplan.scene.eye import default_eye, default_points

@@ -9,12 +9,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rcmplan.control import Controller, Phase, PinvSolver
+from rcmplan.control import Phase, PinvSolver
 from rcmplan.control.curved import CurvedPinvSolver
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.log import ARRAY_FIELDS, LogBuilder, RunLog
 from rcmplan.control.runner import ReferenceRunner
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.robot.curved import CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.registry import make_robot

@@ -7,7 +7,6 @@ import pytest
 
 from rcmplan import Iramis
 from rcmplan.control import (
-    Controller,
     DlsSolver,
     LoopSettings,
     Phase,
@@ -18,6 +17,7 @@ from rcmplan.control import (
     solve_pose,
     split_steps,
 )
+from rcmplan.controller import Controller
 from rcmplan.exceptions import (
     ConvergenceError,
     InvalidInputError,

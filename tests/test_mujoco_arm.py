@@ -8,8 +8,8 @@ import pytest
 
 from rcmplan import Iramis
 from rcmplan.analysis.metrics import phase_metrics
-from rcmplan.control.loop import Controller
 from rcmplan.control.methods import make_solver
+from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, SliderLimitError
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.model import SerialArm

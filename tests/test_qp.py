@@ -11,7 +11,7 @@ from scipy.optimize import minimize
 
 from rcmplan import Iramis
 from rcmplan.analysis.limits import violations
-from rcmplan.control import Controller, DlsSolver, PinvSolver
+from rcmplan.control import DlsSolver, PinvSolver
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.methods import MethodSettings, make_solver
 from rcmplan.control.qp import QpSolver, make_qp
@@ -27,6 +27,7 @@ from rcmplan.control.qp_problem import (
     variable_map,
 )
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, QPError, RcmplanError, UnreachableTargetError
 from rcmplan.robot.iramis import IramisParameters
 from rcmplan.scene.constrained import near_slider_limit

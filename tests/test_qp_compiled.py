@@ -14,7 +14,7 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled import qp_phase
 from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.runner import fast_converge_phase
-from rcmplan.control import Controller, LoopSettings, Phase, PinvSolver
+from rcmplan.control import LoopSettings, Phase, PinvSolver
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.limits.workspace import WorkspaceBound
@@ -25,6 +25,7 @@ from rcmplan.control.qp_backends import solve
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, StepInput, build_step
 from rcmplan.control.targets import rcm_target
+from rcmplan.controller import Controller
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, QPError
 from rcmplan.scene.constrained import grazing_spiral
 from rcmplan.scene.eye import default_eye, default_points, eye_frame

@@ -7,7 +7,7 @@ import pytest
 
 from rcmplan import Iramis, IramisParameters, JointChain, SerialArm, StraightNeedle
 from rcmplan.compiled.runner import kernel_params
-from rcmplan.control import Controller, PinvSolver
+from rcmplan.control import PinvSolver
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.control.tasks import (
@@ -17,6 +17,7 @@ from rcmplan.control.tasks import (
     RcmPoint,
     TipPosition,
 )
+from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.job import run_scenario
 from rcmplan.robot.arms import needle_arm

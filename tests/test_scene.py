@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from rcmplan import Iramis
-from rcmplan.control import Controller, PinvSolver
+from rcmplan.control import PinvSolver
+from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.scene.eye import Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import Spiral, Steps, injection, spiral

@@ -17,7 +17,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from rcmplan._version import __version__
 
 _EXPORTS: dict[str, str] = {
     # robots and tools
@@ -38,7 +38,7 @@ _EXPORTS: dict[str, str] = {
     "make_robot": "rcmplan.robot.registry",
     "needle_arm": "rcmplan.robot.arms",
     # control: the loop, solvers, tasks, limits, the log
-    "Controller": "rcmplan.control.loop",
+    "Controller": "rcmplan.controller",
     "DlsSolver": "rcmplan.control.solvers",
     "LoopSettings": "rcmplan.control.phase",
     "Phase": "rcmplan.control.phase",
@@ -165,12 +165,12 @@ if TYPE_CHECKING:  # the same names, for type checkers and editors
         WorkspaceBound,
     )
     from rcmplan.control.log import RunLog
-    from rcmplan.control.loop import Controller
     from rcmplan.control.phase import LoopSettings, Phase, split_steps
     from rcmplan.control.qp import QpSolver
     from rcmplan.control.solvers import DlsSolver, PinvSolver, TipSolver, Tolerance
     from rcmplan.control.targets import rcm_target, solve_pose
     from rcmplan.control.tasks import NeedleAngles, NeedleBase, Posture, RcmPoint, TipPosition
+    from rcmplan.controller import Controller
     from rcmplan.exceptions import InvalidInputError, RcmplanError
     from rcmplan.job import run_scenario
     from rcmplan.robot.arms import needle_arm

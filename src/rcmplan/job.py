@@ -16,8 +16,9 @@ from rcmplan.analysis.limits import limit_figures
 from rcmplan.analysis.metrics import phase_metrics
 from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import LogBuilder, RunLog
-from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_free_solver, make_solver
+from rcmplan.control.phase import Phase
+from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, RcmplanError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from rcmplan import __version__
+from rcmplan._version import __version__
 from rcmplan.analysis.result import RunResult
 from rcmplan.analysis.settings_table import settings_rows
 from rcmplan.analysis.units import fmt

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from rcmplan import __version__
+from rcmplan._version import __version__
 from rcmplan.analysis.metrics import PhaseMetrics, overall, slider_use
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import RcmplanError

@@ -23,9 +23,10 @@ import numpy as np
 from rcmplan.analysis.metrics import overall, phase_metrics
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.log import RunLog
-from rcmplan.control.loop import Controller, LoopSettings, Phase, interpolate
+from rcmplan.control.phase import LoopSettings, Phase, interpolate
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, Tolerance
 from rcmplan.control.targets import pivot_target, rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.needle import angles_from_axis

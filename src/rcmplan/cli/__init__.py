@@ -31,7 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="rcmplan",
         description="Plan, simulate and measure RCM-constrained needle motions (iRAM!S robot).",
     )
-    from rcmplan import __version__
+    from rcmplan._version import __version__
 
     parser.add_argument("--version", action="version", version=f"rcmplan {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")

@@ -13,8 +13,8 @@ from typing import Any
 
 from rcmplan.analysis.result import RunResult
 from rcmplan.cli import interrupts
-from rcmplan.control.loop import Phase
 from rcmplan.control.methods import METHODS
+from rcmplan.control.phase import Phase
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.registry import ROBOTS, check_robot, is_robot_file
 from rcmplan.scene.scenario import Scenario, load_scenario

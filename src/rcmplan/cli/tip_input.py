@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.loop import Phase
+from rcmplan.control.phase import Phase
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot

@@ -1,8 +1,6 @@
-"""RCM control: tasks, limits, step solvers, the thesis's control loops, the run log.
-
-Names load on first use: the controller (`loop.py`) sits above the compiled runner that it
-calls, which itself uses the tasks and solvers here, so this package's face imports nothing.
-"""
+"""RCM control: tasks, limits, step solvers, targets, phases and the run log. The controller
+that runs Algorithms 1 and 2 on them (`rcmplan.controller`) sits above the compiled runner it
+calls, which itself uses what is here. Names load on first use."""
 
 from __future__ import annotations
 
@@ -10,7 +8,6 @@ import importlib
 from typing import TYPE_CHECKING, Any
 
 _EXPORTS: dict[str, str] = {
-    "Controller": "rcmplan.control.loop",
     "DlsSolver": "rcmplan.control.solvers",
     "LoopSettings": "rcmplan.control.phase",
     "Phase": "rcmplan.control.phase",
@@ -27,7 +24,6 @@ _EXPORTS: dict[str, str] = {
 }
 
 __all__ = [
-    "Controller",
     "DlsSolver",
     "LoopSettings",
     "Phase",
@@ -57,7 +53,6 @@ def __getattr__(name: str) -> Any:
 if TYPE_CHECKING:
     from rcmplan.control.augmented import augmented_jacobian, extended_task
     from rcmplan.control.log import RunLog
-    from rcmplan.control.loop import Controller
     from rcmplan.control.phase import LoopSettings, Phase, interpolate, split_steps
     from rcmplan.control.solvers import DlsSolver, PinvSolver, TipSolver, Tolerance
     from rcmplan.control.targets import rcm_target, solve_pose

@@ -83,5 +83,5 @@ def register_default(runner: Runner | None) -> None:
 
 def registered_default() -> Runner | None:
     """The runner registered as the default, or None (a Controller then uses the compiled
-    runner, `rcmplan.control.loop`)."""
+    runner, `rcmplan.controller`)."""
     return _default[0]

@@ -19,7 +19,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from rcmplan.control.loop import Phase
+from rcmplan.control.phase import Phase
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.robot.iramis import Iramis

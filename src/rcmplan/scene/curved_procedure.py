@@ -22,7 +22,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.curved_targets import LateralTarget, lateral_target
-from rcmplan.control.loop import Phase, interpolate
+from rcmplan.control.phase import Phase, interpolate
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.curved_needle import DEFAULT_ARC_ANGLE, DEFAULT_RADIUS, CurvedNeedle

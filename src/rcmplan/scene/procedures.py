@@ -15,8 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
-from rcmplan.control.loop import Phase, interpolate
-from rcmplan.control.phase import check_plan_size, step_count
+from rcmplan.control.phase import Phase, check_plan_size, interpolate, step_count
 from rcmplan.control.targets import pivot_target, rcm_target, rcm_targets, solve_pose
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.model import RobotModel

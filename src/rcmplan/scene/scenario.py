@@ -17,8 +17,8 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.control.loop import LoopSettings, Phase
 from rcmplan.control.methods import METHODS, MethodSettings
+from rcmplan.control.phase import LoopSettings, Phase
 from rcmplan.control.solvers import Tolerance
 from rcmplan.exceptions import InvalidInputError, ScenarioError
 from rcmplan.robot.curved import CurvedTipRobot

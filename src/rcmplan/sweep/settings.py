@@ -12,10 +12,10 @@ import math
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Literal
 
-from rcmplan import __version__
 from rcmplan._validate import scalar
-from rcmplan.control.loop import LoopSettings
+from rcmplan._version import __version__
 from rcmplan.control.methods import METHODS, MethodSettings
+from rcmplan.control.phase import LoopSettings
 from rcmplan.control.solvers import Tolerance, check_damping, check_gains
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis

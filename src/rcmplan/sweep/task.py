@@ -19,10 +19,11 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.analysis.metrics import phase_metrics
-from rcmplan.control.loop import Controller, Phase
 from rcmplan.control.methods import make_solver
+from rcmplan.control.phase import Phase
 from rcmplan.control.plant import Plant
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.controller import Controller
 from rcmplan.exceptions import (
     ConvergenceError,
     RcmplanError,

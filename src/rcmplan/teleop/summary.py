@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan import __version__
+from rcmplan._version import __version__
 from rcmplan.scene.record import eye_record
 from rcmplan.teleop import metrics
 from rcmplan.teleop.run import TeleopResult

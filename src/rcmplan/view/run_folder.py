@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan import __version__
+from rcmplan._version import __version__
 from rcmplan.control.log import ARRAY_FIELDS, INT_FIELDS, SHAPES, WIDE, RunLog
 from rcmplan.exceptions import InvalidInputError, RunFolderError
 from rcmplan.scene.record import SceneRecord, read_scene_record

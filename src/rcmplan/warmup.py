@@ -20,10 +20,11 @@ from rcmplan.compiled.curved import curved_arrays, screen
 from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
 from rcmplan.compiled.records import robot_params
 from rcmplan.compiled.runner import FastIramis
-from rcmplan.control.loop import Controller, LoopSettings, interpolate
+from rcmplan.control.phase import LoopSettings, interpolate
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
 from rcmplan.control.targets import rcm_target
 from rcmplan.control.tasks import JacobianVariant
+from rcmplan.controller import Controller
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import SerialArm
@@ -33,7 +34,7 @@ from rcmplan.sim.kinematic import KinematicPlant
 
 def compile_kernels() -> None:
     """Compile (or load from numba's cache) every kernel with the argument types used here:
-    `python -c "from rcmplan.compiled.warmup import compile_kernels; compile_kernels()"` fills
+    `python -c "from rcmplan.warmup import compile_kernels; compile_kernels()"` fills
     the cache ahead of a first run (in a container build, say)."""
     from rcmplan.control.targets import rcm_target
 

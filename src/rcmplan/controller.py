@@ -23,10 +23,7 @@ from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.phase import (
     LoopSettings,
     Phase,
-    TargetPlanner,
     check_plan_size,
-    interpolate,
-    split_steps,
 )
 from rcmplan.control.plant import Plant
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
@@ -40,7 +37,7 @@ from rcmplan.robot.needle import closest_lambda, closest_point
 NAN3 = np.full(3, np.nan)
 _COMPILED = CompiledRunner()  # every phase a kernel implements runs compiled
 
-__all__ = ["Controller", "LoopSettings", "Phase", "TargetPlanner", "interpolate", "split_steps"]
+__all__ = ["Controller"]
 
 
 class Controller:
