@@ -9,6 +9,7 @@ Nothing here starts a process or reads an environment variable of rcmplan's own.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import importlib.util
@@ -22,9 +23,6 @@ from typing import Any
 from rcmplan.exceptions import require_extra
 
 _state: dict[str, Any] = {"noticed": False, "daqp_abi": None}
-KERNEL_MODULES = ("kernels", "chain_solve", "chain_checks", "arm_loop", "loop",
-                  "mujoco_loop", "daqp_c", "qp_params", "qp_kernels", "qp_loop", "curved_kernels",
-                  "curved_iramis", "curved_arm", "curved_checks")  # fmt: skip
 
 
 def _load(name: str) -> ModuleType:
@@ -36,6 +34,7 @@ def _load(name: str) -> ModuleType:
         if not stamp.exists():
             print("rcmplan: first run of this installation: numba compiles each kernel as it is "
                   "first used and caches it for later runs", file=sys.stderr)  # fmt: skip
+            clear_stale()
             try:
                 stamp.parent.mkdir(parents=True, exist_ok=True)
                 stamp.write_text("numba compiled rcmplan's kernels in this installation\n")
@@ -92,13 +91,28 @@ def closed_loop() -> ModuleType:
     return _load("mujoco_loop")
 
 
+def clear_stale() -> None:
+    """Remove rcmplan's kernels from numba's cache. numba checks a cached function against its
+    own file only; a kernel whose callee moved or changed in another file would load stale code
+    (or fail to load). The stamp changes with any kernel source, so a new stamp clears them."""
+    package = Path(__file__).parent.parent
+    folders = [*package.rglob("__pycache__")]
+    custom = os.environ.get("NUMBA_CACHE_DIR")
+    if custom:
+        folders += [f for f in Path(custom).rglob("*") if f.is_dir() and "rcmplan" in str(f)]
+    for folder in folders:
+        for path in [*folder.glob("*.nbi"), *folder.glob("*.nbc")]:
+            with contextlib.suppress(OSError):  # another process removed it first
+                path.unlink()
+
+
 def stamp_path() -> Path:
     """The file that records that this installation's kernels were compiled once (keyed by
     their source, numba, Python and the cache folder)."""
     here = Path(__file__).parent
     key = hashlib.sha256()
     robot = here.parent / "robot"
-    for path in (*(here / f"{m}.py" for m in KERNEL_MODULES),
+    for path in (*sorted(here.glob("*.py")),
                  *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics", "needle")),
                  here.parent / "control" / "rcm_step.py",
                  here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
