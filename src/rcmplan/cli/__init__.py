@@ -5,8 +5,11 @@ from __future__ import annotations
 import argparse
 import importlib
 import os
+import re
 import sys
 from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
 
 from rcmplan.cli import interrupts
 from rcmplan.exceptions import RcmplanError
@@ -25,9 +28,19 @@ COMMANDS = (
 )
 
 
+class Parser(argparse.ArgumentParser):
+    """argparse reading every word that starts with '-' and a digit as a value, never as an
+    option (rcmplan has no option spelled so): `--target -1,0,10.5` gives the negative
+    coordinates as typed, as Python 3.13's argparse does."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._negative_number_matcher = re.compile(r"-\.?\d")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser with every subcommand registered."""
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="rcmplan",
         description="Plan, simulate and measure RCM-constrained needle motions (iRAM!S robot).",
     )
@@ -46,21 +59,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     Errors print as one line on stderr (exit 2). A reader that closes the pipe early
     (`rcmplan inject | head`) ends the command quietly, as other command-line tools do.
     SIGINT and SIGTERM stop a command after it writes its partial outputs with status
-    "interrupted" (exit 130 and 143).
+    "interrupted" (exit 130 and 143; `rcmplan.cli.interrupts`).
     """
-    with interrupts.handled():
-        return _main(argv)
-
-
-def _main(argv: Sequence[str] | None) -> int:
     args = build_parser().parse_args(argv)
+    with interrupts.handled():
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
     try:
         code: int = args.run(args)
         sys.stdout.flush()
     except KeyboardInterrupt as exc:
-        with interrupts.shielded():
-            name = interrupts.signal_name(exc)
-            print(f"rcmplan {args.command}: interrupted by {name}", file=sys.stderr)
+        _stopped(args, exc)
         return interrupts.exit_code(exc)
     except RcmplanError as exc:
         print(f"rcmplan {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
@@ -71,3 +82,19 @@ def _main(argv: Sequence[str] | None) -> int:
         os.dup2(devnull, sys.stdout.fileno())
         return 141  # 128 + SIGPIPE, the shell's code for a closed pipe
     return code
+
+
+def _stopped(args: argparse.Namespace, exc: KeyboardInterrupt) -> None:
+    """Say that the command was interrupted; write its stop file when the interrupt came
+    before the command's own handling began (while it started its run)."""
+    unanswered = not interrupts.answered()
+    with interrupts.shielded():
+        name = interrupts.signal_name(exc)
+        out = getattr(args, "out", None) or getattr(args, "out_default", None)
+        if unanswered and args.command in interrupts.STOP_FILES and out:
+            doc = {"status": "interrupted", "message": f"interrupted by {name} before the run"}
+            try:
+                interrupts.write_stop_file(Path(out), args.command, doc)
+            except OSError as err:
+                print(f"rcmplan {args.command}: could not write to {out}: {err}", file=sys.stderr)
+        print(f"rcmplan {args.command}: interrupted by {name}", file=sys.stderr)

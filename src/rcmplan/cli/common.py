@@ -92,12 +92,10 @@ COMMAND_OF = {"injection": "inject", "spiral": "spiral"}
 
 def scenario_text(source: str) -> str | None:
     """The text of the scenario file named on the command line (shipped or a path), or None."""
-    from importlib import resources
-
-    from rcmplan.scene.scenario import scenario_names
+    from rcmplan.scene.scenario import scenario_names, shipped_text
 
     if source in scenario_names():
-        return resources.files("rcmplan.scenarios").joinpath(f"{source}.toml").read_text()
+        return shipped_text(source)
     path = Path(source)
     return path.read_text() if path.is_file() else None
 
@@ -127,23 +125,20 @@ def progress(label: str, total: int | None = None) -> Iterator[Any]:
 
 
 def write_stopped(
-    out: Path, scenario: str, status: str, message: str, result: RunResult | None = None
+    out: Path, args: argparse.Namespace, status: str, message: str, result: RunResult | None = None
 ) -> None:
-    """Outputs of a command stopped before it finished (interrupted, or a bad scenario): the
-    partial log and summary.json with `status` and `message` when a result exists, else
-    summary.json alone (and no log of an earlier run left beside it). Signals are ignored
-    meanwhile, and every file is written atomically."""
-    from rcmplan._atomic import write_text
+    """Outputs of a run command stopped before it finished (interrupted, or a bad scenario):
+    the partial log and summary.json with `status` and `message` when a result exists, else
+    the command's stop file alone (`interrupts.write_stop_file`: no log of an earlier run left
+    beside it). Signals are ignored meanwhile, and every file is written atomically."""
     from rcmplan.analysis.report import write_summary
 
     with interrupts.shielded():
         if result is not None:
             write_summary(replace(result, status=status, message=message), out)
             return
-        for name in ("log.npz", "log.csv", "report.html"):
-            (out / name).unlink(missing_ok=True)
-        doc = {"scenario": scenario, "status": status, "message": one_line(message)}
-        write_text(out / "summary.json", json.dumps(doc, indent=2))
+        doc = {"scenario": args.scenario, "status": status, "message": one_line(message)}
+        interrupts.write_stop_file(out, args.command, doc)
 
 
 def interrupted_message(exc: BaseException, where: str) -> str:

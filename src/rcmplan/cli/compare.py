@@ -131,6 +131,7 @@ def run(args: argparse.Namespace) -> int:
             write_json(out / "compare.json", {"status": "interrupted", "message": message,
                                               "methods": rows})  # fmt: skip
         raise
+    interrupts.finished()
     if args.json:
         print_json(doc)
     else:

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
     except RcmplanError as exc:
         if result is None:
             message = f"{type(exc).__name__}: {exc}"
-            write_stopped(out, args.scenario, exc.status, message)
+            write_stopped(out, args, exc.status, message)
             raise
         print(f"rcmplan {args.command}: could not write all outputs: {exc}", file=sys.stderr)
         return 2
@@ -96,8 +96,9 @@ def run(args: argparse.Namespace) -> int:
             where = "during the run" if result is not None else "before the run"
         else:
             where = f"while writing the outputs (the run ended with status {result.status!r})"
-        write_stopped(out, args.scenario, "interrupted", interrupted_message(exc, where), result)
+        write_stopped(out, args, "interrupted", interrupted_message(exc, where), result)
         raise
+    interrupts.finished()
     if args.json:
         print_json(summary_json(result))
     else:

@@ -1,18 +1,45 @@
-"""SIGINT and SIGTERM in the run commands: both stop the command with a Python exception (so
-every `finally` runs and pool workers are shut down), the command writes its partial outputs
-with status "interrupted", and the process exits 128 + the signal number (130, 143), as shells
-report a command killed by that signal.
+"""SIGINT and SIGTERM in the `rcmplan` command: one handler, from the process's first line of
+rcmplan code to its end (`install`, called by `rcmplan._startup` when the process is the
+command), whose action follows how far the command has got:
+
+- starting (importing, reading the command line): nothing is open or half-written, so the
+  handler writes the command's stop file (`summary.json`, `compare.json`) in its output folder
+  with status "interrupted" and ends the process at once;
+- running (inside `handled()`): it raises Interrupted or Terminated (a KeyboardInterrupt), so
+  every `finally` runs, pool workers are stopped and the command writes its partial outputs
+  (inside `shielded()`, which marks the interrupt as answered);
+- finished (`finished()`, or after `handled()`): the outputs are final, and the signal ends the
+  process by its default action; what the command wrote stays as written.
+
+An interrupted command exits 128 + the signal number (130, 143), as shells report a command
+killed by that signal. Called in-process (`rcmplan.cli.main` from Python), `handled()` installs
+the handler for its block only and puts the previous handlers back after it.
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
+import os
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
+from pathlib import Path
 from types import FrameType
+from typing import Any, NoReturn
+
+from rcmplan._atomic import write_text
 
 CAUGHT = (signal.SIGINT, signal.SIGTERM)
+# The file each run command writes when it stops early, and the files of an earlier run that a
+# stop before any result removes (so no stale log sits beside the new status).
+STOP_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
+    "inject": ("summary.json", ("log.npz", "log.csv", "report.html")),
+    "spiral": ("summary.json", ("log.npz", "log.csv", "report.html")),
+    "teleop": ("summary.json", ("log.npz", "log.csv", "teleop.npz")),
+    "sweep": ("summary.json", ()),
+    "compare": ("compare.json", ()),
+}
 
 
 class Interrupted(KeyboardInterrupt):
@@ -32,8 +59,79 @@ class Terminated(Interrupted):
     signum = signal.SIGTERM
 
 
-def _raise(signum: int, frame: FrameType | None) -> None:
+class _State:
+    """The process's command (None until `install`), its stage and the last interrupt."""
+
+    command: str | None = None
+    out: str | None = None
+    stage = "running"  # "starting", "running" or "finished"
+    answered = True  # False from an interrupt raised until the code handling it answers
+
+
+_state = _State()
+
+
+def install(argv: Sequence[str]) -> None:
+    """Handle SIGINT and SIGTERM for the `rcmplan` process started with argv (without the
+    program name), from now to the process's end. The command and its --out folder are read
+    from argv directly: the parser is not built yet."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    _state.command, _state.out = command_and_out(argv)
+    _state.stage = "starting"
+    for s in CAUGHT:
+        signal.signal(s, _on_signal)
+
+
+def command_and_out(argv: Sequence[str]) -> tuple[str, str | None]:
+    """The command named in argv ("" if none) and its output folder: the last `--out DIR` or
+    `--out=DIR` (or an abbreviation argparse accepts, `--ou`), else rcmplan-out/<command>."""
+    command = next((a for a in argv if not a.startswith("-")), "")
+    out = f"rcmplan-out/{command}" if command in STOP_FILES else None
+    for i, arg in enumerate(argv):
+        name, eq, value = arg.partition("=")
+        if len(name) >= 4 and "--out".startswith(name):
+            out = value if eq else (argv[i + 1] if i + 1 < len(argv) else out)
+    return command, out
+
+
+def _on_signal(signum: int, frame: FrameType | None) -> None:
+    if _state.stage == "starting":
+        _stop_now(signum)
+    if _state.stage == "finished" and _state.command is not None:
+        signal.signal(signum, signal.SIG_DFL)  # the default action: the process ends
+        os.kill(os.getpid(), signum)
+        return
+    _state.answered = False
     raise Terminated() if signum == signal.SIGTERM else Interrupted()
+
+
+def _stop_now(signum: int) -> NoReturn:
+    """Write the stop file, say why on stderr and end the process (start-up: nothing to undo)."""
+    for s in CAUGHT:
+        signal.signal(s, signal.SIG_IGN)
+    name = signal.Signals(signum).name
+    message = f"interrupted by {name} before the run"
+    command = _state.command or ""
+    if _state.out is not None:
+        with contextlib.suppress(OSError):
+            write_stop_file(Path(_state.out), command, {"status": "interrupted",
+                                                        "message": message})  # fmt: skip
+    os.write(2, f"rcmplan {command}: {message}\n".encode())
+    os._exit(128 + signum)
+
+
+def write_stop_file(out: Path, command: str, doc: dict[str, Any]) -> Path:
+    """The stop file of `command` in out (created if needed) holding doc with the command's
+    name, written atomically; the files of an earlier run's log are removed first."""
+    name, stale = STOP_FILES[command]
+    out.mkdir(parents=True, exist_ok=True)
+    for old in stale:
+        (out / old).unlink(missing_ok=True)
+    body = {"command": command, **doc}
+    if name == "compare.json":
+        body.setdefault("methods", [])
+    return write_text(out / name, json.dumps(body, indent=2))
 
 
 def signal_name(exc: BaseException) -> str:
@@ -46,27 +144,49 @@ def exit_code(exc: BaseException) -> int:
     return 128 + int(getattr(exc, "signum", signal.SIGINT))
 
 
+def answered() -> bool:
+    """False when the last interrupt raised has reached no `shielded()` block: the command did
+    not write what it leaves (it came before the command's own handling began)."""
+    return _state.answered
+
+
 @contextlib.contextmanager
 def handled() -> Iterator[None]:
     """SIGTERM raises Terminated and SIGINT Interrupted (both KeyboardInterrupt) inside the
-    block (main thread only; the previous handlers come back after it)."""
+    block (main thread only). In the command's process the stage is "finished" after it;
+    called in-process, the previous handlers come back."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    old = {s: signal.getsignal(s) for s in CAUGHT}
-    for s in CAUGHT:
-        signal.signal(s, _raise)
+    ours = _state.command is not None
+    old = {} if ours else {s: signal.signal(s, _on_signal) for s in CAUGHT}
+    _state.stage, _state.answered = "running", True
     try:
         yield
     finally:
+        if ours:
+            finished()
         for s, handler in old.items():
             signal.signal(s, handler)
+
+
+def finished() -> None:
+    """The command's outputs are final: from now on a signal ends the process by its default
+    action (the outputs stay as written: a late signal does not make a finished run
+    "interrupted"). The operating system's default, not a Python handler: Python runs no
+    handler once its shutdown has begun, and would drop a signal that came then."""
+    if _state.command is not None:
+        _state.stage = "finished"  # first: a signal that `signal.signal` runs late sees it
+        for s in CAUGHT:
+            signal.signal(s, signal.SIG_DFL)
 
 
 @contextlib.contextmanager
 def shielded() -> Iterator[None]:
     """SIGINT and SIGTERM ignored inside the block: a second signal cannot cut the writing of
-    an interrupted run's partial outputs (which are short and written atomically anyway)."""
+    an interrupted run's partial outputs (which are short and written atomically anyway).
+    Entering it answers the pending interrupt (see `answered`)."""
+    _state.answered = True
     if threading.current_thread() is not threading.main_thread():
         yield
         return

@@ -3,7 +3,8 @@
 `--schema` prints the page `docs/scenario-schema.md` holds (a test keeps the two equal): every
 section and key of `rcmplan.scene.scenario.SCHEMA` with its type, allowed range, default (read
 from a scenario parsed from an empty file, so it is the value the code uses) and meaning; the
-`[qp]` keys come from `rcmplan.control.qp_limits`. `--list` names the shipped scenarios.
+`[qp]` keys come from `rcmplan.control.qp_limits`. `--list` names the shipped scenarios, and
+`--show NAME` prints one's file, a starting point for a scenario of one's own.
 """
 
 from __future__ import annotations
@@ -215,16 +216,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "scenario", help="the scenario file format and the shipped scenarios",
         description="Print the scenario file format generated from the validator (--schema, "
-        "Markdown), or list the shipped scenarios (--list, the default).",
+        "Markdown), list the shipped scenarios (--list, the default), or print one's TOML "
+        "file (--show NAME: `rcmplan scenario --show default > mine.toml`, edit, then "
+        "`rcmplan inject --scenario mine.toml`).",
     )  # fmt: skip
     p.add_argument("--schema", action="store_true", help="print the file format (Markdown)")
     p.add_argument("--list", action="store_true", help="list the shipped scenarios")
+    p.add_argument("--show", metavar="NAME", help="print the TOML file of a shipped scenario")
     p.add_argument("--json", action="store_true", help="print the list as JSON")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the schema or the list of scenarios."""
+    """Print the schema, a shipped scenario's file, or the list of scenarios."""
+    if args.show is not None:
+        from rcmplan.scene.scenario import shipped_text
+
+        print(shipped_text(args.show), end="")
+        return 0
     if args.schema:
         print(schema_markdown(), end="")
         return 0

@@ -278,6 +278,7 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as exc:
         write_interrupted(out, checkpoint, exc)
         raise
+    interrupts.finished()
     if args.json:
         from rcmplan.cli.common import print_json
 

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from dataclasses import replace
 from pathlib import Path
@@ -87,6 +86,7 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as exc:
         write_interrupted(out, exc, result)
         raise
+    interrupts.finished()
     if args.json:
         print_json(doc)
     else:
@@ -100,13 +100,8 @@ def run(args: argparse.Namespace) -> int:
 
 def write_failed(out: Path, status: str, message: str) -> None:
     """summary.json of a session refused before motion (no log of an earlier run kept)."""
-    from rcmplan._atomic import write_text
-
     with interrupts.shielded():
-        for name in ("log.npz", "log.csv", "teleop.npz"):
-            (out / name).unlink(missing_ok=True)
-        doc = {"command": "teleop", "status": status, "message": one_line(message)}
-        write_text(out / "summary.json", json.dumps(doc, indent=2))
+        interrupts.write_stop_file(out, "teleop", {"status": status, "message": one_line(message)})
 
 
 def write_interrupted(out: Path, exc: KeyboardInterrupt, result: Any) -> None:

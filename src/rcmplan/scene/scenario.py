@@ -325,10 +325,19 @@ def load_scenario(source: str | Path) -> Scenario:
 MAX_FILE_BYTES = 1 << 20  # a scenario is a few hundred bytes; the shipped ones are under 2 KiB
 
 
+def shipped_text(name: str) -> str:
+    """The TOML text of the scenario shipped as `name`; ScenarioError naming the shipped ones
+    when there is none."""
+    names = scenario_names()
+    if name not in names:
+        raise ScenarioError("shipped scenario", name, "one of " + ", ".join(names))
+    return resources.files("rcmplan.scenarios").joinpath(f"{name}.toml").read_text()
+
+
 def _read(source: str | Path) -> str:
     name = str(source)
     if name in scenario_names():
-        return resources.files("rcmplan.scenarios").joinpath(f"{name}.toml").read_text()
+        return shipped_text(name)
     path = Path(source)
     if not path.is_file():
         raise ScenarioError("scenario", name, f"a TOML file or one of {scenario_names()}")
