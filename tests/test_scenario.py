@@ -38,6 +38,14 @@ def write(tmp_path: Path, text: str) -> Path:
         ("plant = 'gazebo'", r"plant = 'gazebo'.*kinematic"),
         ("[eye]\ntrocar_offset_mm = [1, 2]", r"trocar_offset_mm.*3 numbers"),
         ("[controller]\ndrift_correction = 'yes'", r"true or false"),
+        ("[eye]\nradius_mm = true", r"\[eye\] radius_mm = True.*a number in \[3, 20\]"),
+        ("[controller]\nK = [1, true, 1, 1, 1, 1]", r"\[controller\] K.*6 numbers"),
+        ("[controller]\nmax_iterations = true", r"max_iterations = True.*an integer"),
+        ("[qp]\ncontact_tolerance_um = true", r"\[qp\] contact_tolerance_um = True.*a number"),
+        ("[qp]\neye_gain = '0.5'", r"\[qp\] eye_gain = '0.5'.*a number"),
+        ("[qp]\ncontacts_mm = [[1, 2, true]]", r"\[qp\] contacts_mm.*numbers in mm"),
+        ("[steps]\nposition_mm = 5", r"\[steps\] position_mm = 5.*\[0.0001, 1\]"),
+        ("[points]\nvisits = []", r"\[points\] visits.*1 to 100,000 names"),
     ],
 )
 def test_broken_scenarios_name_the_key_and_the_allowed_values(
@@ -65,3 +73,46 @@ def test_every_plant_a_scenario_may_name_is_registered() -> None:
     from rcmplan.sim.registry import PLANTS as REGISTERED
 
     assert sorted(PLANTS) == sorted(REGISTERED)
+
+
+def test_a_step_longer_than_the_loop_takes_is_refused_on_load_naming_the_bound(
+    tmp_path: Path,
+) -> None:
+    with pytest.raises(ScenarioError, match=r"position_mm = 1.0 .*at most 0.99998.*1 mm"):
+        load_scenario(write(tmp_path, "[steps]\nposition_mm = 1"))
+    text = "[steps]\nposition_mm = 0.9\n[controller]\ntolerance_position_m = 1e-4"
+    with pytest.raises(ScenarioError, match=r"at most 0.8267.*0.173 mm"):
+        load_scenario(write(tmp_path, text))
+
+
+def test_the_longest_step_the_schema_accepts_is_one_the_loop_takes(tmp_path: Path) -> None:
+    from rcmplan.job import run_scenario
+    from rcmplan.scene.schema import MAX_JUMP_M
+
+    tolerance_m = 1e-8  # the default
+    longest_mm = (MAX_JUMP_M - 3**0.5 * tolerance_m) / (1 + 1e-9) * 1e3
+    sc = load_scenario(write(tmp_path, f"[steps]\nposition_mm = {longest_mm!r}"))
+    assert sc.steps.position == pytest.approx(longest_mm * 1e-3)
+    result = run_scenario(sc)
+    assert result.status == "ok", result.message
+
+
+def test_a_visit_list_longer_than_a_run_may_plan_is_refused_on_load(tmp_path: Path) -> None:
+    text = "[points]\nvisits = [" + ", ".join(["'p3'"] * 100_001) + "]"
+    with pytest.raises(ScenarioError, match=r"visits = 'a list of 100,001 items'.*100,000"):
+        load_scenario(write(tmp_path, text))
+
+
+def test_visits_planning_too_many_targets_are_refused_before_any_is_planned(
+    tmp_path: Path, robot, monkeypatch
+) -> None:
+    from rcmplan.exceptions import PlanTooLargeError
+    from rcmplan.scene import procedures
+
+    def no_planning(*args: object) -> None:
+        raise AssertionError("targets planned before the size check")
+
+    monkeypatch.setattr(procedures, "line_targets", no_planning)
+    sc = load_scenario(write(tmp_path, "[points]\nvisits = [" + "'p4', " * 20_000 + "]"))
+    with pytest.raises(PlanTooLargeError, match=r"20,000 visits.*at most 200,000 targets"):
+        sc.phases(robot)

@@ -9,7 +9,7 @@ import pytest
 from rcmplan.cli import main
 from rcmplan.cli.scenario import DESCRIPTIONS, schema_markdown
 from rcmplan.control.qp_limits import EXTRA_KEYS
-from rcmplan.scene.scenario import SCHEMA
+from rcmplan.scene.schema import SCHEMA
 
 PAGE = Path(__file__).resolve().parents[1] / "docs" / "scenario-schema.md"
 

@@ -8,7 +8,6 @@ are registered by name (`rcmplan.scene.scenario.SCENARIOS`): `default` (the inje
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
@@ -18,48 +17,24 @@ from typing import Any
 import numpy as np
 
 from rcmplan.control.methods import METHODS, MethodSettings
-from rcmplan.control.phase import LoopSettings, Phase
+from rcmplan.control.phase import MAX_TARGETS, LoopSettings, Phase
 from rcmplan.control.solvers import Tolerance
-from rcmplan.exceptions import InvalidInputError, ScenarioError
+from rcmplan.exceptions import InvalidInputError, PlanTooLargeError, ScenarioError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import check_robot, is_robot_file
 from rcmplan.scene.curved_procedure import NeedleOptions, curved_injection
 from rcmplan.scene.eye import POINT_NAMES, Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
+from rcmplan.scene.schema import SCHEMA, check_step, sections
+
+__all__ = ["SCHEMA", "Scenario", "load_scenario", "scenario_from_dict", "scenario_names"]
 
 PROCEDURES = ("injection", "spiral")
 # The plants a scenario may name; `rcmplan.sim.registry.PLANTS` builds each (a test checks that
 # the two agree). Named here so that scenes do not import the simulators.
 PLANTS = ("kinematic", "mujoco", "mujoco-kinematic")
 MM = 1e-3
-
-# section -> key -> (kind, low, high); kind: "float", "int", "bool", "str", "vecN", "strlist"
-SCHEMA: dict[str, dict[str, tuple[str, float, float]]] = {
-    "": {"name": ("str", 0, 0), "procedure": ("str", 0, 0), "plant": ("str", 0, 0),
-         "robot": ("str", 0, 0), "description": ("str", 0, 0)},
-    "eye": {"radius_mm": ("float", 3, 20), "wall_mm": ("float", 0.1, 3),
-            "trocar_radius_mm": ("float", 0.05, 2), "trocar_offset_mm": ("vec3", -60, 60),
-            "insertion_angles_rad": ("vec2", -1.2, 1.2)},
-    "points": {"outside_mm": ("float", 0.5, 30), "depth_mm": ("float", 0.5, 24),
-               "spread_rad": ("float", 0, 0.6), "visits": ("strlist", 0, 0),
-               **{f"{n}_mm": ("vec3", -500, 500) for n in POINT_NAMES}},
-    "steps": {"position_mm": ("float", 1e-4, 5), "angle_mrad": ("float", 1e-3, 100)},
-    "controller": {"method": ("str", 0, 0), "K": ("vec6", 1e-9, 1.999999),
-                   "damping": ("float", 1e-6, 10), "tolerance_position_m": ("float", 1e-13, 1e-4),
-                   "tolerance_angle_rad": ("float", 1e-13, 1e-3),
-                   "max_iterations": ("int", 1, 100000), "drift_correction": ("bool", 0, 0),
-                   "rcm_bound_um": ("float", 0.01, 10000),
-                   "rcm_tolerance_um": ("float", 0.001, 1000),
-                   "dt_s": ("float", 1e-5, 0.1)},
-    "spiral": {"offset_mm": ("vec2", -10, 10), "radius_mm": ("float", 0.01, 10),
-               "turns": ("float", 0.1, 50), "pitch_mm": ("float", -5, 5),
-               "points_per_turn": ("int", 8, 10000)},
-    "needle": {"kind": ("str", 0, 0), "radius_mm": ("float", 1, 1000),
-               "arc_angle_rad": ("float", 0, 1.5707963)},
-    "lateral": {"directions": ("vec3list", -1e3, 1e3), "tolerance_mrad": ("float", 1e-3, 3141.59)},
-    "qp": {},  # method-specific options, passed through to the QP controller as extra
-}  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -96,11 +71,30 @@ class Scenario:
         """The procedure's phases, every target checked before motion."""
         eye = self.eye(robot)
         pts = self.points(eye)
+        self._check_plan_size(pts)
         if self.needle.kind == "curved":
             return self._curved_phases(self.needle.fit(robot), eye, pts)
         if self.procedure == "spiral":
             return spiral(robot, eye, pts, self.spiral, self.steps)
         return injection(robot, eye, pts, self.steps, self.visits)
+
+    def _check_plan_size(self, pts: EyePoints) -> None:
+        """Refuse, before any target is planned, visits that plan more targets than a run
+        allows: each goes from p3 to its point and back, straight in steps of at most
+        `steps.position` (a lower bound of what the injection plans; the curved needle's
+        path is not straight, so at least one target each way)."""
+        if self.procedure != "injection":
+            return
+        p = pts.as_dict()
+        legs = {
+            name: 1 if self.needle.kind == "curved" else
+            self.steps.count(float(np.linalg.norm(p[name] - p["p3"])))
+            for name in set(self.visits)
+        }  # fmt: skip
+        planned = sum(2 * legs[name] for name in self.visits)
+        if planned > MAX_TARGETS:
+            valid = f"at most {MAX_TARGETS:,} targets per run (fewer visits or longer steps)"
+            raise PlanTooLargeError(f"targets of {len(self.visits):,} visits", planned, valid)
 
     def _curved_phases(self, robot: RobotModel, eye: Eye, pts: EyePoints) -> list[Phase]:
         if self.procedure != "injection" or not isinstance(robot, CurvedTipRobot):
@@ -133,92 +127,10 @@ def _replace(s: Scenario, **changes: Any) -> Scenario:
     return replace(s, **changes)
 
 
-def _check(section: str, key: str, value: Any) -> Any:
-    """Validate one value against the schema; return it converted."""
-    where = f"[{section}] {key}" if section else key
-    kind, lo, hi = SCHEMA[section][key]
-    if kind == "str":
-        if not isinstance(value, str):
-            raise ScenarioError(where, value, "a string")
-        return value
-    if kind == "bool":
-        if not isinstance(value, bool):
-            raise ScenarioError(where, value, "true or false")
-        return value
-    if kind == "strlist":
-        if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
-            raise ScenarioError(where, value, "a list of point names")
-        return tuple(value)
-    if kind == "vec3list":
-        if not isinstance(value, list) or not value:
-            raise ScenarioError(where, value, "a non-empty list of [x, y, z] lists")
-        return tuple(_check_vec(where, v, 3, lo, hi) for v in value)
-    if kind == "int":
-        if not isinstance(value, int) or isinstance(value, bool) or not lo <= value <= hi:
-            raise ScenarioError(where, value, f"an integer in [{lo:g}, {hi:g}]")
-        return value
-    n = int(kind[3:]) if kind.startswith("vec") else 1
-    out = _check_vec(where, value, n, lo, hi)
-    return out[0] if n == 1 else out
-
-
-def _check_vec(where: str, value: Any, n: int, lo: float, hi: float) -> tuple[float, ...]:
-    """n numbers in [lo, hi] as a tuple of floats, else ScenarioError."""
-    items = value if isinstance(value, list) and n > 1 else [value]
-    numbers = len(items) == n and all(
-        (isinstance(v, int) and not isinstance(v, bool))
-        or (isinstance(v, float) and math.isfinite(v))
-        for v in items
-    )  # ints of any size are finite, and compare exactly with the bounds below
-    if not numbers:
-        want = "a number" if n == 1 else f"a list of {n} numbers"
-        raise ScenarioError(where, value, f"{want} in [{lo:g}, {hi:g}]")
-    if any(not lo <= v <= hi for v in items):  # compared before any int becomes a float
-        raise ScenarioError(
-            where, value, f"{'a number' if n == 1 else 'numbers'} in [{lo:g}, {hi:g}]"
-        )
-    return tuple(float(v) for v in items)
-
-
-def _check_qp(key: str, value: Any) -> Any:
-    """Validate one [qp] option as the QP controller will read it."""
-    from rcmplan.control.qp_backends import check_backend
-    from rcmplan.control.qp_limits import QpLimits
-
-    try:
-        if key == "solver":
-            return check_backend(value)
-        QpLimits.from_extra({key: value})
-    except InvalidInputError as exc:
-        raise ScenarioError(f"[qp] {key}", value, exc.valid) from exc
-    return value
-
-
-def _sections(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
-    """Split and validate the TOML table into checked sections."""
-    out: dict[str, dict[str, Any]] = {s: {} for s in SCHEMA}
-    for key, value in data.items():
-        if isinstance(value, dict):
-            if key not in SCHEMA or key == "":
-                raise ScenarioError("section", key, f"one of {sorted(k for k in SCHEMA if k)}")
-            for k, v in value.items():
-                if key == "qp":
-                    out["qp"][k] = _check_qp(k, v)
-                    continue
-                if k not in SCHEMA[key]:
-                    raise ScenarioError(f"[{key}] key", k, f"one of {sorted(SCHEMA[key])}")
-                out[key][k] = _check(key, k, v)
-        elif key in SCHEMA[""]:
-            out[""][key] = _check("", key, value)
-        else:
-            raise ScenarioError("key", key, f"one of {sorted(SCHEMA[''])} or a section")
-    return out
-
-
 def scenario_from_dict(data: dict[str, Any], folder: Path | None = None) -> Scenario:
     """A Scenario from a parsed TOML table; raises ScenarioError naming the bad key. A robot
     file named by a relative path is found from `folder` (the scenario file's), if given."""
-    sec = _sections(data)
+    sec = sections(data)
     top, eye, pts, st, ctl, sp, nd, lat = (
         sec[k] for k in ("", "eye", "points", "steps", "controller", "spiral", "needle", "lateral")
     )
@@ -233,10 +145,9 @@ def scenario_from_dict(data: dict[str, Any], folder: Path | None = None) -> Scen
     if method not in METHODS:
         raise ScenarioError("[controller] method", method, f"one of {METHODS}")
     visits = pts.pop("visits", DEFAULT_VISITS)
-    if not visits or any(v not in POINT_NAMES[2:] for v in visits):
-        raise ScenarioError(
-            "[points] visits", list(visits), f"a non-empty list of {POINT_NAMES[2:]}"
-        )
+    unknown = sorted(set(visits) - set(POINT_NAMES[2:]))
+    if unknown:
+        raise ScenarioError("[points] visits", unknown, f"names among {POINT_NAMES[2:]}")
     eye_opts = {
         "radius": eye.get("radius_mm", 12.0) * MM,
         "wall": eye.get("wall_mm", 1.0) * MM,
@@ -271,7 +182,10 @@ def scenario_from_dict(data: dict[str, Any], folder: Path | None = None) -> Scen
         point_options=point_opts,
         point_overrides=overrides,
         visits=visits,
-        steps=Steps(st.get("position_mm", 0.2) * MM, st.get("angle_mrad", 2.0) * 1e-3),
+        steps=Steps(
+            check_step(st.get("position_mm", 0.2), tol.position) * MM,
+            st.get("angle_mrad", 2.0) * 1e-3,
+        ),
         method_settings=settings,
         loop=LoopSettings(
             ctl.get("max_iterations", 100),
