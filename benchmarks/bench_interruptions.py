@@ -1,20 +1,35 @@
-"""Lost logs over many random interruptions of each long command (issue floor: 0 over 100).
+"""Lost logs over many random interruptions of each long command (floor: 0 over 100), and
+what an interrupt at any instant of `rcmplan inject`, from the process's start, leaves.
 
-Run alone: python benchmarks/bench_interruptions.py [--runs N]
+Run alone: python benchmarks/bench_interruptions.py [--runs N] [--from-start M]
 Runs tests/test_interrupts.py's harness with RCMPLAN_INTERRUPTIONS=N (default 100; 10 with
 --quick through benchmarks/run.py): per command (inject, spiral, compare, sweep, teleop), N real
-processes each get SIGINT or SIGTERM at a seeded random point; each must leave a summary
-saying why it stopped, a loadable log or none, no temporary file and no process behind. One row
-per command: the interruptions that broke any of these (the lost logs), out of N.
+processes each get SIGINT or SIGTERM at a seeded random point of the run; each must leave a
+summary saying why it stopped, a loadable log or none, no temporary file and no process behind.
+One row per command: the interruptions that broke any of these (the lost logs), out of N.
+
+Then M processes of `rcmplan inject --no-plots` (default 100; 20 with --quick) each get SIGINT
+or SIGTERM at a seeded instant drawn uniformly from 0 to 1.2 times an uninterrupted run's
+duration, counted from the process's start (interpreter start-up and imports included). A run
+alive at the signal is answered when it exits 128 + the signal number with summary.json saying
+"interrupted" and the signal's name, or, when the signal came after its outputs were final,
+is ended by the signal with summary.json "ok"; anything else (no summary, a traceback, a
+signal ignored) is counted and printed. Rows: the share answered, the time from the signal to
+the process's end (median and largest), the share that ended "interrupted".
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import random
 import re
+import signal
+import statistics
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -45,26 +60,100 @@ def run_command(command: str, runs: int) -> tuple[int | str, float]:
     return ">= 1", wall
 
 
-def rows(runs: int | None = None) -> list[dict[str, Any]]:
-    """One row per command."""
+def rows(runs: int | None = None, from_start: int | None = None) -> list[dict[str, Any]]:
+    """One row per command, then the rows of interrupts from the process's start."""
     n = runs or (10 if quick() else 100)
     out = []
     for command in COMMANDS:
         lost, wall = run_command(command, n)
         out.append(row(f"{command}: interruptions losing the log or summary, of {n} "
                        f"({wall:.0f} s)", lost, "", target="0"))  # fmt: skip
-    return out
+    return out + start_rows(from_start or (20 if quick() else 100))
+
+
+def inject(out: Path, sig: int | None, delay: float) -> tuple[bool, int, float, str, str]:
+    """Start `rcmplan inject --no-plots --out out`, send sig `delay` s after the start (none if
+    None): (alive at the signal, exit code, time [s] from the signal (or start) to the end,
+    summary status, stderr and summary message)."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "MUJOCO_GL": "egl"}
+    start = time.perf_counter()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rcmplan", "inject", "--no-plots", "--out", str(out)],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    time.sleep(max(0.0, delay - (time.perf_counter() - start)))
+    alive = proc.poll() is None
+    sent = time.perf_counter()
+    if sig is not None and alive:
+        proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    took = time.perf_counter() - (sent if sig is not None else start)
+    try:
+        doc = json.loads((out / "summary.json").read_text())
+        status, message = str(doc["status"]), str(doc.get("message", ""))
+    except (OSError, ValueError, KeyError):
+        status, message = "none", ""
+    return alive, proc.returncode, took, status, f"{message} | {err[-300:]}"
+
+
+def answered(sig: int, code: int, status: str, text: str) -> bool:
+    """An interrupt the run answered: interrupted with the signal's name and exit 128 + sig
+    and no traceback, or ended by the signal after its outputs were final."""
+    name = signal.Signals(sig).name
+    stopped = code == 128 + sig and status == "interrupted" and name in text.split(" | ")[0]
+    return ("Traceback" not in text and stopped) or (code == -sig and status == "ok")
+
+
+def start_rows(n: int, seed: int = 7) -> list[dict[str, Any]]:
+    """Rows of n interrupts at random instants from the start of `rcmplan inject`."""
+    rng = random.Random(seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        _, _, whole, status, _ = inject(Path(tmp) / "whole", None, 0.0)
+        exits, alive_runs, good, stopped = [], 0, 0, 0
+        for k in range(n):
+            sig = (signal.SIGINT, signal.SIGTERM)[k % 2]
+            delay = rng.uniform(0.0, 1.2 * whole)
+            alive, code, took, status, text = inject(Path(tmp) / f"run{k}", sig, delay)
+            if not alive:
+                continue
+            alive_runs += 1
+            exits.append(took)
+            stopped += status == "interrupted"
+            if answered(sig, code, status, text):
+                good += 1
+            else:
+                print(f"at {delay:.3f} s {signal.Signals(sig).name}: exit {code}, "
+                      f"summary {status!r}: {text}", file=sys.stderr)  # fmt: skip
+    if not alive_runs:
+        return [row(f"inject from its start: no run alive at its signal, of {n}", 0, "")]
+    what = f"of {alive_runs} alive at the signal, instants 0-{1.2 * whole:.2f} s from the start"
+    return [
+        row(f"inject from its start: interrupts answered, {what}", good / alive_runs, "",
+            target="1"),
+        row("inject from its start: time from the signal to the end, median",
+            statistics.median(exits), "s"),
+        row("inject from its start: time from the signal to the end, largest", max(exits), "s",
+            target="< 1"),
+        row(f"inject from its start: runs that ended 'interrupted', {what}",
+            stopped / alive_runs, ""),
+    ]  # fmt: skip
 
 
 def main() -> None:
     """Print the rows."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=100, help="interruptions per command")
+    ap.add_argument("--from-start", type=int, default=100,
+                    help="interrupts of inject at instants from the process's start")  # fmt: skip
+    ap.add_argument("--only-start", action="store_true", help="skip the per-command harness")
     args = ap.parse_args()
     sys.path.insert(0, str(Path(__file__).resolve().parent))
     from run import print_table
 
-    print_table(rows(args.runs))
+    if args.only_start:
+        print_table(start_rows(args.from_start))
+    else:
+        print_table(rows(args.runs, args.from_start))
 
 
 if __name__ == "__main__":

@@ -1,11 +1,16 @@
 #!/usr/bin/env bash
 # Install everything rcmplan needs (system libraries for headless rendering, every pip extra)
 # and run the whole check: ruff lint, ruff format check, mypy, pytest.
+#
+# The browser tests (tests/test_report_browser.py, tests/test_view_browser.py) open report.html
+# and the 3D view in headless Chromium. As root with apt-get (CI) this script installs Chromium
+# and they are required; otherwise they run when a Chromium is on PATH and are skipped, with a
+# line saying so, when none is. RCMPLAN_REQUIRE_BROWSER=1 requires them whatever happens (their
+# absence is then a failure); RCMPLAN_REQUIRE_BROWSER=0 never requires them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Headless MuJoCo rendering through EGL and Mesa (no GPU needed), and Chromium for the tests
-# that open report.html and the 3D view (`rcmplan view`, driven by playwright) in a real browser.
+# Headless MuJoCo rendering through EGL and Mesa (no GPU needed), and Chromium.
 EGL_PACKAGES="libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 chromium"
 if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
   # shellcheck disable=SC2086
@@ -20,7 +25,26 @@ fi
 python -m pip install -q --disable-pip-version-check -e ".[all,video,dev]"
 
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
-export RCMPLAN_REQUIRE_BROWSER="${RCMPLAN_REQUIRE_BROWSER:-1}"
+
+# The names the browser tests look for.
+chromium_on_path() {
+  command -v chromium || command -v chromium-browser || command -v google-chrome
+}
+case "${RCMPLAN_REQUIRE_BROWSER:-}" in
+  "")
+    if browser="$(chromium_on_path)"; then
+      export RCMPLAN_REQUIRE_BROWSER=1
+      echo "check.sh: browser tests run with $browser (required)"
+    else
+      echo "check.sh: no Chromium on PATH (chromium, chromium-browser, google-chrome): the" \
+        "browser tests are skipped. Run as root to install it with apt-get, or install" \
+        "it; RCMPLAN_REQUIRE_BROWSER=1 makes its absence a failure."
+    fi
+    ;;
+  0) unset RCMPLAN_REQUIRE_BROWSER ;;
+  *) echo "check.sh: RCMPLAN_REQUIRE_BROWSER=$RCMPLAN_REQUIRE_BROWSER: browser tests required" ;;
+esac
+
 python -m ruff check src tests benchmarks
 python -m ruff format --check src tests benchmarks
 python -m mypy

@@ -1,11 +1,21 @@
-"""Shared fixtures: the default robot and a seeded random generator."""
+"""Shared fixtures: the default robot and a seeded random generator.
+
+RCMPLAN_REQUIRE_BROWSER (set by scripts/check.sh when a Chromium is there, or by hand) makes a
+missing Chromium or playwright fail the browser tests instead of skipping them; "0" or unset
+does not.
+"""
 
 from __future__ import annotations
+
+import os
 
 import numpy as np
 import pytest
 
 from rcmplan import Iramis
+
+if os.environ.get("RCMPLAN_REQUIRE_BROWSER") == "0":
+    del os.environ["RCMPLAN_REQUIRE_BROWSER"]  # the browser tests read any other value as set
 
 
 @pytest.fixture

@@ -144,6 +144,146 @@ def test_signals_at_random_points_leave_a_summary_a_loadable_log_and_no_process(
     assert interrupted >= 1  # points land inside the run, so the test checks something
 
 
+# Instants while `rcmplan inject` starts, each named by the module whose import the process
+# reports (`python -X importtime`: modules loaded by an import statement, not by
+# importlib.import_module) just before it, and a wait after that report [s].
+EARLY = {
+    "rcmplan's first modules": ("rcmplan.cli.interrupts", 0.0),
+    "0.05 s after rcmplan's first modules": ("rcmplan.cli.interrupts", 0.05),
+    "numpy loading with the package": ("numpy", 0.0),
+    "the parser importing its first subcommand": ("rcmplan.cli.common", 0.0),
+    "the parser importing the sweep subcommand": ("rcmplan.sweep.executors", 0.0),
+}
+
+
+def interrupt_after_import(out: Path, sig: int, module: str, wait: float) -> tuple[int, str]:
+    """Start `rcmplan inject --no-plots --out out`, send sig `wait` s after it reports that
+    `module` is imported; returns the exit code and stderr."""
+    env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
+    argv = ["-X", "importtime", "-m", "rcmplan", "inject", "--no-plots", "--out", str(out)]
+    proc = subprocess.Popen([sys.executable, *argv], env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.PIPE, text=True)  # fmt: skip
+    assert proc.stderr is not None
+    seen = []
+    for line in proc.stderr:
+        seen.append(line)
+        if line.rsplit("|", 1)[-1].strip() == module:
+            break
+    time.sleep(wait)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode != 0 or len(seen) > 1, "the module was never reported"
+    return proc.returncode, "".join(seen) + err
+
+
+@pytest.mark.parametrize("sig", SIGNALS, ids=lambda s: signal.Signals(s).name)
+@pytest.mark.parametrize("instant", sorted(EARLY))
+def test_a_signal_while_the_command_starts_leaves_an_interrupted_summary(
+    instant: str, sig: int, tmp_path: Path
+) -> None:
+    stale = tmp_path / "log.npz"
+    stale.write_bytes(b"an earlier run's log")
+    code, err = interrupt_after_import(tmp_path, sig, *EARLY[instant])
+    assert code == 128 + sig, err[-2000:]
+    assert not our_tracebacks(err), err[-2000:]
+    doc = json.loads((tmp_path / "summary.json").read_text())
+    assert doc["status"] == "interrupted" and doc["command"] == "inject"
+    assert doc["message"].startswith(f"interrupted by {signal.Signals(sig).name}")
+    assert not stale.exists() or stale.read_bytes() != b"an earlier run's log"  # not beside it
+    assert f"rcmplan inject: interrupted by {signal.Signals(sig).name}" in err
+
+
+# An interrupt that lands in a weakref callback (as in the import machinery's module locks)
+# is dropped by Python with an "Exception ignored" note; the command must still stop.
+SWALLOWED = """
+import os, signal, weakref
+from rcmplan.cli import interrupts
+
+interrupts.install(["robot"])
+class Box: pass
+def callback(_ref):
+    os.kill(os.getpid(), signal.SIGINT)
+    for _ in range(1000): pass  # the handler runs here, inside the callback
+with interrupts.handled():
+    try:
+        box = Box()
+        ref = weakref.ref(box, callback)
+        del box
+        for _ in range(10**7): pass
+        print("ran to the end")
+    except interrupts.Interrupted:
+        with interrupts.shielded():
+            print("interrupted")
+"""
+
+
+def test_an_interrupt_python_drops_in_a_callback_is_raised_again() -> None:
+    env = {**os.environ, "PYTHONPATH": SRC}
+    done = subprocess.run([sys.executable, "-c", SWALLOWED], env=env, capture_output=True,
+                          text=True, timeout=120)  # fmt: skip
+    assert done.stdout.strip() == "interrupted", done.stderr
+    assert done.returncode == 0 and "Exception ignored" not in done.stderr
+
+
+def test_importing_rcmplan_as_a_library_leaves_the_signal_handlers_alone() -> None:
+    code = ("import signal, rcmplan, rcmplan.cli; print(signal.getsignal(signal.SIGINT) is "
+            "signal.default_int_handler, signal.getsignal(signal.SIGTERM) == signal.SIG_DFL)")  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": SRC}
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+    assert done.stdout.split() == ["True", "True"], done.stderr
+
+
+@pytest.mark.parametrize(
+    ("orig_argv", "argv0", "expected"),
+    [
+        (["python", "-m", "rcmplan", "inject"], "-m", True),
+        (["python", "-X", "importtime", "-W", "ignore", "-mrcmplan"], "-m", True),
+        (["python", "-m", "pytest", "-q"], "-m", False),
+        (["python", "-c", "import rcmplan"], "-c", False),
+        (["python", "script.py", "-m", "rcmplan"], "script.py", False),
+        (["python", "/venv/bin/rcmplan", "inject"], "/venv/bin/rcmplan", True),
+    ],
+)
+def test_the_process_is_the_command_only_when_started_as_it(
+    orig_argv: list[str], argv0: str, expected: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rcmplan._startup import is_command
+
+    monkeypatch.setattr(sys, "orig_argv", orig_argv)
+    monkeypatch.setattr(sys, "argv", [argv0])
+    assert is_command() is expected
+
+
+@pytest.mark.parametrize(
+    ("argv", "expected"),
+    [
+        (["inject", "--no-plots"], ("inject", "rcmplan-out/inject")),
+        (["inject", "--out", "a", "--out=b"], ("inject", "b")),
+        (["spiral", "--ou", "c"], ("spiral", "c")),
+        (["compare", "--method", "pinv"], ("compare", "rcmplan-out/compare")),
+        (["robot", "--out", "d"], ("robot", "d")),
+        (["robot"], ("robot", None)),
+        (["--version"], ("", None)),
+    ],
+)
+def test_the_output_folder_is_read_from_the_command_line_before_the_parser_exists(
+    argv: list[str], expected: tuple[str, str | None]
+) -> None:
+    from rcmplan.cli.interrupts import command_and_out
+
+    assert command_and_out(argv) == expected
+
+
+def test_every_stop_file_command_writes_where_its_parser_says() -> None:
+    from rcmplan.cli import build_parser
+    from rcmplan.cli.interrupts import STOP_FILES, command_and_out
+
+    parser = build_parser()
+    for command in STOP_FILES:
+        args = parser.parse_args([command])
+        assert (args.out or args.out_default) == command_and_out([command])[1]
+
+
 def test_an_interrupted_sweep_resumes_to_the_results_of_an_uninterrupted_one(
     tmp_path: Path,
 ) -> None:

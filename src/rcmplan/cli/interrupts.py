@@ -11,6 +11,11 @@ command), whose action follows how far the command has got:
 - finished (`finished()`, or after `handled()`): the outputs are final, and the signal ends the
   process by its default action; what the command wrote stays as written.
 
+Python drops an exception raised where it cannot propagate (a weakref callback of the import
+machinery, a `__del__`) with an "Exception ignored" note; an interrupt dropped so is sent again
+(`sys.unraisablehook`, a timer a millisecond later), and one that some code swallowed ends the
+process once the command returns, so no signal is ignored.
+
 An interrupted command exits 128 + the signal number (130, 143), as shells report a command
 killed by that signal. Called in-process (`rcmplan.cli.main` from Python), `handled()` installs
 the handler for its block only and puts the previous handlers back after it.
@@ -22,6 +27,7 @@ import contextlib
 import json
 import os
 import signal
+import sys
 import threading
 from collections.abc import Iterator, Sequence
 from pathlib import Path
@@ -66,6 +72,7 @@ class _State:
     out: str | None = None
     stage = "running"  # "starting", "running" or "finished"
     answered = True  # False from an interrupt raised until the code handling it answers
+    signum = 0  # the last interrupt's signal
 
 
 _state = _State()
@@ -81,6 +88,23 @@ def install(argv: Sequence[str]) -> None:
     _state.stage = "starting"
     for s in CAUGHT:
         signal.signal(s, _on_signal)
+    previous = sys.unraisablehook
+
+    def raise_again(unraisable: Any) -> None:
+        if not isinstance(unraisable.exc_value, Interrupted):
+            previous(unraisable)
+        elif threading.current_thread() is threading.main_thread():
+            # Not from here: a handler run inside this hook would be dropped the same way.
+            signal.signal(signal.SIGALRM, _on_alarm)
+            signal.setitimer(signal.ITIMER_REAL, 0.001)
+
+    sys.unraisablehook = raise_again
+
+
+def _on_alarm(signum: int, frame: FrameType | None) -> None:
+    """The dropped interrupt, raised again (or, once the command finished, its signal)."""
+    if not _state.answered:
+        _on_signal(_state.signum, frame)
 
 
 def command_and_out(argv: Sequence[str]) -> tuple[str, str | None]:
@@ -102,7 +126,7 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
         signal.signal(signum, signal.SIG_DFL)  # the default action: the process ends
         os.kill(os.getpid(), signum)
         return
-    _state.answered = False
+    _state.answered, _state.signum = False, signum
     raise Terminated() if signum == signal.SIGTERM else Interrupted()
 
 
@@ -166,6 +190,8 @@ def handled() -> Iterator[None]:
     finally:
         if ours:
             finished()
+            if not _state.answered:  # swallowed on its way: the signal ends the process now
+                os.kill(os.getpid(), _state.signum)
         for s, handler in old.items():
             signal.signal(s, handler)
 
