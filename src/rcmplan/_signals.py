@@ -1,6 +1,6 @@
-"""Signals held back while a process starts workers or its own signal handling: a SIGINT or
-SIGTERM that lands inside `fork` or a pool's start-up would be lost in at-fork hooks
-("Exception ignored") or leave a worker untracked; deferred, it takes effect right after.
+"""Signals held back while a process starts workers: a SIGINT or SIGTERM that lands inside
+`fork` or a pool's start-up would be lost in at-fork hooks ("Exception ignored") or leave a
+worker untracked; deferred, it takes effect right after.
 """
 
 from __future__ import annotations
@@ -14,28 +14,21 @@ from collections.abc import Iterator
 
 @contextlib.contextmanager
 def signals_deferred() -> Iterator[None]:
-    """SIGINT and SIGTERM that arrive inside the block take effect when it ends, through the
-    handler in force then: the one before the block, or the one the block installed (the
-    `rcmplan` command installs its own inside such a block). In the main thread only;
-    elsewhere the block runs as is."""
+    """SIGINT and SIGTERM that arrive inside the block take effect when it ends (their handlers
+    then run as usual). In the main thread only; elsewhere the block runs as is."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     caught: list[int] = []
-
-    def defer(signum: int, _frame: object) -> None:
-        caught.append(signum)
-
     sigs = (signal.SIGINT, signal.SIGTERM)
-    old = {s: signal.signal(s, defer) for s in sigs}
+    old = {s: signal.signal(s, lambda signum, _frame: caught.append(signum)) for s in sigs}
     try:
         yield
     finally:
         for s, handler in old.items():
-            if signal.getsignal(s) is defer:
-                signal.signal(s, handler)
+            signal.signal(s, handler)
         for signum in caught[:1]:
-            handler = signal.getsignal(signum)
+            handler = old[signal.Signals(signum)]
             if callable(handler):
                 handler(signum, None)
             elif handler == signal.SIG_DFL:

@@ -14,6 +14,8 @@ from typing import Any
 from rcmplan.cli import interrupts
 from rcmplan.exceptions import RcmplanError
 
+interrupts.install_if_command()  # first: the command handles SIGINT and SIGTERM from here on
+
 COMMANDS = (
     "compare",
     "inject",

@@ -1,6 +1,7 @@
-"""SIGINT and SIGTERM in the `rcmplan` command: one handler, from the process's first line of
-rcmplan code to its end (`install`, called by `rcmplan._startup` when the process is the
-command), whose action follows how far the command has got:
+"""SIGINT and SIGTERM in the `rcmplan` command: one handler, from the first lines of the command
+line package (`rcmplan.cli`, imported by `python -m rcmplan` and the `rcmplan` script before any
+numerical library or subcommand) to the process's end, whose action follows how far the command
+has got:
 
 - starting (importing, reading the command line): nothing is open or half-written, so the
   handler writes the command's stop file (`summary.json`, `compare.json`) in its output folder
@@ -76,6 +77,28 @@ class _State:
 
 
 _state = _State()
+
+
+def is_command() -> bool:
+    """True when this process runs the `rcmplan` command: `python [options] -m rcmplan ...`
+    (read from `sys.orig_argv`), or a program named `rcmplan` (the installed script)."""
+    argv = list(getattr(sys, "orig_argv", []))
+    i = 1
+    while i < len(argv):
+        arg = argv[i]
+        if arg.startswith("-m"):
+            return (arg[2:] or (argv[i + 1] if i + 1 < len(argv) else "")) == "rcmplan"
+        if arg in ("-c", "-") or not arg.startswith("-"):
+            break  # a command string, standard input or a script: not the module
+        i += 2 if arg in ("-X", "-W") else 1  # the two options whose value may stand apart
+    return bool(sys.argv) and os.path.basename(sys.argv[0]) == "rcmplan"
+
+
+def install_if_command() -> None:
+    """`install` for this process's command line when it is the `rcmplan` command; imported
+    as a library, rcmplan leaves the process's signal handlers alone."""
+    if is_command():
+        install(sys.argv[1:])
 
 
 def install(argv: Sequence[str]) -> None:
