@@ -3,7 +3,10 @@
 `run_scenario` never loses work: when a run stops early it returns the partial log with
 `status` set to the error's status code, `message` to its text (and keeps the exception in
 `error`). An interrupted run (KeyboardInterrupt, or the CLI's SIGTERM) re-raises the interrupt
-with the partial result attached as `result`, status "interrupted".
+with the partial result attached as `result`, status "interrupted", once its controller exists;
+interrupted before (placing the eye, building the plant and the solver), it has no record to
+measure, and the interrupt goes on without a result, at once (measuring would place the eye
+again, and loading the compiled kernels that needs can take a second).
 """
 
 from __future__ import annotations
@@ -74,9 +77,10 @@ def run_scenario(
         error = exc
         log = exc.log if exc.log is not None else LogBuilder().finish()
     except KeyboardInterrupt as exc:
-        log = controller.log.finish() if controller is not None else LogBuilder().finish()
-        why = "interrupted by " + getattr(exc, "signal_name", "SIGINT")
-        exc.result = _result(scenario, robot, controller, log, start, "interrupted", why)  # type: ignore[attr-defined]
+        if controller is not None:
+            why = "interrupted by " + getattr(exc, "signal_name", "SIGINT")
+            log = controller.log.finish()
+            exc.result = _result(scenario, robot, controller, log, start, "interrupted", why)  # type: ignore[attr-defined]
         raise
     if error is None:
         return _result(scenario, robot, controller, log, start, "ok", "", extra=extra)

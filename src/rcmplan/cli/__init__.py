@@ -74,7 +74,7 @@ def _run(args: argparse.Namespace) -> int:
         sys.stdout.flush()
     except KeyboardInterrupt as exc:
         _stopped(args, exc)
-        return interrupts.exit_code(exc)
+        return interrupts.leave(interrupts.exit_code(exc))
     except RcmplanError as exc:
         print(f"rcmplan {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2

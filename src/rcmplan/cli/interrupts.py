@@ -191,6 +191,19 @@ def exit_code(exc: BaseException) -> int:
     return 128 + int(getattr(exc, "signum", signal.SIGINT))
 
 
+def leave(code: int) -> int:
+    """End the interrupted command's process now with `code`, its outputs written and its
+    workers stopped: stdout and stderr are flushed and Python's teardown is skipped (the
+    collection of a process that loaded numba and LLVM took 0.5 s on a loaded machine). Called
+    in-process, it returns the code."""
+    if _state.command is None:
+        return code
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(OSError, ValueError):
+            stream.flush()
+    os._exit(code)
+
+
 def answered() -> bool:
     """False when the last interrupt raised has reached no `shielded()` block: the command did
     not write what it leaves (it came before the command's own handling began)."""
