@@ -156,11 +156,13 @@ EARLY = {
 }
 
 
-def interrupt_after_import(out: Path, sig: int, module: str, wait: float) -> tuple[int, str]:
-    """Start `rcmplan inject --no-plots --out out`, send sig `wait` s after it reports that
-    `module` is imported; returns the exit code and stderr."""
+def interrupt_after_import(
+    out: Path, sig: int, module: str, wait: float, command: str = "inject"
+) -> tuple[int, str]:
+    """Start `rcmplan <command> --out out`, send sig `wait` s after it reports that `module` is
+    imported; returns the exit code and stderr."""
     env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
-    argv = ["-X", "importtime", "-m", "rcmplan", "inject", "--no-plots", "--out", str(out)]
+    argv = ["-X", "importtime", "-m", "rcmplan", command, "--out", str(out)]
     proc = subprocess.Popen([sys.executable, *argv], env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True)  # fmt: skip
     assert proc.stderr is not None
@@ -215,6 +217,21 @@ with interrupts.handled():
         with interrupts.shielded():
             print("interrupted")
 """
+
+
+@pytest.mark.parametrize(
+    ("command", "name"),
+    [("spiral", "summary.json"), ("compare", "compare.json"), ("sweep", "summary.json"),
+     ("teleop", "summary.json")],
+)  # fmt: skip
+def test_every_run_command_leaves_its_stop_file_when_interrupted_while_starting(
+    command: str, name: str, tmp_path: Path
+) -> None:
+    code, err = interrupt_after_import(tmp_path, signal.SIGTERM, "numpy", 0.0, command)
+    assert code == 143 and not our_tracebacks(err), err[-2000:]
+    doc = json.loads((tmp_path / name).read_text())
+    assert doc["command"] == command and doc["status"] == "interrupted"
+    assert doc["message"].startswith("interrupted by SIGTERM")
 
 
 def test_an_interrupt_python_drops_in_a_callback_is_raised_again() -> None:

@@ -160,7 +160,7 @@ def _stop_now(signum: int) -> NoReturn:
     name = signal.Signals(signum).name
     message = f"interrupted by {name} before the run"
     command = _state.command or ""
-    if _state.out is not None:
+    if _state.out is not None and command in STOP_FILES:
         with contextlib.suppress(OSError):
             write_stop_file(Path(_state.out), command, {"status": "interrupted",
                                                         "message": message})  # fmt: skip
