@@ -104,18 +104,21 @@ def test_a_bad_file_is_refused_before_motion_naming_the_row(
 
 def test_sigterm_writes_the_partial_session_and_exits_143(tmp_path) -> None:
     out = tmp_path / "out"
-    # On the UR5 the QP step runs in Python: the default 20 s session then takes about 5 s,
-    # longer than the wait below (iRAM!S's compiled step finishes it in about 1.4 s).
+    # On the UR5 the QP step runs in Python: the default 20 s session takes about 5 s. The
+    # signal goes 1 s after the session is built (its last import, reported by -X importtime).
     env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
-    proc = subprocess.Popen([sys.executable, "-m", "rcmplan", "teleop", "--robot", "ur5",
-                             "--no-plots", "--out", str(out)], env=env,
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)  # fmt: skip
-    while not (out / ".").exists() and proc.poll() is None:
-        time.sleep(0.01)
-    time.sleep(3.0)
+    proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "rcmplan", "teleop",
+                             "--robot", "ur5", "--no-plots", "--out", str(out)], env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)  # fmt: skip
+    assert proc.stderr is not None
+    for line in proc.stderr:
+        if line.rsplit("|", 1)[-1].strip() == "rcmplan.compiled.qp_period":
+            break
+    time.sleep(1.0)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 143, err.decode()
+    assert proc.returncode == 143, err
     doc = json.loads((out / "summary.json").read_text())
     assert doc["status"] == "interrupted"
     assert "SIGTERM" in doc["message"]
