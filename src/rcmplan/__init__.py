@@ -14,9 +14,9 @@ cheap and the command line starts fast):
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from rcmplan._lazy import lazy_names
 from rcmplan._version import __version__
 
 _EXPORTS: dict[str, str] = {
@@ -140,14 +140,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    """Load an exported name from its module on first use."""
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'rcmplan' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_names("rcmplan", _EXPORTS, globals())
 
 
 def __dir__() -> list[str]:

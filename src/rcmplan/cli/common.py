@@ -6,7 +6,7 @@ import argparse
 import contextlib
 import json
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -188,3 +188,20 @@ def table(header: list[str], rows: list[list[Any]]) -> str:
     line = "  ".join("-" * w for w in widths)
     fmt = "  ".join("{:<" + str(w) + "}" for w in widths)
     return "\n".join([fmt.format(*header), line, *(fmt.format(*r) for r in rows)])
+
+
+def finish(args: argparse.Namespace, out: Path, doc: Any, show: Callable[[], None],
+           failure: str | None) -> int:  # fmt: skip
+    """The end of a run command whose outputs are written: they are final (a late signal
+    leaves them as they are), the JSON or the table and the folder on stdout, and exit 1 with
+    `failure` on stderr if the run did not end ok."""
+    interrupts.finished()
+    if args.json:
+        print_json(doc)
+    else:
+        show()
+        print(f"outputs in {out}/")
+    if failure:
+        print(f"rcmplan {args.command}: {failure}", file=sys.stderr)
+        return 1
+    return 0

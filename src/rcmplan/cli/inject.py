@@ -8,8 +8,8 @@ import sys
 from rcmplan.cli import interrupts
 from rcmplan.cli.common import (
     add_run_options,
+    finish,
     interrupted_message,
-    print_json,
     print_summary,
     progress,
     scenario_from_args,
@@ -98,13 +98,5 @@ def run(args: argparse.Namespace) -> int:
             where = f"while writing the outputs (the run ended with status {result.status!r})"
         write_stopped(out, args, "interrupted", interrupted_message(exc, where), result)
         raise
-    interrupts.finished()
-    if args.json:
-        print_json(summary_json(result))
-    else:
-        print_summary(result)
-        print(f"outputs in {out}/")
-    if not result.ok:
-        print(f"rcmplan {args.command}: run stopped early: {result.message}", file=sys.stderr)
-        return 1
-    return 0
+    failure = None if result.ok else f"run stopped early: {result.message}"
+    return finish(args, out, summary_json(result), lambda: print_summary(result), failure)

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 from typing import Any
 
-from rcmplan.cli.common import ROBOT_HELP, announce_robot, one_line, print_json, robot_arg, table
+from rcmplan.cli.common import (
+    ROBOT_HELP,
+    announce_robot,
+    finish,
+    one_line,
+    robot_arg,
+    table,
+)
 from rcmplan.exceptions import RcmplanError
 
 COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predictors.PREDICTORS
@@ -70,15 +76,8 @@ def run(args: argparse.Namespace) -> int:
     except RcmplanError as exc:
         write_failed(out, exc.status, f"{type(exc).__name__}: {exc}")
         raise
-    if args.json:
-        print_json(doc)
-    else:
-        print_table(doc)
-        print(f"outputs in {out}/")
-    if doc["status"] != "ok":
-        print(f"rcmplan subretinal: {doc['status']}: {doc['message']}", file=sys.stderr)
-        return 1
-    return 0
+    failure = None if doc["status"] == "ok" else f"{doc['status']}: {doc['message']}"
+    return finish(args, out, doc, lambda: print_table(doc), failure)
 
 
 def write_outputs(settings: Any, out: Path, figures: bool) -> dict[str, Any]:

@@ -12,9 +12,9 @@ from rcmplan.cli import interrupts
 from rcmplan.cli.common import (
     ROBOT_HELP,
     announce_robot,
+    finish,
     interrupted_message,
     one_line,
-    print_json,
     robot_arg,
     table,
 )
@@ -86,16 +86,8 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as exc:
         write_interrupted(out, exc, result)
         raise
-    interrupts.finished()
-    if args.json:
-        print_json(doc)
-    else:
-        print_table(doc)
-        print(f"outputs in {out}/")
-    if doc["status"] != "ok":
-        print(f"rcmplan teleop: {doc['status']}: {doc['message']}", file=sys.stderr)
-        return 1
-    return 0
+    failure = None if doc["status"] == "ok" else f"{doc['status']}: {doc['message']}"
+    return finish(args, out, doc, lambda: print_table(doc), failure)
 
 
 def write_failed(out: Path, status: str, message: str) -> None:

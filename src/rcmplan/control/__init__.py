@@ -4,8 +4,9 @@ calls, which itself uses what is here. Names load on first use."""
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from rcmplan._lazy import lazy_names
 
 _EXPORTS: dict[str, str] = {
     "DlsSolver": "rcmplan.control.solvers",
@@ -40,14 +41,7 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    """Load an exported name from its module on first use."""
-    module = _EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module 'rcmplan.control' has no attribute {name!r}")
-    value = getattr(importlib.import_module(module), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_names("rcmplan.control", _EXPORTS, globals())
 
 
 if TYPE_CHECKING:
