@@ -28,7 +28,7 @@ controllers = st.fixed_dictionaries(
     },
 )
 steps = st.fixed_dictionaries(
-    {}, optional={"position_mm": st.floats(0.2, 5.0), "angle_mrad": st.floats(2.0, 100.0)}
+    {}, optional={"position_mm": st.floats(0.2, 0.99), "angle_mrad": st.floats(2.0, 100.0)}
 )
 
 
