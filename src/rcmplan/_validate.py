@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from rcmplan.exceptions import InvalidInputError
 
 FloatArray = NDArray[np.float64]
+F64 = np.dtype(np.float64)  # the native float64 dtype, one object: tested by identity (fast)
 NOT_NUMBERS = (str, bytes, bool, np.bool_, complex, np.complexfloating)
 RIGID_TOLERANCE = 1e-6  # largest |R^T R - I| entry of a pose's rotation
 WORKSPACE_M = 10.0  # a bound on any point a needle robot is asked to reach, in [m]
@@ -26,7 +27,7 @@ WORKSPACE_M = 10.0  # a bound on any point a needle robot is asked to reach, in 
 
 def _real_array(name: str, value: Any, valid: str) -> FloatArray:
     """value as a float64 array if it holds only real numbers (no text, booleans, objects)."""
-    if isinstance(value, np.ndarray) and value.dtype == np.float64:
+    if value.__class__ is np.ndarray and value.dtype is F64:
         return value
     if isinstance(value, str | bytes):
         raise InvalidInputError(name, value, valid)

@@ -35,7 +35,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import F64, FloatArray, scalar, vector
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.curved import CURVED_TASKS, check_gains7, gains_from_x_ext
 from rcmplan.control.curved import task_error as curved_error
@@ -261,7 +261,7 @@ class QpSolver:
 def _joints(robot: RobotModel, q: Any) -> FloatArray:
     """q as a float64 array of the robot's joints (NaN shows in the robot's results)."""
     n = len(robot.home)
-    if q.__class__ is np.ndarray and q.shape == (n,) and q.dtype == np.float64:
+    if q.__class__ is np.ndarray and q.dtype is F64 and q.shape == (n,):
         return q
     return vector("q", q, n)
 

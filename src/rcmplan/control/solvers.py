@@ -21,10 +21,10 @@ from rcmplan.control.targets import checked_target, finite_step, tip_of_target
 from rcmplan.control.tasks import (
     TIP_AND_BASE,
     TIP_AND_RCM,
+    TIP_POSITION,
     VARIANTS,
     JacobianVariant,
     Posture,
-    TipPosition,
     stack_jacobian,
 )
 from rcmplan.exceptions import InvalidInputError
@@ -182,8 +182,8 @@ class PinvSolver:
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """Solve J_a d = K e (square), or the minimum-norm step plus the null-space posture."""
-        checked_target(target, 6)
+        """Solve J_a d = K e (square), or the minimum-norm step plus the null-space posture (the
+        target enters through the error, checked here)."""
         Ke = np.asarray(self.K) * checked_target(error, 6, "error")
         J = augmented_jacobian(robot, q, lam, self.variant)
         d = finite_step(lambda: pinv_solve(J, Ke, robot, q, lam, self.posture_gain), robot, q)
@@ -306,7 +306,7 @@ class TipSolver:
         """Minimum-norm (or damped) step on the (3, m) tip Jacobian; lambda unchanged."""
         _tip_point(target)
         error = checked_target(error, 3, "error")
-        J = TipPosition().jacobian(robot, q, lam)[:, :-1]
+        J = TIP_POSITION.jacobian(robot, q, lam)[:, :-1]
         return finite_step(lambda: dls_solve(J, error, self.damping), robot, q), 0.0
 
 

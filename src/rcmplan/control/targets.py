@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import WORKSPACE_M, FloatArray, scalar, vector
+from rcmplan._validate import F64, WORKSPACE_M, FloatArray, scalar, vector
 from rcmplan.exceptions import (
     InvalidInputError,
     PcjmAngleError,
@@ -32,8 +32,8 @@ def checked_target(target: Any, width: int, name: str = "target") -> FloatArray:
     """target as a finite float64 array (width,), or InvalidInputError naming it. A float64
     array of that shape costs a type test and one sum (solvers check every call)."""
     if (
-        target.__class__ is np.ndarray and target.shape == (width,)
-        and target.dtype == np.float64 and math.isfinite(sum(target.tolist()))
+        target.__class__ is np.ndarray and target.dtype is F64 and target.shape == (width,)
+        and math.isfinite(sum(target.tolist()))
     ):  # fmt: skip
         return target
     return vector(name, target, width)
@@ -143,14 +143,14 @@ def solve_pose(robot: RobotModel, x_ext: FloatArray, seed: FloatArray | None = N
     """
     robot_model("robot", robot)
     x_ext = vector("x_ext", x_ext, 6)
-    if max(abs(x_ext[0]), *np.abs(x_ext[3:])) > WORKSPACE_M or np.abs(x_ext[1:3]).max() > math.pi:
+    x, phi, psi, *trocar = x_ext.tolist()
+    if max(abs(x), *map(abs, trocar)) > WORKSPACE_M or max(abs(phi), abs(psi)) > math.pi:
         valid = (
             f"(x_tip, phi, psi, trocar): positions within +-{WORKSPACE_M:g} m, angles in [-pi, pi]"
         )
         raise InvalidInputError("x_ext", x_ext, valid)
-    phi, psi = float(x_ext[1]), float(x_ext[2])
     tip = tip_of_target(x_ext)
-    if np.abs(tip).max() > WORKSPACE_M:
+    if max(map(abs, tip.tolist())) > WORKSPACE_M:
         raise UnreachableTargetError(f"the tip lies beyond +-{WORKSPACE_M:g} m of the base", x_ext)
     try:
         q = robot.needle_pose(tip, phi, psi, seed)

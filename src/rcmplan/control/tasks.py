@@ -14,7 +14,7 @@ from typing import ClassVar, Literal, Protocol
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, text, vector
+from rcmplan._validate import F64, FloatArray, text, vector
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis
@@ -127,7 +127,7 @@ class Posture:
     def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
         """q[active]."""
         n = len(robot.home)
-        if q.__class__ is not np.ndarray or q.dtype != np.float64 or q.shape != (n,):
+        if q.__class__ is not np.ndarray or q.dtype is not F64 or q.shape != (n,):
             q = vector("q", q, n)
         value: FloatArray = q[list(robot.active)]
         if not math.isfinite(sum(value.tolist())):
@@ -154,10 +154,20 @@ def stack_jacobian(
     return np.vstack([t.jacobian(robot, q, lam) for t in tasks])
 
 
+X_EXT: dict[str, tuple[Task, ...]] = {
+    "exact": (TipPosition((0,)), NeedleAngles("exact"), RcmPoint()),
+    "thesis": (TipPosition((0,)), NeedleAngles("thesis"), RcmPoint()),
+}  # made once: the loop asks for them at every iteration
+
+
 def x_ext_tasks(variant: JacobianVariant = "exact") -> tuple[Task, ...]:
     """X_ext = (x_tip, phi, psi, p_rcm) as tasks (eq. 3.14)."""
-    return (TipPosition((0,)), NeedleAngles(variant), RcmPoint())
+    tasks = X_EXT.get(variant) if isinstance(variant, str) else None
+    if tasks is None:
+        raise InvalidInputError("variant", variant, f"one of {VARIANTS}")
+    return tasks
 
 
-TIP_AND_RCM: tuple[Task, ...] = (TipPosition(), RcmPoint())
-TIP_AND_BASE: tuple[Task, ...] = (TipPosition(), NeedleBase())
+TIP_POSITION = TipPosition()
+TIP_AND_RCM: tuple[Task, ...] = (TIP_POSITION, RcmPoint())
+TIP_AND_BASE: tuple[Task, ...] = (TIP_POSITION, NeedleBase())

@@ -164,7 +164,8 @@ class Iramis:
         Raises InvalidInputError unless q is 6 finite numbers."""
         a = np.empty(3)
         kernels.needle_axis(joints(q), a)
-        check_finite(a[0] + a[1] + a[2], q)
+        if not math.isfinite(a[0] + a[1] + a[2]):
+            check_finite(a[0] + a[1] + a[2], q)
         return a
 
     def needle_point(self, q: Sequence[float] | FloatArray, lam: float) -> FloatArray:
@@ -178,7 +179,9 @@ class Iramis:
         """
         out = np.empty(3)
         try:
-            kernels.needle_point(self.P, joints(q), checked_lam(lam), out)
+            kernels.needle_point(
+                self.P, joints(q), lam if lam.__class__ is float else checked_lam(lam), out
+            )
             ok = math.isfinite(out[0] + out[1] + out[2])  # every input but the roll q5
         except (TypeError, ValueError, IndexError, OverflowError):
             ok = False
@@ -199,7 +202,8 @@ class Iramis:
         """d p(lambda) / d(q0, q1, q2, q3, q4, lambda), a (3, 6) array (eq. 3.10 with J_0^5)."""
         J = np.empty((3, 6))
         q_arr = joints(q)
-        kernels.point_jacobian(self.P, q_arr, kernels.trig(q_arr), checked_lam(lam), J, 0)
+        lam_f = lam if lam.__class__ is float else checked_lam(lam)
+        kernels.point_jacobian(self.P, q_arr, kernels.trig(q_arr), lam_f, J, 0)
         if not math.isfinite(J[0, 1]):  # NaN or inf in q1, q3, q4 or lambda reach this entry
             invalid_point(q, lam)
         return J
@@ -237,7 +241,8 @@ class Iramis:
     def needle_angular_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """Angular velocity of the needle per (q0..q4, lambda), (3, 6): z_1 dq1 + z_3 dq3."""
         q = joints(q)
-        check_finite(q[1], q)
+        if not math.isfinite(q[1]):
+            check_finite(q[1], q)
         J = np.zeros((3, 6))
         J[1, 1] = 1.0  # z_1 of frame 1
         J[0, 3], J[2, 3] = math.sin(q[1]), math.cos(q[1])  # z_3
@@ -281,7 +286,8 @@ class Iramis:
     def joints_from_actuators_jacobian(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """dq/ds, a (6, 6) array."""
         s = joints(s, "s")
-        check_finite(s[0] + s[1] + s[2] + s[3], s, "s")
+        if not math.isfinite(s[0] + s[1] + s[2] + s[3]):
+            check_finite(s[0] + s[1] + s[2] + s[3], s, "s")
         D = np.eye(6)
         D[0:2, 0:2] = self.pcjm.joints_jacobian(s[0], s[1])
         D[2:4, 2:4] = self.pcjm.joints_jacobian(s[2], s[3])
@@ -290,7 +296,8 @@ class Iramis:
     def joint_rates(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """dq/ds (6, 6) at joints q: d q_rot / d L2 = -d q_rot / d L1 = cos^2(q_rot) / d."""
         q = joints(q)
-        check_finite(q[1] + q[3], q)
+        if not math.isfinite(q[1] + q[3]):
+            check_finite(q[1] + q[3], q)
         D = np.eye(6)
         d = self.params.pcjm_spacing
         for i in (0, 2):
@@ -302,7 +309,8 @@ class Iramis:
     def actuators_from_joints_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """ds/dq, a (6, 6) array; |q1|, |q3| below pi/2 (PcjmAngleError otherwise)."""
         q = joints(q)
-        check_finite(q[1] + q[3], q)
+        if not math.isfinite(q[1] + q[3]):
+            check_finite(q[1] + q[3], q)
         D = np.eye(6)
         D[0:2, 0:2] = self.pcjm.sliders_jacobian(q[1])
         D[2:4, 2:4] = self.pcjm.sliders_jacobian(q[3])
@@ -333,14 +341,16 @@ class Iramis:
             c1, c3 = abs(math.cos(q[1])), abs(math.cos(q[3]))
         except ValueError:  # cos(inf)
             c1 = c3 = math.nan
-        check_finite(c1 + c3, q)
+        if not math.isfinite(c1 + c3):
+            check_finite(c1 + c3, q)
         return min(c1, c3)
 
     @staticmethod
     def singular_terms(q: Sequence[float] | FloatArray) -> tuple[FloatArray, FloatArray]:
         """(cos q1, cos q3) and their gradients (2, 6): both stay above the singular floor."""
         q = joints(q)
-        check_finite(q[1] + q[3], q)
+        if not math.isfinite(q[1] + q[3]):
+            check_finite(q[1] + q[3], q)
         grad = np.zeros((2, 6))
         grad[0, 1], grad[1, 3] = -math.sin(q[1]), -math.sin(q[3])
         return np.array([math.cos(q[1]), math.cos(q[3])]), grad
@@ -368,7 +378,7 @@ class Iramis:
         travel is not checked. `seed` is not needed (closed form). InvalidInputError unless tip
         is 3 finite numbers within WORKSPACE_M of the base and phi, psi lie in [-pi, pi]."""
         tip = vector("tip", tip, 3)
-        if np.abs(tip).max() > WORKSPACE_M:
+        if max(map(abs, tip.tolist())) > WORKSPACE_M:
             raise InvalidInputError("tip", tip, f"coordinates within +-{WORKSPACE_M:g} m")
         phi = scalar("phi", phi, -math.pi, math.pi)
         psi = scalar("psi", psi, -math.pi, math.pi)

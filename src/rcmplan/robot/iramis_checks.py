@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import F64, FloatArray, scalar, vector
 from rcmplan.exceptions import InvalidInputError
 
 if TYPE_CHECKING:
@@ -23,7 +23,7 @@ LAM_VALID = "a finite number: 0 at the needle base, 1 at the tip, beyond them it
 def joints(q: Any, name: str = "q") -> FloatArray:
     """q as a float64 array (6,) for the kernels; InvalidInputError unless it holds 6 real
     numbers (a float64 array passes unchecked for finiteness: the caller tests the result)."""
-    if isinstance(q, np.ndarray) and q.dtype == np.float64 and q.shape == (6,):
+    if q.__class__ is np.ndarray and q.dtype is F64 and q.shape == (6,):
         return q
     return vector(name, q, 6)
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcmplan._validate import WORKSPACE_M, FloatArray, instance, scalar, vector
+from rcmplan._validate import F64, WORKSPACE_M, FloatArray, instance, scalar, vector
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.iramis import Iramis
@@ -84,7 +84,7 @@ class Eye:
 
     def distance_to_retina(self, p: FloatArray) -> float:
         """Signed distance in [m] from p (3,) to the retina: positive inside the vitreous."""
-        if p.__class__ is not np.ndarray or p.shape != (3,) or p.dtype != np.float64:
+        if p.__class__ is not np.ndarray or p.dtype is not F64 or p.shape != (3,):
             p = vector("p", p, 3)
         d = self.retina_radius - float(np.linalg.norm(p - self.center))
         if not math.isfinite(d):
