@@ -14,7 +14,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import rcmplan as rp
-from rcmplan.robot.library import robot_file, shipped_robot_file
+from rcmplan.robot.library import shipped_robot_file
+from rcmplan.robot.robot_file import model_path, read_robot_file
 
 from api_inputs import (
     FOLDER,
@@ -35,7 +36,7 @@ from api_inputs import (
 
 UR5 = rp.make_robot("ur5")
 UR5_FILE = tomllib.loads(shipped_robot_file("ur5").read_text())["robot"]
-UR5_URDF = robot_file("ur5")
+UR5_URDF = model_path(read_robot_file(shipped_robot_file("ur5")))
 MJCF = Path(rp.__file__).parent / "sim" / "mujoco" / "assets" / "robot.xml"
 PARAMETERS = [f.name for f in fields(rp.IramisParameters) if f.name != "sources"]
 
