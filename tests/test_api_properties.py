@@ -1,158 +1,181 @@
-"""Generated inputs to the public API (10,000 per run over the tests below, seeded): every call
-either raises a typed rcmplan error or returns a finite result within its bounds; never a
-generic Python error, never a silent NaN."""
+"""Generated inputs to the public API, `import rcmplan as rp` (tests/api_inputs.py has the rule):
+every call raises a typed rcmplan error naming the argument or returns a finite result within
+its documented bounds; never a generic Python error, never a silent NaN.
+
+This file: the robot methods users call, on iRAM!S and on the shipped UR5. The other
+test_api_properties_*.py files cover the constructors, loaders, control, plants and scene.
+`test_every_export_is_probed` checks that together they call every exported name.
+"""
 
 from __future__ import annotations
 
-import math
+import re
+from pathlib import Path
 from typing import Any
 
 import numpy as np
-from hypothesis import given, settings
+import pytest
+from hypothesis import given
 from hypothesis import strategies as st
 
-from rcmplan.control.phase import MAX_TARGETS, LoopSettings, interpolate, split_steps
-from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.solvers import DlsSolver, PinvSolver, Tolerance
-from rcmplan.control.targets import pivot_target, rcm_target
-from rcmplan.exceptions import RcmplanError
-from rcmplan.robot.iramis import Iramis
-from rcmplan.scene.procedures import Steps
+import rcmplan as rp
 
-ROBOT = Iramis()
-# 1,250 examples x 8 generated tests = 10,000 inputs per run (issue floor: 10,000).
-SETTINGS = settings(max_examples=1250, derandomize=True, database=None, deadline=None)
-
-numbers = st.one_of(
-    st.floats(allow_nan=True, allow_infinity=True),
-    st.floats(-2.0, 2.0),
-    st.integers(-(10**400), 10**400),
-    st.sampled_from([0, 1, -1, 1e-300, 1e300, -0.0]),
-)
-anything = st.one_of(
-    numbers, st.text(max_size=3), st.none(), st.booleans(), st.lists(numbers, max_size=3)
-)
-vectors = st.one_of(
-    st.lists(numbers, min_size=0, max_size=8),
-    st.lists(st.floats(-1.5, 1.5), min_size=6, max_size=6),
-    st.lists(st.floats(-3e-3, 3e-3), min_size=3, max_size=3),
-    anything,
+from api_inputs import (
+    Arg,
+    examples,
+    finite,
+    number,
+    one_bad,
+    optional,
+    probe,
+    shaped,
+    vector,
+    vectors,
 )
 
+IRAMIS = rp.Iramis()
+UR5 = rp.make_robot("ur5")
+ROBOTS = pytest.mark.parametrize("robot", [IRAMIS, UR5], ids=["iramis", "ur5"])
+# Exports that are not called with values: a Protocol (isinstance checks), the error classes,
+# the version string.
+NOT_CALLED = {"RobotModel", "RcmplanError", "InvalidInputError", "__version__"}
 
-def outcome(fn: Any, *args: Any) -> Any:
-    """fn(*args), or None if it raised a typed rcmplan error (any other error fails the test)."""
-    try:
-        return fn(*args)
-    except RcmplanError:
-        return None
-
-
-def finite(x: Any) -> bool:
-    """True when x is a finite number or array of them."""
-    return bool(np.all(np.isfinite(np.asarray(x, dtype=float))))
+lams = number(-0.5, 1.5)
 
 
-@SETTINGS
-@given(q=vectors, lam=numbers)
-def test_needle_queries_are_finite_or_refused(q: Any, lam: Any) -> None:
-    for fn, args in ((ROBOT.needle_point, (q, lam)), (ROBOT.needle_axis, (q,)),
-                     (ROBOT.needle_base, (q,)), (ROBOT.singularity_measure, (q,))):  # fmt: skip
-        out = outcome(fn, *args)
-        assert out is None or finite(out)
-    axis = outcome(ROBOT.needle_axis, q)
-    assert axis is None or abs(float(np.linalg.norm(axis)) - 1.0) < 1e-12
+def joint_arg(robot: Any) -> Arg:
+    """Joint vectors: near home (within an eighth of each travel), anywhere finite, wrong."""
+    n = len(robot.home)
+    span = (robot.upper - robot.lower) / 8
+    near = st.lists(st.floats(-1.0, 1.0), min_size=n, max_size=n).map(
+        lambda d: robot.home + np.asarray(d) * span
+    )
+    good = st.one_of(near, near.map(list), vector(n, -1e3, 1e3).good)
+    return Arg(good, vector(n, -1.2, 1.2).bad)
 
 
-@SETTINGS
-@given(q=vectors, s=vectors, threshold=st.one_of(st.none(), numbers))
-def test_limits_and_singularity_checks_are_finite_or_refused(
-    q: Any, s: Any, threshold: Any
+def joints(robot: Any) -> st.SearchStrategy[Any]:
+    return joint_arg(robot).any()
+
+
+def label(robot: Any, method: str) -> str:
+    return f"{type(robot).__name__}.{method}"
+
+
+def unit(x: Any) -> bool:
+    return shaped((3,))(x) and abs(float(np.linalg.norm(x)) - 1.0) < 1e-9
+
+
+def rigid(T: Any) -> bool:
+    return shaped((4, 4))(T) and np.allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-9)
+
+
+@ROBOTS
+@examples(220)
+@given(data=st.data())
+def test_joint_queries_are_finite_or_refused(robot: Any, data: st.DataObject) -> None:
+    q = data.draw(joints(robot))
+    n, m = len(robot.home), len(robot.active)
+    checks = {
+        "tip": shaped((3,)), "needle_base": shaped((3,)), "needle_axis": unit,
+        "tip_jacobian": shaped((3, m + 1)), "needle_angular_jacobian": shaped((3, m + 1)),
+        "needle_angles_jacobian": shaped((2, m + 1)), "tool_pose": rigid,
+        "tool_jacobian": shaped((6, n)), "joint_rates": shaped((n, n)),
+        "singularity_measure": lambda v: 0.0 <= v <= 1.0,
+        "singular_terms": lambda v: len(v) == 2 and finite(v[0]) and finite(v[1]),
+        "actuators_from_joints": shaped((n,)),
+    }  # fmt: skip
+    if robot is IRAMIS:
+        checks |= {"forward_kinematics": rigid, "jacobian": shaped((6, 6)),
+                   "jacobian_05": shaped((6, 5)), "actuators_from_joints_jacobian": shaped((6, 6))}  # fmt: skip
+    for method, ok in checks.items():
+        probe(label(robot, method), getattr(robot, method), q, ok=ok, names=("q",))
+
+
+@ROBOTS
+@examples(200)
+@given(data=st.data())
+def test_needle_points_lie_on_the_needle_line_or_are_refused(
+    robot: Any, data: st.DataObject
 ) -> None:
-    margin = outcome(ROBOT.actuator_margin, s)
-    assert margin is None or (finite(margin) and np.shape(margin) == (6,))
-    outcome(ROBOT.check_singularity, q, threshold)
-    m = outcome(ROBOT.singularity_measure, q)
-    assert m is None or 0.0 <= m <= 1.0
+    q, lam = data.draw(one_bad(joint_arg(robot), lams))
+    m = len(robot.active)
+
+    def on_line(p: Any) -> bool:  # any finite lambda: the point on the needle's line
+        base, tip = robot.needle_base(q), robot.tip(q)
+        expected = base + float(lam) * (tip - base)
+        return shaped((3,))(p) and np.allclose(
+            p, expected, rtol=1e-9, atol=1e-12 * (1 + abs(float(lam)))
+        )
+
+    probe(label(robot, "needle_point"), robot.needle_point, q, lam, ok=on_line, names=("q", "lam"))
+    probe(label(robot, "needle_point_jacobian"), robot.needle_point_jacobian, q, lam,
+          ok=shaped((3, m + 1)), names=("q", "lam"))  # fmt: skip
 
 
-@SETTINGS
-@given(tip=vectors, trocar=vectors, x=numbers, phi=numbers, psi=numbers)
-def test_targets_are_finite_or_refused(tip: Any, trocar: Any, x: Any, phi: Any, psi: Any) -> None:
-    for out in (outcome(rcm_target, tip, trocar), outcome(pivot_target, x, phi, psi, trocar)):
-        assert out is None or (finite(out) and np.shape(out) == (6,))
+@ROBOTS
+@examples(200)
+@given(data=st.data())
+def test_actuator_maps_and_limits_are_finite_or_refused(robot: Any, data: st.DataObject) -> None:
+    n = len(robot.home)
+    s = data.draw(st.one_of(vectors(n, -0.05, 0.05), vectors(n, -7.0, 7.0)))
+    probe(label(robot, "joints_from_actuators"), robot.joints_from_actuators, s,
+          ok=shaped((n,)), names=("s",))  # fmt: skip
+    probe(label(robot, "check_actuators"), robot.check_actuators, s, names=("s",),
+          ok=lambda v: shaped((n,))(v) and np.all((robot.lower <= v) & (v <= robot.upper)))  # fmt: skip
+    probe(label(robot, "actuator_margin"), robot.actuator_margin, s, ok=shaped((n,)),
+          names=("s",))  # fmt: skip
+    if robot is IRAMIS:
+        probe("Iramis.slider_jacobian", robot.slider_jacobian, s, ok=shaped((6, 6)), names=("s",))
+        probe("Iramis.joints_from_actuators_jacobian", robot.joints_from_actuators_jacobian, s,
+              ok=shaped((6, 6)), names=("s",))  # fmt: skip
 
 
-@SETTINGS
-@given(position=numbers, angle=numbers, distance=numbers, turn=numbers)
-def test_step_sizes_and_counts_are_bounded_or_refused(
-    position: Any, angle: Any, distance: Any, turn: Any
+@ROBOTS
+@examples(200)
+@given(data=st.data())
+def test_singularity_checks_are_refused_or_pass(robot: Any, data: st.DataObject) -> None:
+    q, threshold = data.draw(one_bad(joint_arg(robot), optional(number(0.0, 0.5))))
+    probe(label(robot, "check_singularity"), robot.check_singularity, q, threshold,
+          ok=lambda v: v is None, names=("q", "threshold"))  # fmt: skip
+
+
+@ROBOTS
+@examples(60)
+@given(data=st.data())
+def test_needle_poses_put_the_tip_at_the_point_or_are_refused(
+    robot: Any, data: st.DataObject
 ) -> None:
-    steps = outcome(Steps, position, angle)
-    if steps is None:
-        return
-    assert 0 < steps.position <= 5e-3 and 0 < steps.angle <= 0.1
-    n = outcome(steps.count, distance, turn)
-    assert n is None or 1 <= n <= MAX_TARGETS
+    tip0 = robot.tip(robot.home)
+    near = st.lists(st.floats(-0.01, 0.01), min_size=3, max_size=3).map(
+        lambda d: tip0 + np.array(d)
+    )
+    tips = Arg(near, st.one_of(vector(3, -20.0, 20.0).any(), near.map(lambda t: t + 1.0)))
+    seeds = optional(joint_arg(robot))
+    tip, phi, psi, seed = data.draw(one_bad(tips, number(-0.3, 0.3), number(-0.3, 0.3), seeds))
+    n = len(robot.home)
+
+    def there(q: Any) -> bool:
+        return shaped((n,))(q) and np.allclose(robot.tip(q), np.asarray(tip, float), atol=1e-9)
+
+    probe(label(robot, "needle_pose"), robot.needle_pose, tip, phi, psi, seed, ok=there,
+          names=("tip", "phi", "psi", "seed"))  # fmt: skip
 
 
-@SETTINGS
-@given(start=vectors, goal=vectors, n=st.one_of(st.integers(-3, 10), numbers, anything),
-       step=numbers, angle=st.one_of(st.none(), numbers))  # fmt: skip
-def test_interpolation_and_splits_are_bounded_or_refused(
-    start: Any, goal: Any, n: Any, step: Any, angle: Any
-) -> None:
-    rows = outcome(interpolate, start, goal, n)
-    assert rows is None or (finite(rows) and 1 <= len(rows) <= MAX_TARGETS)
-    rows = outcome(split_steps, start, goal, step, angle)
-    assert rows is None or (finite(rows) and 1 <= len(rows) <= MAX_TARGETS)
+@examples(150)
+@given(l6=optional(number(0.01, 0.2)).any())
+def test_iramis_dh_tables_are_finite_or_refused(l6: Any) -> None:
+    links = probe("Iramis.dh_links", IRAMIS.dh_links, l6, names=("l6",),
+                  ok=lambda v: len(v) == 6 and all(finite(lk[1:]) for lk in v))  # fmt: skip
+    if links is not None:
+        probe("DHChain", rp.DHChain, links, ok=lambda c: c.n == 6)
 
 
-def test_a_split_that_would_allocate_gigabytes_is_refused_before_allocating() -> None:
-    assert outcome(split_steps, np.zeros(6), np.full(6, 0.1), 1e-5, 1e-9) is None
-    assert outcome(Steps(1e-5, 1e-9).count, 0.01, 0.5) is None
+def test_every_export_is_probed() -> None:
+    """Each name of `rcmplan.__all__` (but NOT_CALLED) is called by a probe in these files: a
+    probe labelled with the name, or one of the names the control tests probe in a loop."""
+    from test_api_properties_control import LIMITS, TASKS
 
-
-@SETTINGS
-@given(
-    max_iterations=st.one_of(st.integers(-5, 10**7), anything),
-    drift=anything,
-    threshold=st.one_of(st.none(), numbers),
-    bound=st.one_of(st.none(), numbers),
-)
-def test_loop_settings_are_bounded_or_refused(
-    max_iterations: Any, drift: Any, threshold: Any, bound: Any
-) -> None:
-    cfg = outcome(LoopSettings, max_iterations, drift, threshold, bound)
-    if cfg is not None:
-        assert 1 <= cfg.max_iterations <= 100_000 and isinstance(cfg.drift_correction, bool)
-        assert cfg.rcm_bound is None or 0 < cfg.rcm_bound <= 0.01
-
-
-QP_FIELDS = ("rcm_tolerance", "travel_margin", "retina_margin", "eye_gain", "port_zone",
-             "contact_tolerance", "singular_margin", "singular_gain", "angle_weight",
-             "rcm_weight")  # fmt: skip
-
-
-@SETTINGS
-@given(name=st.sampled_from(QP_FIELDS), value=numbers)
-def test_qp_settings_are_finite_and_bounded_or_refused(name: str, value: Any) -> None:
-    lim = outcome(lambda: QpLimits(**{name: value}))
-    if lim is not None:
-        v = getattr(lim, name)
-        assert math.isfinite(v) and 0 <= v <= 1e6
-
-
-@SETTINGS
-@given(K=vectors, damping=numbers, pos=numbers, ang=numbers)
-def test_solver_constructors_accept_only_finite_bounded_settings(
-    K: Any, damping: Any, pos: Any, ang: Any
-) -> None:
-    tol = outcome(lambda: Tolerance(pos, ang).checked())
-    assert tol is None or (0 < tol.position < math.inf and 0 < tol.angle < math.inf)
-    pinv = outcome(lambda: PinvSolver(K=K))
-    if pinv is not None:
-        k = np.asarray(pinv.K, dtype=float)
-        assert finite(k) and np.all((k > 0) & (k < 2))
-    dls = outcome(lambda: DlsSolver(damping=damping))
-    assert dls is None or 0 < dls.damping < math.inf
+    text = "".join(p.read_text() for p in Path(__file__).parent.glob("test_api_properties*.py"))
+    probed = set(re.findall(r'probe\(\s*"([A-Za-z_]+)', text)) | set(LIMITS) | set(TASKS)
+    assert set(rp.__all__) - NOT_CALLED - probed == set()

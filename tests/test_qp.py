@@ -164,15 +164,15 @@ def test_infeasible_qp_raises_qperror_carrying_problem_and_result(backend: str) 
 
 
 def test_inconsistent_slider_travel_is_refused_before_motion(eye) -> None:  # type: ignore[no-untyped-def]
-    params = replace(IramisParameters(), slider_lower=(0.01, -0.04, -0.04, -0.04, -0.01, -3.0),
-                     slider_upper=(0.01, 0.04, 0.04, 0.04, 0.05, 3.0))  # fmt: skip
     with pytest.raises(InvalidInputError, match="slider travel"):
+        params = replace(IramisParameters(), slider_lower=(0.01, -0.04, -0.04, -0.04, -0.01, -3.0),
+                         slider_upper=(0.01, 0.04, 0.04, 0.04, 0.05, 3.0))  # fmt: skip
         make_qp(Iramis(params), eye)
 
 
 def test_negative_slider_speed_is_refused(eye) -> None:  # type: ignore[no-untyped-def]
-    params = replace(IramisParameters(), slider_speed=(0.01, -0.01, 0.01, 0.01, 0.01, 1.0))
     with pytest.raises(InvalidInputError, match="slider speed"):
+        params = replace(IramisParameters(), slider_speed=(0.01, -0.01, 0.01, 0.01, 0.01, 1.0))
         make_qp(Iramis(params), eye)
 
 

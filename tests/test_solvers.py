@@ -67,12 +67,10 @@ def test_gains_outside_zero_two_raise_and_explain(K) -> None:
         PinvSolver(K=K)
 
 
-@pytest.mark.parametrize(
-    "tol", [Tolerance(0.0, 1e-8), Tolerance(1e-8, -1.0), Tolerance(np.nan, 1e-8)]
-)
+@pytest.mark.parametrize("tol", [(0.0, 1e-8), (1e-8, -1.0), (np.nan, 1e-8)])
 def test_zero_or_bad_tolerances_raise(tol) -> None:
     with pytest.raises(InvalidInputError, match="tolerance"):
-        PinvSolver(tol=tol)
+        PinvSolver(tol=Tolerance(*tol))
 
 
 @pytest.mark.parametrize("D", [0.0, -1.0, np.inf, 1e-12])

@@ -19,10 +19,12 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.runner import CompiledRunner
+from rcmplan.control.checks import check_controller_args
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.phase import (
     LoopSettings,
     Phase,
+    check_phases,
     check_plan_size,
 )
 from rcmplan.control.plant import Plant
@@ -65,6 +67,7 @@ class Controller:
         runner: Runner | None = None,
         robot: RobotModel | None = None,
     ) -> None:
+        check_controller_args(plant, solver, free_solver, settings, runner, robot)
         self.plant = plant
         self.robot: RobotModel = robot or plant.robot
         self.solver = solver
@@ -122,6 +125,7 @@ class Controller:
         Phases with target arrays are all checked before any motion; a planned phase is checked
         when it is planned, before its own motion.
         """
+        phases = check_phases(phases)
         try:
             sizes = [len(ph.targets) for ph in phases if not callable(ph.targets)]
             self._planned = check_plan_size(sum(sizes), "targets of the run")

@@ -15,6 +15,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from rcmplan._validate import instance
 from rcmplan.analysis.limits import limit_figures
 from rcmplan.analysis.metrics import phase_metrics
 from rcmplan.analysis.result import RunResult
@@ -23,6 +24,7 @@ from rcmplan.control.methods import make_free_solver, make_solver
 from rcmplan.control.phase import Phase
 from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, RcmplanError
+from rcmplan.robot.checks import robot_model
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
@@ -53,6 +55,11 @@ def run_scenario(
     Args:
         on_phase: Called after each finished phase (for progress bars).
     """
+    instance("scenario", scenario, Scenario, "a Scenario (load_scenario(NAME or FILE.toml))")
+    if robot is not None:
+        robot_model("robot", robot)
+    if on_phase is not None and not callable(on_phase):
+        raise InvalidInputError("on_phase", on_phase, "a function of the finished Phase, or None")
     start = time.perf_counter()
     error: RcmplanError | None = None
     controller: Controller | None = None

@@ -22,7 +22,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.solvers import SolverKind, TipSolver, Tolerance
-from rcmplan.control.tasks import TipPosition
+from rcmplan.control.tasks import TIP_POSITION
 from rcmplan.robot.model import RobotModel
 
 
@@ -77,7 +77,7 @@ class LimitedTipSolver:
         ds = robot.actuators_from_joints(q_full) - s
         f = scale_factor(robot, s, ds, self.dt, self.travel_margin)
         if self.tip_speed is not None:
-            tip_step = float(np.max(np.abs(TipPosition().jacobian(robot, q, lam)[:, :-1] @ dq)))
+            tip_step = float(np.max(np.abs(TIP_POSITION.jacobian(robot, q, lam)[:, :-1] @ dq)))
             if tip_step > 0.0:
                 f = min(f, self.tip_speed * self.dt / tip_step)
         moved = s + f * ds

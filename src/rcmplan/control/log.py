@@ -12,6 +12,7 @@ and `roll_error` with the roll.
 
 from __future__ import annotations
 
+import zipfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._atomic import atomic_path
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, file_path
+from rcmplan.exceptions import InvalidInputError
 
 FIELDS_3 = ("tip", "rcm", "trocar", "base", "target_tip")
 
@@ -49,6 +51,8 @@ class RunLog:
     actuator_labels: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
+        for k, v in checked_fields(self).items():
+            object.__setattr__(self, k, v)
         if self.roll_error.size == 0 < self.time.shape[0]:  # not given: no roll error stated
             object.__setattr__(self, "roll_error", np.full(self.time.shape[0], np.nan))
 
@@ -75,7 +79,10 @@ class RunLog:
         return np.asarray(np.linalg.norm(perp, axis=1))
 
     def select(self, mask: NDArray[np.bool_]) -> RunLog:
-        """The records where mask is true."""
+        """The records where mask (booleans, one per record) is true."""
+        mask = np.asarray(mask) if isinstance(mask, list | tuple | np.ndarray) else None
+        if mask is None or mask.dtype != np.bool_ or mask.shape != (len(self),):
+            raise InvalidInputError("mask", mask, f"{len(self)} booleans, one per record")
         arrays = {k: getattr(self, k)[mask] for k in ARRAY_FIELDS}
         return RunLog(**arrays, phase_names=self.phase_names, solver_names=self.solver_names,
                       actuator_labels=self.actuator_labels)  # fmt: skip
@@ -99,7 +106,19 @@ class RunLog:
     @staticmethod
     def load_npz(path: str | Path) -> RunLog:
         """Read a log written by save_npz (one written before the roll error was logged gets a
-        NaN roll error, `RunLog`'s default)."""
+        NaN roll error, `RunLog`'s default). InvalidInputError naming the path for a file that
+        is not one."""
+        path = file_path("path", path)
+        try:
+            return RunLog._read_npz(path)
+        except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+            if isinstance(exc, InvalidInputError):
+                raise
+            valid = f"an NPZ run log written by RunLog.save_npz ({type(exc).__name__}: {exc})"
+            raise InvalidInputError("path", str(path), valid) from exc
+
+    @staticmethod
+    def _read_npz(path: Path) -> RunLog:
         with np.load(path) as z:
             arrays = {k: z[k] for k in ARRAY_FIELDS if k in z.files or k != "roll_error"}
             return RunLog(
@@ -248,3 +267,39 @@ class LogBuilder:
             solver_names=tuple(self.solver_names),
             actuator_labels=self.actuator_labels,
         )
+
+
+def checked_fields(log: RunLog) -> dict[str, Any]:
+    """The log's fields as arrays of their dtype and shape (n records; `roll_error` may be
+    empty), its names as tuples of strings; InvalidInputError naming the first that is not."""
+    n = _records(log.time)
+    out: dict[str, Any] = {}
+    for k in ARRAY_FIELDS:
+        value = getattr(log, k)
+        try:
+            arr = np.asarray(value)
+            kinds = "iu" if k in INT_FIELDS else "iuf"
+            ok = arr.dtype.kind in kinds and arr.ndim == (2 if k in SHAPES else 1)
+            ok = ok and (arr.shape[0] == n or (k == "roll_error" and arr.size == 0))
+            ok = ok and (k not in SHAPES or k in WIDE or arr.shape[1] == SHAPES[k])
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            width = "" if k not in SHAPES else (", k" if k in WIDE else f", {SHAPES[k]}")
+            valid = f"an array of shape ({n}{width}): one row per record, as many as time has"
+            raise InvalidInputError(f"{k} (or time)", value, valid)
+        out[k] = arr.astype(np.int64 if k in INT_FIELDS else np.float64, copy=False)
+    for k in ("phase_names", "solver_names", "actuator_labels"):
+        names = getattr(log, k)
+        if not isinstance(names, tuple | list) or not all(isinstance(v, str) for v in names):
+            raise InvalidInputError(k, names, "a tuple of strings")
+        out[k] = tuple(names)
+    return out
+
+
+def _records(time: Any) -> int:
+    """The number of records: the length of the 1-D time column."""
+    arr = np.asarray(time) if isinstance(time, np.ndarray | list | tuple) else None
+    if arr is None or arr.ndim != 1 or arr.dtype.kind not in "iuf":
+        raise InvalidInputError("time", time, "an array of times in s, one per record")
+    return int(arr.shape[0])

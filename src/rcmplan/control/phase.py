@@ -9,11 +9,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import FloatArray, array, flag, integer, scalar, text, vector
 from rcmplan.exceptions import InvalidInputError, PlanTooLargeError
 
 TargetPlanner = Callable[[FloatArray], FloatArray]
@@ -49,25 +49,66 @@ def step_count(ratio: float, what: str = "steps") -> int:
     return max(1, math.ceil(ratio))
 
 
-class Phase(NamedTuple):
-    """A named sequence of targets run with Algorithm 1 one after another.
+KINDS = ("rcm", "free")
+# Target widths: X_ext (6,) and tip points (3,); a curved needle's X_c and whole-needle poses (7,)
+WIDTHS = {"rcm": (6, 7), "free": (3, 7)}
 
-    Attributes:
-        name: Phase name for the log ("approach", "insert", ...).
-        targets: (N, 6) X_ext targets for an RCM phase, (N, 3) tip points for free space; or a
-            planner called with the joints at the start of the phase that returns them (for
-            phases whose start depends on where the previous one ended, such as a pivot).
-        kind: "rcm" or "free".
-    """
 
+class _PhaseFields(NamedTuple):
     name: str
     targets: FloatArray | TargetPlanner
     kind: str = "rcm"
 
+
+class Phase(_PhaseFields):
+    """A named sequence of targets run with Algorithm 1 one after another.
+
+    Attributes:
+        name: Phase name for the log ("approach", "insert", ...).
+        targets: (N, 6) X_ext targets for an RCM phase, (N, 3) tip points for free space ((N, 7)
+            for a curved needle, `rcmplan.control.curved`), N >= 1, finite; or a planner called
+            with the joints at the start of the phase that returns them (for phases whose start
+            depends on where the previous one ended, such as a pivot). A single target may be
+            given as a vector.
+        kind: "rcm" or "free".
+
+    Raises InvalidInputError when made with any other values (and `plan` when a planner
+    returns other targets).
+    """
+
+    __slots__ = ()
+
+    def __new__(cls, name: str, targets: FloatArray | TargetPlanner, kind: str = "rcm") -> Phase:
+        text("phase name", name)
+        text("phase kind", kind, KINDS)
+        if not callable(targets):
+            targets = checked_targets(f"targets of phase {name!r}", targets, kind)
+        return super().__new__(cls, name, targets, kind)
+
     def plan(self, q: FloatArray) -> FloatArray:
         """The targets as an array, planned from joints q if the phase has a planner."""
-        t = self.targets(q) if callable(self.targets) else self.targets
-        return np.atleast_2d(np.asarray(t, dtype=float))
+        if not callable(self.targets):
+            return np.atleast_2d(self.targets)
+        return checked_targets(
+            f"targets planned for phase {self.name!r}", self.targets(q), self.kind
+        )
+
+
+def checked_targets(name: str, targets: Any, kind: str) -> FloatArray:
+    """targets as a finite (N, width) array, N >= 1, a width of `kind` (a vector: one target);
+    InvalidInputError naming them otherwise."""
+    t = np.atleast_2d(array(name, targets, (1, 2)))
+    if t.shape[0] < 1 or t.shape[1] not in WIDTHS[kind]:
+        widths = " or ".join(f"(N, {w})" for w in WIDTHS[kind])
+        raise InvalidInputError(name, targets, f"{kind} targets of shape {widths}, N >= 1")
+    return t
+
+
+def check_phases(phases: Any) -> list[Phase]:
+    """phases as a list of Phase, or InvalidInputError naming them."""
+    if not isinstance(phases, list | tuple) or not all(isinstance(p, Phase) for p in phases):
+        raise InvalidInputError("phases", phases, "a list of Phase (rcmplan.Phase)")
+    return list(phases)
 
 
 @dataclass(frozen=True)
@@ -102,20 +143,19 @@ class LoopSettings:
     rcm_tolerance: float | None = 0.8e-6
 
     def __post_init__(self) -> None:
-        it = self.max_iterations
-        if not isinstance(it, int) or isinstance(it, bool) or not 1 <= it <= MAX_ITERATIONS:
-            valid = f"an integer in [1, {MAX_ITERATIONS:,}]"
-            raise InvalidInputError("max_iterations", self.max_iterations, valid)
-        if not isinstance(self.drift_correction, bool):
-            raise InvalidInputError("drift_correction", self.drift_correction, "True or False")
-        if self.singular_threshold is not None:
-            scalar("singular_threshold", self.singular_threshold, 0.0, 1.0, high_open=True)
-        if self.rcm_bound is not None:
-            scalar("rcm_bound", self.rcm_bound, 0.0, 0.01, low_open=True)
-        if self.max_target_step is not None:
-            scalar("max_target_step", self.max_target_step, 0.0, 0.1, low_open=True)
-        if self.rcm_tolerance is not None:
-            scalar("rcm_tolerance", self.rcm_tolerance, 0.0, 1e-3, low_open=True)
+        checked: dict[str, Any] = {
+            "max_iterations": integer("max_iterations", self.max_iterations, 1, MAX_ITERATIONS),
+            "drift_correction": flag("drift_correction", self.drift_correction),
+        }
+        ranges = {"singular_threshold": (0.0, 1.0), "rcm_bound": (0.0, 0.01),
+                  "max_target_step": (0.0, 0.1), "rcm_tolerance": (0.0, 1e-3)}  # fmt: skip
+        for name, (low, high) in ranges.items():
+            value = getattr(self, name)
+            if value is not None:
+                opens = {"high_open": True} if name == "singular_threshold" else {"low_open": True}
+                checked[name] = scalar(name, value, low, high, **opens)
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
 
 
 def interpolate(start: FloatArray, goal: FloatArray, n: int) -> FloatArray:

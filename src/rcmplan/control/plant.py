@@ -15,9 +15,11 @@ its class name:
 
 from __future__ import annotations
 
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 from rcmplan._validate import FloatArray
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
 
 
@@ -56,3 +58,12 @@ class Plant(Protocol):
     def advance(self) -> None:
         """Move the plant on by one control period dt."""
         ...
+
+
+def check_plant(name: str, plant: Any) -> Plant:
+    """plant if it is a Plant holding a robot model, else InvalidInputError naming `name`."""
+    if not isinstance(plant, Plant):
+        valid = "a plant (rcmplan.KinematicPlant, rcmplan.MujocoPlant, make_plant(NAME))"
+        raise InvalidInputError(name, plant, valid)
+    robot_model(f"{name}.robot", plant.robot)
+    return plant

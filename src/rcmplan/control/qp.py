@@ -35,7 +35,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar
+from rcmplan._validate import F64, FloatArray, scalar, vector
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.curved import CURVED_TASKS, check_gains7, gains_from_x_ext
 from rcmplan.control.curved import task_error as curved_error
@@ -45,10 +45,11 @@ from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.limits import Limit
 from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
+from rcmplan.control.qp_checks import check_qp_args
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import LIMITS, SCALE, StepInput, StepQP, build_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
-from rcmplan.control.targets import solve_pose, target_tip
+from rcmplan.control.targets import checked_target, solve_pose, target_tip
 from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
@@ -90,6 +91,7 @@ class QpSolver:
         servo: Any | None = None,
         extra_limits: tuple[Limit, ...] = (),
     ) -> None:
+        check_qp_args(robot, eye, K, tol, limits, servo, extra_limits)
         self.robot = robot
         self.eye = eye
         self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
@@ -138,7 +140,7 @@ class QpSolver:
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """The X_ext error a feasible step can still remove, J x* / K, plus with a servo the
         command's lead over the measured pose (see module docstring)."""
-        self.check_target(target)
+        target, q = self.check_target(target), _joints(robot, q)
         plan = self.planned_joints(robot, q)
         step, result = self._solve(robot, plan, lam, target)
         if self.speed_limited(robot, result.x):
@@ -168,6 +170,7 @@ class QpSolver:
     ) -> tuple[FloatArray, float]:
         """The QP's step: joint increments recovered exactly from the actuator increments
         (with a servo: from the measured joints q to the planned command)."""
+        target, q = checked_target(target, self.target_width), _joints(robot, q)
         step, result = self._solve(robot, self.planned_joints(robot, q), lam, target)
         return joints_step(robot, step.sliders, result.x, q)
 
@@ -216,15 +219,18 @@ class QpSolver:
         self.last, self._key = (step, result), key
         return self.last
 
-    def check_target(self, target: FloatArray) -> None:
-        """Refuse a target no feasible motion reaches, before moving towards it.
+    def check_target(self, target: FloatArray) -> FloatArray:
+        """Refuse a target no feasible motion reaches, before moving towards it; return it as
+        a float64 array.
 
         Pose within slider travel and the singular range (solve_pose), and with an eye the
         target tip inside the eye (on or within the retina) and in front of the trocar.
+        InvalidInputError unless the target is (6,) finite numbers ((7,) on a curved needle).
         """
-        key = np.ascontiguousarray(target, dtype=np.float64).tobytes()
+        target = checked_target(target, self.target_width)
+        key = target.tobytes()
         if key in self._checked:
-            return
+            return target
         if self.curved:  # each check continues from the last pose: only the last is kept
             self._seed = solve_curved_pose(self.robot, target, self._seed).q
             self._checked.clear()
@@ -240,6 +246,7 @@ class QpSolver:
                     target,
                 )
         self._checked.add(key)
+        return target
 
     def check_targets(self, targets: FloatArray) -> None:
         """check_target for every row of (N, 6) targets (call before a run)."""
@@ -249,6 +256,14 @@ class QpSolver:
     def _in_port(self, tip: FloatArray) -> bool:
         eye = self.eye
         return eye is not None and bool(np.linalg.norm(tip - eye.port) <= self.limits.port_zone)
+
+
+def _joints(robot: RobotModel, q: Any) -> FloatArray:
+    """q as a float64 array of the robot's joints (NaN shows in the robot's results)."""
+    n = len(robot.home)
+    if q.__class__ is np.ndarray and q.dtype is F64 and q.shape == (n,):
+        return q
+    return vector("q", q, n)
 
 
 def synchronised_step(robot: RobotModel, step: StepQP, dt: float) -> StepQP:

@@ -48,8 +48,8 @@ class QpResult(NamedTuple):
 
 def check_backend(name: str) -> str:
     """Return name if it is a known back end, else raise."""
-    if name not in BACKENDS:
-        raise InvalidInputError("qp solver", name, f"one of {BACKENDS}")
+    if not isinstance(name, str) or name not in BACKENDS:
+        raise InvalidInputError("backend", name, f"one of {BACKENDS}")
     return name
 
 

@@ -9,21 +9,22 @@ minimum-norm solution plus a posture term in the null space of J_a.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
-from typing import ClassVar, Literal, NamedTuple, Protocol
+from typing import Any, ClassVar, Literal, NamedTuple, Protocol
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import FloatArray, instance, scalar, text, vector
 from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.targets import tip_of_target
+from rcmplan.control.targets import checked_target, finite_step, tip_of_target
 from rcmplan.control.tasks import (
     TIP_AND_BASE,
     TIP_AND_RCM,
+    TIP_POSITION,
     VARIANTS,
     JacobianVariant,
     Posture,
-    TipPosition,
     stack_jacobian,
 )
 from rcmplan.exceptions import InvalidInputError
@@ -39,11 +40,22 @@ SolverKind = Literal["rcm", "free"]
 PIVOT_DISTANCE = 1e-8
 
 
-class Tolerance(NamedTuple):
-    """Loop tolerances, kept apart by unit: position in [m], angle in [rad]."""
-
+class _ToleranceFields(NamedTuple):
     position: float = 1e-8
     angle: float = 1e-7
+
+
+class Tolerance(_ToleranceFields):
+    """Loop tolerances, kept apart by unit: position in [m], angle in [rad], each positive and
+    finite (InvalidInputError otherwise)."""
+
+    __slots__ = ()
+
+    def __new__(cls, position: float = 1e-8, angle: float = 1e-7) -> Tolerance:
+        inf = math.inf
+        p = scalar("tolerance.position", position, 0.0, inf, low_open=True, high_open=True)
+        a = scalar("tolerance.angle", angle, 0.0, inf, low_open=True, high_open=True)
+        return super().__new__(cls, p, a)
 
     def x_ext(self) -> FloatArray:
         """Per-component tolerance of an X_ext error: (position, angle, angle, position x3)."""
@@ -83,6 +95,21 @@ class Solver(Protocol):
     ) -> tuple[FloatArray, float]:
         """(delta q[active] (m,), delta lambda)."""
         ...
+
+
+def check_solver(name: str, solver: Any) -> Solver:
+    """solver if it is a step solver, else InvalidInputError naming `name`."""
+    methods = ("error", "step", "tolerance")
+    ok = all(callable(getattr(solver, m, None)) for m in methods)
+    if (
+        not ok
+        or not isinstance(getattr(solver, "name", None), str)
+        or getattr(solver, "kind", None) not in ("rcm", "free")
+    ):
+        valid = "a step solver (rcmplan.PinvSolver, DlsSolver, QpSolver, TipSolver)"
+        raise InvalidInputError(name, solver, valid)
+    checked: Solver = solver
+    return checked
 
 
 def check_gains(K: object) -> FloatArray:
@@ -139,14 +166,14 @@ class PinvSolver:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "K", tuple(check_gains(self.K)))
-        if self.variant not in VARIANTS:
-            raise InvalidInputError("variant", self.variant, f"one of {VARIANTS}")
-        scalar("posture_gain", self.posture_gain, 0.0, 1.0)
-        self.tol.checked()
+        text("variant", self.variant, VARIANTS)
+        gain = scalar("posture_gain", self.posture_gain, 0.0, 1.0)
+        object.__setattr__(self, "posture_gain", gain)
+        instance("tol", self.tol, Tolerance, "a Tolerance").checked()
 
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """X_ext target minus X_ext now: (x [m], phi, psi [rad], p_rcm [m])."""
-        return target - extended_task(robot, q, lam)
+        return checked_target(target, 6) - extended_task(robot, q, lam)
 
     def tolerance(self) -> FloatArray:
         """(position, angle, angle, position x3)."""
@@ -155,9 +182,11 @@ class PinvSolver:
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """Solve J_a d = K e (square), or the minimum-norm step plus the null-space posture."""
+        """Solve J_a d = K e (square), or the minimum-norm step plus the null-space posture (the
+        target enters through the error, checked here)."""
+        Ke = np.asarray(self.K) * checked_target(error, 6, "error")
         J = augmented_jacobian(robot, q, lam, self.variant)
-        d = pinv_solve(J, np.asarray(self.K) * error, robot, q, lam, self.posture_gain)
+        d = finite_step(lambda: pinv_solve(J, Ke, robot, q, lam, self.posture_gain), robot, q)
         return d[:-1], float(d[-1])
 
 
@@ -203,11 +232,12 @@ class DlsSolver:
     kind: ClassVar[SolverKind] = "rcm"
 
     def __post_init__(self) -> None:
-        check_damping(self.damping)
-        self.tol.checked()
+        object.__setattr__(self, "damping", check_damping(self.damping))
+        instance("tol", self.tol, Tolerance, "a Tolerance").checked()
 
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """(tip target - tip, trocar - p_rcm), both in [m] (base task for a pivot)."""
+        target = checked_target(target, 6)
         e = np.empty(6)
         tip = tip_of_target(target)
         e[:3] = tip - robot.tip(q)
@@ -226,9 +256,10 @@ class DlsSolver:
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """One DLS step on the stacked (tip, RCM) task."""
+        target, error = checked_target(target, 6), checked_target(error, 6, "error")
         pivot = _is_pivot(tip_of_target(target), target)
         J = stack_jacobian(TIP_AND_BASE if pivot else TIP_AND_RCM, robot, q, lam)
-        d = dls_solve(J, error, self.damping)
+        d = finite_step(lambda: dls_solve(J, error, self.damping), robot, q)
         return d[:-1], float(d[-1])
 
 
@@ -251,8 +282,9 @@ class TipSolver:
     kind: ClassVar[SolverKind] = "free"
 
     def __post_init__(self) -> None:
-        scalar("damping", self.damping, 0.0, np.inf, high_open=True)
-        self.tol.checked()
+        damping = scalar("damping", self.damping, 0.0, np.inf, high_open=True)
+        object.__setattr__(self, "damping", damping)
+        instance("tol", self.tol, Tolerance, "a Tolerance").checked()
 
     @property
     def name(self) -> str:
@@ -260,8 +292,9 @@ class TipSolver:
         return "tip-dls" if self.damping > 0 else "tip-pinv"
 
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
-        """Tip target minus tip, in [m]."""
-        return target[:3] - robot.tip(q)
+        """Tip target minus tip, in [m] (a tip point (3,), or the first three entries of a
+        longer target)."""
+        return _tip_point(target) - robot.tip(q)
 
     def tolerance(self) -> FloatArray:
         """Position tolerance on x, y, z."""
@@ -271,5 +304,14 @@ class TipSolver:
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """Minimum-norm (or damped) step on the (3, m) tip Jacobian; lambda unchanged."""
-        J = TipPosition().jacobian(robot, q, lam)[:, :-1]
-        return dls_solve(J, error, self.damping), 0.0
+        _tip_point(target)
+        error = checked_target(error, 3, "error")
+        J = TIP_POSITION.jacobian(robot, q, lam)[:, :-1]
+        return finite_step(lambda: dls_solve(J, error, self.damping), robot, q), 0.0
+
+
+def _tip_point(target: Any) -> FloatArray:
+    """The tip point (3,) of a free-space target: a point, or the head of a longer target."""
+    if target.__class__ is np.ndarray and target.ndim == 1 and target.shape[0] > 3:
+        target = target[:3]
+    return checked_target(target, 3)

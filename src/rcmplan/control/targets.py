@@ -10,19 +10,49 @@ lets every target be checked for lambda in [0, 1], reach and actuator travel bef
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import F64, WORKSPACE_M, FloatArray, scalar, vector
 from rcmplan.exceptions import (
     InvalidInputError,
     PcjmAngleError,
+    SingularPoseError,
     SliderLimitError,
     UnreachableTargetError,
 )
+from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis, axis_from_angles
+
+
+def checked_target(target: Any, width: int, name: str = "target") -> FloatArray:
+    """target as a finite float64 array (width,), or InvalidInputError naming it. A float64
+    array of that shape costs a type test and one sum (solvers check every call)."""
+    if (
+        target.__class__ is np.ndarray and target.dtype is F64 and target.shape == (width,)
+        and math.isfinite(sum(target.tolist()))
+    ):  # fmt: skip
+        return target
+    return vector(name, target, width)
+
+
+def finite_step(solve: Callable[[], FloatArray], robot: RobotModel, q: Any) -> FloatArray:
+    """solve(), a step that must be finite: a singular system or a non-finite step (joints
+    far out of range) raises SingularPoseError or InvalidInputError naming q."""
+    try:
+        d = solve()
+    except np.linalg.LinAlgError:
+        d = np.full(1, np.nan)
+    if math.isfinite(sum(d.tolist())):
+        return d
+    q = vector("q", q, len(robot.home))
+    measure = robot.singularity_measure(q)
+    if measure < robot.singular_threshold:
+        raise SingularPoseError(q, measure, robot.singular_threshold, "singularity measure")
+    raise InvalidInputError("q", q, "joints at which the step's system is solvable (finite)")
 
 
 class Pose(NamedTuple):
@@ -43,9 +73,6 @@ def rcm_target(tip: FloatArray, trocar: FloatArray) -> FloatArray:
             "the tip coincides with the trocar: the needle axis is undefined"
         )
     return x
-
-
-WORKSPACE_M = 10.0  # a bound on any point a needle robot is asked to reach, in [m]
 
 
 def _in_workspace(name: str, point: Any) -> FloatArray:
@@ -108,12 +135,23 @@ def solve_pose(robot: RobotModel, x_ext: FloatArray, seed: FloatArray | None = N
     Raises UnreachableTargetError when the robot cannot point the needle that way, lambda would
     leave [0, 1], or an actuator leaves its travel.
 
+    Raises InvalidInputError unless robot is a robot model and x_ext 6 finite numbers, its
+    positions within WORKSPACE_M of the base and its angles in [-pi, pi].
+
     Args:
         seed: Joints to start an iterative search from (the previous target's, along a path).
     """
-    x_ext = vector("target", x_ext, 6)
-    phi, psi = float(x_ext[1]), float(x_ext[2])
+    robot_model("robot", robot)
+    x_ext = vector("x_ext", x_ext, 6)
+    x, phi, psi, *trocar = x_ext.tolist()
+    if max(abs(x), *map(abs, trocar)) > WORKSPACE_M or max(abs(phi), abs(psi)) > math.pi:
+        valid = (
+            f"(x_tip, phi, psi, trocar): positions within +-{WORKSPACE_M:g} m, angles in [-pi, pi]"
+        )
+        raise InvalidInputError("x_ext", x_ext, valid)
     tip = tip_of_target(x_ext)
+    if max(map(abs, tip.tolist())) > WORKSPACE_M:
+        raise UnreachableTargetError(f"the tip lies beyond +-{WORKSPACE_M:g} m of the base", x_ext)
     try:
         q = robot.needle_pose(tip, phi, psi, seed)
     except UnreachableTargetError as exc:

@@ -8,12 +8,13 @@ defined in `rcmplan.robot.needle`; on iRAM!S their exact rows are e_q1 and e_q3.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import ClassVar, Literal, Protocol
 
 import numpy as np
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import F64, FloatArray, text, vector
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis
@@ -31,9 +32,21 @@ class Task(Protocol):
 
 @dataclass(frozen=True)
 class TipPosition:
-    """Rows `axes` of the needle tip position in [m] (eq. 2.7); lambda moves no tip."""
+    """Rows `axes` (distinct indices among 0, 1, 2) of the needle tip position in [m]
+    (eq. 2.7); lambda moves no tip."""
 
     axes: tuple[int, ...] = (0, 1, 2)
+
+    def __post_init__(self) -> None:
+        axes = self.axes
+        ok = (
+            isinstance(axes, tuple | list)
+            and 0 < len(axes) == len(set(axes))
+            and all(type(a) is int and 0 <= a <= 2 for a in axes)
+        )
+        if not ok:
+            raise InvalidInputError("axes", axes, "distinct axis indices among 0, 1, 2")
+        object.__setattr__(self, "axes", tuple(axes))
 
     @property
     def size(self) -> int:
@@ -62,8 +75,7 @@ class NeedleAngles:
     size: ClassVar[int] = 2
 
     def __post_init__(self) -> None:
-        if self.variant not in VARIANTS:
-            raise InvalidInputError("jacobian variant", self.variant, f"one of {VARIANTS}")
+        text("variant", self.variant, VARIANTS)
 
     def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
         """(phi, psi)."""
@@ -114,7 +126,13 @@ class Posture:
 
     def value(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
         """q[active]."""
-        return np.asarray(q, dtype=float)[list(robot.active)]
+        n = len(robot.home)
+        if q.__class__ is not np.ndarray or q.dtype is not F64 or q.shape != (n,):
+            q = vector("q", q, n)
+        value: FloatArray = q[list(robot.active)]
+        if not math.isfinite(sum(value.tolist())):
+            vector("q", q, n)  # names the non-finite entry
+        return value
 
     def jacobian(self, robot: RobotModel, q: FloatArray, lam: float) -> FloatArray:
         """[I 0], (m, m + 1)."""
@@ -136,10 +154,20 @@ def stack_jacobian(
     return np.vstack([t.jacobian(robot, q, lam) for t in tasks])
 
 
+X_EXT: dict[str, tuple[Task, ...]] = {
+    "exact": (TipPosition((0,)), NeedleAngles("exact"), RcmPoint()),
+    "thesis": (TipPosition((0,)), NeedleAngles("thesis"), RcmPoint()),
+}  # made once: the loop asks for them at every iteration
+
+
 def x_ext_tasks(variant: JacobianVariant = "exact") -> tuple[Task, ...]:
     """X_ext = (x_tip, phi, psi, p_rcm) as tasks (eq. 3.14)."""
-    return (TipPosition((0,)), NeedleAngles(variant), RcmPoint())
+    tasks = X_EXT.get(variant) if isinstance(variant, str) else None
+    if tasks is None:
+        raise InvalidInputError("variant", variant, f"one of {VARIANTS}")
+    return tasks
 
 
-TIP_AND_RCM: tuple[Task, ...] = (TipPosition(), RcmPoint())
-TIP_AND_BASE: tuple[Task, ...] = (TipPosition(), NeedleBase())
+TIP_POSITION = TipPosition()
+TIP_AND_RCM: tuple[Task, ...] = (TIP_POSITION, RcmPoint())
+TIP_AND_BASE: tuple[Task, ...] = (TIP_POSITION, NeedleBase())

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, vector
+from rcmplan._validate import FloatArray, instance, vector
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.model import SerialArm
@@ -50,7 +50,9 @@ def needle_arm(
 ) -> SerialArm:
     """A SerialArm with a straight needle along its flange z axis (rolled by the last joint),
     placed by `place_arm`."""
-    needle = needle or StraightNeedle(NEEDLE_LENGTH)
+    instance("chain", chain, JointChain, "a JointChain (from DH, URDF or MJCF)")
+    needle = StraightNeedle(NEEDLE_LENGTH) if needle is None else needle
+    instance("needle", needle, StraightNeedle, "a StraightNeedle or None (60 mm)")
     placed = place_arm(chain, needle, home)
     return SerialArm(placed, needle, home, name=name, roll_joint=chain.n - 1,
                      singular_threshold=singular_threshold)  # fmt: skip

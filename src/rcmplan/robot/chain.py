@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, matrix, scalar, vector
+from rcmplan._validate import FloatArray, instance, pose, scalar, text, vector
 from rcmplan.exceptions import InvalidInputError, UnknownJointTypeError
 from rcmplan.robot.dh import JOINT_TYPES, DHChain, JointType, dh_transform
 from rcmplan.robot.needle import cross3
@@ -42,9 +42,10 @@ class ChainJoint:
     velocity: float = 1.0
 
     def __post_init__(self) -> None:
-        if self.kind not in JOINT_TYPES:
+        text("joint name", self.name)
+        if not isinstance(self.kind, str) or self.kind not in JOINT_TYPES:
             raise UnknownJointTypeError(f"joint {self.name!r} kind", self.kind, str(JOINT_TYPES))
-        origin = matrix(f"joint {self.name!r} origin", self.origin, (4, 4))
+        origin = pose(f"joint {self.name!r} origin", self.origin)
         object.__setattr__(self, "origin", origin)
         axis = vector(f"joint {self.name!r} axis", self.axis, 3)
         norm = float(np.linalg.norm(axis))
@@ -52,8 +53,10 @@ class ChainJoint:
             raise InvalidInputError(f"joint {self.name!r} axis", axis.tolist(), "a non-zero axis")
         object.__setattr__(self, "axis", axis / norm)
         lo = scalar(f"joint {self.name!r} lower", self.lower)
-        scalar(f"joint {self.name!r} upper", self.upper, lo, np.inf, low_open=True)
-        scalar(f"joint {self.name!r} velocity", self.velocity, 0.0, np.inf, low_open=True)
+        hi = scalar(f"joint {self.name!r} upper", self.upper, lo, np.inf, low_open=True)
+        v = scalar(f"joint {self.name!r} velocity", self.velocity, 0.0, np.inf, low_open=True)
+        for name, value in (("lower", lo), ("upper", hi), ("velocity", v)):
+            object.__setattr__(self, name, value)
 
 
 def _motion(axis: FloatArray, prismatic: bool, q: float) -> FloatArray:
@@ -90,12 +93,14 @@ class JointChain:
         base: FloatArray | None = None,
         name: str = "chain",
     ) -> None:
-        if len(joints) == 0:
-            raise InvalidInputError("joints", joints, "at least one joint")
+        if not isinstance(joints, list | tuple) or len(joints) == 0:
+            raise InvalidInputError("joints", joints, "a list of ChainJoint (at least one)")
+        for j in joints:
+            instance("joints", j, ChainJoint, "a list of ChainJoint")
         self.joints = tuple(joints)
-        self.name = name
-        self.tip = np.eye(4) if tip is None else matrix("tip", tip, (4, 4))
-        self.base = np.eye(4) if base is None else matrix("base", base, (4, 4))
+        self.name = text("name", name)
+        self.tip = np.eye(4) if tip is None else pose("tip", tip)
+        self.base = np.eye(4) if base is None else pose("base", base)
         self.origins = np.array([j.origin for j in self.joints])
         self.axes = np.array([j.axis for j in self.joints])
         self.prismatic = np.array([j.kind == "prismatic" for j in self.joints])

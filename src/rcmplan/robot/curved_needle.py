@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, matrix, scalar
+from rcmplan._validate import FloatArray, pose, scalar
 from rcmplan.robot.needle import StraightNeedle
 
 DEFAULT_RADIUS = 12e-3  # [m] the eye's radius (see the module docstring)
@@ -52,10 +52,16 @@ class CurvedNeedle:
     mount: FloatArray = field(default_factory=lambda: np.eye(4))
 
     def __post_init__(self) -> None:
-        scalar("needle.shaft_length", self.shaft_length, 0.0, 1.0, low_open=True)
-        scalar("needle.radius", self.radius, *RADIUS_RANGE)
-        scalar("needle.arc_angle", self.arc_angle, *ARC_ANGLE_RANGE)
-        object.__setattr__(self, "mount", matrix("needle.mount", self.mount, (4, 4)))
+        checked = {
+            "shaft_length": scalar(
+                "needle.shaft_length", self.shaft_length, 0.0, 1.0, low_open=True
+            ),
+            "radius": scalar("needle.radius", self.radius, *RADIUS_RANGE),
+            "arc_angle": scalar("needle.arc_angle", self.arc_angle, *ARC_ANGLE_RANGE),
+            "mount": pose("needle.mount", self.mount),
+        }
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
 
     @property
     def name(self) -> str:
@@ -77,12 +83,15 @@ class CurvedNeedle:
         return StraightNeedle(self.shaft_length, self.mount)
 
     def arc_local(self, t: float) -> FloatArray:
-        """The arc point at angle t in [0, alpha], in needle-base (mount) coordinates [m]."""
+        """The arc point at angle t in [0, alpha], in needle-base (mount) coordinates [m]
+        (any finite t: the arc's circle)."""
+        t = scalar("t", t)
         R = self.radius
         return np.array([R * (1.0 - math.cos(t)), 0.0, self.shaft_length + R * math.sin(t)])
 
     def tangent_local(self, t: float) -> FloatArray:
         """The unit tangent of the arc at angle t, mount coordinates."""
+        t = scalar("t", t)
         return np.array([math.sin(t), 0.0, math.cos(t)])
 
     def tip_local(self) -> FloatArray:
@@ -95,6 +104,7 @@ class CurvedNeedle:
 
     def chord_angle(self, depth: float) -> float:
         """Angle in [rad] between the shaft and the line from a shaft point `depth` [m] before
-        the shaft's end to the tip."""
+        the shaft's end to the tip; depth finite."""
+        depth = scalar("depth", depth)
         p = self.tip_local()
         return math.atan2(p[0], p[2] - self.shaft_length + depth)

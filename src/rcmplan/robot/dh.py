@@ -7,34 +7,53 @@ theta = theta_offset. Lengths in m, angles in rad.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
-from typing import Literal, NamedTuple
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, vector
+from rcmplan._validate import WORKSPACE_M, FloatArray, integer, pose, scalar, vector
 from rcmplan.exceptions import InvalidInputError, UnknownJointTypeError
 
 JointType = Literal["revolute", "prismatic"]
 JOINT_TYPES: tuple[str, ...] = ("revolute", "prismatic")
 
 
-class DHLink(NamedTuple):
-    """One standard-DH link.
-
-    Attributes:
-        joint: "revolute" or "prismatic".
-        theta: Constant offset of theta in [rad].
-        d: Constant offset of d in [m].
-        a: Link length a in [m].
-        alpha: Link twist alpha in [rad].
-    """
-
+class _DHFields(NamedTuple):
     joint: JointType
     theta: float = 0.0
     d: float = 0.0
     a: float = 0.0
     alpha: float = 0.0
+
+
+class DHLink(_DHFields):
+    """One standard-DH link, checked when made (InvalidInputError naming the field).
+
+    Attributes:
+        joint: "revolute" or "prismatic".
+        theta: Constant offset of theta in [rad], within [-2 pi, 2 pi].
+        d: Constant offset of d in [m], within +-WORKSPACE_M.
+        a: Link length a in [m], within +-WORKSPACE_M.
+        alpha: Link twist alpha in [rad], within [-2 pi, 2 pi].
+    """
+
+    __slots__ = ()
+
+    def __new__(
+        cls, joint: JointType, theta: float = 0.0, d: float = 0.0, a: float = 0.0,
+        alpha: float = 0.0,
+    ) -> DHLink:  # fmt: skip
+        if not isinstance(joint, str) or joint not in JOINT_TYPES:
+            raise UnknownJointTypeError("link.joint", joint, f"one of {JOINT_TYPES}")
+        turn, reach = 2.0 * math.pi, WORKSPACE_M
+        theta, alpha = (
+            scalar("link.theta", theta, -turn, turn),
+            scalar("link.alpha", alpha, -turn, turn),
+        )
+        d, a = scalar("link.d", d, -reach, reach), scalar("link.a", a, -reach, reach)
+        return super().__new__(cls, joint, theta, d, a, alpha)
 
 
 def dh_transform(theta: float, d: float, a: float, alpha: float) -> FloatArray:
@@ -60,17 +79,10 @@ class DHChain:
     """
 
     def __init__(self, links: Sequence[DHLink | tuple], base: FloatArray | None = None) -> None:
-        if len(links) == 0:
-            raise InvalidInputError("links", links, "at least one DH link")
-        parsed = []
-        for i, link in enumerate(links):
-            lk = DHLink(*link)
-            if lk.joint not in JOINT_TYPES:
-                raise UnknownJointTypeError(f"links[{i}].joint", lk.joint, f"one of {JOINT_TYPES}")
-            vector(f"links[{i}] parameters", [lk.theta, lk.d, lk.a, lk.alpha], 4)
-            parsed.append(lk)
-        self.links: tuple[DHLink, ...] = tuple(parsed)
-        self.base = np.eye(4) if base is None else np.asarray(base, dtype=float)
+        if not isinstance(links, list | tuple) or len(links) == 0:
+            raise InvalidInputError("links", links, "a list of DH links (at least one)")
+        self.links: tuple[DHLink, ...] = tuple(_link(i, link) for i, link in enumerate(links))
+        self.base = np.eye(4) if base is None else pose("base", base)
         self._revolute = np.array([lk.joint == "revolute" for lk in self.links])
 
     @property
@@ -109,9 +121,7 @@ class DHChain:
             link: Frame index 0..n the point is fixed to (default n, the end frame).
             point: Coordinates of the point in that frame in [m] (default its origin).
         """
-        n = self.n if link is None else int(link)
-        if not 0 <= n <= self.n:
-            raise InvalidInputError("link", link, f"an integer in [0, {self.n}]")
+        n = self.n if link is None else integer("link", link, 0, self.n)
         T = self.frames(q)
         p_local = np.zeros(3) if point is None else vector("point", point, 3)
         p = T[n, :3, :3] @ p_local + T[n, :3, 3]
@@ -124,3 +134,17 @@ class DHChain:
             else:
                 J[:3, i] = z  # eq. 2.11
         return J
+
+
+def _link(i: int, link: Any) -> DHLink:
+    """links[i] as a DHLink (a DHLink, or a tuple in its field order), or InvalidInputError."""
+    if isinstance(link, DHLink):
+        return link
+    if not isinstance(link, tuple | list) or not 1 <= len(link) <= 5:
+        raise InvalidInputError(
+            f"links[{i}]", link, "a DHLink or a tuple (joint, theta, d, a, alpha)"
+        )
+    try:
+        return DHLink(*link)
+    except InvalidInputError as exc:
+        raise type(exc)(f"links[{i}] {exc.name}", exc.value, exc.valid) from exc

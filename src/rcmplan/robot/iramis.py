@@ -13,11 +13,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, vector
+from rcmplan._validate import WORKSPACE_M, FloatArray, instance, scalar, vector
 from rcmplan.exceptions import (
     InvalidInputError,
     SingularPoseError,
@@ -26,6 +25,8 @@ from rcmplan.exceptions import (
 )
 from rcmplan.robot import iramis_kernels as kernels
 from rcmplan.robot.dh import DHChain, DHLink
+from rcmplan.robot.iramis_checks import check_finite, checked_parameters, invalid_point, joints
+from rcmplan.robot.iramis_checks import lam as checked_lam
 from rcmplan.robot.pcjm import Pcjm
 
 SLIDER_NAMES = ("L1", "L2", "L3", "L4", "L5", "q5")
@@ -80,6 +81,10 @@ class IramisParameters:
         compare=False,
     )
 
+    def __post_init__(self) -> None:
+        for name, value in checked_parameters(self).items():
+            object.__setattr__(self, name, value)
+
 
 class Iramis:
     """The iRAM!S robot: kinematics in closed form (eq. 2.7, 2.12) and as a DH chain.
@@ -100,7 +105,9 @@ class Iramis:
     needle_kind: str = "straight"
 
     def __init__(self, params: IramisParameters | None = None) -> None:
-        self.params = params or IramisParameters()
+        what = "IramisParameters or None (the thesis values)"
+        params = IramisParameters() if params is None else params
+        self.params: IramisParameters = instance("params", params, IramisParameters, what)
         p = self.params
         self.pcjm = Pcjm(p.pcjm_spacing)
         self.lower = np.array(p.slider_lower, dtype=float)
@@ -116,9 +123,10 @@ class Iramis:
 
     # --- DH tables -------------------------------------------------------------------------
     def dh_links(self, l6: float | None = None) -> list[DHLink]:
-        """Table 2.1 as standard-DH links (theta, d offsets, a, alpha)."""
+        """Table 2.1 as standard-DH links (theta, d offsets, a, alpha); l6 in [0, 1] m (0: the
+        needle base's chain)."""
         p = self.params
-        l6 = p.l6 if l6 is None else l6
+        l6 = p.l6 if l6 is None else scalar("l6", l6, 0.0, 1.0)
         h = 0.5 * math.pi
         return [
             DHLink("prismatic", 0.0, p.l1, 0.0, -h),
@@ -155,25 +163,30 @@ class Iramis:
 
         Raises InvalidInputError unless q is 6 finite numbers."""
         a = np.empty(3)
-        kernels.needle_axis(_joints(q), a)
+        kernels.needle_axis(joints(q), a)
         if not math.isfinite(a[0] + a[1] + a[2]):
-            vector("q", q, 6)  # raises, naming q
+            check_finite(a[0] + a[1] + a[2], q)
         return a
 
     def needle_point(self, q: Sequence[float] | FloatArray, lam: float) -> FloatArray:
         """p(lambda) = p_base + lambda (p_tip - p_base) in [m], base frame (eqs. 2.7, 3.7).
+
+        Any finite lambda is valid: the point on the needle's line, the needle itself for lambda
+        in [0, 1] (the RCM search `closest_point` keeps lambda there).
 
         Raises InvalidInputError unless q is 6 finite numbers and lam a finite number. (The
         check is the result's finiteness: the controller calls this thousands of times.)
         """
         out = np.empty(3)
         try:
-            kernels.needle_point(self.P, _joints(q), lam, out)
+            kernels.needle_point(
+                self.P, joints(q), lam if lam.__class__ is float else checked_lam(lam), out
+            )
             ok = math.isfinite(out[0] + out[1] + out[2])  # every input but the roll q5
-        except (TypeError, ValueError, IndexError, OverflowError, InvalidInputError):
+        except (TypeError, ValueError, IndexError, OverflowError):
             ok = False
         if not ok:
-            _invalid_point(q, lam)
+            invalid_point(q, lam)
         return out
 
     def tip(self, q: Sequence[float] | FloatArray) -> FloatArray:
@@ -188,8 +201,11 @@ class Iramis:
     def needle_point_jacobian(self, q: Sequence[float] | FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d(q0, q1, q2, q3, q4, lambda), a (3, 6) array (eq. 3.10 with J_0^5)."""
         J = np.empty((3, 6))
-        q = _joints(q)
-        kernels.point_jacobian(self.P, q, kernels.trig(q), float(lam), J, 0)
+        q_arr = joints(q)
+        lam_f = lam if lam.__class__ is float else checked_lam(lam)
+        kernels.point_jacobian(self.P, q_arr, kernels.trig(q_arr), lam_f, J, 0)
+        if not math.isfinite(J[0, 1]):  # NaN or inf in q1, q3, q4 or lambda reach this entry
+            invalid_point(q, lam)
         return J
 
     def jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
@@ -224,6 +240,9 @@ class Iramis:
 
     def needle_angular_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """Angular velocity of the needle per (q0..q4, lambda), (3, 6): z_1 dq1 + z_3 dq3."""
+        q = joints(q)
+        if not math.isfinite(q[1]):
+            check_finite(q[1], q)
         J = np.zeros((3, 6))
         J[1, 1] = 1.0  # z_1 of frame 1
         J[0, 3], J[2, 3] = math.sin(q[1]), math.cos(q[1])  # z_3
@@ -266,6 +285,9 @@ class Iramis:
 
     def joints_from_actuators_jacobian(self, s: Sequence[float] | FloatArray) -> FloatArray:
         """dq/ds, a (6, 6) array."""
+        s = joints(s, "s")
+        if not math.isfinite(s[0] + s[1] + s[2] + s[3]):
+            check_finite(s[0] + s[1] + s[2] + s[3], s, "s")
         D = np.eye(6)
         D[0:2, 0:2] = self.pcjm.joints_jacobian(s[0], s[1])
         D[2:4, 2:4] = self.pcjm.joints_jacobian(s[2], s[3])
@@ -273,6 +295,9 @@ class Iramis:
 
     def joint_rates(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """dq/ds (6, 6) at joints q: d q_rot / d L2 = -d q_rot / d L1 = cos^2(q_rot) / d."""
+        q = joints(q)
+        if not math.isfinite(q[1] + q[3]):
+            check_finite(q[1] + q[3], q)
         D = np.eye(6)
         d = self.params.pcjm_spacing
         for i in (0, 2):
@@ -282,7 +307,10 @@ class Iramis:
         return D
 
     def actuators_from_joints_jacobian(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """ds/dq, a (6, 6) array."""
+        """ds/dq, a (6, 6) array; |q1|, |q3| below pi/2 (PcjmAngleError otherwise)."""
+        q = joints(q)
+        if not math.isfinite(q[1] + q[3]):
+            check_finite(q[1] + q[3], q)
         D = np.eye(6)
         D[0:2, 0:2] = self.pcjm.sliders_jacobian(q[1])
         D[2:4, 2:4] = self.pcjm.sliders_jacobian(q[3])
@@ -308,18 +336,21 @@ class Iramis:
         """min(|cos q1|, |cos q3|): zero exactly on the singular set of J_a and J_0^5 (NOTES.md).
 
         Raises InvalidInputError unless q is 6 finite numbers."""
+        q = joints(q)
         try:
             c1, c3 = abs(math.cos(q[1])), abs(math.cos(q[3]))
-            ok = len(q) == 6 and c1 + c3 == c1 + c3  # False for NaN
-        except (TypeError, ValueError, IndexError, OverflowError):
-            ok = False
-        if not ok:
-            vector("q", q, 6)
+        except ValueError:  # cos(inf)
+            c1 = c3 = math.nan
+        if not math.isfinite(c1 + c3):
+            check_finite(c1 + c3, q)
         return min(c1, c3)
 
     @staticmethod
     def singular_terms(q: Sequence[float] | FloatArray) -> tuple[FloatArray, FloatArray]:
         """(cos q1, cos q3) and their gradients (2, 6): both stay above the singular floor."""
+        q = joints(q)
+        if not math.isfinite(q[1] + q[3]):
+            check_finite(q[1] + q[3], q)
         grad = np.zeros((2, 6))
         grad[0, 1], grad[1, 3] = -math.sin(q[1]), -math.sin(q[3])
         return np.array([math.cos(q[1]), math.cos(q[3])]), grad
@@ -328,13 +359,12 @@ class Iramis:
         self, q: Sequence[float] | FloatArray, threshold: float | None = None
     ) -> None:
         """Raise SingularPoseError if the singularity measure is below the threshold."""
-        thr = self.params.singular_threshold if threshold is None else threshold
-        try:
-            ok = bool(0.0 <= thr < 1.0)  # False for NaN
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:
-            raise InvalidInputError("threshold", threshold, "a number in [0, 1)")
+        if threshold is None:
+            thr = self.params.singular_threshold
+        elif threshold.__class__ is float and 0.0 <= threshold < 1.0:
+            thr = threshold
+        else:
+            thr = scalar("threshold", threshold, 0.0, 1.0, high_open=True)
         m = self.singularity_measure(q)
         if m < thr:
             raise SingularPoseError(np.asarray(q), m, thr)
@@ -345,7 +375,15 @@ class Iramis:
         """Joints (q5 = 0) putting the tip at `tip` [m] with needle angles (phi, psi) [rad]:
         phi = q1, psi = q3, then w = q4 + l6 from the x row of eq. 2.7, q2 from its y row and
         q0 from its z row. Raises UnreachableTargetError outside the non-singular angle range;
-        travel is not checked. `seed` is not needed (closed form)."""
+        travel is not checked. `seed` is not needed (closed form). InvalidInputError unless tip
+        is 3 finite numbers within WORKSPACE_M of the base and phi, psi lie in [-pi, pi]."""
+        tip = vector("tip", tip, 3)
+        if max(map(abs, tip.tolist())) > WORKSPACE_M:
+            raise InvalidInputError("tip", tip, f"coordinates within +-{WORKSPACE_M:g} m")
+        phi = scalar("phi", phi, -math.pi, math.pi)
+        psi = scalar("psi", psi, -math.pi, math.pi)
+        if seed is not None:
+            vector("seed", seed, 6)
         p = self.params
         thr = p.singular_threshold
         if min(abs(math.cos(phi)), abs(math.cos(psi))) < thr:
@@ -393,30 +431,3 @@ class Iramis:
                 p.sources["singular_threshold"],
             ),
         ]
-
-
-def _joints(q: Any) -> FloatArray:
-    """q as a float64 array for the kernels (the caller checks the result's finiteness);
-    InvalidInputError unless q holds 6 numbers."""
-    if isinstance(q, np.ndarray) and q.dtype == np.float64 and q.shape == (6,):
-        return q
-    try:
-        arr = np.asarray(q, dtype=np.float64)
-    except (TypeError, ValueError, OverflowError):
-        arr = None
-    if arr is None or arr.shape != (6,):
-        vector("q", q, 6)  # raises, naming q
-        raise InvalidInputError("q", q, "6 finite numbers")
-    return arr
-
-
-def _invalid_point(q: Any, lam: Any) -> None:
-    """Raise InvalidInputError naming the argument of needle_point that is not valid."""
-    vector("q", q, 6)
-    try:
-        ok = isinstance(lam, int | float | np.floating) and math.isfinite(lam)
-    except OverflowError:  # an int beyond float range
-        ok = False
-    if not ok:
-        raise InvalidInputError("lam", lam, "a finite number (0 at the needle base, 1 at the tip)")
-    raise InvalidInputError("q", q, "joints whose needle point is finite (|q| far below 1e300)")

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, file_path, text
 from rcmplan.exceptions import (
     ModelFileError,
     UnknownFrameError,
@@ -48,7 +48,12 @@ def load_mjcf(
         ModelFileError: The file is missing or MuJoCo rejects it (MuJoCo's message).
         UnknownFrameError: A body or site is not in the model (the message lists them).
         UnsupportedJointError: A ball, free or equality-coupled joint lies on the path.
+        InvalidInputError: path is not a path, or a frame is not a string.
     """
+    path = file_path("path", path)
+    text("tip_frame", tip_frame)
+    if root_body is not None:
+        text("root_body", root_body)
     mujoco = require_extra("mujoco", "sim")
     model = _read(mujoco, path)
     tip_body, T_body_tip = _tip(mujoco, model, tip_frame, Path(path).name)

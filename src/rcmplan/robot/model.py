@@ -15,7 +15,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import FloatArray, instance, integer, scalar, text, vector
 from rcmplan.exceptions import (
     InvalidInputError,
     SingularPoseError,
@@ -125,6 +125,11 @@ class SerialArm:
         singular_threshold: float = 0.01,
         resolution: float = 1e-9,
     ) -> None:
+        instance("chain", chain, JointChain, "a JointChain (from DH, URDF or MJCF)")
+        instance("needle", needle, StraightNeedle, "a StraightNeedle")
+        text("name", name)
+        if roll_joint is not None:
+            integer("roll_joint", roll_joint, 0, chain.n - 1)
         self.chain, self.needle, self.name = chain, needle, name
         self.needle_kind = needle.name
         n = chain.n
@@ -325,8 +330,10 @@ class SerialArm:
         return np.array([kappa]), grad
 
     def check_singularity(self, q: FloatArray, threshold: float | None = None) -> None:
-        """Raise SingularPoseError if the measure is below the threshold."""
-        thr = self.singular_threshold if threshold is None else threshold
+        """Raise SingularPoseError if the measure is below the threshold (in [0, 1])."""
+        if threshold is not None and (threshold.__class__ is not float or not 0 <= threshold <= 1):
+            scalar("threshold", threshold, 0.0, 1.0)
+        thr = self.singular_threshold if threshold is None else float(threshold)
         m = self.singularity_measure(q)
         if m < thr:
             raise SingularPoseError(np.asarray(q), m, thr, "inverse condition number")
@@ -336,7 +343,10 @@ class SerialArm:
     ) -> FloatArray:
         """Joints putting the tip at `tip` [m] with needle angles (phi, psi) [rad]: Newton's
         method (minimum-norm steps) on (tip, phi, psi) over the active joints from `seed`
-        (default home), at most IK_ITERATIONS steps; travel is not checked here."""
+        (default home), at most IK_ITERATIONS steps; travel is not checked here. phi and psi
+        lie in [-pi, pi] (InvalidInputError otherwise)."""
+        phi = scalar("phi", phi, -np.pi, np.pi)
+        psi = scalar("psi", psi, -np.pi, np.pi)
         q = (self.home if seed is None else vector("seed", seed, self.chain.n)).copy()
         goal = np.array([*vector("tip", tip, 3), phi, psi])
         cols = list(self.active)

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from rcmplan._validate import FloatArray, matrix, scalar
+from rcmplan._validate import FloatArray, pose, scalar
 
 
 @dataclass(frozen=True)
@@ -29,17 +29,19 @@ class StraightNeedle:
     """A straight needle fixed to a tool frame.
 
     Attributes:
-        length: Needle length l in [m], base to tip.
-        mount: (4, 4) pose of the needle base in the tool frame; the needle runs along the
-            mount's +z axis (identity: from the tool frame's origin along its z).
+        length: Needle length l in [m], base to tip, in (0, 1].
+        mount: (4, 4) pose (a rigid transform) of the needle base in the tool frame; the
+            needle runs along the mount's +z axis (identity: from the tool frame's origin
+            along its z).
     """
 
     length: float
     mount: FloatArray = field(default_factory=lambda: np.eye(4))
 
     def __post_init__(self) -> None:
-        scalar("needle.length", self.length, 0.0, 1.0, low_open=True)
-        object.__setattr__(self, "mount", matrix("needle.mount", self.mount, (4, 4)))
+        length = scalar("needle.length", self.length, 0.0, 1.0, low_open=True)
+        object.__setattr__(self, "length", length)
+        object.__setattr__(self, "mount", pose("needle.mount", self.mount))
 
     @property
     def name(self) -> str:
@@ -47,7 +49,10 @@ class StraightNeedle:
         return "straight"
 
     def point_local(self, lam: float) -> FloatArray:
-        """p(lambda) in tool-frame coordinates in [m]."""
+        """p(lambda) in tool-frame coordinates in [m]; any finite lambda (0 at the base, 1 at
+        the tip, beyond them the needle's line)."""
+        if lam.__class__ is not float or not math.isfinite(lam):
+            lam = scalar("lam", lam)
         return self.mount[:3, 3] + lam * self.length * self.mount[:3, 2]
 
     def axis_local(self) -> FloatArray:

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
-from rcmplan.exceptions import PcjmAngleError
+from rcmplan.exceptions import InvalidInputError, PcjmAngleError
 from rcmplan.robot.iramis_kernels import pcjm_joints, pcjm_sliders
 
 
@@ -38,25 +38,37 @@ class Pcjm:
 
         Accepts any finite pair: every slider difference has an angle in (-pi/2, pi/2).
         """
-        if not (math.isfinite(L1) and math.isfinite(L2)):
-            raise PcjmAngleError("(L1, L2)", (L1, L2), "finite slider positions in m")
-        return pcjm_joints(self.spacing, float(L1), float(L2))
+        return pcjm_joints(self.spacing, _finite("L1", L1), _finite("L2", L2))
 
     def sliders(self, q_lin: float, q_rot: float) -> tuple[float, float]:
-        """(L1, L2) in [m] from (q_lin [m], q_rot [rad]); |q_rot| must be below pi/2."""
-        if not (math.isfinite(q_lin) and math.isfinite(q_rot)) or abs(q_rot) >= 0.5 * math.pi:
+        """(L1, L2) in [m] from (q_lin [m], q_rot [rad]); |q_rot| must be below pi/2
+        (PcjmAngleError)."""
+        q_lin, q_rot = _finite("q_lin", q_lin), _finite("q_rot", q_rot)
+        if abs(q_rot) >= 0.5 * math.pi:
             raise PcjmAngleError(
                 "(q_lin, q_rot)", (q_lin, q_rot), "finite values with |q_rot| < pi/2 rad"
             )
-        return pcjm_sliders(self.spacing, float(q_lin), float(q_rot))
+        return pcjm_sliders(self.spacing, q_lin, q_rot)
 
     def joints_jacobian(self, L1: float, L2: float) -> FloatArray:
         """d(q_lin, q_rot) / d(L1, L2), a (2, 2) array."""
-        u = (L2 - L1) / self.spacing
+        u = (scalar("L2", L2) - scalar("L1", L1)) / self.spacing
         g = 1.0 / (self.spacing * (1.0 + u * u))
         return np.array([[0.5, 0.5], [-g, g]])
 
     def sliders_jacobian(self, q_rot: float) -> FloatArray:
-        """d(L1, L2) / d(q_lin, q_rot), a (2, 2) array; the inverse of joints_jacobian."""
+        """d(L1, L2) / d(q_lin, q_rot), a (2, 2) array; the inverse of joints_jacobian.
+        |q_rot| must be below pi/2 (PcjmAngleError)."""
+        q_rot = _finite("q_rot", q_rot)
+        if abs(q_rot) >= 0.5 * math.pi:
+            raise PcjmAngleError("q_rot", q_rot, "|q_rot| < pi/2 rad")
         h = 0.5 * self.spacing / math.cos(q_rot) ** 2
         return np.array([[1.0, -h], [1.0, h]])
+
+
+def _finite(name: str, value: float) -> float:
+    """value as a finite float, else PcjmAngleError (a slider pair or joint with no partner)."""
+    try:
+        return scalar(name, value)
+    except InvalidInputError as exc:
+        raise PcjmAngleError(name, value, f"a finite number in m or rad ({exc.valid})") from exc

@@ -8,6 +8,7 @@ path ending in .toml, format of `rcmplan.robot.robot_file`) is loaded the same w
 
 from __future__ import annotations
 
+from os import PathLike
 from pathlib import Path
 
 from rcmplan.exceptions import InvalidInputError
@@ -48,6 +49,8 @@ def check_robot(robot: str) -> str:
 
 def make_robot(name_or_path: str | Path = DEFAULT_ROBOT) -> RobotModel:
     """The robot named `name_or_path` (one of ROBOTS) or described by that robot file."""
+    if not isinstance(name_or_path, str | PathLike):
+        raise InvalidInputError("robot", name_or_path, VALID)
     robot = check_robot(str(name_or_path))
     if robot == "iramis":
         return Iramis()

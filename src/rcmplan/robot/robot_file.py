@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, file_path, instance
 from rcmplan.exceptions import (
     InvalidInputError,
     ModelFileError,
@@ -210,7 +210,9 @@ def model_chain(spec: RobotSpec) -> JointChain:
 
 def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> LoadedRobot:
     """The arm a robot file describes, checked before any motion (see module docstring)."""
-    spec = read_robot_file(path)
+    if search is not None:
+        instance("search", search, HomeSearch, "a HomeSearch or None (the default search)")
+    spec = read_robot_file(file_path("path", path))
     chain = model_chain(spec)
     needle = StraightNeedle(spec.needle_length, needle_mount(spec.needle_axis))
     roll = roll_joint(chain, needle)

@@ -19,7 +19,7 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, file_path, text
 from rcmplan.exceptions import (
     InvalidInputError,
     ModelFileError,
@@ -57,7 +57,14 @@ def load_urdf(
         ModelFileError: The file is missing or the parser rejects it.
         UnknownFrameError: A frame is not a link of the model (the message lists the links).
         UnsupportedJointError: A mimic, floating or planar joint lies on the path.
+        InvalidInputError: path is not a path, or a frame or the name is not a string.
     """
+    path = file_path("path", path)
+    text("tip_frame", tip_frame)
+    if root_frame is not None:
+        text("root_frame", root_frame)
+    if name is not None:
+        text("name", name)
     robot = _read(path)
     links = [link.name for link in robot.links]
     by_child = {j.child: j for j in robot.joints}

@@ -17,13 +17,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import F64, WORKSPACE_M, FloatArray, instance, scalar, vector
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
+from rcmplan.robot.checks import robot_model
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import axis_from_angles
 
 POINT_NAMES = ("p1", "p2", "p3", "p4", "p5", "p6", "p7")
+INSERTION_ANGLE = 1.2  # |insertion angles| in [rad] (the scenario schema's insertion_angles_rad)
 
 
 @dataclass(frozen=True)
@@ -46,9 +48,11 @@ class Eye:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "center", vector("eye.center", self.center, 3))
-        scalar("eye.radius", self.radius, 0.0, 0.05, low_open=True)
-        scalar("eye.wall", self.wall, 0.0, self.radius, high_open=True)
-        scalar("eye.trocar_radius", self.trocar_radius, 0.0, 5e-3, low_open=True)
+        radius = scalar("eye.radius", self.radius, 0.0, 0.05, low_open=True)
+        object.__setattr__(self, "radius", radius)
+        object.__setattr__(self, "wall", scalar("eye.wall", self.wall, 0.0, radius, high_open=True))
+        trocar_radius = scalar("eye.trocar_radius", self.trocar_radius, 0.0, 5e-3, low_open=True)
+        object.__setattr__(self, "trocar_radius", trocar_radius)
         if self.trocar is None:
             raise InvalidInputError("eye.trocar", None, "a point (3,) on the eye's outer sphere")
         trocar = vector("eye.trocar", self.trocar, 3)
@@ -79,13 +83,21 @@ class Eye:
         return d / np.linalg.norm(d)
 
     def distance_to_retina(self, p: FloatArray) -> float:
-        """Signed distance in [m] from p to the retina: positive inside the vitreous."""
-        return self.retina_radius - float(np.linalg.norm(np.asarray(p) - self.center))
+        """Signed distance in [m] from p (3,) to the retina: positive inside the vitreous."""
+        if p.__class__ is not np.ndarray or p.dtype is not F64 or p.shape != (3,):
+            p = vector("p", p, 3)
+        d = self.retina_radius - float(np.linalg.norm(p - self.center))
+        if not math.isfinite(d):
+            vector("p", p, 3)  # names the non-finite entry
+        return d
 
     def retina_point(self, direction: FloatArray) -> FloatArray:
-        """Where the ray from the trocar along `direction` meets the retina."""
+        """Where the ray from the trocar along `direction` (non-zero) meets the retina."""
         d = vector("direction", direction, 3)
-        d = d / np.linalg.norm(d)
+        norm = float(np.linalg.norm(d))
+        if not 1e-12 < norm < 1e150:
+            raise InvalidInputError("direction", direction, "a non-zero direction (3,)")
+        d = d / norm
         m = self.port - self.center
         b = float(np.dot(m, d))
         c = float(np.dot(m, m)) - self.retina_radius**2
@@ -123,9 +135,16 @@ def default_eye(
         insertion_angles: Needle angles (phi, psi) in [rad] of the insertion axis; the eye
             centre lies on it one radius inside the trocar.
     """
-    robot = robot or Iramis()
-    trocar = robot.needle_point(robot.home, 1.0) + vector("trocar_offset", trocar_offset, 3)
+    robot = Iramis() if robot is None else robot_model("robot", robot)
+    offset = vector("trocar_offset", trocar_offset, 3)
+    if np.abs(offset).max() > WORKSPACE_M:
+        raise InvalidInputError("trocar_offset", offset, f"within +-{WORKSPACE_M:g} m per axis")
     phi, psi = vector("insertion_angles", insertion_angles, 2)
+    if max(abs(phi), abs(psi)) > INSERTION_ANGLE:
+        valid = f"angles within +-{INSERTION_ANGLE:g} rad"
+        raise InvalidInputError("insertion_angles", insertion_angles, valid)
+    radius = scalar("eye.radius", radius, 0.0, 0.05, low_open=True)
+    trocar = robot.needle_point(robot.home, 1.0) + offset
     axis = axis_from_angles(phi, psi)
     return Eye(
         center=trocar + radius * axis,
@@ -163,12 +182,18 @@ def default_points(
     """Points of fig. 3.2 for an eye.
 
     Args:
-        outside: Distance of p1 outside the trocar along the axis in [m].
-        depth: Depth of p3 inside the trocar along the axis in [m].
+        outside: Distance of p1 outside the trocar along the axis in [m], in (0, 0.1].
+        depth: Depth of p3 inside the trocar along the axis in [m], in (0, 2 eye.radius].
         spread: Angle in [rad] between the axis and the rays from the trocar to p4..p7; p4/p5
-            tilt phi by +-spread and p6/p7 tilt psi by +-spread, so both needle angles change.
+            tilt phi by +-spread and p6/p7 tilt psi by +-spread, so both needle angles change;
+            in [0, pi/2).
     """
     from rcmplan.robot.needle import angles_from_axis
+
+    instance("eye", eye, Eye, "an Eye (default_eye(robot))")
+    scalar("outside", outside, 0.0, 0.1, low_open=True)
+    scalar("depth", depth, 0.0, 2.0 * eye.radius, low_open=True)
+    scalar("spread", spread, 0.0, 0.5 * math.pi, high_open=True)
 
     phi, psi = angles_from_axis(eye.axis)
     rays = [(phi + spread, psi), (phi - spread, psi), (phi, psi + spread), (phi, psi - spread)]

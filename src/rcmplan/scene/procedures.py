@@ -14,10 +14,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar
+from rcmplan._validate import FloatArray, array, instance, integer, scalar, vector
 from rcmplan.control.phase import Phase, check_plan_size, interpolate, step_count
 from rcmplan.control.targets import pivot_target, rcm_target, rcm_targets, solve_pose
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
+from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis
 from rcmplan.scene.eye import Eye, EyePoints
@@ -132,10 +133,12 @@ def injection(
     Every point inside the eye is checked before any motion: inside the eye, in front of the
     trocar, within the needle's reach and the sliders' travel.
     """
-    steps = steps or Steps()
+    steps = check_scene(robot, eye, points, steps)
     pts = points.as_dict()
+    if not isinstance(visits, tuple | list):
+        raise InvalidInputError("visits", visits, "names among p3..p7")
     for name in visits:
-        if name not in pts or name in ("p1", "p2"):
+        if not isinstance(name, str) or name not in pts or name in ("p1", "p2"):
             raise InvalidInputError("visits", visits, "names among p3..p7")
     for name in ("p3", *visits):
         check_inside(eye, name, pts[name])
@@ -157,11 +160,11 @@ class Spiral:
 
     Attributes:
         offset: Centre of the spiral relative to p3, in the plane normal to the trocar axis,
-            as (along e1, along e2) in [m].
+            as (along e1, along e2) in [m], each within +-50 mm.
         radius: Final radius in [m]; the radius grows linearly from 0 over the turns.
         turns: Number of turns.
         pitch: Advance along the trocar axis per turn in [m] (0: a flat spiral).
-        points_per_turn: Samples per turn.
+        points_per_turn: Samples per turn, an integer in [8, 10000].
     """
 
     offset: tuple[float, float] = (1.0e-3, 0.5e-3)
@@ -171,18 +174,35 @@ class Spiral:
     points_per_turn: int = 120
 
     def __post_init__(self) -> None:
-        scalar("spiral.radius", self.radius, 0.0, 10e-3, low_open=True)
-        scalar("spiral.turns", self.turns, 0.0, 50.0, low_open=True)
-        scalar("spiral.pitch", self.pitch, -5e-3, 5e-3)
-        if not isinstance(self.points_per_turn, int) or self.points_per_turn < 8:
-            raise InvalidInputError(
-                "spiral.points_per_turn", self.points_per_turn, "an integer >= 8"
-            )
+        offset = vector("spiral.offset", self.offset, 2)
+        if np.abs(offset).max() > 0.05:
+            raise InvalidInputError("spiral.offset", self.offset, "within +-50 mm of p3 per axis")
+        turns = scalar("spiral.turns", self.turns, 0.0, 50.0, low_open=True)
+        per_turn = integer("spiral.points_per_turn", self.points_per_turn, 8, 10_000)
+        checked = {
+            "offset": (float(offset[0]), float(offset[1])),
+            "radius": scalar("spiral.radius", self.radius, 0.0, 10e-3, low_open=True),
+            "turns": turns,
+            "pitch": scalar("spiral.pitch", self.pitch, -5e-3, 5e-3),
+            "points_per_turn": per_turn,
+        }
+        if turns * per_turn < 1.0:
+            valid = "turns x points_per_turn >= 1 (a path of two points or more)"
+            raise InvalidInputError("spiral.turns", self.turns, valid)
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
 
     def path(self, eye: Eye, p3: FloatArray) -> FloatArray:
-        """The tip path (N, 3) in [m]."""
+        """The tip path (N, 3) in [m]; the eye's insertion axis must not be vertical (the
+        spiral's plane axes e1 = axis x z and e2 = axis x e1)."""
+        instance("eye", eye, Eye, "an Eye (default_eye(robot))")
+        p3 = vector("p3", p3, 3)
         n_axis = eye.axis
         e1 = np.cross(n_axis, [0.0, 0.0, 1.0])
+        if np.linalg.norm(e1) < 1e-6:
+            raise InvalidInputError(
+                "eye", eye.axis.tolist(), "an insertion axis that is not vertical"
+            )
         e1 /= np.linalg.norm(e1)
         e2 = np.cross(n_axis, e1)
         centre = p3 + self.offset[0] * e1 + self.offset[1] * e2
@@ -208,7 +228,10 @@ def path_procedure(
     """Approach, align, insert to p3, move to the path's start, follow the tip path (N, 3),
     return to p3, retract, withdraw. Every path point is checked inside the eye, and targets
     along it (every 1/24 of the path and its end) for a pose, before any motion."""
-    steps = steps or Steps()
+    steps = check_scene(robot, eye, points, steps)
+    path = np.atleast_2d(array("path", path, 2))
+    if path.shape[1] != 3 or len(path) < 2:
+        raise InvalidInputError("path", path.shape, "tip points (N, 3), N >= 2")
     c = eye.port
     for i, p in enumerate(path):
         check_inside(eye, f"{name} point {i}", p)
@@ -236,5 +259,18 @@ def spiral(
     steps: Steps | None = None,
 ) -> list[Phase]:
     """Approach, align, insert to p3, move to the spiral start, trace it, return, retract."""
-    shape = shape or Spiral()
+    check_scene(robot, eye, points, steps)
+    shape = Spiral() if shape is None else instance("shape", shape, Spiral, "a Spiral or None")
     return path_procedure(robot, eye, points, shape.path(eye, points.p3), steps, "spiral")
+
+
+def check_scene(robot: RobotModel, eye: Eye, points: EyePoints, steps: Steps | None) -> Steps:
+    """The step sizes (default Steps()), or InvalidInputError naming the first argument of a
+    procedure that is not a robot, an Eye, EyePoints or Steps."""
+    robot_model("robot", robot)
+    instance("eye", eye, Eye, "an Eye (default_eye(robot))")
+    instance("points", points, EyePoints, "EyePoints (default_points(eye))")
+    if steps is None:
+        return Steps()
+    checked: Steps = instance("steps", steps, Steps, "Steps or None (the defaults)")
+    return checked

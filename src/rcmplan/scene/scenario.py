@@ -11,6 +11,7 @@ from __future__ import annotations
 import tomllib
 from dataclasses import dataclass, field
 from importlib import resources
+from os import PathLike
 from pathlib import Path
 from typing import Any
 
@@ -225,6 +226,8 @@ def _needle(nd: dict[str, Any], lat: dict[str, Any]) -> NeedleOptions:
 
 def load_scenario(source: str | Path) -> Scenario:
     """Load a scenario by registered name or from a TOML file path."""
+    if not isinstance(source, str | PathLike):
+        raise ScenarioError("scenario", source, f"a TOML file path or one of {scenario_names()}")
     text = _read(source)
     try:
         data = tomllib.loads(text)

@@ -2,9 +2,8 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.robot.checks import robot_model
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 
@@ -14,7 +13,7 @@ class KinematicPlant:
 
     Args:
         robot: The robot model (default: thesis iRAM!S).
-        dt: Control period in [s] (default 1 ms).
+        dt: Control period in [s] (default 1 ms), in (0, 1].
     """
 
     name = "kinematic"
@@ -22,8 +21,8 @@ class KinematicPlant:
     actuator_resolution = None  # commands are taken as they are, not rounded
 
     def __init__(self, robot: RobotModel | None = None, dt: float = 1e-3) -> None:
-        self.robot: RobotModel = robot or Iramis()
-        self.dt = scalar("dt", dt, 0.0, np.inf, low_open=True)
+        self.robot: RobotModel = Iramis() if robot is None else robot_model("robot", robot)
+        self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
         self.time = 0.0
         self._s = self.robot.home_actuators.copy()
         self._cmd = self._s.copy()

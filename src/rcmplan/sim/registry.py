@@ -15,6 +15,7 @@ from typing import Any
 from rcmplan.control.plant import Plant
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.chain import JointChain
+from rcmplan.robot.checks import robot_model
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 
@@ -40,13 +41,19 @@ def make_plant(
             without a scene (the kinematic one) ignores them.
         kwargs: Plant options (for example `dt`).
     """
-    if name not in PLANTS:
+    if not isinstance(name, str) or name not in PLANTS:
         raise InvalidInputError("plant", name, f"one of {sorted(PLANTS)}")
-    robot = robot or Iramis()
+    robot = Iramis() if robot is None else robot_model("robot", robot)
+    if scene is not None and not isinstance(scene, dict):
+        raise InvalidInputError("scene", scene, "a dict of scene objects (eye, points) or None")
     serial = isinstance(getattr(robot, "chain", None), JointChain) and name in SERIAL_PLANTS
     module, attr, defaults = SERIAL_PLANTS[name] if serial else PLANTS[name]
     factory = getattr(importlib.import_module(module), attr)
     takes = inspect.signature(factory).parameters
+    unknown = sorted(set(kwargs) - set(takes) - {"robot"})
+    if unknown:
+        raise InvalidInputError(f"plant option {unknown[0]}", kwargs[unknown[0]],
+                                f"an option of the {name} plant: {', '.join(takes)}")  # fmt: skip
     extra = {k: v for k, v in (scene or {}).items() if k in takes}
     plant: Plant = factory(robot=robot, **{**defaults, **extra, **kwargs})
     return plant

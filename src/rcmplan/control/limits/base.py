@@ -11,9 +11,10 @@ from typing import NamedTuple, Protocol
 
 import numpy as np
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, array, flag
 from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.qp_limits import QpLimits
+from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 
 SCALE = 1e-6  # [m] or [rad] per unit of the decision variables
@@ -57,12 +58,29 @@ class Kinematics(NamedTuple):
     axis: FloatArray
 
 
-class Constraint(NamedTuple):
-    """Rows G x <= h (or G x = h when `equality`), x in QP units."""
-
+class _ConstraintFields(NamedTuple):
     G: FloatArray
     h: FloatArray
     equality: bool = False
+
+
+class Constraint(_ConstraintFields):
+    """Rows G x <= h (or G x = h when `equality`), x in QP units: G (k, m) and h (k,) finite,
+    equality True or False (InvalidInputError otherwise)."""
+
+    __slots__ = ()
+
+    def __new__(cls, G: FloatArray, h: FloatArray, equality: bool = False) -> Constraint:
+        G, h = array("G", G, 2), array("h", h, 1)
+        if G.shape[0] != h.shape[0]:
+            raise InvalidInputError("h", h, f"one bound per row of G ({G.shape[0]})")
+        return super().__new__(cls, G, h, flag("equality", equality))
+
+    @classmethod
+    def rows(cls, G: FloatArray, h: FloatArray, equality: bool = False) -> Constraint:
+        """The rows a limit builds at each step from the state's kinematics (finite arrays of
+        matching shapes), made without the checks (the QP step builds several per period)."""
+        return cls._make((G, h, equality))
 
 
 class Limit(Protocol):
@@ -99,7 +117,7 @@ def kinematics(robot: RobotModel, q: FloatArray, lam: float) -> Kinematics:
 
 def no_rows(kin: Kinematics) -> Constraint:
     """A limit that holds nothing at this state."""
-    return Constraint(np.zeros((0, kin.T.shape[1])), np.zeros(0))
+    return Constraint.rows(np.zeros((0, kin.T.shape[1])), np.zeros(0))
 
 
 def damper_row(

@@ -33,6 +33,6 @@ class RcmLimit:
         r = N @ (kin.rcm - inp.target[-3:])
         tol = inp.limits.rcm_tolerance
         if tol == 0.0:
-            return Constraint(Jc, -r / SCALE, equality=True)
+            return Constraint.rows(Jc, -r / SCALE, equality=True)
         box = tol / math.sqrt(2.0)
-        return Constraint(np.vstack([Jc, -Jc]), np.concatenate([box - r, box + r]) / SCALE)
+        return Constraint.rows(np.vstack([Jc, -Jc]), np.concatenate([box - r, box + r]) / SCALE)

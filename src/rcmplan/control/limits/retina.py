@@ -48,4 +48,4 @@ class RetinaBarrier:
         if lim.tip_speed is not None:  # the tip may move back as fast as the damper's gain lets
             recovery = max(RECOVERY, lim.eye_gain * lim.tip_speed * inp.dt)
         g, h = damper_row(grad, eye.distance_to_retina(kin.tip), floor, lim.eye_gain, recovery)
-        return Constraint(g[None, :], np.array([h]))
+        return Constraint.rows(g[None, :], np.array([h]))

@@ -23,4 +23,4 @@ class SingularMargin:
             g, h = damper_row(grad, float(value), floor, inp.limits.singular_gain)
             rows.append(g)
             hs.append(h)
-        return Constraint(np.array(rows), np.array(hs))
+        return Constraint.rows(np.array(rows), np.array(hs))

@@ -19,4 +19,4 @@ class TipSpeed:
             return no_rows(kin)
         J = kin.J_tip @ kin.T
         h = np.full(6, v * inp.dt / SCALE)
-        return Constraint(np.vstack([J, -J]), h)
+        return Constraint.rows(np.vstack([J, -J]), h)

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, matrix, scalar, vector
+from rcmplan._validate import FloatArray, array, matrix, scalar, vector
 from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, damper_row
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
@@ -40,7 +40,9 @@ class WorkspaceBound:
         hi = vector("workspace.upper", self.upper, 3)
         if np.any(hi <= lo):
             raise InvalidInputError("workspace box", (lo, hi), "lower < upper on every axis")
-        scalar("workspace.gain", self.gain, 0.0, 1.0, low_open=True)
+        object.__setattr__(
+            self, "gain", scalar("workspace.gain", self.gain, 0.0, 1.0, low_open=True)
+        )
         object.__setattr__(self, "origin", tuple(vector("workspace.origin", self.origin, 3)))
         object.__setattr__(self, "rotation", tuple(tuple(r) for r in R))
         object.__setattr__(self, "lower", tuple(lo))
@@ -48,12 +50,12 @@ class WorkspaceBound:
 
     def coordinates(self, p: FloatArray) -> FloatArray:
         """Box coordinates R^T (p - origin) of points p (3,) or (N, 3) in [m]."""
-        return np.asarray((np.asarray(p) - np.asarray(self.origin)) @ np.asarray(self.rotation))
+        return np.asarray((points("p", p) - np.asarray(self.origin)) @ np.asarray(self.rotation))
 
     def depth(self, p: FloatArray) -> FloatArray:
         """Signed distance (N,) [m] of points p (N, 3) to the nearest face along the box axes:
         positive inside, negative outside (then minus the largest excess over a face)."""
-        c = self.coordinates(np.atleast_2d(p))
+        c = self.coordinates(np.atleast_2d(points("p", p)))
         gaps = np.minimum(c - np.asarray(self.lower), np.asarray(self.upper) - c)
         return np.asarray(gaps.min(axis=1))
 
@@ -72,4 +74,12 @@ class WorkspaceBound:
                 g, h = damper_row(grad, float(gap), 0.0, self.gain)
                 rows.append(g)
                 hs.append(h)
-        return Constraint(np.array(rows), np.array(hs))
+        return Constraint.rows(np.array(rows), np.array(hs))
+
+
+def points(name: str, p: object) -> FloatArray:
+    """p as finite points (3,) or (N, 3) in [m], or InvalidInputError naming it."""
+    value = array(name, p, (1, 2))
+    if value.shape[-1] != 3:
+        raise InvalidInputError(name, p, f"points (3,) or (N, 3), got shape {value.shape}")
+    return value

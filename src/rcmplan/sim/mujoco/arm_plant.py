@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import FloatArray, instance, scalar, vector
 from rcmplan.exceptions import InvalidInputError, SimulationError
 from rcmplan.robot.model import SerialArm
 from rcmplan.scene.eye import Eye, EyePoints, default_points
@@ -27,7 +27,8 @@ from rcmplan.scene.eye import default_eye as scene_default_eye
 from rcmplan.sim.mujoco.actuators import quantise, synchronised_velocity
 from rcmplan.sim.mujoco.arm_model import ServoOptions, arm_model
 from rcmplan.sim.mujoco.files import mujoco_module
-from rcmplan.sim.mujoco.plant import MODES, cancel_gravity
+from rcmplan.sim.mujoco.plant import cancel_gravity
+from rcmplan.sim.mujoco.plant_checks import check_scene_args
 from rcmplan.sim.mujoco.scene import EyePhantom, phantom_of
 
 
@@ -55,8 +56,10 @@ class ArmPlant:
         points: EyePoints | None = None,
         servo: ServoOptions | None = None,
     ) -> None:
-        if mode not in MODES:
-            raise InvalidInputError("mode", mode, f"one of {MODES}")
+        check_scene_args(mode, eye, points)
+        instance("robot", robot, SerialArm, "a SerialArm (make_robot(NAME or FILE.toml))")
+        if servo is not None:
+            instance("servo", servo, ServoOptions, "ServoOptions or None (the defaults)")
         self.mj = mujoco_module()
         self.robot = robot
         self.mode, self.name = mode, f"mujoco-{mode}"

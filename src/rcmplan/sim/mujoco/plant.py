@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import FloatArray, instance, scalar, vector
 from rcmplan.exceptions import InvalidInputError, SimulationError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.eye import Eye, EyePoints
@@ -33,9 +33,9 @@ from rcmplan.sim.mujoco.actuators import PiezoParameters, profile_velocity, quan
 from rcmplan.sim.mujoco.assembly import LoopIndex, assemble_at, loop_gap
 from rcmplan.sim.mujoco.files import load_model, mujoco_module, physics_model
 from rcmplan.sim.mujoco.model import ModelOptions
+from rcmplan.sim.mujoco.plant_checks import check_plant_args
 from rcmplan.sim.mujoco.scene import EyePhantom, default_eye, phantom_of
 
-MODES = ("dynamic", "kinematic")
 JOINT_QPOS = ("q0", "q1", "q2", "q3", "L5", "q5")
 
 
@@ -70,10 +70,10 @@ class MujocoPlant:
         gap_limit: float = 50e-6,
         needle_arc: tuple[float, float] | None = None,
     ) -> None:
-        if mode not in MODES:
-            raise InvalidInputError("mode", mode, f"one of {MODES}")
+        check_plant_args(mode, gravity_compensation, eye, points, piezo, needle_arc)
+        what = "an Iramis model or None (MujocoPlant simulates iRAM!S; make_plant for arms)"
+        self.robot = Iramis() if robot is None else instance("robot", robot, Iramis, what)
         self.mj = mujoco_module()
-        self.robot = robot or Iramis()
         self.mode = mode
         self.name = f"mujoco-{mode}"
         # capabilities: a kinematic-mode command is reached exactly; a dynamic period can run
