@@ -6,15 +6,12 @@ and non-finite values show as a non-finite result, which the caller tests)."""
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from rcmplan._validate import F64, FloatArray, scalar, vector
 from rcmplan.exceptions import InvalidInputError
-
-if TYPE_CHECKING:
-    from rcmplan.robot.iramis import IramisParameters
 
 LENGTH_M = 1.0  # a bound on |l1|..|l6| and the PCJM spacing, in [m]
 LAM_VALID = "a finite number: 0 at the needle base, 1 at the tip, beyond them its line"
@@ -53,9 +50,9 @@ def check_finite(value: float, q: Any, name: str = "q") -> None:
         raise InvalidInputError(name, q, "joints whose result is finite (far below 1e300)")
 
 
-def checked_parameters(p: IramisParameters) -> dict[str, Any]:
-    """The parameters as floats and tuples of floats, or InvalidInputError for a geometry or
-    travel that is not finite or out of range (before any kinematics)."""
+def checked_parameters(p: Any) -> dict[str, Any]:
+    """An `IramisParameters`' values as floats and tuples of floats, or InvalidInputError for
+    a geometry or travel that is not finite or out of range (before any kinematics)."""
     out: dict[str, Any] = {
         name: scalar(name, getattr(p, name), -LENGTH_M, LENGTH_M)
         for name in ("l1", "l2", "l3", "l4", "l5")
