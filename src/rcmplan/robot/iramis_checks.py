@@ -64,7 +64,8 @@ def checked_parameters(p: Any) -> dict[str, Any]:
     if np.any(lower >= upper):
         i = int(np.argmax(lower >= upper))
         valid = f"slider travel with slider_upper above slider_lower (not at slider {i})"
-        raise InvalidInputError("slider_upper", p.slider_upper, valid)
+        pair = (float(lower[i]), float(upper[i]))
+        raise InvalidInputError(f"(slider_lower, slider_upper)[{i}]", pair, valid)
     speed = vector("slider_speed", p.slider_speed, 6)
     if np.any(speed <= 0.0):
         valid = "a positive slider speed for each of the six sliders"
