@@ -22,6 +22,7 @@ FloatArray = NDArray[np.float64]
 F64 = np.dtype(np.float64)  # the native float64 dtype, one object: tested by identity (fast)
 NOT_NUMBERS = (str, bytes, bool, np.bool_, complex, np.complexfloating)
 RIGID_TOLERANCE = 1e-6  # largest |R^T R - I| entry of a pose's rotation
+SMALL = 16  # vectors up to this length are tested for finiteness by one sum
 WORKSPACE_M = 10.0  # a bound on any point a needle robot is asked to reach, in [m]
 
 
@@ -53,6 +54,8 @@ def vector(name: str, value: Any, size: int | None = None) -> FloatArray:
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         want = f"shape ({size},)" if size is not None else "a 1-D array"
         raise InvalidInputError(name, value, f"{want}, got shape {arr.shape}")
+    if arr.shape[0] <= SMALL and math.isfinite(sum(arr.tolist())):
+        return arr  # a short vector: one sum is cheaper than np.isfinite (inf or NaN: not finite)
     if not np.isfinite(arr).all():
         raise InvalidInputError(name, value, "finite numbers (no NaN or inf)")
     return arr
@@ -104,20 +107,25 @@ def scalar(
     high_open: bool = False,
 ) -> float:
     """Return value as a finite float within [low, high] (open ends on request), or raise."""
-    lb = "(" if low_open else "["
-    hb = ")" if high_open else "]"
-    valid = f"a finite number in {lb}{low:g}, {high:g}{hb}"
-    if isinstance(value, NOT_NUMBERS) or (isinstance(value, np.ndarray) and value.ndim):
-        raise InvalidInputError(name, value, valid)
     try:
+        if isinstance(value, NOT_NUMBERS) or (isinstance(value, np.ndarray) and value.ndim):
+            raise TypeError("not a real number")
         x = float(value)
     except (TypeError, ValueError, OverflowError) as exc:
-        raise InvalidInputError(name, value, valid) from exc
+        raise _out_of_range(name, value, low, high, low_open, high_open) from exc
     lo_bad = x <= low if low_open else x < low
     hi_bad = x >= high if high_open else x > high
     if not math.isfinite(x) or lo_bad or hi_bad:
-        raise InvalidInputError(name, value, valid)
+        raise _out_of_range(name, value, low, high, low_open, high_open)
     return x
+
+
+def _out_of_range(
+    name: str, value: Any, low: float, high: float, low_open: bool, high_open: bool
+) -> InvalidInputError:
+    lb = "(" if low_open else "["
+    hb = ")" if high_open else "]"
+    return InvalidInputError(name, value, f"a finite number in {lb}{low:g}, {high:g}{hb}")
 
 
 def integer(name: str, value: Any, low: int, high: int) -> int:

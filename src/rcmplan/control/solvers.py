@@ -17,7 +17,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, instance, scalar, text, vector
 from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.targets import checked_target, finite_step, tip_of_target
+from rcmplan.control.targets import NAN_STEP, checked_target, finite_step, tip_of_target
 from rcmplan.control.tasks import (
     TIP_AND_BASE,
     TIP_AND_RCM,
@@ -184,9 +184,14 @@ class PinvSolver:
     ) -> tuple[FloatArray, float]:
         """Solve J_a d = K e (square), or the minimum-norm step plus the null-space posture (the
         target enters through the error, checked here)."""
-        Ke = np.asarray(self.K) * checked_target(error, 6, "error")
+        error = checked_target(error, 6, "error", finite=False)  # NaN shows in the step
+        Ke = np.asarray(self.K) * error
         J = augmented_jacobian(robot, q, lam, self.variant)
-        d = finite_step(lambda: pinv_solve(J, Ke, robot, q, lam, self.posture_gain), robot, q)
+        try:
+            d = pinv_solve(J, Ke, robot, q, lam, self.posture_gain)
+        except np.linalg.LinAlgError:
+            d = NAN_STEP
+        d = finite_step(d, robot, q, error)
         return d[:-1], float(d[-1])
 
 
@@ -256,10 +261,15 @@ class DlsSolver:
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """One DLS step on the stacked (tip, RCM) task."""
-        target, error = checked_target(target, 6), checked_target(error, 6, "error")
+        target = checked_target(target, 6, finite=False)  # NaN: no pivot, error() refuses it
+        error = checked_target(error, 6, "error", finite=False)  # NaN shows in the step
         pivot = _is_pivot(tip_of_target(target), target)
         J = stack_jacobian(TIP_AND_BASE if pivot else TIP_AND_RCM, robot, q, lam)
-        d = finite_step(lambda: dls_solve(J, error, self.damping), robot, q)
+        try:
+            d = dls_solve(J, error, self.damping)
+        except np.linalg.LinAlgError:
+            d = NAN_STEP
+        d = finite_step(d, robot, q, error)
         return d[:-1], float(d[-1])
 
 
@@ -304,10 +314,13 @@ class TipSolver:
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """Minimum-norm (or damped) step on the (3, m) tip Jacobian; lambda unchanged."""
-        _tip_point(target)
-        error = checked_target(error, 3, "error")
+        error = checked_target(error, 3, "error", finite=False)  # the target enters through it
         J = TIP_POSITION.jacobian(robot, q, lam)[:, :-1]
-        return finite_step(lambda: dls_solve(J, error, self.damping), robot, q), 0.0
+        try:
+            d = dls_solve(J, error, self.damping)
+        except np.linalg.LinAlgError:
+            d = NAN_STEP
+        return finite_step(d, robot, q, error), 0.0
 
 
 def _tip_point(target: Any) -> FloatArray:

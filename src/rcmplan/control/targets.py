@@ -10,7 +10,6 @@ lets every target be checked for lambda in [0, 1], reach and actuator travel bef
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -28,31 +27,34 @@ from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis, axis_from_angles
 
 
-def checked_target(target: Any, width: int, name: str = "target") -> FloatArray:
-    """target as a finite float64 array (width,), or InvalidInputError naming it. A float64
-    array of that shape costs a type test and one sum (solvers check every call)."""
-    if (
-        target.__class__ is np.ndarray and target.dtype is F64 and target.shape == (width,)
-        and math.isfinite(sum(target.tolist()))
-    ):  # fmt: skip
+def checked_target(
+    target: Any, width: int, name: str = "target", finite: bool = True
+) -> FloatArray:
+    """target as a float64 array (width,) of finite numbers, or InvalidInputError naming it. A
+    float64 array of that shape costs a type test and, unless `finite` is False (its NaN then
+    shows in a result the caller tests), one sum: solvers check every call."""
+    fast = target.__class__ is np.ndarray and target.dtype is F64 and target.shape == (width,)
+    if fast and (not finite or math.isfinite(sum(target.tolist()))):
         return target
     return vector(name, target, width)
 
 
-def finite_step(solve: Callable[[], FloatArray], robot: RobotModel, q: Any) -> FloatArray:
-    """solve(), a step that must be finite: a singular system or a non-finite step (joints
-    far out of range) raises SingularPoseError or InvalidInputError naming q."""
-    try:
-        d = solve()
-    except np.linalg.LinAlgError:
-        d = np.full(1, np.nan)
+def finite_step(d: FloatArray, robot: RobotModel, q: Any, error: Any = None) -> FloatArray:
+    """d, a solver's step, if finite; else InvalidInputError naming the error (a non-finite
+    task error) or q (joints far out of range), or SingularPoseError (the system was singular:
+    a solver passes NAN_STEP for numpy's LinAlgError)."""
     if math.isfinite(sum(d.tolist())):
         return d
+    if error is not None:
+        vector("error", error, len(error))
     q = vector("q", q, len(robot.home))
     measure = robot.singularity_measure(q)
     if measure < robot.singular_threshold:
         raise SingularPoseError(q, measure, robot.singular_threshold, "singularity measure")
     raise InvalidInputError("q", q, "joints at which the step's system is solvable (finite)")
+
+
+NAN_STEP = np.full(1, np.nan)  # what a solver passes to finite_step for a singular system
 
 
 class Pose(NamedTuple):
