@@ -7,7 +7,7 @@ from typing import Any
 from rcmplan._validate import has_methods, instance
 from rcmplan.control.phase import LoopSettings
 from rcmplan.control.plant import check_plant
-from rcmplan.control.solvers import check_solver
+from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.checks import robot_model
 
@@ -29,3 +29,18 @@ def check_controller_args(
         if len(robot.lower) != len(plant.robot.lower):
             valid = f"a model of the plant's {len(plant.robot.lower)} actuators"
             raise InvalidInputError("robot", getattr(robot, "name", robot), valid)
+
+
+def check_solver(name: str, solver: Any) -> Solver:
+    """solver if it is a step solver, else InvalidInputError naming `name`."""
+    methods = ("error", "step", "tolerance")
+    ok = all(callable(getattr(solver, m, None)) for m in methods)
+    if (
+        not ok
+        or not isinstance(getattr(solver, "name", None), str)
+        or getattr(solver, "kind", None) not in ("rcm", "free")
+    ):
+        valid = "a step solver (rcmplan.PinvSolver, DlsSolver, QpSolver, TipSolver)"
+        raise InvalidInputError(name, solver, valid)
+    checked: Solver = solver
+    return checked

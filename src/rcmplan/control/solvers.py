@@ -17,7 +17,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, instance, scalar, text, vector
 from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.targets import NAN_STEP, checked_target, finite_step, tip_of_target
+from rcmplan.control.targets import checked_target, finite_step, solved, tip_of_target
 from rcmplan.control.tasks import (
     TIP_AND_BASE,
     TIP_AND_RCM,
@@ -97,21 +97,6 @@ class Solver(Protocol):
         ...
 
 
-def check_solver(name: str, solver: Any) -> Solver:
-    """solver if it is a step solver, else InvalidInputError naming `name`."""
-    methods = ("error", "step", "tolerance")
-    ok = all(callable(getattr(solver, m, None)) for m in methods)
-    if (
-        not ok
-        or not isinstance(getattr(solver, "name", None), str)
-        or getattr(solver, "kind", None) not in ("rcm", "free")
-    ):
-        valid = "a step solver (rcmplan.PinvSolver, DlsSolver, QpSolver, TipSolver)"
-        raise InvalidInputError(name, solver, valid)
-    checked: Solver = solver
-    return checked
-
-
 def check_gains(K: object) -> FloatArray:
     """Return K as a (6,) array with every entry in (0, 2), else raise.
 
@@ -187,11 +172,9 @@ class PinvSolver:
         error = checked_target(error, 6, "error", finite=False)  # NaN shows in the step
         Ke = np.asarray(self.K) * error
         J = augmented_jacobian(robot, q, lam, self.variant)
-        try:
-            d = pinv_solve(J, Ke, robot, q, lam, self.posture_gain)
-        except np.linalg.LinAlgError:
-            d = NAN_STEP
-        d = finite_step(d, robot, q, error)
+        d = finite_step(
+            solved(pinv_solve, J, Ke, robot, q, lam, self.posture_gain), robot, q, error
+        )
         return d[:-1], float(d[-1])
 
 
@@ -265,11 +248,7 @@ class DlsSolver:
         error = checked_target(error, 6, "error", finite=False)  # NaN shows in the step
         pivot = _is_pivot(tip_of_target(target), target)
         J = stack_jacobian(TIP_AND_BASE if pivot else TIP_AND_RCM, robot, q, lam)
-        try:
-            d = dls_solve(J, error, self.damping)
-        except np.linalg.LinAlgError:
-            d = NAN_STEP
-        d = finite_step(d, robot, q, error)
+        d = finite_step(solved(dls_solve, J, error, self.damping), robot, q, error)
         return d[:-1], float(d[-1])
 
 
@@ -316,11 +295,7 @@ class TipSolver:
         """Minimum-norm (or damped) step on the (3, m) tip Jacobian; lambda unchanged."""
         error = checked_target(error, 3, "error", finite=False)  # the target enters through it
         J = TIP_POSITION.jacobian(robot, q, lam)[:, :-1]
-        try:
-            d = dls_solve(J, error, self.damping)
-        except np.linalg.LinAlgError:
-            d = NAN_STEP
-        return finite_step(d, robot, q, error), 0.0
+        return finite_step(solved(dls_solve, J, error, self.damping), robot, q, error), 0.0
 
 
 def _tip_point(target: Any) -> FloatArray:
