@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 
 from rcmplan._atomic import atomic_path
 from rcmplan._validate import FloatArray, file_path
+from rcmplan.control.log_checks import ARRAY_FIELDS, INT_FIELDS, SHAPES, WIDE, checked_fields
 from rcmplan.exceptions import InvalidInputError
 
 FIELDS_3 = ("tip", "rcm", "trocar", "base", "target_tip")
@@ -51,8 +52,6 @@ class RunLog:
     actuator_labels: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
-        from rcmplan.control.log_checks import checked_fields
-
         for k, v in checked_fields(self).items():
             object.__setattr__(self, k, v)
         if self.roll_error.size == 0 < self.time.shape[0]:  # not given: no roll error stated
@@ -160,17 +159,7 @@ class RunLog:
                 fh.write(head + "," + ",".join(map(repr, row)) + "\n")
 
 
-ARRAY_FIELDS = (
-    "time", "sliders", "joints", "lam", "tip", "rcm", "trocar", "base", "target_tip", "error",
-    "roll_error", "step", "iteration", "solver", "phase",
-)  # fmt: skip
-
-
-SHAPES = {"sliders": 6, "joints": 6, "tip": 3, "rcm": 3, "trocar": 3, "base": 3,
-          "target_tip": 3, "error": 6}  # fmt: skip
-INT_FIELDS = ("step", "iteration", "solver", "phase")
 OPTIONAL = {"roll_error": np.nan}  # fields a record may leave out, with their value then
-WIDE = ("sliders", "joints")  # one column per actuator or joint of the robot (iRAM!S: 6)
 
 
 def _column(k: str, values: object, n: int) -> np.ndarray:

@@ -2,18 +2,25 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
-from rcmplan.control.log import ARRAY_FIELDS, INT_FIELDS, SHAPES, WIDE
 from rcmplan.exceptions import InvalidInputError
 
-if TYPE_CHECKING:
-    from rcmplan.control.log import RunLog
+ARRAY_FIELDS = (
+    "time", "sliders", "joints", "lam", "tip", "rcm", "trocar", "base", "target_tip", "error",
+    "roll_error", "step", "iteration", "solver", "phase",
+)  # fmt: skip
 
 
-def checked_fields(log: RunLog) -> dict[str, Any]:
+SHAPES = {"sliders": 6, "joints": 6, "tip": 3, "rcm": 3, "trocar": 3, "base": 3,
+          "target_tip": 3, "error": 6}  # fmt: skip
+INT_FIELDS = ("step", "iteration", "solver", "phase")
+WIDE = ("sliders", "joints")  # one column per actuator or joint of the robot (iRAM!S: 6)
+
+
+def checked_fields(log: Any) -> dict[str, Any]:
     """The log's fields as arrays of their dtype and shape (n records; `roll_error` may be
     empty), its names as tuples of strings; InvalidInputError naming the first that is not."""
     n = _records(log.time)
