@@ -13,10 +13,11 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import WORKSPACE_M, FloatArray, instance, scalar, vector
+from rcmplan._validate import F64, WORKSPACE_M, FloatArray, instance, scalar, vector
 from rcmplan.exceptions import (
     InvalidInputError,
     SingularPoseError,
@@ -336,24 +337,16 @@ class Iramis:
         """min(|cos q1|, |cos q3|): zero exactly on the singular set of J_a and J_0^5 (NOTES.md).
 
         Raises InvalidInputError unless q is 6 finite numbers."""
-        q = joints(q)
-        try:
-            c1, c3 = abs(math.cos(q[1])), abs(math.cos(q[3]))
-        except ValueError:  # cos(inf)
-            c1 = c3 = math.nan
-        if not math.isfinite(c1 + c3):
-            check_finite(c1 + c3, q)
-        return min(c1, c3)
+        q1, q3 = _angles(q)
+        return min(abs(math.cos(q1)), abs(math.cos(q3)))
 
     @staticmethod
     def singular_terms(q: Sequence[float] | FloatArray) -> tuple[FloatArray, FloatArray]:
         """(cos q1, cos q3) and their gradients (2, 6): both stay above the singular floor."""
-        q = joints(q)
-        if not math.isfinite(q[1] + q[3]):
-            check_finite(q[1] + q[3], q)
+        q1, q3 = _angles(q)
         grad = np.zeros((2, 6))
-        grad[0, 1], grad[1, 3] = -math.sin(q[1]), -math.sin(q[3])
-        return np.array([math.cos(q[1]), math.cos(q[3])]), grad
+        grad[0, 1], grad[1, 3] = -math.sin(q1), -math.sin(q3)
+        return np.array([math.cos(q1), math.cos(q3)]), grad
 
     def check_singularity(
         self, q: Sequence[float] | FloatArray, threshold: float | None = None
@@ -431,3 +424,14 @@ class Iramis:
                 p.sources["singular_threshold"],
             ),
         ]
+
+
+def _angles(q: Any) -> tuple[float, float]:
+    """(q1, q3) of joints q as floats, InvalidInputError unless q is 6 numbers with q1 and q3
+    finite (the singularity measure reads only these)."""
+    if q.__class__ is not np.ndarray or q.dtype is not F64 or q.shape != (6,):
+        q = vector("q", q, 6)
+    q1, q3 = float(q[1]), float(q[3])
+    if not math.isfinite(q1 + q3):
+        check_finite(q1 + q3, q)
+    return q1, q3
