@@ -131,10 +131,16 @@ def test_a_limit_holds_the_needle_and_says_why(pull, why) -> None:
 
 def test_run_live_counts_its_periods_against_wall_time(settings) -> None:
     inp, stop = LiveInput(settings.to_master(settings.start_tip)), threading.Event()
-    out = {}
-    th = threading.Thread(target=lambda: out.setdefault("st", run_live(settings, inp, stop)))
+    out, first = {}, threading.Event()  # 0.3 s of periods once the session runs (building it
+    # may compile its QP step on a first run)
+    th = threading.Thread(
+        target=lambda: out.setdefault(
+            "st", run_live(settings, inp, stop, on_period=lambda st: first.set())
+        )
+    )
     start = time.perf_counter()
     th.start()
+    assert first.wait(300.0), "the session never ran a period"
     time.sleep(0.3)
     stop.set()
     th.join()
