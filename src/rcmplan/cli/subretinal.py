@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from rcmplan.analysis.units import fmt
 from rcmplan.cli.common import (
     ROBOT_HELP,
     announce_robot,
@@ -117,8 +118,7 @@ def print_table(doc: dict[str, Any]) -> None:
     """The episode's figures, one per line."""
 
     def um(key: str) -> str:
-        v = doc.get(key)
-        return "-" if v is None else f"{v * 1e6:.2f} um"
+        return fmt(doc.get(key), "um", with_unit=True)
 
     rate, latency_ms = doc["ioct_rate_hz"], doc["latency_s"] * 1e3
     print(f"subretinal  robot {doc['robot']}  compensation {doc['compensation']}  "
