@@ -31,11 +31,11 @@ from _common import quick, row, use_path
 from _recording import RecordingQp
 from rcmplan import Iramis
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.kernels import trig
 from rcmplan.compiled.qp_kernels import solve_step
 from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.control.qp import QpSolver
 from rcmplan.controller import Controller
+from rcmplan.robot.iramis_kernels import trig
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant

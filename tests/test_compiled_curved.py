@@ -14,7 +14,6 @@ import pytest
 from rcmplan.compiled import curved_arm, curved_iramis, curved_phase
 from rcmplan.compiled import curved_kernels as ck
 from rcmplan.compiled.curved import CurvedArrays, arm_work_shape, curved_arrays
-from rcmplan.compiled.kernels import trig
 from rcmplan.compiled.records import CURVED_DLS, CURVED_PINV, CURVED_POSE
 from rcmplan.control import LoopSettings, Phase, PinvSolver
 from rcmplan.control.curved import (
@@ -34,6 +33,7 @@ from rcmplan.controller import Controller
 from rcmplan.exceptions import ConvergenceError, RcmplanError, SliderLimitError
 from rcmplan.robot.curved import CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
+from rcmplan.robot.iramis_kernels import trig
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import Steps, injection

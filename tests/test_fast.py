@@ -29,6 +29,7 @@ from rcmplan.exceptions import (
     SliderLimitError,
     UnreachableTargetError,
 )
+from rcmplan.robot import iramis_kernels
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection, spiral
 from rcmplan.sim import KinematicPlant
@@ -76,7 +77,7 @@ def test_kernels_equal_reference_over_random_poses(robot: Iramis, rng: np.random
 def test_needle_point_kernel_equals_forward_kinematics(
     robot: Iramis, rng: np.random.Generator
 ) -> None:
-    kernels, P, p = fast_cache.kernels(), robot_params(robot), np.empty(3)
+    kernels, P, p = iramis_kernels, robot_params(robot), np.empty(3)
     for q in random_joints(rng, 100):
         kernels.needle_point(P, q, 1.0, p)
         np.testing.assert_allclose(p, robot.forward_kinematics(q)[:3, 3], atol=TOL)

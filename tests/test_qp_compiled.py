@@ -17,6 +17,7 @@ from rcmplan.compiled.runner import fast_converge_phase
 from rcmplan.control import LoopSettings, Phase, PinvSolver
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.limited_tip import LimitedTipSolver
+from rcmplan.control.limits import TipSpeed, TissueDepthLimit
 from rcmplan.control.limits.workspace import WorkspaceBound
 from rcmplan.control.log import RunLog
 from rcmplan.control.phase import split_steps
@@ -58,13 +59,15 @@ def reference(run):  # type: ignore[no-untyped-def]
 
 def solvers(robot: Iramis) -> list[QpSolver]:
     """QP solvers that exercise every row: the default one, an RCM equality, a retina contact
-    listed at a point, other gains and damping, no eye, and teleoperation's workspace box
-    (turned, and small enough that random states lie on both sides of its faces)."""
+    listed at a point, other gains and damping, no eye, teleoperation's workspace box (turned,
+    and small enough that random states lie on both sides of its faces), and a tip speed bound
+    with two extra limits (a tissue-depth sphere, then the box)."""
     eye = default_eye(robot)
     contact = tuple(default_points(eye).p5)
     turn = eye_frame(eye)
     box = WorkspaceBound(tuple(eye.center), tuple(map(tuple, turn)), (-3e-3, -2e-3, -4e-3),
                          (2e-3, 3e-3, 1e-3), gain=0.3)  # fmt: skip
+    depth = TissueDepthLimit(eye.center, eye.retina_radius - 1e-3, gain=0.7, recovery=2e-6)
     return [
         QpSolver(robot, eye, extra_limits=(box,)),
         QpSolver(robot, eye, limits=QpLimits(rcm_tolerance=0.0), extra_limits=(box,)),
@@ -73,6 +76,7 @@ def solvers(robot: Iramis) -> list[QpSolver]:
         QpSolver(robot, eye, K=(0.5, 1.2, 0.8, 1.0, 1.5, 0.7), damping=3e-3,
                  limits=QpLimits(contacts=(contact,), rcm_weight=4.0, singular_margin=0.3)),
         QpSolver(robot, None, dt=2e-3),
+        QpSolver(robot, eye, limits=QpLimits(tip_speed=5e-3), extra_limits=(depth, box)),
     ]  # fmt: skip
 
 
@@ -318,12 +322,20 @@ def test_a_teleoperation_session_runs_its_qp_compiled_with_the_reference_records
     assert held["retina"] > 0.5 and held["workspace"] > 0.1, held  # both fixtures held the tip
 
 
+class TipSpeedAsExtra(TipSpeed):
+    """A limit class the compiled step has no kernel for."""
+
+
 def test_the_period_step_declines_what_it_does_not_reproduce(robot: Iramis) -> None:
     from rcmplan.compiled.qp_period import period_step
     from rcmplan.robot.registry import make_robot
 
     eye = default_eye(robot)
     assert period_step(QpSolver(robot, eye)) is not None
-    assert period_step(QpSolver(robot, eye, limits=QpLimits(tip_speed=0.01))) is None
+    assert period_step(QpSolver(robot, eye, limits=QpLimits(tip_speed=0.01))) is not None
+    box = WorkspaceBound((0.0, 0.0, 0.0), tuple(map(tuple, np.eye(3))), (-1.0,) * 3, (1.0,) * 3)
+    assert period_step(QpSolver(robot, eye, extra_limits=(box, box))) is not None
+    assert period_step(QpSolver(robot, eye, extra_limits=(box, box, box))) is None  # > MAX_EXTRA
+    assert period_step(QpSolver(robot, eye, extra_limits=(TipSpeedAsExtra(),))) is None
     ur5 = make_robot("ur5")
     assert period_step(QpSolver(ur5, default_eye(ur5))) is None

@@ -41,7 +41,6 @@ from rcmplan.compiled.chain_kernels import (
     needle_point,
     pinv_solve,
 )
-from rcmplan.compiled.kernels import axis_from_angles
 from rcmplan.compiled.loop import converged, holds_rcm, target_frame
 from rcmplan.compiled.records import (
     BAD_JOINTS,
@@ -58,7 +57,7 @@ from rcmplan.compiled.records import (
     TIP,
 )
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
-from rcmplan.robot.needle import closest_point
+from rcmplan.robot.needle import axis_into, closest_point
 
 
 @njit(cache=True)
@@ -74,7 +73,7 @@ def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: flo
         return 3
     if method == DLS:
         a = W[4 * (n + 1) + 2 * ROWS]  # a vector row of W as scratch
-        axis_from_angles(target[1], target[2], a)
+        axis_into(target[1], target[2], a)
         p = needle_point(A, n, W, 0.0 if pivot else lam)
         for i in range(3):
             e[i] = tip_t[i] - p_tip[i]

@@ -10,7 +10,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.kernels import dls_solve, gauss_solve, tip_of_target
+from rcmplan.compiled.kernels import dls_solve, gauss_solve
 from rcmplan.robot.chain_kinematics import (
     ROWS,
     E,
@@ -23,6 +23,7 @@ from rcmplan.robot.chain_kinematics import (
     needle_point,
     point_jacobian,
 )
+from rcmplan.robot.needle import x_ext_tip
 
 
 @njit(cache=True)
@@ -85,7 +86,7 @@ def screen_targets(
         finite = True
         for i in range(6):
             finite &= math.isfinite(x[i])
-        if not finite or not tip_of_target(x, a, tip) or abs(a[0]) < 2e-12:
+        if not finite or not x_ext_tip(x, a, tip) or abs(a[0]) < 2e-12:
             continue
         it = needle_pose(A, ix, W, tip, x[1], x[2], q, max_it, tol)
         if it < 0 or it > clear_it:

@@ -9,7 +9,6 @@ import math
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.kernels import tip_of_target
 from rcmplan.control.solvers import PIVOT_DISTANCE
 from rcmplan.robot.chain_kinematics import (
     AXIS,
@@ -25,6 +24,7 @@ from rcmplan.robot.chain_kinematics import (
     needle_point,
     point_jacobian,
 )
+from rcmplan.robot.needle import x_ext_tip
 
 
 @njit(cache=True)
@@ -167,7 +167,7 @@ def dls_step(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: flo
     n = ix[0]
     v = 4 * (n + 1) + 2 * ROWS
     e, tip, a = W[v + E], W[v + TIP], W[v + AXIS]
-    if not tip_of_target(target, a, tip):
+    if not x_ext_tip(target, a, tip):
         return False
     pivot = math.sqrt((tip[0] - target[3]) ** 2 + (tip[1] - target[4]) ** 2
                       + (tip[2] - target[5]) ** 2) < PIVOT_DISTANCE  # fmt: skip

@@ -19,12 +19,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays, pack_arm, probes
 from rcmplan.compiled.records import robot_params
 from rcmplan.control.curved import CURVED_POSE_TASKS, CURVED_TASKS
 from rcmplan.control.tasks import stack_jacobian, stack_value
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot import iramis_kernels
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel, SerialArm
@@ -125,7 +125,7 @@ def _reproduces(robot: CurvedTipRobot, arrays: CurvedArrays) -> bool:
 
 def _iramis_maps(robot: CurvedTipRobot, P: FloatArray, q: FloatArray) -> bool:
     """The kernels' PCJM maps and singularity measure equal the model's at q."""
-    k = fast_cache.kernels()
+    k = iramis_kernels
     s, back = np.empty(6), np.empty(6)
     k.actuators_from_joints(P, q, s)
     k.joints_from_actuators(P, s, back)

@@ -20,9 +20,9 @@ from numpy.typing import NDArray
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import curved_arm, curved_iramis
 from rcmplan.compiled import curved_kernels as ck
-from rcmplan.compiled.kernels import actuators_from_joints, point, trig
 from rcmplan.compiled.records import CURVED_PINV
 from rcmplan.robot.chain_kinematics import IntArray, frames, needle_point
+from rcmplan.robot.iramis_kernels import actuators_from_joints, point, trig
 from rcmplan.robot.needle import closest_point
 
 MARGIN = 1e-9  # [m], [rad]: how far inside lambda's [0, 1] and the travel a cleared target lies

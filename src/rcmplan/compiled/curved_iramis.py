@@ -28,8 +28,8 @@ from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import curved_kernels as ck
-from rcmplan.compiled.kernels import point, point_jacobian, trig
 from rcmplan.compiled.records import CURVED_PINV, CURVED_POSE
+from rcmplan.robot.iramis_kernels import point, point_jacobian, trig
 
 TIP_X, TIP_Z = 19, 20  # the arc's end (x, z) in the base frame, in P
 ACTIVE = 6  # q0..q5

@@ -1,8 +1,8 @@
 """iRAM!S's X_ext, J_a in closed form and the step solves, compiled, on the kinematics of
-`rcmplan.robot.iramis_kernels` (the one definition the `Iramis` model calls too; re-exported
-here for the compiled loops). The augmented Jacobian's closed form and the solves repeat the
-arithmetic of the generic tasks (`control/tasks.py`, `augmented.py`, `solvers.py`), which any
-robot model uses, so results agree to rounding.
+`rcmplan.robot.iramis_kernels` (the one definition the `Iramis` model calls too). The
+augmented Jacobian's closed form and the solves repeat the arithmetic of the generic tasks
+(`control/tasks.py`, `augmented.py`, `solvers.py`), which any robot model uses, so results
+agree to rounding.
 
 Parameters travel as one float64 array P (`iramis_kernels.PARAMS`).
 """
@@ -15,20 +15,7 @@ import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.robot.iramis_kernels import (  # noqa: F401  (the compiled loops import them from here)
-    LOWER,
-    PARAMS,
-    UPPER,
-    actuators_from_joints,
-    axis_from_angles,
-    first_beyond_travel,
-    joints_from_actuators,
-    needle_point,
-    point,
-    point_jacobian,
-    tip_jacobian,
-    trig,
-)
+from rcmplan.robot.iramis_kernels import point, point_jacobian, trig
 
 
 @njit(cache=True)
@@ -133,18 +120,6 @@ def dls_solve(
         for i in range(m):
             acc += J[i, k] * f[i]
         d[k] = acc
-
-
-@njit(cache=True)
-def tip_of_target(x: FloatArray, a: FloatArray, tip: FloatArray) -> bool:
-    """The tip point X_ext implies into tip (3,); False if the axis is perpendicular to x."""
-    axis_from_angles(x[1], x[2], a)
-    if abs(a[0]) < 1e-12:
-        return False
-    t = (x[0] - x[3]) / a[0]
-    for i in range(3):
-        tip[i] = x[3 + i] + t * a[i]
-    return True
 
 
 @njit(cache=True)

@@ -29,22 +29,7 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import curved_iramis
 from rcmplan.compiled.curved_kernels import BLOCK_ROWS
-from rcmplan.compiled.kernels import (
-    actuators_from_joints,
-    axis_from_angles,
-    dls_solve,
-    first_beyond_travel,
-    jacobian_a,
-    joints_from_actuators,
-    njit,
-    point,
-    point_jacobian,
-    solve_augmented,
-    task,
-    tip_jacobian,
-    tip_of_target,
-    trig,
-)
+from rcmplan.compiled.kernels import dls_solve, jacobian_a, njit, solve_augmented, task
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
@@ -63,7 +48,16 @@ from rcmplan.compiled.records import (
 )
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.control.solvers import PIVOT_DISTANCE
-from rcmplan.robot.needle import closest_point
+from rcmplan.robot.iramis_kernels import (
+    actuators_from_joints,
+    first_beyond_travel,
+    joints_from_actuators,
+    point,
+    point_jacobian,
+    tip_jacobian,
+    trig,
+)
+from rcmplan.robot.needle import axis_into, closest_point, x_ext_tip
 
 
 @njit(cache=True)
@@ -155,7 +149,7 @@ def task_error(
     if tip_only(method):
         return 3
     if pivot:  # the needle base to its place on the target axis, l6 behind the tip
-        axis_from_angles(target[1], target[2], w[3:])
+        axis_into(target[1], target[2], w[3:])
         point(P, q, tr, 0.0, w[:3])
         for i in range(3):
             e[3 + i] = (tip_t[i] - P[5] * w[3 + i]) - w[i]
@@ -364,7 +358,7 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
     if target.shape[0] == 7:
         put(tip_t, 0, target, 0, 3)
         return 0
-    if not tip_of_target(target, w, tip_t):
+    if not x_ext_tip(target, w, tip_t):
         return -1
     return 1 if is_pivot(tip_t, target) else 0
 
@@ -420,7 +414,7 @@ def pose_clear(
     phi, psi = x[1], x[2]
     if min(abs(math.cos(phi)), abs(math.cos(psi))) < thr + margin:
         return False
-    if not tip_of_target(x, a, tip) or abs(a[0]) < 2e-12:
+    if not x_ext_tip(x, a, tip) or abs(a[0]) < 2e-12:
         return False
     depth = 0.0
     for i in range(3):

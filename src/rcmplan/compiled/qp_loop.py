@@ -16,11 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.kernels import (
-    joints_from_actuators,
-    njit,
-    trig,
-)
+from rcmplan.compiled.kernels import njit
 from rcmplan.compiled.loop import (
     bound_rcm_step,
     closest_lambda,
@@ -40,6 +36,7 @@ from rcmplan.compiled.records import (
     SINGULAR,
     STEPPED,
 )
+from rcmplan.robot.iramis_kernels import joints_from_actuators, trig
 
 
 @njit(cache=True)

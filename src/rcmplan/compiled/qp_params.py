@@ -1,7 +1,8 @@
 """The QP controller's settings as the compiled kernels read them: one float64 vector Q.
 
 No numba here (the runner checks whether the compiled QP applies without loading it); the
-kernels (`qp_kernels`) read the indices below as compile-time constants.
+kernels (`qp_kernels`) read the indices below as compile-time constants. The rows themselves
+are the limits' own kernels (`control/limits/`), which the Python QP calls too.
 """
 
 from __future__ import annotations
@@ -12,21 +13,33 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.eye_model import EyeModel
+from rcmplan.control.limits.retina import contact_points, retina_recovery
+from rcmplan.control.limits.tissue_depth import PACKED as DEPTH_PACKED
+from rcmplan.control.limits.tissue_depth import TissueDepthLimit
+from rcmplan.control.limits.workspace import PACKED as BOX_PACKED
 from rcmplan.control.limits.workspace import WorkspaceBound
+from rcmplan.control.qp_problem import cost_weights
 from rcmplan.robot.model import RobotModel
 
 if TYPE_CHECKING:
     from rcmplan.control.qp import QpSolver
 
-# Indices of Q: `QpLimits` fields in SI units, the solver's dt [s] and damping, the eye
-# (HAS_EYE 1 or 0, retina radius [m], centre (3,) and trocar point (3,) [m]), slider speeds (6,).
+# Indices of Q: `QpLimits` fields in SI units, the solver's dt [s] and damping, the retina's
+# recovery per step [m], the tip's step bound tip_speed x dt [m] (0: none), the eye (HAS_EYE 1
+# or 0, retina radius [m], centre (3,) and trocar point (3,) [m]), slider speeds (6,), the cost's
+# row weights (6,).
 RCM_TOL, TRAVEL_MARGIN, RETINA_MARGIN, EYE_GAIN, PORT_ZONE, CONTACT_TOL = range(6)
-SINGULAR_FLOOR, SINGULAR_GAIN, ANGLE_WEIGHT, RCM_WEIGHT, DT, DAMPING = range(6, 12)
-HAS_EYE, RETINA_RADIUS, CENTER, PORT, SPEED = 12, 13, 14, 17, 20
-# A workspace box (`limits.workspace.WorkspaceBound`, the one extra limit the kernels hold):
-# HAS_BOX 1 or 0, origin (3,), rotation R (3, 3) row by row, lower (3,), upper (3,), gain.
-HAS_BOX, BOX_ORIGIN, BOX_R, BOX_LOWER, BOX_UPPER, BOX_GAIN = 26, 27, 30, 39, 42, 45
-Q_SIZE = 46
+SINGULAR_FLOOR, SINGULAR_GAIN, DT, DAMPING, RETINA_RECOVERY, TIP_STEP = range(6, 12)
+HAS_EYE, RETINA_RADIUS, CENTER, PORT, SPEED, WEIGHTS = 12, 13, 14, 17, 20, 26
+# Extra limits the kernels hold, in the solver's order: N_EXTRA, then per limit a slot of
+# EXTRA_SLOT numbers, its kind (one of EXTRA_KINDS) and its packed parameters.
+N_EXTRA, EXTRA = 32, 33
+BOX, DEPTH = 1.0, 2.0
+EXTRA_KINDS: dict[type, tuple[float, int]] = {WorkspaceBound: (BOX, BOX_PACKED),
+                                              TissueDepthLimit: (DEPTH, DEPTH_PACKED)}  # fmt: skip
+EXTRA_SLOT = 1 + max(n for _, n in EXTRA_KINDS.values())
+MAX_EXTRA = 2
+Q_SIZE = EXTRA + MAX_EXTRA * EXTRA_SLOT
 
 _PROBES = np.array([[0.0, 0.0, 0.0], [3e-3, -2e-3, 7e-3], [-0.02, 0.01, 0.03]])
 
@@ -41,35 +54,47 @@ def spherical_eye(eye: EyeModel) -> bool:
     return True
 
 
+def compiled_extras(solver: QpSolver) -> bool:
+    """True if the kernels hold each of the solver's extra limits (at most MAX_EXTRA, each
+    exactly one of the EXTRA_KINDS classes)."""
+    extra = solver.extra_limits
+    return len(extra) <= MAX_EXTRA and all(type(lim) in EXTRA_KINDS for lim in extra)
+
+
+def pack_extras(solver: QpSolver, Q: FloatArray) -> None:
+    """Write the solver's extra limits into Q as they are now (a moving limit's current
+    parameters: call before each step)."""
+    Q[N_EXTRA] = len(solver.extra_limits)
+    for i, lim in enumerate(solver.extra_limits):
+        kind, n = EXTRA_KINDS[type(lim)]
+        slot = EXTRA + i * EXTRA_SLOT
+        Q[slot] = kind
+        if isinstance(lim, WorkspaceBound):
+            Q[slot + 1 : slot + 1 + n] = lim.packed
+        elif isinstance(lim, TissueDepthLimit):
+            lim.pack(Q[slot + 1 : slot + 1 + n])
+
+
 def qp_params(robot: RobotModel, solver: QpSolver) -> tuple[FloatArray, FloatArray] | None:
     """(Q, contacts (k, 3) [m]) of a QP solver driving `robot`; None if its eye is not one the
-    kernels reproduce (`spherical_eye`), it bounds the tip's speed, or it holds extra limits
-    other than one workspace box (no compiled rows)."""
+    kernels reproduce (`spherical_eye`) or it holds extra limits the kernels do not
+    (`compiled_extras`)."""
     lim, eye = solver.limits, solver.eye
-    extra = solver.extra_limits
-    if lim.tip_speed is not None or len(extra) > 1:
-        return None
-    box = extra[0] if extra else None
-    if box is not None and not (isinstance(box, WorkspaceBound) and type(box) is WorkspaceBound):
+    if not compiled_extras(solver) or (eye is not None and not spherical_eye(eye)):
         return None
     Q = np.zeros(Q_SIZE)
-    if box is not None:
-        Q[HAS_BOX], Q[BOX_GAIN] = 1.0, box.gain
-        Q[BOX_ORIGIN : BOX_ORIGIN + 3] = box.origin
-        Q[BOX_R : BOX_R + 9] = np.asarray(box.rotation, dtype=float).ravel()
-        Q[BOX_LOWER : BOX_LOWER + 3], Q[BOX_UPPER : BOX_UPPER + 3] = box.lower, box.upper
+    pack_extras(solver, Q)
     Q[RCM_TOL], Q[TRAVEL_MARGIN], Q[RETINA_MARGIN] = (
         lim.rcm_tolerance, lim.travel_margin, lim.retina_margin
     )  # fmt: skip
     Q[EYE_GAIN], Q[PORT_ZONE], Q[CONTACT_TOL] = lim.eye_gain, lim.port_zone, lim.contact_tolerance
     Q[SINGULAR_FLOOR], Q[SINGULAR_GAIN] = lim.singular_floor(robot), lim.singular_gain
-    Q[ANGLE_WEIGHT], Q[RCM_WEIGHT] = lim.angle_weight, lim.rcm_weight
     Q[DT], Q[DAMPING] = solver.dt, solver.damping
+    Q[RETINA_RECOVERY] = retina_recovery(lim, solver.dt)
+    Q[TIP_STEP] = 0.0 if lim.tip_speed is None else lim.tip_speed * solver.dt
     Q[SPEED : SPEED + 6] = robot.speed
+    Q[WEIGHTS : WEIGHTS + 6] = cost_weights(lim, 6)
     if eye is not None:
-        if not spherical_eye(eye):
-            return None
         Q[HAS_EYE], Q[RETINA_RADIUS] = 1.0, eye.retina_radius
         Q[CENTER : CENTER + 3], Q[PORT : PORT + 3] = eye.center, eye.port
-    contacts = np.array(lim.contacts, dtype=np.float64).reshape(-1, 3)
-    return Q, contacts
+    return Q, contact_points(lim)

@@ -38,6 +38,7 @@ from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_problem import QPProblem, StepQP
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import InvalidInputError, QPError
+from rcmplan.robot import iramis_kernels
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -149,7 +150,7 @@ class FastQpStep:
         self.Q, self.contacts = params
         self.K = np.ascontiguousarray(solver.K, dtype=np.float64)
         self._k = fast_cache.qp_kernels()
-        self._trig = fast_cache.kernels().trig
+        self._trig = iramis_kernels.trig
         self.qp = self._k.buffers()
         self.s, self.e = np.empty(6), np.empty(6)
 

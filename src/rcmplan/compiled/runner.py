@@ -32,6 +32,7 @@ from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import solve_pose
 from rcmplan.control.tasks import VARIANTS, JacobianVariant
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot import iramis_kernels
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel, SerialArm
 
@@ -102,7 +103,7 @@ def kernel_params(robot: RobotModel) -> FloatArray | None:
     P: FloatArray | None = None
     if isinstance(robot, Iramis):
         P = robot_params(robot)
-        k = fast_cache.kernels()
+        k = iramis_kernels
         out = np.empty(3)
         for q in _PROBES:
             s = np.empty(6)

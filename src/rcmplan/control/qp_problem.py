@@ -29,6 +29,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.curved import CURVED_TASKS
@@ -44,6 +45,7 @@ from rcmplan.control.limits import (
     is_contact,
 )
 from rcmplan.control.limits.base import SCALE, Kinematics, kinematics, variable_map
+from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import target_tip
 from rcmplan.robot.model import RobotModel
 
@@ -85,28 +87,58 @@ class StepQP:
     contact: bool
 
 
+@njit(cache=True)
+def x_ext_jacobian(JT_tip: FloatArray, JT_angles: FloatArray, JT_rcm: FloatArray,
+                   out: FloatArray) -> None:  # fmt: skip
+    """d X_ext / d (x SCALE) = J_a T (eq. 3.15, exact angle rows) into out (6, w): the tip's x
+    row, the needle angles' rows JT_angles (2, w), the RCM point's rows."""
+    for j in range(out.shape[1]):
+        out[0, j] = JT_tip[0, j]
+        out[1, j], out[2, j] = JT_angles[0, j], JT_angles[1, j]
+        out[3, j], out[4, j], out[5, j] = JT_rcm[0, j], JT_rcm[1, j], JT_rcm[2, j]
+
+
+@njit(cache=True)
+def weighted_cost(task: FloatArray, weights: FloatArray, K: FloatArray, e: FloatArray,
+                  damping: float, H: FloatArray, f: FloatArray) -> None:  # fmt: skip
+    """H (w, w) and f (w,) of 1/2 |W (task x SCALE - K e)|^2 / SCALE^2 + 1/2 D^2 |x|^2 for a
+    task Jacobian (k, w) with row weights W (k,), gains K (k,) and error e (k,)."""
+    k, n = task.shape
+    for j in range(n):
+        for col in range(n):
+            acc = 0.0
+            for i in range(k):
+                acc += (weights[i] * task[i, j]) * (weights[i] * task[i, col])
+            H[j, col] = acc
+        H[j, j] += damping**2
+        acc = 0.0
+        for i in range(k):
+            acc += (weights[i] * task[i, j]) * (weights[i] * K[i] * e[i] / SCALE)
+        f[j] = -acc
+
+
 def task_jacobian(kin: Kinematics, J_angles: FloatArray) -> FloatArray:
     """d X_ext / d x = J_a T, J_a with the exact angle rows J_angles (2, m + 1) (eq. 3.15)."""
-    T = kin.T
-    task = np.empty((6, T.shape[1]))
-    task[0] = kin.J_tip[0] @ T
-    task[1:3] = J_angles @ T  # on iRAM!S the rows e_q1, e_q3: T[1] and T[3]
-    task[3:] = kin.J_rcm @ T
+    task = np.empty((6, kin.T.shape[1]))
+    x_ext_jacobian(kin.JT_tip, np.ascontiguousarray(J_angles @ kin.T), kin.JT_rcm, task)
     return task
 
 
+def cost_weights(limits: QpLimits, rows: int) -> FloatArray:
+    """The task rows' weights: X_ext (tip x, angle x2, RCM x3) or X_c (tip x3, roll, RCM x3)."""
+    aw, rw = limits.angle_weight, limits.rcm_weight
+    if rows == 7:
+        return np.array([1.0, 1.0, 1.0, aw, rw, rw, rw])
+    return np.array([1.0, aw, aw, rw, rw, rw])
+
+
 def cost(task: FloatArray, inp: StepInput) -> tuple[FloatArray, FloatArray]:
-    """P and q of the weighted task error plus damping."""
-    lim = inp.limits
-    if task.shape[0] == 7:  # X_c = (tip x3, roll, RCM x3)
-        w = np.array([1.0, 1.0, 1.0, lim.angle_weight, *(3 * (lim.rcm_weight,))])
-    else:
-        w = np.array([1.0, lim.angle_weight, lim.angle_weight, *(3 * (lim.rcm_weight,))])
-    Aw = w[:, None] * task
-    bw = w * inp.K * inp.error / SCALE
-    P = Aw.T @ Aw
-    P[np.diag_indices(P.shape[0])] += inp.damping**2
-    return P, -Aw.T @ bw
+    """P and q of the weighted task error plus damping (`weighted_cost`)."""
+    n = task.shape[1]
+    P, f = np.empty((n, n)), np.empty(n)
+    weighted_cost(np.ascontiguousarray(task), cost_weights(inp.limits, task.shape[0]), inp.K,
+                  inp.error, inp.damping, P, f)  # fmt: skip
+    return P, f
 
 
 def build_step(robot: RobotModel, inp: StepInput, limits: tuple[Limit, ...] = LIMITS) -> StepQP:

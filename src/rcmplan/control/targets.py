@@ -25,7 +25,7 @@ from rcmplan.exceptions import (
 )
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import angles_from_axis, axis_from_angles
+from rcmplan.robot.needle import angles_from_axis, axis_from_angles, x_ext_tip
 
 
 def checked_target(
@@ -123,11 +123,10 @@ def pivot_target(x_tip: float, phi: float, psi: float, trocar: FloatArray) -> Fl
 
 def tip_of_target(x_ext: FloatArray) -> FloatArray:
     """The tip point that X_ext implies: on the line through p_rcm along the axis, at x = x_tip."""
-    axis = axis_from_angles(x_ext[1], x_ext[2])
-    if abs(axis[0]) < 1e-12:
+    tip = np.empty(3)
+    if not x_ext_tip(np.ascontiguousarray(x_ext, dtype=np.float64), np.empty(3), tip):
         raise UnreachableTargetError("needle axis perpendicular to x: tip x does not fix the tip")
-    t = (x_ext[0] - x_ext[3]) / axis[0]
-    return x_ext[3:] + t * axis
+    return tip
 
 
 def target_tip(target: FloatArray, kind: str = "rcm") -> FloatArray:

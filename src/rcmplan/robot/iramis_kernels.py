@@ -128,14 +128,6 @@ def tip_jacobian(P: FloatArray, q: FloatArray, tr: tuple, J: FloatArray, r: int)
 
 
 @njit(cache=True)
-def axis_from_angles(phi: float, psi: float, a: FloatArray) -> None:
-    """The unit needle axis with needle angles (phi, psi) into a (3,)."""
-    a[0] = -math.cos(phi) * math.cos(psi)
-    a[1] = -math.sin(psi)
-    a[2] = math.sin(phi) * math.cos(psi)
-
-
-@njit(cache=True)
 def needle_axis(q: FloatArray, a: FloatArray) -> None:
     """The unit needle axis a(q) = (-cos q1 cos q3, -sin q3, sin q1 cos q3) into a (3,)."""
     c1, s1, c3, s3 = trig(q)

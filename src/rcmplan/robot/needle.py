@@ -93,9 +93,32 @@ def angles_from_axis(axis: FloatArray) -> tuple[float, float]:
     return math.atan2(az, -ax), math.atan2(-ay, math.hypot(ax, az))
 
 
+@njit(cache=True)
+def axis_into(phi: float, psi: float, a: FloatArray) -> None:
+    """The unit needle axis with needle angles (phi, psi) into a (3,)."""
+    a[0] = -math.cos(phi) * math.cos(psi)
+    a[1] = -math.sin(psi)
+    a[2] = math.sin(phi) * math.cos(psi)
+
+
 def axis_from_angles(phi: float, psi: float) -> FloatArray:
     """The unit needle axis with needle angles (phi, psi); inverse of angles_from_axis."""
-    return np.array([-math.cos(phi) * math.cos(psi), -math.sin(psi), math.sin(phi) * math.cos(psi)])
+    a = np.empty(3)
+    axis_into(float(phi), float(psi), a)
+    return a
+
+
+@njit(cache=True)
+def x_ext_tip(x: FloatArray, a: FloatArray, tip: FloatArray) -> bool:
+    """The tip point X_ext (6,) implies, on the line through p_rcm along the axis at x = x_tip,
+    into tip (3,) (a (3,) receives the axis); False if the axis is perpendicular to x."""
+    axis_into(x[1], x[2], a)
+    if abs(a[0]) < 1e-12:
+        return False
+    t = (x[0] - x[3]) / a[0]
+    for i in range(3):
+        tip[i] = x[3 + i] + t * a[i]
+    return True
 
 
 def angles_jacobian(axis: FloatArray, J_omega: FloatArray) -> FloatArray:

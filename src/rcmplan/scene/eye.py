@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rcmplan._validate import F64, WORKSPACE_M, FloatArray, instance, scalar, vector
+from rcmplan.control.limits.rows import radial_gap
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.iramis import Iramis
@@ -86,7 +87,7 @@ class Eye:
         """Signed distance in [m] from p (3,) to the retina: positive inside the vitreous."""
         if p.__class__ is not np.ndarray or p.dtype is not F64 or p.shape != (3,):
             p = vector("p", p, 3)
-        d = self.retina_radius - float(np.linalg.norm(p - self.center))
+        d = radial_gap(self.center, self.retina_radius, p)
         if not math.isfinite(d):
             vector("p", p, 3)  # names the non-finite entry
         return d

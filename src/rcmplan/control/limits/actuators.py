@@ -3,27 +3,45 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.limits.base import SCALE, Kinematics, StepInput
+from rcmplan.control.limits.base import Kinematics, StepInput
+from rcmplan.control.limits.rows import SCALE
 from rcmplan.robot.model import RobotModel
+
+
+@njit(cache=True)
+def actuator_bounds(s: FloatArray, lower: FloatArray, upper: FloatArray, speed: FloatArray,
+                    margin: float, dt: float, lam: float, length: float, lb: FloatArray,
+                    ub: FloatArray) -> None:  # fmt: skip
+    """lb <= x <= ub in QP units for m active actuators at s (m,) with travel [lower, upper]
+    (m,) less `margin` and speeds (m,) over dt, then the RCM's move along the needle within
+    lambda in [0, 1] (lb, ub: (m + 1,)). An actuator past its soft travel may stay or move
+    back, never further out."""
+    m = s.shape[0]
+    for i in range(m):
+        lo = lower[i] + margin - s[i]
+        hi = upper[i] - margin - s[i]
+        step = speed[i] * dt
+        lb[i] = min(max(lo, -step), 0.0) / SCALE
+        ub[i] = max(min(hi, step), 0.0) / SCALE
+    lb[m] = -lam * length / SCALE
+    ub[m] = (1.0 - lam) * length / SCALE
 
 
 class ActuatorLimit:
     """lb <= x <= ub: each active actuator within travel less `travel_margin` and moving at most
-    speed x dt; the RCM within the needle. An actuator already past its soft travel may stay or
-    move back, never further out."""
+    speed x dt; the RCM within the needle (`actuator_bounds`)."""
 
     def bounds(
         self, robot: RobotModel, inp: StepInput, kin: Kinematics
     ) -> tuple[FloatArray, FloatArray]:
         """(lb, ub) in QP units."""
         active = list(robot.active)
-        s, margin = kin.s, inp.limits.travel_margin
-        lo = robot.lower[active] + margin - s[active]
-        hi = robot.upper[active] - margin - s[active]
-        step = robot.speed[active] * inp.dt
-        length = robot.needle_length
-        lb = np.append(np.minimum(np.maximum(lo, -step), 0.0), -inp.lam * length)
-        ub = np.append(np.maximum(np.minimum(hi, step), 0.0), (1.0 - inp.lam) * length)
-        return lb / SCALE, ub / SCALE
+        m = len(active)
+        lb, ub = np.empty(m + 1), np.empty(m + 1)
+        actuator_bounds(kin.s[active], robot.lower[active], robot.upper[active],
+                        robot.speed[active], inp.limits.travel_margin, inp.dt, inp.lam,
+                        robot.needle_length, lb, ub)  # fmt: skip
+        return lb, ub

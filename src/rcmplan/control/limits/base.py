@@ -13,15 +13,17 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, array, flag
 from rcmplan.control.eye_model import EyeModel
+from rcmplan.control.limits.rows import RECOVERY, SCALE, damper_bound
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 
-SCALE = 1e-6  # [m] or [rad] per unit of the decision variables
-RECOVERY = 1e-6  # [m] largest push back per step when a damped quantity is past its floor
 # An actuator step within this fraction of speed x dt is at its speed bound (DAQP returns bound
 # values exactly; the fraction covers rounding).
 SPEED_ACTIVE = 1e-9
+
+__all__ = ["RECOVERY", "SCALE", "SPEED_ACTIVE", "Constraint", "Kinematics", "Limit", "StepInput",
+           "damper_row", "kinematics", "no_rows", "variable_map"]  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -47,6 +49,8 @@ class Kinematics(NamedTuple):
         s: Actuators (n,). T: d(q[active], lambda)/d(s[active], l lambda) (m + 1, m + 1).
         J_tip, J_rcm: d p / d(q[active], lambda) (3, m + 1) of the tip and of p(lambda).
         tip, rcm: Tip and RCM point (3,) in [m]. axis: Unit needle axis (3,).
+        JT_tip, JT_rcm: J_tip T and J_rcm T (3, m + 1): the points' motion per unit of
+            x SCALE, what the row kernels read.
     """
 
     s: FloatArray
@@ -56,6 +60,8 @@ class Kinematics(NamedTuple):
     tip: FloatArray
     rcm: FloatArray
     axis: FloatArray
+    JT_tip: FloatArray
+    JT_rcm: FloatArray
 
 
 class _ConstraintFields(NamedTuple):
@@ -104,14 +110,18 @@ def variable_map(robot: RobotModel, q: FloatArray) -> FloatArray:
 
 def kinematics(robot: RobotModel, q: FloatArray, lam: float) -> Kinematics:
     """The shared quantities at (q, lambda)."""
+    T = variable_map(robot, q)
+    J_tip, J_rcm = robot.tip_jacobian(q), robot.needle_point_jacobian(q, lam)
     return Kinematics(
         robot.actuators_from_joints(q),
-        variable_map(robot, q),
-        robot.tip_jacobian(q),
-        robot.needle_point_jacobian(q, lam),
+        T,
+        J_tip,
+        J_rcm,
         robot.tip(q),
         robot.needle_point(q, lam),
         robot.needle_axis(q),
+        J_tip @ T,
+        J_rcm @ T,
     )
 
 
@@ -123,11 +133,6 @@ def no_rows(kin: Kinematics) -> Constraint:
 def damper_row(
     grad: FloatArray, value: float, floor: float, gain: float, recovery: float = RECOVERY
 ) -> tuple[FloatArray, float]:
-    """One velocity-damper row G x <= h for value + grad x SCALE >= floor, approached at `gain`.
-
-    value_next - floor >= (1 - gain)(value - floor) to first order; past the floor, the state
-    must not get worse and recovers by up to `recovery` per step.
-    """
-    gap = value - floor
-    need = -gain * gap if gap >= 0.0 else min(-gain * gap, recovery)
-    return -grad, -need / SCALE
+    """One velocity-damper row G x <= h for value + grad x SCALE >= floor, approached at `gain`
+    (`rows.damper_bound`)."""
+    return -grad, damper_bound(value, floor, gain, recovery)

@@ -5,34 +5,70 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.limits.base import SCALE, Constraint, Kinematics, StepInput
+from rcmplan.control.limits.base import Constraint, Kinematics, StepInput
+from rcmplan.control.limits.rows import SCALE
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import cross3
 
 
-def normal_basis(axis: FloatArray) -> FloatArray:
-    """Two unit vectors (2, 3) normal to a unit axis and to each other."""
-    helper = np.zeros(3)
-    helper[int(np.argmin(np.abs(axis)))] = 1.0
-    n1 = cross3(axis, helper)
-    n1 /= math.sqrt(n1 @ n1)
-    return np.array([n1, cross3(axis, n1)])
+@njit(cache=True)
+def normal_basis(axis: FloatArray, N: FloatArray) -> None:
+    """Two unit vectors N (2, 3) normal to a unit axis (3,) and to each other: n1 = axis x e_k
+    normalised, e_k the first axis of smallest |axis_k|, and n2 = axis x n1."""
+    k = 0
+    for i in range(1, 3):
+        if abs(axis[i]) < abs(axis[k]):
+            k = i
+    a0, a1, a2 = axis[0], axis[1], axis[2]
+    e0 = 1.0 if k == 0 else 0.0
+    e1 = 1.0 if k == 1 else 0.0
+    e2 = 1.0 if k == 2 else 0.0
+    n0, n1, n2 = a1 * e2 - a2 * e1, a2 * e0 - a0 * e2, a0 * e1 - a1 * e0
+    norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    N[0, 0], N[0, 1], N[0, 2] = n0 / norm, n1 / norm, n2 / norm
+    N[1, 0] = a1 * N[0, 2] - a2 * N[0, 1]
+    N[1, 1] = a2 * N[0, 0] - a0 * N[0, 2]
+    N[1, 2] = a0 * N[0, 1] - a1 * N[0, 0]
+
+
+@njit(cache=True)
+def rcm_rows(JT_rcm: FloatArray, rcm: FloatArray, trocar: FloatArray, axis: FloatArray,
+             tol: float, N: FloatArray, G: FloatArray, h: FloatArray, r: int) -> int:  # fmt: skip
+    """The RCM's rows from row r: normal to the needle, N JT_rcm x = -N (p(lambda) - trocar) /
+    SCALE as two equality rows when tol is 0, else the box |N (p + JT_rcm x SCALE - trocar)|
+    <= tol / sqrt(2) per normal axis (four rows: +, then -). N (2, 3) is scratch. Returns the
+    next row."""
+    normal_basis(axis, N)
+    box = tol / math.sqrt(2.0)
+    for a in range(2):
+        dev = 0.0
+        for i in range(3):
+            dev += N[a, i] * (rcm[i] - trocar[i])
+        for j in range(JT_rcm.shape[1]):
+            acc = N[a, 0] * JT_rcm[0, j] + N[a, 1] * JT_rcm[1, j] + N[a, 2] * JT_rcm[2, j]
+            G[r + a, j] = acc
+            if tol > 0.0:
+                G[r + 2 + a, j] = -acc
+        if tol == 0.0:
+            h[r + a] = -dev / SCALE
+        else:
+            h[r + a] = (box - dev) / SCALE
+            h[r + 2 + a] = (box + dev) / SCALE
+    return r + (4 if tol > 0.0 else 2)
 
 
 class RcmLimit:
     """Normal to the needle (the along-needle part is lambda's bookkeeping): N J_c T x =
     -N r / SCALE with r = p(lambda) - trocar (equality, `rcm_tolerance` 0), or a box of
-    half-width tol / sqrt(2) per normal axis, so the deviation stays within tol to first order."""
+    half-width tol / sqrt(2) per normal axis, so the deviation stays within tol to first order
+    (`rcm_rows`)."""
 
     def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
         """The two rows (equality) or four (box)."""
-        N = normal_basis(kin.axis)
-        Jc = N @ kin.J_rcm @ kin.T
-        r = N @ (kin.rcm - inp.target[-3:])
         tol = inp.limits.rcm_tolerance
-        if tol == 0.0:
-            return Constraint.rows(Jc, -r / SCALE, equality=True)
-        box = tol / math.sqrt(2.0)
-        return Constraint.rows(np.vstack([Jc, -Jc]), np.concatenate([box - r, box + r]) / SCALE)
+        G, h = np.empty((4, kin.T.shape[1])), np.empty(4)
+        trocar = np.ascontiguousarray(inp.target[-3:])
+        r = rcm_rows(kin.JT_rcm, kin.rcm, trocar, kin.axis, tol, np.empty((2, 3)), G, h, 0)
+        return Constraint.rows(G[:r], h[:r], equality=tol == 0.0)

@@ -3,20 +3,35 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
-from rcmplan.control.limits.base import SCALE, Constraint, Kinematics, StepInput, no_rows
+from rcmplan._validate import FloatArray
+from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, no_rows
+from rcmplan.control.limits.rows import SCALE
 from rcmplan.robot.model import RobotModel
+
+
+@njit(cache=True)
+def speed_rows(JT_tip: FloatArray, step: float, G: FloatArray, h: FloatArray, r: int) -> int:
+    """Six rows from r: -step <= JT_tip x SCALE <= step per base axis (`step` [m], to first
+    order). Returns r + 6."""
+    for i in range(3):
+        for j in range(JT_tip.shape[1]):
+            G[r + i, j] = JT_tip[i, j]
+            G[r + 3 + i, j] = -JT_tip[i, j]
+        h[r + i] = h[r + 3 + i] = step / SCALE
+    return r + 6
 
 
 class TipSpeed:
     """-v dt <= J_tip T x SCALE <= v dt per axis (six rows, to first order), v =
-    `QpLimits.tip_speed`; none when it is None."""
+    `QpLimits.tip_speed`; none when it is None (`speed_rows`)."""
 
     def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
         """The rows, or none."""
         v = inp.limits.tip_speed
         if v is None:
             return no_rows(kin)
-        J = kin.J_tip @ kin.T
-        h = np.full(6, v * inp.dt / SCALE)
-        return Constraint.rows(np.vstack([J, -J]), h)
+        G, h = np.empty((6, kin.T.shape[1])), np.empty(6)
+        speed_rows(kin.JT_tip, v * inp.dt, G, h, 0)
+        return Constraint.rows(G, h)

@@ -5,17 +5,22 @@ from __future__ import annotations
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
-from rcmplan.control.limits.base import RECOVERY, Constraint, Kinematics, StepInput, damper_row
+from rcmplan.control.limits.base import Constraint, Kinematics, StepInput
+from rcmplan.control.limits.rows import RECOVERY, radial_gap, sphere_row
 from rcmplan.robot.model import RobotModel
+
+# The limit as the compiled QP reads it (`pack`): centre (3,), floor radius, gain, recovery.
+PACKED = 6
 
 
 class TissueDepthLimit:
     """|tip - centre| <= `floor_radius_m`: the tip's radial distance from the eye centre (its
     depth along the local normal of a spherical wall) kept at or below a sphere, one velocity-
-    damper row at `gain` (1: the step may close the whole gap). The sphere moves: the caller
-    sets `floor_radius_m` [m] every period from the estimated layer position (for a subretinal
-    injection, the estimated RPE radius less a margin). Past the sphere (the layer moved towards
-    the tip) the tip must not go deeper and backs out by up to `recovery` [m] per step.
+    damper row at `gain` (1: the step may close the whole gap; `rows.sphere_row`). The sphere
+    moves: the caller sets `floor_radius_m` [m] every period from the estimated layer position
+    (for a subretinal injection, the estimated RPE radius less a margin). Past the sphere (the
+    layer moved towards the tip) the tip must not go deeper and backs out by up to `recovery`
+    [m] per step.
 
     Args:
         center: Eye centre (3,) in the base frame [m].
@@ -42,12 +47,16 @@ class TissueDepthLimit:
 
     def gap_m(self, tip: FloatArray) -> float:
         """floor_radius_m - |tip - centre| [m]: positive while the tip is within the bound."""
-        return self.floor_radius_m - float(np.linalg.norm(np.asarray(tip) - self.center))
+        return radial_gap(self.center, self.floor_radius_m, vector("tip", tip, 3))
+
+    def pack(self, out: FloatArray) -> None:
+        """Write the limit as the compiled QP reads it (`PACKED` numbers) into out."""
+        out[:3] = self.center
+        out[3], out[4], out[5] = self.floor_radius_m, self.gain, self.recovery
 
     def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
         """One damper row on the gap along the outward normal at the tip."""
-        radial = kin.tip - self.center
-        u = radial / np.linalg.norm(radial)
-        grad = -(u @ kin.J_tip) @ kin.T  # d gap / d (x SCALE)
-        g, h = damper_row(grad, self.gap_m(kin.tip), 0.0, self.gain, self.recovery)
-        return Constraint(g[None, :], np.array([h]))
+        G, h = np.empty((1, kin.T.shape[1])), np.empty(1)
+        gap = radial_gap(self.center, self.floor_radius_m, kin.tip)
+        sphere_row(kin.JT_tip, kin.tip, self.center, gap, 0.0, self.gain, self.recovery, G, h, 0)
+        return Constraint.rows(G, h)

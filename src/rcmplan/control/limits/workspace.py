@@ -3,13 +3,43 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray, array, matrix, scalar, vector
-from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, damper_row
+from rcmplan.control.limits.base import Constraint, Kinematics, StepInput
+from rcmplan.control.limits.rows import RECOVERY, damper_bound
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
+
+# The box as the compiled QP reads it (`pack`): origin (3,), R (3, 3) row by row, lower (3,),
+# upper (3,), gain.
+PACKED = 19
+
+
+@njit(cache=True)
+def box_rows(JT_tip: FloatArray, tip: FloatArray, box: FloatArray, G: FloatArray, h: FloatArray,
+             r: int) -> int:  # fmt: skip
+    """Six damper rows from row r keeping the tip's box coordinates c = R^T (tip - origin)
+    within [lower, upper] (the box packed as `PACKED`): per axis i the lower face (gradient
+    d c_i / d(x SCALE)), then the upper (minus it). Returns r + 6."""
+    for i in range(3):
+        c = 0.0
+        for m in range(3):
+            c += box[3 + 3 * m + i] * (tip[m] - box[m])
+        for j in range(JT_tip.shape[1]):
+            acc = 0.0
+            for m in range(3):
+                acc += box[3 + 3 * m + i] * JT_tip[m, j]
+            G[r, j] = -acc
+            G[r + 1, j] = acc
+        gain = box[18]
+        h[r] = damper_bound(c - box[12 + i], 0.0, gain, RECOVERY)
+        h[r + 1] = damper_bound(box[15 + i] - c, 0.0, gain, RECOVERY)
+        r += 2
+    return r
 
 
 @dataclass(frozen=True)
@@ -63,18 +93,17 @@ class WorkspaceBound:
         """How far points p (N, 3) lie outside the box in [m] (0 inside), per point (N,)."""
         return np.asarray(np.maximum(-self.depth(p), 0.0))
 
+    @cached_property
+    def packed(self) -> FloatArray:
+        """The box as `box_rows` reads it (`PACKED` numbers)."""
+        return np.concatenate([self.origin, np.asarray(self.rotation).ravel(), self.lower,
+                               self.upper, [self.gain]])  # fmt: skip
+
     def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
-        """Six damper rows, one per face."""
-        R = np.asarray(self.rotation)
-        c = R.T @ (kin.tip - np.asarray(self.origin))
-        J = R.T @ kin.J_tip @ kin.T  # d c / d (x SCALE)
-        rows, hs = [], []
-        for i in range(3):
-            for grad, gap in ((J[i], c[i] - self.lower[i]), (-J[i], self.upper[i] - c[i])):
-                g, h = damper_row(grad, float(gap), 0.0, self.gain)
-                rows.append(g)
-                hs.append(h)
-        return Constraint.rows(np.array(rows), np.array(hs))
+        """Six damper rows, one per face (`box_rows`)."""
+        G, h = np.empty((6, kin.T.shape[1])), np.empty(6)
+        box_rows(kin.JT_tip, kin.tip, self.packed, G, h, 0)
+        return Constraint.rows(G, h)
 
 
 def points(name: str, p: object) -> FloatArray:
