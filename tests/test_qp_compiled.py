@@ -339,3 +339,22 @@ def test_the_period_step_declines_what_it_does_not_reproduce(robot: Iramis) -> N
     assert period_step(QpSolver(robot, eye, extra_limits=(TipSpeedAsExtra(),))) is None
     ur5 = make_robot("ur5")
     assert period_step(QpSolver(ur5, default_eye(ur5))) is None
+
+
+def test_a_moving_depth_limit_is_read_at_each_step(robot: Iramis, rng) -> None:  # type: ignore[no-untyped-def]
+    eye = default_eye(robot)
+    depth = TissueDepthLimit(eye.center, eye.retina_radius - 1e-3)
+    solver = QpSolver(robot, eye, extra_limits=(depth,))
+    fast = FastQpStep(solver)
+    q, lam, target = next(states(robot, rng, 0))  # near a target point in the eye
+    bounds = []
+    d = float(np.linalg.norm(robot.tip(q) - eye.center))
+    for radius in (d + 10e-6, d + 20e-6):  # the tip 10 and 20 um inside the sphere
+        depth.set_floor(radius)
+        step = fast.problem(q, lam, target)
+        inp = StepInput(q, lam, target, fast.e.copy(), solver.K, solver.damping, solver.dt,
+                        solver.eye, solver.limits)  # fmt: skip
+        ref = build_step(robot, inp, solver.rows)
+        assert relative_gap(ref.problem.h, step.problem.h) <= 1e-12
+        bounds.append(step.problem.h[-1])
+    assert bounds[0] != bounds[1]  # the depth row moved with the floor

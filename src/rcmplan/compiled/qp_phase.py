@@ -24,7 +24,7 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.phase import IntArray, run_in_blocks
-from rcmplan.compiled.qp_params import qp_params
+from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.records import (
     DONE,
     QP_FAILED,
@@ -158,6 +158,8 @@ class FastQpStep:
         """The step's QP as `qp_problem.build_step` returns it (contact left False)."""
         q, target = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(target, dtype=float)
         tr = self._trig(q)
+        if self.solver.extra_limits:
+            pack_extras(self.solver, self.Q)
         rows = self._k.build_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam), target,
                                   self.s, self.e, self.qp)  # fmt: skip
         H, f, A, upper, lower, sense, task = (a.copy() for a in self.qp[:7])
@@ -172,6 +174,8 @@ class FastQpStep:
         """(x, error J x* / K) of the step's QP; QPError naming DAQP's exit flag if not optimal."""
         q, target = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(target, dtype=float)
         tr = self._trig(q)
+        if self.solver.extra_limits:  # a moving limit's parameters as they are now
+            pack_extras(self.solver, self.Q)
         flag = self._k.solve_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam),
                                   target, self.s, self.e, self.qp)  # fmt: skip
         if flag != 1:
