@@ -198,8 +198,12 @@ def test_limits_are_finite_or_refused(args: tuple[Any, ...]) -> None:
               names=("p",))  # fmt: skip
     probe("Constraint", rp.Constraint, G, h, eq, names=("G", "h", "equality"),
           ok=lambda c: finite(c.G) and finite(c.h) and c.G.shape[0] == c.h.shape[0])  # fmt: skip
+    # each limit with its own parameters, `gain` (possibly bad) where one is a gain or speed
+    made = {"ActuatorLimit": (0.5e-3,), "RcmLimit": (0.5e-6,), "RetinaBarrier": (EYE, 2e-4, gain),
+            "SingularMargin": (None, gain), "TipSpeed": (gain,)}  # fmt: skip
     for name in LIMITS:
-        probe(name, getattr(rp, name), ok=lambda lim: callable(getattr(lim, "constraint", None))
+        probe(name, getattr(rp, name), *made[name], names=("gain", "speed"),
+              ok=lambda lim: callable(getattr(lim, "constraint", None))
               or callable(getattr(lim, "bounds", None)))  # fmt: skip
 
 

@@ -11,12 +11,14 @@ from rcmplan.control.limits import (
     RetinaBarrier,
     SingularMargin,
     StepInput,
+    TipSpeed,
     kinematics,
 )
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.limits.rcm import normal_basis
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points
 
@@ -29,9 +31,9 @@ def state(request: pytest.FixtureRequest):
     eye = default_eye(robot)
     target = rcm_target(default_points(eye).p4, eye.port)
     pose = solve_pose(robot, target)
-    inp = StepInput(pose.q, pose.lam, target, np.zeros(6), np.ones(6), 1e-4, 1e-3, eye,
-                    QpLimits(rcm_tolerance=0.5e-6))  # fmt: skip
-    return robot, inp
+    inp = StepInput(pose.q, pose.lam, target, np.zeros(6), np.ones(6), 1e-4, 1e-3,
+                    QpLimits().weights(6))  # fmt: skip
+    return robot, eye, inp
 
 
 def moved(robot, inp: StepInput, x: np.ndarray) -> tuple[np.ndarray, float]:
@@ -43,7 +45,7 @@ def moved(robot, inp: StepInput, x: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 def test_rcm_rows_are_the_gradient_of_the_normal_offset(state) -> None:
-    robot, inp = state
+    robot, _, inp = state
     kin = kinematics(robot, inp.q, inp.lam)
     N = np.empty((2, 3))
     normal_basis(kin.axis, N)
@@ -58,21 +60,20 @@ def test_rcm_rows_are_the_gradient_of_the_normal_offset(state) -> None:
 
 
 def test_retina_row_is_the_gradient_of_the_distance_to_the_retina(state) -> None:
-    robot, inp = state
+    robot, eye, inp = state
     kin = kinematics(robot, inp.q, inp.lam)
-    assert inp.eye is not None
 
     def distance(x: np.ndarray) -> np.ndarray:
         q, _ = moved(robot, inp, x)
-        return np.array([inp.eye.distance_to_retina(robot.tip(q)) / SCALE])
+        return np.array([eye.distance_to_retina(robot.tip(q)) / SCALE])
 
-    G = RetinaBarrier().constraint(robot, inp, kin).G
+    G = RetinaBarrier(eye).constraint(robot, inp, kin).G
     assert G.shape[0] == 1
     assert pytest.approx(fd_jacobian(distance, np.zeros(kin.T.shape[1]), 1e-3), abs=1e-6) == -G
 
 
 def test_singular_rows_are_the_gradients_of_the_singular_terms(state) -> None:
-    robot, inp = state
+    robot, _, inp = state
     kin = kinematics(robot, inp.q, inp.lam)
 
     def terms(x: np.ndarray) -> np.ndarray:
@@ -85,7 +86,7 @@ def test_singular_rows_are_the_gradients_of_the_singular_terms(state) -> None:
 
 
 def test_actuator_bounds_keep_every_actuator_within_speed_and_travel(state) -> None:
-    robot, inp = state
+    robot, _, inp = state
     kin = kinematics(robot, inp.q, inp.lam)
     lb, ub = ActuatorLimit().bounds(robot, inp, kin)
     active = list(robot.active)
@@ -101,10 +102,38 @@ def test_actuator_bounds_keep_every_actuator_within_speed_and_travel(state) -> N
 
 
 def test_an_rcm_tolerance_of_zero_makes_the_rcm_an_equality(state) -> None:
-    robot, inp = state
-    from dataclasses import replace
-
-    strict = replace(inp, limits=QpLimits(rcm_tolerance=0.0))
-    c = RcmLimit().constraint(robot, strict, kinematics(robot, inp.q, inp.lam))
+    robot, _, inp = state
+    c = RcmLimit(0.0).constraint(robot, inp, kinematics(robot, inp.q, inp.lam))
     assert c.equality
     assert c.G.shape[0] == 2
+
+
+@pytest.mark.parametrize(
+    ("make", "name"),
+    [
+        (lambda: RcmLimit(-1e-6), "tolerance"),
+        (lambda: RcmLimit(True), "tolerance"),
+        (lambda: SingularMargin(floor=1.0), "floor"),
+        (lambda: SingularMargin(gain=0.0), "gain"),
+        (lambda: TipSpeed(float("nan")), "speed"),
+        (lambda: ActuatorLimit(margin=-1.0), "margin"),
+        (lambda: RetinaBarrier("eye"), "eye"),
+        (lambda: RetinaBarrier(default_eye(make_robot("iramis")), margin=0.5), "margin"),
+    ],
+)
+def test_each_limit_checks_its_own_parameters(make, name: str) -> None:  # type: ignore[no-untyped-def]
+    with pytest.raises(InvalidInputError, match=name):
+        make()
+
+
+def test_the_settings_build_limits_that_hold_their_values() -> None:
+    robot = make_robot("iramis")
+    eye = default_eye(robot)
+    lim = QpLimits(rcm_tolerance=0.2e-6, retina_margin=0.1e-3, singular_margin=0.3,
+                   tip_speed=0.02, eye_gain=0.4)  # fmt: skip
+    rcm, retina, singular, speed = lim.rows(eye, 1e-3)
+    assert rcm == RcmLimit(0.2e-6)
+    assert isinstance(retina, RetinaBarrier) and retina.margin == 0.1e-3 and retina.gain == 0.4
+    assert retina.recovery == max(1e-6, 0.4 * 0.02 * 1e-3)
+    assert singular == SingularMargin(0.3, 0.5) and speed == TipSpeed(0.02)
+    assert [type(x) for x in QpLimits().rows(None, 1e-3)] == [RcmLimit, SingularMargin]

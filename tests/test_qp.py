@@ -50,9 +50,12 @@ def state_at(robot: Iramis, eye, point):  # type: ignore[no-untyped-def]
 
 def step_input(solver: QpSolver, q, lam, target) -> StepInput:  # type: ignore[no-untyped-def]
     e = solver.task_error(solver.robot, q, lam, target)
-    return StepInput(
-        q, lam, target, e, solver.K, solver.damping, solver.dt, solver.eye, solver.limits
-    )
+    return StepInput(q, lam, target, e, solver.K, solver.damping, solver.dt, solver.weights)
+
+
+def built(solver: QpSolver, q, lam, target):  # type: ignore[no-untyped-def]
+    """The solver's QP at (q, lam) towards target, from its limits."""
+    return build_step(solver.robot, step_input(solver, q, lam, target), solver.rows, solver.bounds)
 
 
 # --- the problem builder ---------------------------------------------------------------------
@@ -82,7 +85,7 @@ def test_task_jacobian_is_the_augmented_jacobian_through_the_slider_map(robot: I
 
 def test_problem_has_six_variables_and_the_listed_rows(robot: Iramis, eye) -> None:  # type: ignore[no-untyped-def]
     q, lam, target = state_at(robot, eye, default_points(eye).p3)
-    p = build_step(robot, step_input(make_qp(robot, eye), q, lam, target)).problem
+    p = built(make_qp(robot, eye), q, lam, target).problem
     assert p.P.shape == (6, 6) and np.allclose(p.P, p.P.T)
     assert np.all(np.linalg.eigvalsh(p.P) > 0)
     assert p.G.shape == (4 + 1 + 2, 6)  # RCM box (2 normals x 2 sides), retina, singular x2
@@ -96,13 +99,13 @@ def test_equality_rcm_gives_two_equality_rows_and_no_eye_gives_no_retina_row(
 ) -> None:  # type: ignore[no-untyped-def]
     q, lam, target = state_at(robot, eye, default_points(eye).p3)
     solver = make_qp(robot, None, rcm_tolerance_um=0.0)
-    p = build_step(robot, step_input(solver, q, lam, target)).problem
+    p = built(solver, q, lam, target).problem
     assert p.A.shape == (2, 6) and p.G.shape == (2, 6)
 
 
 def test_lambda_at_one_cannot_grow(robot: Iramis, eye) -> None:  # type: ignore[no-untyped-def]
     q, _, target = state_at(robot, eye, default_points(eye).p3)
-    p = build_step(robot, step_input(make_qp(robot, eye), q, 1.0, target)).problem
+    p = built(make_qp(robot, eye), q, 1.0, target).problem
     assert p.ub[5] == 0.0 and p.lb[5] < 0.0
 
 

@@ -113,8 +113,8 @@ def test_compiled_qp_equals_build_step_at_many_states(robot: Iramis, rng) -> Non
             # The error from the kernels' X_ext (equal to rounding, tests/test_fast.py): the
             # cost's q is compared on the same error, everything else on the reference's.
             inp = StepInput(q, lam, target, fast.e.copy(), solver.K, solver.damping, solver.dt,
-                            solver.eye, solver.limits)  # fmt: skip
-            ref = build_step(robot, inp, solver.rows)
+                            solver.weights)  # fmt: skip
+            ref = build_step(robot, inp, solver.rows, solver.bounds)
             for name in ("P", "q", "G", "h", "A", "b", "lb", "ub"):
                 gap = relative_gap(getattr(ref.problem, name), getattr(step.problem, name))
                 assert gap <= 1e-12, (name, gap)
@@ -129,9 +129,9 @@ def test_compiled_step_solves_to_the_reference_solvers_step(robot: Iramis, rng) 
         for q, lam, target in states(robot, rng, 100, spread=1e-6):
             # QpSolver.error without its target check (random targets lie anywhere).
             e = solver.task_error(robot, q, lam, target)
-            inp = StepInput(q, lam, target, e, solver.K, solver.damping, solver.dt, solver.eye,
-                            solver.limits)  # fmt: skip
-            ref = build_step(robot, inp, solver.rows)
+            inp = StepInput(q, lam, target, e, solver.K, solver.damping, solver.dt,
+                            solver.weights)  # fmt: skip
+            ref = build_step(robot, inp, solver.rows, solver.bounds)
             try:
                 x_ref = solve(ref.problem).x
             except QPError as exc:
@@ -322,10 +322,6 @@ def test_a_teleoperation_session_runs_its_qp_compiled_with_the_reference_records
     assert held["retina"] > 0.5 and held["workspace"] > 0.1, held  # both fixtures held the tip
 
 
-class TipSpeedAsExtra(TipSpeed):
-    """A limit class the compiled step has no kernel for."""
-
-
 def test_the_period_step_declines_what_it_does_not_reproduce(robot: Iramis) -> None:
     from rcmplan.compiled.qp_period import period_step
     from rcmplan.robot.registry import make_robot
@@ -336,7 +332,7 @@ def test_the_period_step_declines_what_it_does_not_reproduce(robot: Iramis) -> N
     box = WorkspaceBound((0.0, 0.0, 0.0), tuple(map(tuple, np.eye(3))), (-1.0,) * 3, (1.0,) * 3)
     assert period_step(QpSolver(robot, eye, extra_limits=(box, box))) is not None
     assert period_step(QpSolver(robot, eye, extra_limits=(box, box, box))) is None  # > MAX_EXTRA
-    assert period_step(QpSolver(robot, eye, extra_limits=(TipSpeedAsExtra(),))) is None
+    assert period_step(QpSolver(robot, eye, extra_limits=(TipSpeed(0.01),))) is None  # no kind
     ur5 = make_robot("ur5")
     assert period_step(QpSolver(ur5, default_eye(ur5))) is None
 
@@ -353,8 +349,8 @@ def test_a_moving_depth_limit_is_read_at_each_step(robot: Iramis, rng) -> None: 
         depth.set_floor(radius)
         step = fast.problem(q, lam, target)
         inp = StepInput(q, lam, target, fast.e.copy(), solver.K, solver.damping, solver.dt,
-                        solver.eye, solver.limits)  # fmt: skip
-        ref = build_step(robot, inp, solver.rows)
+                        solver.weights)  # fmt: skip
+        ref = build_step(robot, inp, solver.rows, solver.bounds)
         assert relative_gap(ref.problem.h, step.problem.h) <= 1e-12
         bounds.append(step.problem.h[-1])
     assert bounds[0] != bounds[1]  # the depth row moved with the floor

@@ -95,8 +95,8 @@ def test_a_synchronised_sub_goal_fits_the_speed_window_and_moves_along_the_error
     eye, q, lam, target = scene
     qp = QpSolver(robot, eye)
     e = qp.task_error(robot, q, lam, target)
-    inp = StepInput(q, lam, target, e, qp.K, qp.damping, qp.dt, eye, qp.limits)
-    step = build_step(robot, inp)
+    inp = StepInput(q, lam, target, e, qp.K, qp.damping, qp.dt, qp.weights)
+    step = build_step(robot, inp, qp.rows, qp.bounds)
     sub = synchronised_step(robot, step, qp.dt)
     x_free = -np.linalg.solve(step.problem.P, step.problem.q)
     x_sub = -np.linalg.solve(sub.problem.P, sub.problem.q)
@@ -113,5 +113,6 @@ def test_a_sub_goal_within_the_window_is_the_step_itself(robot: Iramis, scene: S
     near = extended_task(robot, q, lam) + np.array([1e-6, 0, 0, 0, 0, 0])
     qp = QpSolver(robot, eye)
     e = qp.task_error(robot, q, lam, near)
-    step = build_step(robot, StepInput(q, lam, near, e, qp.K, qp.damping, qp.dt, eye, qp.limits))
+    inp = StepInput(q, lam, near, e, qp.K, qp.damping, qp.dt, qp.weights)
+    step = build_step(robot, inp, qp.rows, qp.bounds)
     assert synchronised_step(robot, step, qp.dt) is step

@@ -34,8 +34,8 @@ def state(request: pytest.FixtureRequest):
     eye = default_eye(robot)
     target = rcm_target(default_points(eye).p3 + 0.3e-3, eye.port)
     pose = solve_pose(robot, target)
-    inp = StepInput(pose.q, pose.lam, target, np.zeros(6), np.ones(6), 1e-4, 1e-3, eye,
-                    QpLimits())  # fmt: skip
+    inp = StepInput(pose.q, pose.lam, target, np.zeros(6), np.ones(6), 1e-4, 1e-3,
+                    QpLimits().weights(6))  # fmt: skip
     return robot, eye, inp
 
 

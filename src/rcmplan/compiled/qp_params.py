@@ -13,12 +13,10 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.eye_model import EyeModel
-from rcmplan.control.limits.retina import contact_points, retina_recovery
 from rcmplan.control.limits.tissue_depth import PACKED as DEPTH_PACKED
 from rcmplan.control.limits.tissue_depth import TissueDepthLimit
 from rcmplan.control.limits.workspace import PACKED as BOX_PACKED
 from rcmplan.control.limits.workspace import WorkspaceBound
-from rcmplan.control.qp_problem import cost_weights
 from rcmplan.robot.model import RobotModel
 
 if TYPE_CHECKING:
@@ -90,11 +88,11 @@ def qp_params(robot: RobotModel, solver: QpSolver) -> tuple[FloatArray, FloatArr
     Q[EYE_GAIN], Q[PORT_ZONE], Q[CONTACT_TOL] = lim.eye_gain, lim.port_zone, lim.contact_tolerance
     Q[SINGULAR_FLOOR], Q[SINGULAR_GAIN] = lim.singular_floor(robot), lim.singular_gain
     Q[DT], Q[DAMPING] = solver.dt, solver.damping
-    Q[RETINA_RECOVERY] = retina_recovery(lim, solver.dt)
+    Q[RETINA_RECOVERY] = lim.retina_recovery(solver.dt)
     Q[TIP_STEP] = 0.0 if lim.tip_speed is None else lim.tip_speed * solver.dt
     Q[SPEED : SPEED + 6] = robot.speed
-    Q[WEIGHTS : WEIGHTS + 6] = cost_weights(lim, 6)
+    Q[WEIGHTS : WEIGHTS + 6] = solver.weights
     if eye is not None:
         Q[HAS_EYE], Q[RETINA_RADIUS] = 1.0, eye.retina_radius
         Q[CENTER : CENTER + 3], Q[PORT : PORT + 3] = eye.center, eye.port
-    return Q, contact_points(lim)
+    return Q, np.array(lim.contacts, dtype=np.float64).reshape(-1, 3)

@@ -47,7 +47,7 @@ from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_checks import check_qp_args
 from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.qp_problem import LIMITS, SCALE, StepInput, StepQP, build_step
+from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import checked_target, solve_pose, target_tip
 from rcmplan.exceptions import UnreachableTargetError
@@ -70,7 +70,7 @@ class QpSolver:
         servo: The plant, when its servos follow commands over several periods (it has
             `exact_commands` False and a `command`): steps are planned from its last command
             (module docstring). None, or a plant with exact commands: from the measured state.
-        extra_limits: Limits held besides the standard ones (`qp_problem.LIMITS`), for
+        extra_limits: Limits held besides the standard ones (`QpLimits.rows`), for
             example a `limits.WorkspaceBound` for the tip (the compiled QP declines a solver
             that has any).
     """
@@ -112,7 +112,9 @@ class QpSolver:
         res = getattr(self.servo, "actuator_resolution", None)
         self._resolution = None if res is None else np.asarray(res, dtype=float)
         self.extra_limits = tuple(extra_limits)
-        self.rows: tuple[Limit, ...] = (*LIMITS, *self.extra_limits)
+        self.rows: tuple[Limit, ...] = (*self.limits.rows(eye, self.dt), *self.extra_limits)
+        self.bounds = self.limits.bounds()
+        self.weights = self.limits.weights(self.target_width)
         self.last: tuple[StepQP, QpResult] | None = None
         self._planned_error: FloatArray = np.zeros(0)  # the task error of the last solve
         self._plan, self._plan_key = np.zeros(0), b""
@@ -211,8 +213,8 @@ class QpSolver:
             return self.last
         e = self.task_error(robot, q, lam, target)
         self._planned_error = e
-        inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.eye, self.limits)
-        step = build_step(robot, inp, self.rows)
+        inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.weights)
+        step = build_step(robot, inp, self.rows, self.bounds)
         if self.servo is not None:
             step = synchronised_step(robot, step, self.dt)
         result = solve(step.problem, self.backend)

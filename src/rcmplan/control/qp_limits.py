@@ -12,8 +12,17 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import scalar, vector
+from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.control.eye_model import EyeModel
+from rcmplan.control.limits import (
+    ActuatorLimit,
+    Limit,
+    RcmLimit,
+    RetinaBarrier,
+    SingularMargin,
+    TipSpeed,
+)
+from rcmplan.control.limits.rows import RECOVERY
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 
@@ -109,9 +118,39 @@ class QpLimits:
 
     def singular_floor(self, robot: RobotModel) -> float:
         """The smallest singular term the QP keeps (iRAM!S: min(cos q1, cos q3))."""
-        if self.singular_margin is None:
-            return 1.5 * robot.singular_threshold
-        return self.singular_margin
+        return SingularMargin(self.singular_margin).floor_for(robot)
+
+    def retina_recovery(self, dt: float) -> float:
+        """How far past its floor the tip may move back per step [m]: RECOVERY, or with a tip
+        speed bound as far as the damper's gain lets it (eye_gain x tip_speed x dt)."""
+        if self.tip_speed is None:
+            return RECOVERY
+        return max(RECOVERY, self.eye_gain * self.tip_speed * dt)
+
+    def rows(self, eye: EyeModel | None, dt: float) -> tuple[Limit, ...]:
+        """The limits these settings hold, each with its own parameters, in the QP's row order:
+        the RCM, the retina (with an eye), the singular margin, the tip's speed (if set)."""
+        rows: list[Limit] = [RcmLimit(self.rcm_tolerance)]
+        if eye is not None:
+            rows.append(RetinaBarrier(eye, self.retina_margin, self.eye_gain, self.port_zone,
+                                      self.contact_tolerance, np.array(self.contacts),
+                                      self.retina_recovery(dt)))  # fmt: skip
+        rows.append(SingularMargin(self.singular_margin, self.singular_gain))
+        if self.tip_speed is not None:
+            rows.append(TipSpeed(self.tip_speed))
+        return tuple(rows)
+
+    def bounds(self) -> ActuatorLimit:
+        """The actuator bounds these settings hold."""
+        return ActuatorLimit(self.travel_margin)
+
+    def weights(self, rows: int) -> FloatArray:
+        """The task rows' weights in the QP's cost: X_ext (tip x, angle x2, RCM x3) or a curved
+        needle's X_c (tip x3, roll, RCM x3)."""
+        aw, rw = self.angle_weight, self.rcm_weight
+        if rows == 7:
+            return np.array([1.0, 1.0, 1.0, aw, rw, rw, rw])
+        return np.array([1.0, aw, aw, rw, rw, rw])
 
     def check(self, robot: RobotModel, eye: EyeModel | None) -> QpLimits:
         """Raise InvalidInputError for limits inconsistent with the robot or the eye."""

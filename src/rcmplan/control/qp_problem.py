@@ -16,8 +16,9 @@ limits exact variable bounds; the joint step is recovered exactly through the ac
                                                   above a margin (iRAM!S: cos q1, cos q3)
                G_tip x <= h_tip                   TipSpeed: the tip's step per axis (if set)
 
-Each row block comes from a limit object (`rcmplan.control.limits`); a new limit is one file
-with a `constraint(robot, inp, kin)` method, added to `LIMITS` or passed to `build_step`.
+Each row block comes from a limit object holding its own parameters (`rcmplan.control.limits`;
+`QpLimits.rows` builds the standard ones from a scenario's settings); a new limit is one file
+with a `constraint(robot, inp, kin)` method, passed to `build_step` in the list of limits.
 
 J = J_a(q, lambda) T is the augmented Jacobian (eq. 3.15, exact angle rows) times the map
 T = d(q[active], lambda) / d(s[active], l lambda); e the X_ext error; W weights the task rows
@@ -34,26 +35,13 @@ from numba import njit
 from rcmplan._validate import FloatArray
 from rcmplan.control.curved import CURVED_TASKS
 from rcmplan.control.curved import task_jacobian as curved_task_jacobian
-from rcmplan.control.limits import (
-    ActuatorLimit,
-    Limit,
-    RcmLimit,
-    RetinaBarrier,
-    SingularMargin,
-    StepInput,
-    TipSpeed,
-    is_contact,
-)
+from rcmplan.control.limits import ActuatorLimit, Limit, RetinaBarrier, StepInput
 from rcmplan.control.limits.base import SCALE, Kinematics, kinematics, variable_map
-from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import target_tip
 from rcmplan.robot.model import RobotModel
 
 __all__ = ["SCALE", "QPProblem", "StepInput", "StepQP", "build_step", "kinematics",
            "task_jacobian", "variable_map"]  # fmt: skip
-
-# The rows of every step, in this order; the actuator bounds are variable bounds.
-LIMITS: tuple[Limit, ...] = (RcmLimit(), RetinaBarrier(), SingularMargin(), TipSpeed())
 
 
 @dataclass(frozen=True)
@@ -124,32 +112,29 @@ def task_jacobian(kin: Kinematics, J_angles: FloatArray) -> FloatArray:
     return task
 
 
-def cost_weights(limits: QpLimits, rows: int) -> FloatArray:
-    """The task rows' weights: X_ext (tip x, angle x2, RCM x3) or X_c (tip x3, roll, RCM x3)."""
-    aw, rw = limits.angle_weight, limits.rcm_weight
-    if rows == 7:
-        return np.array([1.0, 1.0, 1.0, aw, rw, rw, rw])
-    return np.array([1.0, aw, aw, rw, rw, rw])
-
-
 def cost(task: FloatArray, inp: StepInput) -> tuple[FloatArray, FloatArray]:
     """P and q of the weighted task error plus damping (`weighted_cost`)."""
     n = task.shape[1]
     P, f = np.empty((n, n)), np.empty(n)
-    weighted_cost(np.ascontiguousarray(task), cost_weights(inp.limits, task.shape[0]), inp.K,
-                  inp.error, inp.damping, P, f)  # fmt: skip
+    weighted_cost(np.ascontiguousarray(task), inp.weights, inp.K, inp.error, inp.damping, P, f)
     return P, f
 
 
-def build_step(robot: RobotModel, inp: StepInput, limits: tuple[Limit, ...] = LIMITS) -> StepQP:
-    """The QP of one control step (see module docstring), its rows from `limits`."""
+def build_step(
+    robot: RobotModel,
+    inp: StepInput,
+    limits: tuple[Limit, ...],
+    bounds: ActuatorLimit | None = None,
+) -> StepQP:
+    """The QP of one control step (see module docstring): its rows from `limits` in their
+    order, its variable bounds from `bounds` (default `ActuatorLimit()`)."""
     kin = kinematics(robot, inp.q, inp.lam)
     if inp.target.shape[0] == 7:  # a curved needle's X_c (`rcmplan.control.curved`)
         task = curved_task_jacobian(CURVED_TASKS, robot, inp.q, inp.lam) @ kin.T
     else:
         task = task_jacobian(kin, robot.needle_angles_jacobian(inp.q))
     P, qv = cost(task, inp)
-    lb, ub = ActuatorLimit().bounds(robot, inp, kin)
+    lb, ub = (bounds or ActuatorLimit()).bounds(robot, inp, kin)
     rows = [lim.constraint(robot, inp, kin) for lim in limits]
     ineq = [c for c in rows if not c.equality]
     eq = [c for c in rows if c.equality]
@@ -158,6 +143,6 @@ def build_step(robot: RobotModel, inp: StepInput, limits: tuple[Limit, ...] = LI
     h = np.concatenate([c.h for c in ineq]) if ineq else np.zeros(0)
     A = np.vstack([c.G for c in eq]) if eq else np.zeros((0, width))
     b = np.concatenate([c.h for c in eq]) if eq else np.zeros(0)
-    eye = inp.eye
-    contact = eye is not None and is_contact(eye, inp.limits, target_tip(inp.target))
+    tip = target_tip(inp.target)
+    contact = any(isinstance(lim, RetinaBarrier) and lim.is_contact(tip) for lim in limits)
     return StepQP(QPProblem(P, qv, G, h, A, b, lb, ub), task * SCALE, kin.s, contact)

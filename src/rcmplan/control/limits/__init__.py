@@ -10,7 +10,7 @@ G x <= h (the RCM, with tolerance 0, an equality A x = b). The QP
 from rcmplan.control.limits.actuators import ActuatorLimit
 from rcmplan.control.limits.base import Constraint, Kinematics, Limit, StepInput, kinematics
 from rcmplan.control.limits.rcm import RcmLimit
-from rcmplan.control.limits.retina import RetinaBarrier, is_contact
+from rcmplan.control.limits.retina import RetinaBarrier
 from rcmplan.control.limits.singular import SingularMargin
 from rcmplan.control.limits.tip_speed import TipSpeed
 from rcmplan.control.limits.tissue_depth import TissueDepthLimit
@@ -28,6 +28,5 @@ __all__ = [
     "TipSpeed",
     "TissueDepthLimit",
     "WorkspaceBound",
-    "is_contact",
     "kinematics",
 ]

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.limits.base import Kinematics, StepInput
 from rcmplan.control.limits.rows import SCALE
 from rcmplan.robot.model import RobotModel
@@ -30,9 +32,15 @@ def actuator_bounds(s: FloatArray, lower: FloatArray, upper: FloatArray, speed: 
     ub[m] = (1.0 - lam) * length / SCALE
 
 
+@dataclass(frozen=True)
 class ActuatorLimit:
-    """lb <= x <= ub: each active actuator within travel less `travel_margin` and moving at most
-    speed x dt; the RCM within the needle (`actuator_bounds`)."""
+    """lb <= x <= ub: each active actuator within travel less `margin` [m] (or [rad]) and moving
+    at most speed x dt; the RCM within the needle (`actuator_bounds`)."""
+
+    margin: float = 0.5e-3
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "margin", scalar("margin", self.margin, 0.0, 0.1))
 
     def bounds(
         self, robot: RobotModel, inp: StepInput, kin: Kinematics
@@ -42,6 +50,6 @@ class ActuatorLimit:
         m = len(active)
         lb, ub = np.empty(m + 1), np.empty(m + 1)
         actuator_bounds(kin.s[active], robot.lower[active], robot.upper[active],
-                        robot.speed[active], inp.limits.travel_margin, inp.dt, inp.lam,
+                        robot.speed[active], self.margin, inp.dt, inp.lam,
                         robot.needle_length, lb, ub)  # fmt: skip
         return lb, ub

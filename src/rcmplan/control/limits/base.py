@@ -12,9 +12,7 @@ from typing import NamedTuple, Protocol
 import numpy as np
 
 from rcmplan._validate import FloatArray, array, flag
-from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.limits.rows import RECOVERY, SCALE, damper_bound
-from rcmplan.control.qp_limits import QpLimits
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel
 
@@ -28,8 +26,9 @@ __all__ = ["RECOVERY", "SCALE", "SPEED_ACTIVE", "Constraint", "Kinematics", "Lim
 
 @dataclass(frozen=True)
 class StepInput:
-    """State and settings of one step: joints q (n,), lambda, X_ext target and error (6,),
-    gains K (6,), damping D, control period dt in [s], eye (or None) and the limits."""
+    """State and settings of one step: joints q (n,), lambda, the task's target and error
+    (6,) (X_ext; a curved needle's X_c: 7), gains K, damping D, control period dt in [s] and
+    the task rows' weights (`qp_problem.cost_weights`). Each limit holds its own parameters."""
 
     q: FloatArray
     lam: float
@@ -38,8 +37,7 @@ class StepInput:
     K: FloatArray
     damping: float
     dt: float
-    eye: EyeModel | None
-    limits: QpLimits
+    weights: FloatArray
 
 
 class Kinematics(NamedTuple):

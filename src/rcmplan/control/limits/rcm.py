@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.limits.base import Constraint, Kinematics, StepInput
 from rcmplan.control.limits.rows import SCALE
 from rcmplan.robot.model import RobotModel
@@ -59,15 +60,25 @@ def rcm_rows(JT_rcm: FloatArray, rcm: FloatArray, trocar: FloatArray, axis: Floa
     return r + (4 if tol > 0.0 else 2)
 
 
+@dataclass(frozen=True)
 class RcmLimit:
     """Normal to the needle (the along-needle part is lambda's bookkeeping): N J_c T x =
-    -N r / SCALE with r = p(lambda) - trocar (equality, `rcm_tolerance` 0), or a box of
-    half-width tol / sqrt(2) per normal axis, so the deviation stays within tol to first order
-    (`rcm_rows`)."""
+    -N r / SCALE with r = p(lambda) - trocar, the trocar the target's RCM point (its last three
+    entries), as an equality (`tolerance` 0) or a box of half-width tolerance / sqrt(2) per
+    normal axis, so the deviation stays within the tolerance to first order (`rcm_rows`).
+
+    Attributes:
+        tolerance: Largest distance in [m] from the trocar to the needle line, in [0, 5 mm].
+    """
+
+    tolerance: float = 0.5e-6
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "tolerance", scalar("tolerance", self.tolerance, 0.0, 5e-3))
 
     def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
         """The two rows (equality) or four (box)."""
-        tol = inp.limits.rcm_tolerance
+        tol = self.tolerance
         G, h = np.empty((4, kin.T.shape[1])), np.empty(4)
         trocar = np.ascontiguousarray(inp.target[-3:])
         r = rcm_rows(kin.JT_rcm, kin.rcm, trocar, kin.axis, tol, np.empty((2, 3)), G, h, 0)

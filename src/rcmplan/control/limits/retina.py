@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 from numba import njit
 
-from rcmplan._validate import FloatArray
-from rcmplan.control.eye_model import EyeModel
+from rcmplan._validate import FloatArray, scalar
+from rcmplan.control.eye_model import EyeModel, check_eye
 from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, no_rows
 from rcmplan.control.limits.rows import RECOVERY, near_any, sphere_row
-from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import target_tip
 from rcmplan.robot.model import RobotModel
 
@@ -25,43 +26,61 @@ def contact_floor(margin: float, target_depth: float, tip_target: FloatArray,
     return margin
 
 
-def is_contact(eye: EyeModel, lim: QpLimits, tip_target: FloatArray) -> bool:
-    """True if the target tip lies on the retina or on a listed contact point."""
-    if abs(eye.distance_to_retina(tip_target)) <= lim.contact_tolerance:
-        return True
-    return near_any(tip_target, contact_points(lim), lim.contact_tolerance)
-
-
-def contact_points(lim: QpLimits) -> FloatArray:
-    """The listed contact points as a (k, 3) array [m]."""
-    return np.array(lim.contacts, dtype=np.float64).reshape(-1, 3)
-
-
-def retina_recovery(lim: QpLimits, dt: float) -> float:
-    """How far past its floor the tip may move back per step [m]: RECOVERY, or with a tip speed
-    bound as far as the damper's gain lets it (eye_gain x tip_speed x dt)."""
-    if lim.tip_speed is None:
-        return RECOVERY
-    return max(RECOVERY, lim.eye_gain * lim.tip_speed * dt)
-
-
+@dataclass(frozen=True, eq=False)
 class RetinaBarrier:
-    """distance_to_retina(tip) kept above `retina_margin` (at a contact target: above the
-    target's own depth), approached at `eye_gain`; off with no eye, and while the tip is within
-    `port_zone` of the trocar (it passes the wall there, at the pars plana). Past its floor
-    (leaving a contact for a target inside the margin) the tip recovers by up to
-    `retina_recovery` per step (`rows.sphere_row`, `contact_floor`)."""
+    """distance_to_retina(tip) kept above `margin` (at a contact target: above the target's own
+    depth), approached at `gain`; off while the tip is within `port_zone` of the trocar (it
+    passes the wall there, at the pars plana). Past its floor (leaving a contact for a target
+    inside the margin) the tip recovers by up to `recovery` per step (`rows.sphere_row`,
+    `contact_floor`).
+
+    Attributes:
+        eye: The eye (an `EyeModel`).
+        margin: Distance kept from the retina in [m], in [0, 20 mm].
+        gain: Damper gain in (0, 1].
+        port_zone: Radius around the trocar point in [m] inside which the barrier is off.
+        contact_tolerance: A target tip within this distance [m] of the retina (or of a point
+            in `contacts`) is a contact: the floor is relaxed to the target's own depth.
+        contacts: Extra contact points, a (k, 3) array in [m].
+        recovery: Largest push back per step past the floor in [m].
+    """
+
+    eye: EyeModel
+    margin: float = 0.25e-3
+    gain: float = 0.5
+    port_zone: float = 2e-3
+    contact_tolerance: float = 1e-6
+    contacts: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    recovery: float = RECOVERY
+
+    def __post_init__(self) -> None:
+        set_ = object.__setattr__
+        set_(self, "eye", check_eye("eye", self.eye))
+        set_(self, "margin", scalar("margin", self.margin, 0.0, 0.02))
+        set_(self, "gain", scalar("gain", self.gain, 0.0, 1.0, low_open=True))
+        set_(self, "port_zone", scalar("port_zone", self.port_zone, 0.0, 0.02))
+        tol = scalar("contact_tolerance", self.contact_tolerance, 0.0, 1e-3)
+        set_(self, "contact_tolerance", tol)
+        set_(self, "contacts", np.array(self.contacts, dtype=np.float64).reshape(-1, 3))
+        set_(self, "recovery", scalar("recovery", self.recovery, 0.0, 1e-3, low_open=True))
+
+    def is_contact(self, tip_target: FloatArray) -> bool:
+        """True if the target tip lies on the retina or on a listed contact point."""
+        tol = self.contact_tolerance
+        return abs(self.eye.distance_to_retina(tip_target)) <= tol or near_any(
+            tip_target, self.contacts, tol
+        )
 
     def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
         """One damper row, or none."""
-        eye, lim = inp.eye, inp.limits
-        if eye is None or np.linalg.norm(kin.tip - eye.port) <= lim.port_zone:
+        eye = self.eye
+        if np.linalg.norm(kin.tip - eye.port) <= self.port_zone:
             return no_rows(kin)
         tip_target = target_tip(inp.target)
-        floor = contact_floor(lim.retina_margin, eye.distance_to_retina(tip_target), tip_target,
-                              contact_points(lim), lim.contact_tolerance)  # fmt: skip
+        floor = contact_floor(self.margin, eye.distance_to_retina(tip_target), tip_target,
+                              self.contacts, self.contact_tolerance)  # fmt: skip
         G, h = np.empty((1, kin.T.shape[1])), np.empty(1)
         center = np.asarray(eye.center, dtype=np.float64)
         sphere_row(kin.JT_tip, kin.tip, center, eye.distance_to_retina(kin.tip), floor,
-                   lim.eye_gain, retina_recovery(lim, inp.dt), G, h, 0)  # fmt: skip
+                   self.gain, self.recovery, G, h, 0)  # fmt: skip
         return Constraint.rows(G, h)

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 from numba import njit
 
-from rcmplan._validate import FloatArray
-from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, no_rows
+from rcmplan._validate import FloatArray, scalar
+from rcmplan.control.limits.base import Constraint, Kinematics, StepInput
 from rcmplan.control.limits.rows import SCALE
 from rcmplan.robot.model import RobotModel
 
@@ -23,15 +25,21 @@ def speed_rows(JT_tip: FloatArray, step: float, G: FloatArray, h: FloatArray, r:
     return r + 6
 
 
+@dataclass(frozen=True)
 class TipSpeed:
-    """-v dt <= J_tip T x SCALE <= v dt per axis (six rows, to first order), v =
-    `QpLimits.tip_speed`; none when it is None (`speed_rows`)."""
+    """-v dt <= J_tip T x SCALE <= v dt per base axis (six rows, to first order; `speed_rows`).
+
+    Attributes:
+        speed: v, the tip's largest speed along each base axis in [m/s], in (0, 1].
+    """
+
+    speed: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "speed", scalar("speed", self.speed, 0.0, 1.0, low_open=True))
 
     def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
-        """The rows, or none."""
-        v = inp.limits.tip_speed
-        if v is None:
-            return no_rows(kin)
+        """The rows."""
         G, h = np.empty((6, kin.T.shape[1])), np.empty(6)
-        speed_rows(kin.JT_tip, v * inp.dt, G, h, 0)
+        speed_rows(kin.JT_tip, self.speed * inp.dt, G, h, 0)
         return Constraint.rows(G, h)
