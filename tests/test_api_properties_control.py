@@ -277,3 +277,23 @@ def bounded_loop(cfg: Any) -> bool:
 ))  # fmt: skip
 def test_loop_settings_are_bounded_or_refused(args: tuple[Any, ...]) -> None:
     probe("LoopSettings", rp.LoopSettings, *args, ok=bounded_loop, names=LOOP)
+
+
+@examples(150)
+@given(args=one_bad(number(0.0, 1.0), vector(5, -0.05, 0.05), number(0.01, 1.9),
+                    number(0.1, 10.0)))  # fmt: skip
+def test_configurations_objectives_and_depth_limits_are_finite_or_refused(
+    args: tuple[Any, ...],
+) -> None:
+    lam, dq, gain, weight = args
+    cfg = probe("Configuration", rp.Configuration, ROBOT, ROBOT.home, lam, names=("lam",),
+                ok=lambda c: finite(c.kinematics.tip))  # fmt: skip
+    obj = probe("Objective", rp.Objective, rp.Posture(), np.zeros(5), gain, weight,
+                names=("gain", "weight"))  # fmt: skip
+    if cfg is not None:
+        probe("Configuration.integrate", cfg.integrate, dq, 0.0, names=("dq",),
+              ok=lambda c: finite(c.q))  # fmt: skip
+        if obj is not None:
+            probe("Objective.cost", obj.cost, cfg, ok=lambda hf: finite(hf[0]) and finite(hf[1]))
+    probe("TissueDepthLimit", rp.TissueDepthLimit, EYE.center, EYE.retina_radius, gain / 2,
+          names=("gain",), ok=lambda lim: math.isfinite(lim.gap_m(EYE.center)))  # fmt: skip

@@ -55,6 +55,10 @@ _EXPORTS: dict[str, str] = {
     "Posture": "rcmplan.control.tasks",
     "RcmPoint": "rcmplan.control.tasks",
     "TipPosition": "rcmplan.control.tasks",
+    "Configuration": "rcmplan.control.configuration",
+    "Objective": "rcmplan.control.objective",
+    "QpLimits": "rcmplan.control.qp_limits",
+    "TissueDepthLimit": "rcmplan.control.limits",
     "ActuatorLimit": "rcmplan.control.limits",
     "Constraint": "rcmplan.control.limits",
     "RcmLimit": "rcmplan.control.limits",
@@ -84,6 +88,7 @@ _EXPORTS: dict[str, str] = {
 __all__ = [
     "ActuatorLimit",
     "ChainJoint",
+    "Configuration",
     "Constraint",
     "Controller",
     "CurvedNeedle",
@@ -100,10 +105,12 @@ __all__ = [
     "MujocoPlant",
     "NeedleAngles",
     "NeedleBase",
+    "Objective",
     "Pcjm",
     "Phase",
     "PinvSolver",
     "Posture",
+    "QpLimits",
     "QpSolver",
     "RcmLimit",
     "RcmPoint",
@@ -119,6 +126,7 @@ __all__ = [
     "TipPosition",
     "TipSolver",
     "TipSpeed",
+    "TissueDepthLimit",
     "Tolerance",
     "WorkspaceBound",
     "__version__",
@@ -148,6 +156,7 @@ def __dir__() -> list[str]:
 
 
 if TYPE_CHECKING:  # the same names, for type checkers and editors
+    from rcmplan.control.configuration import Configuration
     from rcmplan.control.limits import (
         ActuatorLimit,
         Constraint,
@@ -155,11 +164,14 @@ if TYPE_CHECKING:  # the same names, for type checkers and editors
         RetinaBarrier,
         SingularMargin,
         TipSpeed,
+        TissueDepthLimit,
         WorkspaceBound,
     )
     from rcmplan.control.log import RunLog
+    from rcmplan.control.objective import Objective
     from rcmplan.control.phase import LoopSettings, Phase, split_steps
     from rcmplan.control.qp import QpSolver
+    from rcmplan.control.qp_limits import QpLimits
     from rcmplan.control.solvers import DlsSolver, PinvSolver, TipSolver, Tolerance
     from rcmplan.control.targets import rcm_target, solve_pose
     from rcmplan.control.tasks import NeedleAngles, NeedleBase, Posture, RcmPoint, TipPosition

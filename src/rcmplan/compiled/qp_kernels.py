@@ -56,6 +56,7 @@ from rcmplan.compiled.qp_params import (
     TRAVEL_MARGIN,
     WEIGHTS,
 )
+from rcmplan.control.cost import weighted_cost, x_ext_jacobian
 from rcmplan.control.limits.actuators import actuator_bounds
 from rcmplan.control.limits.base import SCALE, SPEED_ACTIVE
 from rcmplan.control.limits.rcm import rcm_rows
@@ -63,7 +64,6 @@ from rcmplan.control.limits.retina import contact_floor
 from rcmplan.control.limits.rows import damper_rows, radial_gap, sphere_row, times
 from rcmplan.control.limits.tip_speed import speed_rows
 from rcmplan.control.limits.workspace import box_rows
-from rcmplan.control.qp_problem import weighted_cost, x_ext_jacobian
 from rcmplan.robot.iramis_kernels import (
     actuators_from_joints,
     joints_from_actuators,

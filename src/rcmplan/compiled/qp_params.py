@@ -75,10 +75,12 @@ def pack_extras(solver: QpSolver, Q: FloatArray) -> None:
 
 def qp_params(robot: RobotModel, solver: QpSolver) -> tuple[FloatArray, FloatArray] | None:
     """(Q, contacts (k, 3) [m]) of a QP solver driving `robot`; None if its eye is not one the
-    kernels reproduce (`spherical_eye`) or it holds extra limits the kernels do not
-    (`compiled_extras`)."""
+    kernels reproduce (`spherical_eye`), it holds extra limits the kernels do not
+    (`compiled_extras`) or extra cost terms."""
     lim, eye = solver.limits, solver.eye
     if not compiled_extras(solver) or (eye is not None and not spherical_eye(eye)):
+        return None
+    if solver.objectives:  # cost terms the kernels do not assemble
         return None
     Q = np.zeros(Q_SIZE)
     pack_extras(solver, Q)

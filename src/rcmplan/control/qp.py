@@ -47,7 +47,7 @@ from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_checks import check_qp_args
 from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
+from rcmplan.control.qp_problem import SCALE, CostTerm, StepInput, StepQP, build_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import checked_target, solve_pose, target_tip
 from rcmplan.exceptions import UnreachableTargetError
@@ -71,8 +71,11 @@ class QpSolver:
             `exact_commands` False and a `command`): steps are planned from its last command
             (module docstring). None, or a plant with exact commands: from the measured state.
         extra_limits: Limits held besides the standard ones (`QpLimits.rows`), for
-            example a `limits.WorkspaceBound` for the tip (the compiled QP declines a solver
-            that has any).
+            example a `limits.WorkspaceBound` for the tip or a `limits.TissueDepthLimit` (the
+            compiled QP step holds these two; a solver with others runs in Python).
+        objectives: Cost terms besides the X_ext task (`objective.Objective`: a task with
+            its target, gain and weight), for example a posture for a redundant arm (the
+            solver with any runs in Python).
     """
 
     name: ClassVar[str] = "qp"
@@ -90,8 +93,9 @@ class QpSolver:
         backend: str = DEFAULT_BACKEND,
         servo: Any | None = None,
         extra_limits: tuple[Limit, ...] = (),
+        objectives: tuple[CostTerm, ...] = (),
     ) -> None:
-        check_qp_args(robot, eye, K, tol, limits, servo, extra_limits)
+        check_qp_args(robot, eye, K, tol, limits, servo, extra_limits, objectives)
         self.robot = robot
         self.eye = eye
         self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
@@ -114,6 +118,7 @@ class QpSolver:
         self.extra_limits = tuple(extra_limits)
         self.rows: tuple[Limit, ...] = (*self.limits.rows(eye, self.dt), *self.extra_limits)
         self.bounds = self.limits.bounds()
+        self.objectives = tuple(objectives)
         self.weights = self.limits.weights(self.target_width)
         self.last: tuple[StepQP, QpResult] | None = None
         self._planned_error: FloatArray = np.zeros(0)  # the task error of the last solve
@@ -214,7 +219,7 @@ class QpSolver:
         e = self.task_error(robot, q, lam, target)
         self._planned_error = e
         inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.weights)
-        step = build_step(robot, inp, self.rows, self.bounds)
+        step = build_step(robot, inp, self.rows, self.bounds, self.objectives)
         if self.servo is not None:
             step = synchronised_step(robot, step, self.dt)
         result = solve(step.problem, self.backend)

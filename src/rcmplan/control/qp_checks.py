@@ -13,7 +13,14 @@ from rcmplan.robot.checks import robot_model
 
 
 def check_qp_args(
-    robot: Any, eye: Any, K: Any, tol: Any, limits: Any, servo: Any, extra_limits: Any
+    robot: Any,
+    eye: Any,
+    K: Any,
+    tol: Any,
+    limits: Any,
+    servo: Any,
+    extra_limits: Any,
+    objectives: Any = (),
 ) -> None:
     """Raise InvalidInputError naming the first of these arguments that is not valid."""
     robot_model("robot", robot)
@@ -31,3 +38,7 @@ def check_qp_args(
         raise InvalidInputError("extra_limits", extra_limits, "a tuple of limits")
     for lim in extra_limits:
         has_methods("extra_limits", lim, ("constraint",), "a tuple of limits")
+    if not isinstance(objectives, tuple | list):
+        raise InvalidInputError("objectives", objectives, "a tuple of objectives")
+    for term in objectives:
+        has_methods("objectives", term, ("cost",), "a tuple of objectives (Objective)")

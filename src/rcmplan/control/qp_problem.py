@@ -27,12 +27,15 @@ T = d(q[active], lambda) / d(s[active], l lambda); e the X_ext error; W weights 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
-from numba import njit
 
 from rcmplan._validate import FloatArray
+from rcmplan.control.configuration import Configuration
+from rcmplan.control.cost import weighted_cost, x_ext_jacobian
 from rcmplan.control.curved import CURVED_TASKS
 from rcmplan.control.curved import task_jacobian as curved_task_jacobian
 from rcmplan.control.limits import ActuatorLimit, Limit, RetinaBarrier, StepInput
@@ -42,6 +45,12 @@ from rcmplan.robot.model import RobotModel
 
 __all__ = ["SCALE", "QPProblem", "StepInput", "StepQP", "build_step", "kinematics",
            "task_jacobian", "variable_map"]  # fmt: skip
+
+
+class CostTerm(Protocol):
+    """A term of the QP's cost: its (H, f) over x at a configuration (`objective.Objective`)."""
+
+    def cost(self, cfg: Configuration) -> tuple[FloatArray, FloatArray]: ...
 
 
 @dataclass(frozen=True)
@@ -75,36 +84,6 @@ class StepQP:
     contact: bool
 
 
-@njit(cache=True)
-def x_ext_jacobian(JT_tip: FloatArray, JT_angles: FloatArray, JT_rcm: FloatArray,
-                   out: FloatArray) -> None:  # fmt: skip
-    """d X_ext / d (x SCALE) = J_a T (eq. 3.15, exact angle rows) into out (6, w): the tip's x
-    row, the needle angles' rows JT_angles (2, w), the RCM point's rows."""
-    for j in range(out.shape[1]):
-        out[0, j] = JT_tip[0, j]
-        out[1, j], out[2, j] = JT_angles[0, j], JT_angles[1, j]
-        out[3, j], out[4, j], out[5, j] = JT_rcm[0, j], JT_rcm[1, j], JT_rcm[2, j]
-
-
-@njit(cache=True)
-def weighted_cost(task: FloatArray, weights: FloatArray, K: FloatArray, e: FloatArray,
-                  damping: float, H: FloatArray, f: FloatArray) -> None:  # fmt: skip
-    """H (w, w) and f (w,) of 1/2 |W (task x SCALE - K e)|^2 / SCALE^2 + 1/2 D^2 |x|^2 for a
-    task Jacobian (k, w) with row weights W (k,), gains K (k,) and error e (k,)."""
-    k, n = task.shape
-    for j in range(n):
-        for col in range(n):
-            acc = 0.0
-            for i in range(k):
-                acc += (weights[i] * task[i, j]) * (weights[i] * task[i, col])
-            H[j, col] = acc
-        H[j, j] += damping**2
-        acc = 0.0
-        for i in range(k):
-            acc += (weights[i] * task[i, j]) * (weights[i] * K[i] * e[i] / SCALE)
-        f[j] = -acc
-
-
 def task_jacobian(kin: Kinematics, J_angles: FloatArray) -> FloatArray:
     """d X_ext / d x = J_a T, J_a with the exact angle rows J_angles (2, m + 1) (eq. 3.15)."""
     task = np.empty((6, kin.T.shape[1]))
@@ -125,15 +104,22 @@ def build_step(
     inp: StepInput,
     limits: tuple[Limit, ...],
     bounds: ActuatorLimit | None = None,
+    objectives: Sequence[CostTerm] = (),
 ) -> StepQP:
     """The QP of one control step (see module docstring): its rows from `limits` in their
-    order, its variable bounds from `bounds` (default `ActuatorLimit()`)."""
+    order, its variable bounds from `bounds` (default `ActuatorLimit()`), its cost the X_ext
+    (or X_c) task's plus each objective's term (`objective.Objective`)."""
     kin = kinematics(robot, inp.q, inp.lam)
     if inp.target.shape[0] == 7:  # a curved needle's X_c (`rcmplan.control.curved`)
         task = curved_task_jacobian(CURVED_TASKS, robot, inp.q, inp.lam) @ kin.T
     else:
         task = task_jacobian(kin, robot.needle_angles_jacobian(inp.q))
     P, qv = cost(task, inp)
+    if objectives:
+        cfg = Configuration.known(robot, inp.q, inp.lam, kin)
+        for term in objectives:
+            H, f = term.cost(cfg)
+            P, qv = P + H, qv + f
     lb, ub = (bounds or ActuatorLimit()).bounds(robot, inp, kin)
     rows = [lim.constraint(robot, inp, kin) for lim in limits]
     ineq = [c for c in rows if not c.equality]

@@ -1,0 +1,39 @@
+"""The QP's cost terms as kernels: the X_ext Jacobian from its parts and a weighted task's
+(H, f). The Python QP (`qp_problem`, `objective`) and the compiled QP step call them."""
+
+from __future__ import annotations
+
+from numba import njit
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.limits.rows import SCALE
+
+
+@njit(cache=True)
+def x_ext_jacobian(JT_tip: FloatArray, JT_angles: FloatArray, JT_rcm: FloatArray,
+                   out: FloatArray) -> None:  # fmt: skip
+    """d X_ext / d (x SCALE) = J_a T (eq. 3.15, exact angle rows) into out (6, w): the tip's x
+    row, the needle angles' rows JT_angles (2, w), the RCM point's rows."""
+    for j in range(out.shape[1]):
+        out[0, j] = JT_tip[0, j]
+        out[1, j], out[2, j] = JT_angles[0, j], JT_angles[1, j]
+        out[3, j], out[4, j], out[5, j] = JT_rcm[0, j], JT_rcm[1, j], JT_rcm[2, j]
+
+
+@njit(cache=True)
+def weighted_cost(task: FloatArray, weights: FloatArray, K: FloatArray, e: FloatArray,
+                  damping: float, H: FloatArray, f: FloatArray) -> None:  # fmt: skip
+    """H (w, w) and f (w,) of 1/2 |W (task x SCALE - K e)|^2 / SCALE^2 + 1/2 D^2 |x|^2 for a
+    task Jacobian (k, w) with row weights W (k,), gains K (k,) and error e (k,)."""
+    k, n = task.shape
+    for j in range(n):
+        for col in range(n):
+            acc = 0.0
+            for i in range(k):
+                acc += (weights[i] * task[i, j]) * (weights[i] * task[i, col])
+            H[j, col] = acc
+        H[j, j] += damping**2
+        acc = 0.0
+        for i in range(k):
+            acc += (weights[i] * task[i, j]) * (weights[i] * K[i] * e[i] / SCALE)
+        f[j] = -acc
