@@ -166,6 +166,7 @@ def tip_path(
         ax.text(*q, f" {name}", fontsize=9)
     ax.set(xlabel="x_base [mm]", ylabel="y_base [mm]", zlabel="z_base [mm]")
     ax.set_aspect("equal")
+    ax.locator_params(nbins=4)  # an axis shortened by the equal aspect keeps its labels apart
     ax.set_title("Needle tip path, base frame")
     fig.legend(*ax.get_legend_handles_labels(), loc="lower left", bbox_to_anchor=(0.04, 0.1),
                ncol=3, fontsize=8)  # fmt: skip
