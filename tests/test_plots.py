@@ -178,3 +178,15 @@ def test_phase_strip_labels_do_not_overlap_on_a_run_with_short_phases() -> None:
     for i, a in enumerate(boxes):
         for b in boxes[i + 1 :]:
             assert not a.overlaps(b)
+
+
+def test_comparison_log_panels_start_at_a_whole_decade_below_the_smallest_bar(drawn) -> None:
+    rows = [{"method": m, "status": "ok", "max_rcm_deviation_m": 4e-7, "iterations": n,
+             "wall_time_s": w, "wall_time_per_iteration_s": w / n}
+            for m, n, w in (("pinv", 1465, 0.065), ("qp", 27687, 1.9))]  # fmt: skip
+    method_comparison(rows, Path("unused.png"))
+    logs = [ax for ax in drawn[0].axes if ax.get_yscale() == "log"]
+    assert len(logs) == 2
+    for ax, smallest in zip(logs, (65.0, 0.065 / 1465 * 1e6), strict=True):
+        bottom = ax.get_ylim()[0]
+        assert bottom == 10.0 ** np.floor(np.log10(smallest)) and bottom < smallest
