@@ -10,6 +10,7 @@ import pytest
 
 from rcmplan.cli import main
 from rcmplan.control.log import RunLog
+from sigdigits import overlong
 
 
 def test_robot_prints_the_model(capsys) -> None:
@@ -36,7 +37,9 @@ def test_inject_writes_log_summary_figures_and_report(tmp_path: Path, capsys) ->
     assert header.startswith("time_s,phase,solver")
     html = (tmp_path / "report.html").read_text()
     assert html.count("data:image/png;base64,") == 3
-    assert "max RCM deviation" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "max RCM deviation" in printed
+    assert overlong(printed) == []  # every figure through analysis.units.fmt
 
 
 def test_inject_json_prints_the_summary(tmp_path: Path, capsys) -> None:
@@ -67,6 +70,58 @@ def test_run_that_stops_midway_keeps_its_partial_log(tmp_path: Path) -> None:
     assert s["status"] == "no_convergence" and s["message"].startswith("ConvergenceError")
     log = RunLog.load_npz(out / "log.npz")
     assert len(log) > 0 and np.all(np.isfinite(log.tip))
+
+
+FAR_TROCAR = (  # the trocar 50 mm aside: the approach drives L5 past its travel on the way
+    'name = "far-trocar"\n[eye]\ntrocar_offset_mm = [14.0, 50.0, -30.0]\n'
+    "insertion_angles_rad = [-0.37, -0.3]\n"
+)
+
+
+def test_a_run_stopped_before_the_eye_reports_the_figures_of_its_records(
+    tmp_path: Path, capsys
+) -> None:
+    scenario = tmp_path / "far.toml"
+    scenario.write_text(FAR_TROCAR)
+    out = tmp_path / "out"
+    assert main(["inject", "--scenario", str(scenario), "--out", str(out)]) == 1
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "actuator_limit" and s["iterations"] > 0
+    assert [p["name"] for p in s["phases"]] == ["approach"] and not s["phases"][0]["inside_eye"]
+    assert s["max_rcm_deviation_m"] is None  # no record held an RCM
+    assert s["max_tip_error_m"] == s["phases"][0]["final_tip_error_m"] > 0.0
+    assert s["max_waypoint_tip_error_m"] is not None and s["limit_violations"]["travel"] > 0
+    printed = capsys.readouterr().out
+    assert "no record inside the eye (stopped before entering it)" in printed
+    assert "- um" not in printed
+    assert "<dd>no record inside the eye</dd>" in (out / "report.html").read_text()
+    assert (out / "figures" / "tip_path.png").stat().st_size > 0
+
+
+def test_a_run_stopped_by_an_unreachable_target_after_moving_keeps_its_figures(
+    tmp_path: Path, monkeypatch
+) -> None:
+    """The approach runs, then the pivot planned from where it ended asks for a pose beyond the
+    sliders' travel: status unreachable_target, and the figures of the approach's records."""
+    from rcmplan.control.phase import Phase
+    from rcmplan.control.targets import pivot_target
+    from rcmplan.scene.scenario import Scenario
+
+    planned = Scenario.phases
+
+    def phases(self, robot):
+        eye = self.eye(robot)
+        far = np.array([pivot_target(eye.port[0], 1.0, 0.2, eye.port)])
+        return [*planned(self, robot)[:1], Phase("align", lambda q: far, "rcm")]
+
+    monkeypatch.setattr(Scenario, "phases", phases)
+    out = tmp_path / "out"
+    assert main(["inject", "--out", str(out), "--no-plots"]) == 1
+    s = json.loads((out / "summary.json").read_text())
+    assert s["status"] == "unreachable_target" and s["message"].startswith("UnreachableTarget")
+    assert s["iterations"] == len(RunLog.load_npz(out / "log.npz")) > 0
+    assert s["max_tip_error_m"] == s["phases"][0]["final_tip_error_m"]
+    assert s["max_waypoint_tip_error_m"] is not None
 
 
 def test_unwritable_output_folder_is_a_clear_error(tmp_path: Path, capsys) -> None:

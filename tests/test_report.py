@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import html
 import json
 import re
 from pathlib import Path
@@ -11,8 +12,17 @@ import pytest
 
 from rcmplan import Iramis
 from rcmplan.analysis.limits import KINDS
-from rcmplan.analysis.report import summary_json, write_outputs
+from rcmplan.analysis.report import summary_json, write_outputs, write_report
 from rcmplan.analysis.settings_table import settings_rows
+from rcmplan.analysis.summary_text import (
+    VIOLATION_MEANING,
+    execution_text,
+    summary_lines,
+    um,
+    violations_text,
+)
+from rcmplan.analysis.units import fmt
+from rcmplan.cli.common import print_summary
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import load_scenario
 
@@ -83,3 +93,51 @@ def test_a_path_run_lists_its_tip_points_in_the_settings(robot) -> None:
     sc = with_path(load_scenario("default"), np.array([[0.0, 0.0, 4.0], [1.0, 0.0, 4.0]]))
     rows = [r for r in settings_rows(sc, robot) if r[0] == "path"]
     assert len(rows) == 1 and rows[0][1] == "2 tip points, base frame" and rows[0][3] == "mm"
+
+
+@pytest.fixture(scope="module")
+def qp_report(tmp_path_factory):
+    """The default injection with the QP (limited waypoints, every limit held) and its page."""
+    result = run_scenario(load_scenario("default").with_method("qp"))
+    page = write_report(result, tmp_path_factory.mktemp("qp"), {}).read_text()
+    return result, page
+
+
+def test_report_carries_the_limits_waypoints_and_path_the_command_line_prints(
+    qp_report, capsys
+) -> None:
+    result, page = qp_report
+    s = summary_json(result)
+    print_summary(result)
+    printed = capsys.readouterr().out
+    assert s["limited_waypoints"] > 0 and s["execution_path"] == "compiled"
+    for line in summary_lines(s):
+        assert line in printed
+    for shared in (um(s["max_waypoint_tip_error_m"]), violations_text(s), execution_text(s),
+                   f"{s['limited_waypoints']:,} limited"):  # fmt: skip
+        assert shared in printed
+    assert f"<dt>max waypoint tip error</dt><dd>{um(s['max_waypoint_tip_error_m'])}</dd>" in page
+    assert f"<dt>limited waypoints</dt><dd>{s['limited_waypoints']:,}</dd>" in page
+    assert f"<dt>limit violations (records)</dt><dd>{violations_text(s)}</dd>" in page
+    assert f"<dd>{execution_text(s)}</dd>" in page
+    for kind, n in s["limit_violations"].items():
+        assert f"<td class='l'>{kind}</td><td class='l'>" in page
+        assert f"{html.escape(VIOLATION_MEANING[kind])}</td><td>{n:,}</td>" in page
+    for w in s["limited_waypoint_list"]:
+        row = (f"<td class='l'>{w['phase']}</td><td class='l'>{', '.join(w['active_limits'])}"
+               f"</td><td>{w['step']:,}</td><td>{fmt(w['tip_error_m'], 'um')}</td>")  # fmt: skip
+        assert row in page
+
+
+def test_each_tip_error_has_one_name_in_the_table_the_lines_and_the_report(qp_report) -> None:
+    """max tracking error (every iteration), max waypoint tip error (a step's end) and max tip
+    error at the targets (a phase's end inside the eye): three quantities, three names."""
+    result, page = qp_report
+    s = summary_json(result)
+    text = "\n".join(summary_lines(s))
+    assert "max tip error at the targets" in text and "max waypoint tip error" in text
+    assert "tracking" not in text  # the tracking error is the phase table's column alone
+    tracking = max(p["max_tracking_error_m"] for p in s["phases"])
+    assert tracking > s["max_waypoint_tip_error_m"] > s["max_tip_error_m"]
+    assert "<th>max tracking error [um]</th>" in page
+    assert f"<dt>max tip error at the targets</dt><dd>{um(s['max_tip_error_m'])}</dd>" in page

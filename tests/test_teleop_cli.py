@@ -22,6 +22,7 @@ from rcmplan.teleop import SyntheticSurgeon, write_track
 from rcmplan.teleop.motion_plan import MotionPlan, Move
 from rcmplan.teleop.trace import Trace
 from rcmplan.view.run_folder import load_run
+from sigdigits import overlong
 
 SRC = str(Path(__file__).resolve().parents[1] / "src")
 SHORT = MotionPlan(2.0, (Move(0.8, 1.0, (10e-3, 5e-3, 0.0)),), released=((0.0, 0.6),))
@@ -49,7 +50,9 @@ def test_a_replay_file_writes_log_trace_summary_and_figures(short_csv, tmp_path,
     assert (tmp_path / "log.csv").read_text().startswith("time_s,phase,solver")
     for name in FIGURES:
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 1000
-    assert "tip tremor RMS" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "tip tremor RMS" in printed
+    assert overlong(printed) == []  # every figure through analysis.units.fmt
     # the 3D view reads the session as it reads any run: its eye and trocar from the scene block
     run = load_run(tmp_path)
     assert len(run.log) == doc["periods"]

@@ -5,7 +5,9 @@ Violations (`violations`), per record, of every limit the QP holds (`QpLimits`):
 - travel: an active actuator beyond its travel less `travel_margin` (every phase);
 - speed: an active actuator's step above speed * dt (every phase; 0 for the first record);
 - lam: lambda outside [0, 1] (RCM phases);
-- rcm: trocar-to-needle-line distance above `rcm_tolerance` (RCM phases);
+- rcm: RCM deviation |p_rcm - trocar| (`RunLog.rcm_deviation`, as the run's
+  `max_rcm_deviation_m` measures it: on a curved needle's shaft, not on the chord to its tip)
+  above `rcm_tolerance` (RCM phases);
 - retina: the tip closer to the retina than the margin and getting closer, outside the port
   zone and away from a contact target (RCM phases; in free space the tip is outside the eye);
 - singular: a singular term of the robot below the QP's singular floor (every phase).
@@ -77,6 +79,7 @@ def excess(
     checked there)."""
     n = len(log)
     rcm = ~np.isnan(log.trocar[:, 0])
+    rcm_distance = np.linalg.norm(log.rcm_deviation(), axis=1)
     active = list(robot.active)
     s = log.sliders[:, active]
     lo = robot.lower[active] + limits.travel_margin
@@ -85,7 +88,7 @@ def excess(
         "travel": np.max(np.maximum(lo - s, s - hi), axis=1, initial=-math.inf),
         "speed": speed_excess(log, robot, dt),
         "lam": np.where(rcm, np.maximum(-log.lam, log.lam - 1.0), -math.inf),
-        "rcm": np.where(rcm, log.line_distance() - limits.rcm_tolerance, -math.inf),
+        "rcm": np.where(rcm, rcm_distance - limits.rcm_tolerance, -math.inf),
         "retina": np.full(n, -math.inf),
         "singular": limits.singular_floor(robot) - singular_values(log, robot),
     }

@@ -97,11 +97,14 @@ def slider_use(log: RunLog, robot: RobotModel) -> SliderUse:
 
 
 def overall(phases: list[PhaseMetrics]) -> dict[str, float | None]:
-    """Maximum RCM deviation and tip error over the phases inside the eye."""
+    """The run's headline figures, in [m]: `max_rcm_deviation_m`, the largest RCM deviation
+    over the phases inside the eye (None when no record held an RCM: a run stopped before it
+    entered the eye), and `max_tip_error_m`, the worst tip error at the end of a phase inside
+    the eye, or at the end of each phase the run has when it stopped before entering (None only
+    for a run without records)."""
     inside = [p for p in phases if p.inside_eye]
-    if not inside:
-        return {"max_rcm_deviation_m": None, "max_tip_error_m": None}
+    measured = inside or phases
     return {
-        "max_rcm_deviation_m": max(p.max_rcm_deviation_m or 0.0 for p in inside),
-        "max_tip_error_m": max(p.final_tip_error_m for p in inside),
+        "max_rcm_deviation_m": max((p.max_rcm_deviation_m or 0.0 for p in inside), default=None),
+        "max_tip_error_m": max((p.final_tip_error_m for p in measured), default=None),
     }

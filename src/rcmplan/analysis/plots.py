@@ -8,7 +8,11 @@ eye centre), e1 = n x z_base / |n x z_base|, e2 = n x e1, the frame the sweep ma
   4.4, 4.7 of the thesis), norm and components, against the bounds.
 - `rcm_trace`: the RCM point in the trocar plane (e1, e2) with the port circle (figs. 4.3, 4.5).
 - `tip_path`: the tip path in 3D with the named targets, commanded versus actual (fig. 4.6),
-  and the tracking error over time.
+  and over time the tracking error (|tip - target| over every iteration, its largest in each
+  control step) and the waypoint tip error (at the step's end) against the reach bound.
+
+Bounds are drawn beneath the data, and legends and notes outside the axes, so no line hides
+under a bound and no legend covers a line.
 - `method_comparison` (in `plots_compare`): every method, failed ones named.
 """
 
@@ -22,7 +26,8 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.analysis import style
-from rcmplan.analysis.style import BLACK, BLUE, GREEN, ORANGE, UM, VERMILLION
+from rcmplan.analysis.style import BLACK, BLUE, GREEN, ORANGE, PURPLE, UM, VERMILLION
+from rcmplan.analysis.units import fmt
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.scene.eye import Eye
@@ -80,16 +85,15 @@ def rcm_deviation_envelope(
     series = (("norm", BLACK, "-", 1.6), ("|e1|", BLUE, "--", 1.0),
               ("|e2|", ORANGE, "-.", 1.0), ("|n| (along the axis)", GREEN, ":", 1.2))  # fmt: skip
     floor = _log_floor(env[:, 0])
-    for i, (name, colour, ls, lw) in enumerate(series):
-        ax.plot(t, np.maximum(env[:, i], floor), color=colour, ls=ls, lw=lw, label=name)
-    for (label, value), colour in zip(bounds, (VERMILLION, BLUE), strict=False):
-        ax.axhline(value * UM, color=colour, lw=1.4, label=f"{label} {value * UM:.3g} um")
+    for i, (name, colour, ls, lw) in enumerate(series):  # the norm on top of its components
+        ax.plot(t, np.maximum(env[:, i], floor), color=colour, ls=ls, lw=lw, label=name,
+                zorder=4 if i == 0 else 3)  # fmt: skip
+    _bounds(ax, bounds)
     ax.set_yscale("log")
     ax.set_ylim(bottom=floor)
-    _note_floor(ax)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("max RCM deviation per step [um]")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), framealpha=0.9)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), title=FLOOR_NOTE, title_fontsize=7)
     title = "RCM deviation, largest per control step, trocar coordinates"
     strip.set_title(title + ("" if phase is None else f": {phase}"))
     return style.save(fig, path)
@@ -101,9 +105,14 @@ def _log_floor(norm_um: FloatArray) -> float:
     return max(peak, 1e-9) * 1e-4
 
 
-def _note_floor(ax: Any) -> None:
-    ax.text(0.01, 0.02, "values below the axis are drawn on it", transform=ax.transAxes,
-            fontsize=7, color="0.35", va="bottom")  # fmt: skip
+FLOOR_NOTE = "values below the axis are drawn on it"
+
+
+def _bounds(ax: Any, bounds: Sequence[Bound]) -> None:
+    """Horizontal bound lines in [um] beneath the data (a line at the bound stays visible)."""
+    for (label, value), colour in zip(bounds, (VERMILLION, PURPLE), strict=False):
+        ax.axhline(value * UM, color=colour, lw=1.3, ls=(0, (5, 2)), zorder=2,
+                   label=f"{label} {fmt(value, 'um')} um")  # fmt: skip
 
 
 def rcm_trace(log: RunLog, eye: Eye, path: Path, phase: str | None = None) -> Path:
@@ -115,7 +124,7 @@ def rcm_trace(log: RunLog, eye: Eye, path: Path, phase: str | None = None) -> Pa
     u, v = dev @ e1 * UM, dev @ e2 * UM
     r = eye.trocar_radius * UM
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(10, 4.6), width_ratios=[1.0, 1.2])
-    fig.subplots_adjust(left=0.08, right=0.97, top=0.92, bottom=0.12, wspace=0.3)
+    fig.subplots_adjust(left=0.08, right=0.97, top=0.92, bottom=0.2, wspace=0.3)
     a1.add_patch(plt.Circle((0, 0), r, fill=False, color=VERMILLION, lw=1.5, label="port"))
     a1.plot(u, v, ".", ms=2, color=BLACK, label="RCM point")
     a1.set_xlim(-1.15 * r, 1.15 * r)
@@ -129,16 +138,21 @@ def rcm_trace(log: RunLog, eye: Eye, path: Path, phase: str | None = None) -> Pa
     for a in (a1, a2):
         a.set_xlabel("e1, across the trocar [um]")
         a.set_ylabel("e2, across the trocar [um]")
-    a1.legend(loc="upper right")
+        a.locator_params(axis="x", nbins=5)  # tick labels such as -0.075 do not run together
+    a1.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2)  # below, off the port
     return style.save(fig, path)
 
 
-def tip_path(log: RunLog, eye: Eye, targets: dict[str, FloatArray], path: Path) -> Path:
-    """Tip path in 3D (mm): actual and commanded, named targets; tracking error over time."""
+def tip_path(
+    log: RunLog, eye: Eye, targets: dict[str, FloatArray], path: Path,
+    bounds: Sequence[Bound] = (),
+) -> Path:  # fmt: skip
+    """Tip path in 3D (mm): actual and commanded, named targets; over time the tracking error
+    and the waypoint tip error, against `bounds` (the reach bound, `analysis.limits`)."""
     plt = style.plt()
-    fig = plt.figure(figsize=(11, 5.2))
+    fig = plt.figure(figsize=(11, 5.6))
     grid = fig.add_gridspec(2, 2, width_ratios=[1.15, 1.0], height_ratios=[1.4, 7.0],
-                            left=0.0, right=0.98, top=0.92, bottom=0.1, wspace=0.25,
+                            left=0.0, right=0.98, top=0.93, bottom=0.27, wspace=0.25,
                             hspace=0.06)  # fmt: skip
     ax = fig.add_subplot(grid[:, 0], projection="3d")
     _eye_wireframe(ax, eye)
@@ -152,9 +166,11 @@ def tip_path(log: RunLog, eye: Eye, targets: dict[str, FloatArray], path: Path) 
         ax.text(*q, f" {name}", fontsize=9)
     ax.set(xlabel="x_base [mm]", ylabel="y_base [mm]", zlabel="z_base [mm]")
     ax.set_aspect("equal")
+    ax.locator_params(nbins=4)  # an axis shortened by the equal aspect keeps its labels apart
     ax.set_title("Needle tip path, base frame")
-    ax.legend(loc="upper left", fontsize=8)
-    _tracking_error(fig, grid, log)
+    fig.legend(*ax.get_legend_handles_labels(), loc="lower left", bbox_to_anchor=(0.04, 0.1),
+               ncol=3, fontsize=8)  # fmt: skip
+    _tip_errors(fig, grid, log, bounds)
     return style.save(fig, path)
 
 
@@ -167,19 +183,33 @@ def _eye_wireframe(ax: Any, eye: Eye) -> None:
     )  # fmt: skip
 
 
-def _tracking_error(fig: Any, grid: Any, log: RunLog) -> None:
+def tip_errors(log: RunLog) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Per control step: the time of its last record [s], the largest |tip - target_tip| over
+    its iterations (the tracking error, whose maximum the phase table reports) and the value at
+    its last record (the waypoint tip error, `analysis.limits.waypoints`), in [m]."""
+    err = np.linalg.norm(log.tip - log.target_tip, axis=1)
+    t, tracking = step_envelope(log, err)
+    return t, tracking, err[step_starts(log)[1]]
+
+
+def _tip_errors(fig: Any, grid: Any, log: RunLog, bounds: Sequence[Bound]) -> None:
+    """The tracking error and the waypoint tip error over time in [um], against `bounds`."""
     strip = fig.add_subplot(grid[0, 1])
     ax = fig.add_subplot(grid[1, 1], sharex=strip)
     spans = style.phase_spans(log)
     style.phase_strip(strip, spans)
     style.shade_phases(ax, spans)
-    _, ends = step_starts(log)
-    err = np.linalg.norm(log.tip - log.target_tip, axis=1)[ends] * UM
-    floor = _log_floor(err)
-    ax.plot(log.time[ends], np.maximum(err, floor), color=BLUE, lw=1.0)
+    t, tracking, waypoint = tip_errors(log)
+    floor = _log_floor(tracking * UM)
+    ax.plot(t, np.maximum(tracking * UM, floor), color=BLACK, lw=1.0, zorder=3,
+            label="tracking error, largest in the step")  # fmt: skip
+    ax.plot(t, np.maximum(waypoint * UM, floor), color=GREEN, lw=1.6, ls=(0, (3, 1.5)),
+            zorder=4, label="waypoint tip error, at the step's end")  # fmt: skip
+    _bounds(ax, bounds)
     ax.set_yscale("log")
     ax.set_ylim(bottom=floor)
-    _note_floor(ax)
     ax.set_xlabel("time [s]")
-    ax.set_ylabel("|tip - commanded| at step end [um]")
-    strip.set_title("Tip tracking error")
+    ax.set_ylabel("|tip - commanded point| [um]")
+    ax.legend(loc="upper left", bbox_to_anchor=(0.0, -0.16), ncol=2, fontsize=8,
+              title=FLOOR_NOTE, title_fontsize=7)  # fmt: skip
+    strip.set_title("Tip error against the commanded point")

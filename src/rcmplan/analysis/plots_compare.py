@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -10,6 +11,7 @@ import numpy as np
 
 from rcmplan.analysis import style
 from rcmplan.analysis.style import BLUE, UM, VERMILLION
+from rcmplan.analysis.units import fmt
 
 PANELS = (  # title, key, factor from SI, log scale
     ("max RCM deviation [um]", "max_rcm_deviation_m", UM, False),
@@ -25,8 +27,11 @@ def failure_kind(status: str) -> str:
 
 
 def method_comparison(rows: Sequence[dict[str, Any]], path: Path) -> Path:
-    """Bars per method; a method that did not finish gets no bar but its name and its error."""
+    """Bars per method; a method that did not finish gets no bar but its name and its error.
+    Axis numbers through `analysis.units.fmt`."""
     plt = style.plt()
+    from matplotlib.ticker import FuncFormatter
+
     names = [r["method"] for r in rows]
     failed = [r["status"] != "ok" for r in rows]
     fig, axes = plt.subplots(1, len(PANELS), figsize=(12, 3.9))
@@ -37,7 +42,8 @@ def method_comparison(rows: Sequence[dict[str, Any]], path: Path) -> Path:
                 for r, bad in zip(rows, failed, strict=True)]  # fmt: skip
         ax.bar(x, vals, color=BLUE)
         if log_scale and np.any(np.isfinite(vals)):
-            ax.set_yscale("log")
+            _log_axis(ax, float(np.nanmin(vals)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: fmt(v)))
         for i in [j for j, bad in enumerate(failed) if bad]:
             ax.text(i, 0.04, f"failed: {failure_kind(rows[i]['status'])}", rotation=90,
                     ha="center", va="bottom", color=VERMILLION, fontsize=8,
@@ -50,6 +56,17 @@ def method_comparison(rows: Sequence[dict[str, Any]], path: Path) -> Path:
         ax.grid(axis="x", visible=False)
     fig.suptitle(comparison_title(rows))
     return style.save(fig, path)
+
+
+def _log_axis(ax: Any, low: float) -> None:
+    """A log y-axis from the whole decade below the smallest bar (so every bar shows its
+    length), ticked at 1, 2 and 5 of each decade."""
+    from matplotlib.ticker import LogLocator, NullFormatter
+
+    ax.set_yscale("log")
+    ax.set_ylim(bottom=10.0 ** math.floor(math.log10(low)))
+    ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax.yaxis.set_minor_formatter(NullFormatter())
 
 
 def comparison_title(rows: Sequence[dict[str, Any]]) -> str:

@@ -88,7 +88,7 @@ def write_figures(result: RunResult, out: Path) -> dict[str, Path]:
         jobs["rcm_trace"] = (path, partial(plots.rcm_trace, log, eye, path))
     targets = visited_points(log, result.scenario.points(eye).as_dict())
     path = figs / "tip_path.png"
-    jobs["tip_path"] = (path, partial(plots.tip_path, log, eye, targets, path))
+    jobs["tip_path"] = (path, partial(plots.tip_path, log, eye, targets, path, tip_bounds(result)))
     figs.mkdir(parents=True, exist_ok=True)
     plots.style.plt()  # import matplotlib once, before any fork
     return dict(zip(jobs, run_jobs(list(jobs.values())), strict=True))
@@ -115,6 +115,13 @@ def rcm_bounds(result: RunResult) -> list[tuple[str, float]]:
         tol = extra["rcm_tolerance_um"] * 1e-6 if "rcm_tolerance_um" in extra else None
         bounds.append(("QP RCM tolerance", tol or QpLimits().rcm_tolerance))
     return bounds
+
+
+def tip_bounds(result: RunResult) -> list[tuple[str, float]]:
+    """Bound on a waypoint's tip error, in [m]: the reach bound of the loop tolerance."""
+    from rcmplan.analysis.limits import reach_bound
+
+    return [("reach bound", reach_bound(result.scenario.method_settings.tolerance, result.robot))]
 
 
 def write_report(

@@ -1,7 +1,9 @@
 """report.html: a self-contained page a colleague can read (figures embedded, no scripts).
 
-Headline numbers, a per-phase table, captioned figures, the settings as a table and the
-scenario file echoed. Every number goes through `analysis.units.fmt`.
+Headline numbers, a per-phase table, the limits (violations per kind, the waypoints a limit
+held back) and the code that ran, captioned figures, the settings as a table and the scenario
+file echoed: the figures the command line prints (`analysis.summary_text`), and more. Every
+number goes through `analysis.units.fmt`.
 """
 
 from __future__ import annotations
@@ -15,6 +17,15 @@ from typing import Any
 from rcmplan._version import __version__
 from rcmplan.analysis.result import RunResult
 from rcmplan.analysis.settings_table import settings_rows
+from rcmplan.analysis.summary_text import (
+    LIMITED_HEAD,
+    VIOLATION_HEAD,
+    execution_text,
+    limited_rows,
+    um,
+    violation_rows,
+    violations_text,
+)
 from rcmplan.analysis.units import fmt
 
 CSS = """
@@ -52,22 +63,39 @@ CAPTIONS = {
     "tip_path": (
         "Needle tip path in the robot base frame with the retina sphere, the trocar and the "
         "named targets the procedure visits: commanded (target_tip, dashed) and actual "
-        "(solid). Right: distance from the tip to the commanded point at the end of each "
-        "control step."
+        "(solid). Right: distance from the tip to the commanded point, the tracking error "
+        "(largest in each control step, over its iterations: the phase table's max tracking "
+        "error) and the waypoint tip error (at the step's end), against the reach bound the "
+        "loop tolerance implies. Log scale; values four decades under the peak are drawn on "
+        "the axis."
     ),
 }
 
 
 def headline(s: dict[str, Any], trocar_radius_m: float) -> list[tuple[str, str]]:
     """(label, value with unit) of the figures a reader wants first."""
-    return [
-        ("max RCM deviation inside the eye", f"{fmt(s['max_rcm_deviation_m'], 'um')} um"),
-        ("trocar radius (bound)", f"{fmt(trocar_radius_m, 'um')} um"),
-        ("max tip error at the targets", f"{fmt(s['max_tip_error_m'], 'um')} um"),
+    inside = s["max_rcm_deviation_m"] is not None or not s["iterations"]
+    rows = [
+        ("max RCM deviation inside the eye",
+         um(s["max_rcm_deviation_m"]) if inside else "no record inside the eye"),
+        ("trocar radius (bound)", um(trocar_radius_m)),
+        ("max tip error at the targets" if inside else "max tip error at the end of a phase",
+         um(s["max_tip_error_m"])),
+    ]  # fmt: skip
+    if "limit_violations" in s:
+        rows += [
+            ("max waypoint tip error", um(s["max_waypoint_tip_error_m"])),
+            ("limited waypoints", f"{s['limited_waypoints']:,}"),
+            ("limit violations (records)", violations_text(s)),
+        ]
+    rows += [
         ("control iterations", f"{s['iterations']:,}"),
         ("run time (simulated)", f"{fmt(s.get('simulated_time_s'), 's')} s"),
         ("wall time", _seconds(s["wall_time_s"])),
     ]
+    if "execution_path" in s:
+        rows.append(("execution path", execution_text(s)))
+    return rows
 
 
 SETTINGS_HEAD = ("group", "setting", "value", "unit")
@@ -127,6 +155,7 @@ def render(result: RunResult, summary: dict[str, Any], figures: dict[str, Path],
         _status(s["status"]),
         _headline(s, result.scenario.eye(result.robot).trocar_radius),
         f"<h2>Phases</h2>{table(PHASE_HEAD, phase_rows(s))}",
+        _limits(s),
         "<h2>Figures</h2>" + "".join(figure(n, p) for n, p in figures.items()),
         "<h2>Settings</h2>"
         + table(SETTINGS_HEAD, settings_rows(result.scenario, result.robot), left=4),
@@ -149,6 +178,28 @@ def render(result: RunResult, summary: dict[str, Any], figures: dict[str, Path],
 def _status(status: str) -> str:
     cls = "ok" if status == "ok" else "bad"
     return f"<p class='wrap status-{cls}'><b>status: {html.escape(status)}</b></p>"
+
+
+def _limits(s: dict[str, Any]) -> str:
+    """The limit violations per kind and the limited waypoints (the first listed of all)."""
+    if "limit_violations" not in s:
+        return ""
+    n, rows = s["limited_waypoints"], limited_rows(s)
+    worst = f"max waypoint tip error {um(s['max_waypoint_tip_error_m'])}"
+    if n == 0:
+        limited = f"<p>Every waypoint reached within the loop tolerance's bound ({worst}).</p>"
+    else:
+        listed = f"the first {len(rows)}" if len(rows) < n else "all"
+        limited = (f"<p>Limited waypoints: {n:,}, not reached within the loop tolerance's "
+                   f"bound because a limit held the step back ({worst}); {listed} listed:</p>"
+                   + table(LIMITED_HEAD, rows, left=2))  # fmt: skip
+    return (
+        "<h2>Limits and waypoints</h2><p>Records of the whole run that break a limit the QP "
+        "holds (the QP holds them at every step; pinv, pinv-thesis and DLS do not, and are "
+        "measured against the same limits):</p>"
+        + table(VIOLATION_HEAD, violation_rows(s), left=2)
+        + limited
+    )
 
 
 def _headline(s: dict[str, Any], trocar_radius_m: float) -> str:

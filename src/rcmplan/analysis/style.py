@@ -73,20 +73,56 @@ def phase_spans(log: RunLog) -> list[tuple[str, float, float]]:
 
 
 def phase_strip(ax: Any, spans: list[tuple[str, float, float]]) -> None:
-    """Labelled phase bands on a thin axis above a time plot (shared x)."""
-    width = (spans[-1][2] - spans[0][1]) if spans else 1.0
-    for i, (name, t0, t1) in enumerate(spans):
-        ax.axvspan(t0, t1, color=BAND_COLOURS[i % 2], lw=0)
-        narrow = (t1 - t0) < 0.013 * len(name) * width
-        ax.text(
-            0.5 * (t0 + t1), 0.5, name, ha="center", va="center", fontsize=7 if narrow else 8,
-            rotation=90 if narrow else 0,
+    """Labelled phase bands on a thin axis above a time plot (shared x). A label too long for
+    its band turns upright; labels that would overlap move apart, with a line to their band."""
+    if not spans:
+        ax.set_yticks([])
+        return
+    t0, t1 = spans[0][1], spans[-1][2]
+    box = ax.get_position()
+    per_inch = 1.1 * max(t1 - t0, 1e-12) / (box.width * ax.figure.get_figwidth())  # [s/in]
+    sizes, widths = [], []
+    for name, a, b in spans:
+        flat = 0.55 * 8 / 72 * len(name) * per_inch  # the label's width lying down, in [s]
+        sizes.append(8 if flat < 0.95 * (b - a) else 7)
+        widths.append(flat if sizes[-1] == 8 else 1.3 * 7 / 72 * per_inch)
+    centres = [0.5 * (a + b) for _, a, b in spans]
+    for i, ((name, a, b), x) in enumerate(zip(spans, spread(centres, widths), strict=True)):
+        ax.axvspan(a, b, color=BAND_COLOURS[i % 2], lw=0)
+        moved = abs(x - centres[i]) > 0.5 * widths[i]
+        ax.annotate(
+            name, xy=(centres[i], 0.0), xytext=(x, 0.55), ha="center", va="center",
+            fontsize=sizes[i], rotation=0 if sizes[i] == 8 else 90,
+            arrowprops={"arrowstyle": "-", "lw": 0.5, "color": "0.4"} if moved else None,
         )  # fmt: skip
     ax.set_yticks([])
     ax.grid(False)
     ax.tick_params(axis="x", labelbottom=False)
     for side in ("top", "right", "left"):
         ax.spines[side].set_visible(False)
+
+
+def spread(centres: list[float], widths: list[float]) -> list[float]:
+    """Label centres, as close to `centres` (ascending) as labels of `widths` side by side allow:
+    each run of crowded labels is laid edge to edge, centred on its members' own places."""
+    c, w = np.asarray(centres, dtype=float), np.asarray(widths, dtype=float)
+    runs: list[tuple[int, int]] = []  # [first, last) label of each run
+
+    def left(run: tuple[int, int]) -> float:
+        """The left edge of a run laid edge to edge with its mean offset zero."""
+        i, j = run
+        offsets = np.cumsum(w[i:j]) - 0.5 * w[i:j]  # each label's centre from the run's edge
+        return float(np.mean(c[i:j] - offsets))
+
+    for k in range(len(c)):
+        runs.append((k, k + 1))
+        while len(runs) > 1 and left(runs[-2]) + w[runs[-2][0] : runs[-2][1]].sum() > left(
+            runs[-1]
+        ):
+            (i, _), (_, j) = runs[-2], runs.pop()
+            runs[-1] = (i, j)
+    out = [left(r) + np.cumsum(w[r[0] : r[1]]) - 0.5 * w[r[0] : r[1]] for r in runs]
+    return [float(x) for x in np.concatenate(out)] if out else []
 
 
 def shade_phases(ax: Any, spans: list[tuple[str, float, float]]) -> None:

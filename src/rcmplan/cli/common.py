@@ -147,26 +147,16 @@ def interrupted_message(exc: BaseException, where: str) -> str:
 
 
 def print_summary(result: RunResult) -> None:
-    """A per-phase table of the run's figures."""
+    """A per-phase table of the run's figures, then the lines report.html also carries
+    (`analysis.summary_text`)."""
     from rcmplan.analysis.report_html import PHASE_HEAD, phase_rows
-    from rcmplan.analysis.units import fmt
+    from rcmplan.analysis.summary_text import summary_lines
 
     s = result.summary()
     print(f"scenario {s['scenario']}  procedure {s['procedure']}  method {s['method']}  "
           f"plant {s['plant']}  status {s['status']}")  # fmt: skip
     print(table(list(PHASE_HEAD), phase_rows(s)))
-    print(
-        f"inside the eye: max RCM deviation {fmt(s['max_rcm_deviation_m'], 'um')} um, "
-        f"max tip error {fmt(s['max_tip_error_m'], 'um')} um; {s['iterations']:,} iterations, "
-        f"wall time {fmt(s['wall_time_s'], 'ms')} ms"
-    )
-    if "limit_violations" in s:
-        broken = {k: n for k, n in s["limit_violations"].items() if n}
-        print(
-            f"every waypoint: max tip error {fmt(s['max_waypoint_tip_error_m'], 'um')} um, "
-            f"{s['limited_waypoints']} limited; limit violations: "
-            + (", ".join(f"{k} {n:,}" for k, n in broken.items()) or "none")
-        )
+    print("\n".join(summary_lines(s)))
 
 
 def one_line(text: str) -> str:

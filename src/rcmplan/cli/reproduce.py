@@ -61,7 +61,7 @@ def table_rows(rows: list[dict[str, Any]]) -> tuple[list[list[str]], list[list[s
             o = r[setting]
             runs.append([r["experiment"], setting, fmt(o["max_rcm_deviation_m"], "um"),
                          f"{o['iterations']:,} / {o['steps']:,}",
-                         f"{o['iterations'] / max(o['steps'], 1):.2f}",
+                         fmt(o["iterations"] / max(o["steps"], 1)),
                          fmt(o["wall_time_s"], "s"), one_line(o["status"])[:40]])  # fmt: skip
     return reported, runs
 

@@ -127,7 +127,7 @@ def print_table(doc: dict[str, Any]) -> None:
         ["max RCM deviation", um("max_rcm_deviation_m")],
         ["hover tracking RMS (height above the ILM)", um("tracking_rms_m")],
         ["mean depth error during the hold", um("depth_error_m")],
-        ["in-band fraction of the hold", f"{doc['in_band_fraction']:.3f}"],
+        ["in-band fraction of the hold", fmt(doc["in_band_fraction"])],
         ["deepest point past the RPE (negative: short of it)", um("max_depth_past_rpe_m")],
         ["RPE breach", str(doc["rpe_breach"])],
         ["prediction RMS", um("prediction_rms_m")],

@@ -246,8 +246,10 @@ def run_curved_reach(args: argparse.Namespace, out: Path) -> int | None:
 
         print_json(s)
     else:
+        from rcmplan.analysis.units import fmt
+
         for key, value in s.items():
-            print(f"{key:32s} {value:.4g}" if isinstance(value, float) else f"{key:32s} {value}")
+            print(f"{key:32s} {fmt(value) if isinstance(value, float) else value}")
     return 0
 
 

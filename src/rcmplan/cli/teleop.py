@@ -114,25 +114,25 @@ def write_interrupted(out: Path, exc: KeyboardInterrupt, result: Any) -> None:
 
 
 def print_table(doc: dict[str, Any]) -> None:
-    """The session's figures, one per line."""
-    um = "um"
+    """The session's figures, one per line, each through `analysis.units.fmt`."""
+    from rcmplan.analysis.units import fmt, fmt_setting
 
-    def f(key: str, unit: str = um, scale: float = 1e6) -> str:
-        v = doc.get(key)
-        return "-" if v is None else f"{v * scale:.3f} {unit}"
+    def f(key: str, unit: str = "um") -> str:
+        return fmt(doc.get(key), unit, with_unit=doc.get(key) is not None)
 
     print(f"teleop  robot {doc['robot']}  plant {doc['plant']}  input {doc['input']}  "
-          f"filter {doc['filter']}  scale {doc['scale']:g}  status {doc['status']}")  # fmt: skip
+          f"filter {doc['filter']}  scale {fmt_setting(doc['scale'])}  "
+          f"status {doc['status']}")  # fmt: skip
     rows = [
         ["max RCM deviation", f("max_rcm_deviation_m")],
         ["tip tremor RMS, 6-16 Hz", f("tip_tremor_rms_m")],
         ["input tremor RMS, 6-16 Hz (scaled)", f("input_tremor_rms_m")],
         ["tracking RMS (free space)", f("tracking_rms_m")],
-        ["added lag", f("added_lag_s", "ms", 1e3)],
-        ["closest approach to the retina", f("retina_min_distance_m", "mm", 1e3)],
-        ["retina margin", f("retina_margin_m", "mm", 1e3)],
-        ["limit violations", ", ".join(f"{k} {v}" for k, v in doc["limit_violations"].items())],
+        ["added lag", f("added_lag_s", "ms")],
+        ["closest approach to the retina", f("retina_min_distance_m", "mm")],
+        ["retina margin", f("retina_margin_m", "mm")],
+        ["limit violations", ", ".join(f"{k} {v:,}" for k, v in doc["limit_violations"].items())],
     ]
     print(table(["figure", "value"], rows))
     for note in doc.get("released_past_fixture", []):
-        print(f"t = {note['t_s']:.3f} s: {note['note']}")
+        print(f"t = {fmt(note['t_s'], 's')} s: {note['note']}")

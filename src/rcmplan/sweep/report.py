@@ -106,12 +106,15 @@ def summary_rows(s: dict[str, Any]) -> list[list[str]]:
 
 
 def gain_rows(search: GainSearchResult) -> list[list[str]]:
-    """One row per evaluated candidate, best first, then by cost."""
+    """One row per evaluated candidate, best first, then by cost: the candidate's settings as
+    given (`fmt_setting`), its figures to three significant digits (`fmt`)."""
+    from rcmplan.analysis.units import fmt_setting
+
     evs = sorted(search.evaluations, key=lambda e: (not e.feasible, e.cost))
     return [
-        [f"{e.candidate.k_task:.4g}", f"{e.candidate.k_rcm:.4g}",
-         f"{1e3 * e.candidate.step_position:.4g}", f"{e.mean_iterations:.1f}",
-         _g(e.max_rcm_deviation_m, UM), f"{e.converged_fraction:.3f}",
+        [fmt_setting(e.candidate.k_task), fmt_setting(e.candidate.k_rcm),
+         fmt_setting(1e3 * e.candidate.step_position), _g(e.mean_iterations),
+         _g(e.max_rcm_deviation_m, UM), _g(e.converged_fraction),
          "yes" if e.feasible else "no", "*" if e == search.best else ""]
         for e in evs
     ]  # fmt: skip
