@@ -156,3 +156,35 @@ def test_a_roll_beyond_the_joint_travel_is_refused_naming_the_slider_and_its_ran
     beyond[3] = math.pi + 1e-3 - 2.0 * math.pi  # the same roll, 2 mrad further round
     with pytest.raises(UnreachableTargetError, match=r"q5 = 3.142.* beyond its travel \[-3.14159"):
         solve_curved_pose(robot, beyond, seed)
+
+
+def test_the_qp_free_phases_on_a_curved_needle_hold_the_actuator_speed_and_travel() -> None:
+    """The QP's free-space solver on a curved needle is the pose step shortened to speed x dt
+    per actuator (the controller's and make_free_solver's choice); a plain pose step from the
+    same state moves the actuators several times faster."""
+    from rcmplan.control.curved import CurvedPoseSolver, LimitedPoseSolver
+    from rcmplan.control.methods import make_free_solver
+    from rcmplan.control.qp import make_qp
+
+    robot = _curved("iramis")
+    qp = make_qp(robot)
+    free = make_free_solver(robot, None, qp)
+    assert isinstance(free, LimitedPoseSolver) and free.dt == qp.dt
+    assert isinstance(Controller(KinematicPlant(robot), qp).free_solver, LimitedPoseSolver)
+    eye = default_eye(robot)
+    start, _ = _lateral(robot)
+    q = solve_curved_pose(robot, start).q
+    far = np.array([*(default_points(eye).p3 + [0.0, 0.0, 3e-3]), start[3], *start[4:]])
+    pose = CurvedPoseSolver()
+    s = robot.actuators_from_joints(q)
+    active = list(robot.active)
+    moves = []
+    for solver in (pose, free):
+        dq, _ = solver.step(robot, q, 1.0, far, solver.error(robot, q, 1.0, far))
+        q1 = q.copy()
+        q1[active] += dq
+        moves.append(np.abs(robot.actuators_from_joints(q1) - s))
+    limit = robot.speed * qp.dt
+    assert np.any(moves[0] > 2.0 * limit)  # the plain pose step outruns the actuators
+    assert np.all(moves[1] <= limit * (1.0 + 1e-9))
+    assert np.max(moves[1] / limit) == pytest.approx(1.0)  # at full speed, not stopped

@@ -74,7 +74,7 @@ def run_scenario(
         solver = make_solver(
             scenario.method, scenario.method_settings, robot, plant, eye=eye, dt=scenario.dt
         )
-        free = make_free_solver(robot, scenario.method_settings)
+        free = make_free_solver(robot, scenario.method_settings, solver)
         controller = Controller(plant, solver, free, settings=scenario.loop, robot=robot)
         controller.on_phase = on_phase
         log = controller.run(scenario.phases(robot))

@@ -28,6 +28,7 @@ from typing import ClassVar
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.control.limited_tip import limited_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, dls_solve, pinv_solve
 from rcmplan.control.tasks import NeedleBase, RcmPoint, Task, TipPosition
 from rcmplan.exceptions import InvalidInputError
@@ -189,3 +190,31 @@ class CurvedPoseSolver(CurvedPinvSolver):
         J = task_jacobian(self.tasks, robot, q, lam)[:, :-1]
         d = np.linalg.lstsq(J, np.asarray(self.K) * error, rcond=None)[0]
         return np.asarray(d, dtype=np.float64), 0.0
+
+
+@dataclass(frozen=True)
+class LimitedPoseSolver(CurvedPoseSolver):
+    """`CurvedPoseSolver`'s step shortened so that each actuator moves at most speed x dt and
+    stays within its travel less `travel_margin` (`limited_tip.limited_step`): the QP's
+    free-space phases on a curved needle, which hold the QP's actuator limits as its RCM
+    phases do.
+
+    Attributes:
+        dt: Control period in [s]. travel_margin: Distance kept from each travel end.
+    """
+
+    dt: float = 1e-3
+    travel_margin: float = 0.5e-3
+    name: ClassVar[str] = "pose-limited"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        scalar("dt", self.dt, 0.0, 1.0, low_open=True)
+        scalar("travel_margin", self.travel_margin, 0.0, 0.1)
+
+    def step(
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
+    ) -> tuple[FloatArray, float]:
+        """The pose step, shortened to the actuators' speed and travel."""
+        dq, _ = super().step(robot, q, lam, target, error)
+        return limited_step(robot, q, dq, self.dt, self.travel_margin), 0.0

@@ -70,18 +70,35 @@ class LimitedTipSolver:
     ) -> tuple[FloatArray, float]:
         """The tip step scaled by `scale_factor`; lambda unchanged."""
         dq, _ = self._tip.step(robot, q, lam, target, error)
-        active = list(robot.active)
-        s = robot.actuators_from_joints(q)
-        q_full = q.copy()
-        q_full[active] += dq
-        ds = robot.actuators_from_joints(q_full) - s
-        f = scale_factor(robot, s, ds, self.dt, self.travel_margin)
+        bound = None
         if self.tip_speed is not None:
             tip_step = float(np.max(np.abs(TIP_POSITION.jacobian(robot, q, lam)[:, :-1] @ dq)))
             if tip_step > 0.0:
-                f = min(f, self.tip_speed * self.dt / tip_step)
-        moved = s + f * ds
-        return (robot.joints_from_actuators(moved) - q)[active], 0.0
+                bound = self.tip_speed * self.dt / tip_step
+        return limited_step(robot, q, dq, self.dt, self.travel_margin, bound), 0.0
+
+
+def limited_step(
+    robot: RobotModel,
+    q: FloatArray,
+    dq: FloatArray,
+    dt: float,
+    margin: float,
+    at_most: float | None = None,
+) -> FloatArray:
+    """The joint step dq (of the active joints) shortened along the actuators' motion so that
+    each actuator moves at most speed x dt and stays within travel less `margin`
+    (`scale_factor`), and by at most the factor `at_most` (None: 1); the joints recovered
+    exactly through the actuator map."""
+    active = list(robot.active)
+    s = robot.actuators_from_joints(q)
+    q_full = q.copy()
+    q_full[active] += dq
+    ds = robot.actuators_from_joints(q_full) - s
+    f = scale_factor(robot, s, ds, dt, margin)
+    if at_most is not None:
+        f = min(f, at_most)
+    return np.asarray((robot.joints_from_actuators(s + f * ds) - q)[active], dtype=float)
 
 
 def scale_factor(

@@ -80,11 +80,17 @@ def _curved_solver(name: str, cfg: MethodSettings, robot: RobotModel, **context:
 def make_free_solver(
     robot: RobotModel,
     settings: MethodSettings | None = None,
+    solver: Solver | None = None,
 ) -> Solver | None:
-    """The free-space solver for `robot`: whole poses for a curved needle (its arc must pass
-    the trocar), else None (the controller's default: the RCM solver's own `free_solver()` if it
-    has one, as the QP does to hold its limits in every phase, else the tip pseudoinverse)."""
+    """The free-space solver for `robot` and its RCM `solver`: the RCM solver's own
+    `free_solver()` if it has one (the QP: it holds its limits in every phase), else whole
+    poses for a curved needle (its arc must pass the trocar), else None (the controller's
+    default, the tip pseudoinverse)."""
     cfg = settings or MethodSettings()
+    own = getattr(solver, "free_solver", None)
+    if callable(own):
+        free: Solver = own()
+        return free
     if isinstance(robot, CurvedTipRobot) and robot.needle.curved:
         from rcmplan.control.curved import CurvedPoseSolver
 

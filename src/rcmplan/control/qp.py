@@ -37,7 +37,12 @@ import numpy as np
 
 from rcmplan._validate import F64, FloatArray, scalar, vector
 from rcmplan.control.augmented import extended_task
-from rcmplan.control.curved import CURVED_TASKS, check_gains7, gains_from_x_ext
+from rcmplan.control.curved import (
+    CURVED_TASKS,
+    LimitedPoseSolver,
+    check_gains7,
+    gains_from_x_ext,
+)
 from rcmplan.control.curved import task_error as curved_error
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
@@ -181,10 +186,13 @@ class QpSolver:
         step, result = self._solve(robot, self.planned_joints(robot, q), lam, target)
         return joints_step(robot, step.sliders, result.x, q)
 
-    def free_solver(self) -> LimitedTipSolver:
+    def free_solver(self) -> LimitedTipSolver | LimitedPoseSolver:
         """The free-space solver that holds this QP's actuator travel and speed outside the eye
-        (the controller's default for free phases with this solver)."""
+        (the controller's default for free phases with this solver): the tip's step, or on a
+        curved needle whole poses (its arc must pass the trocar)."""
         lim = self.limits
+        if self.curved:
+            return LimitedPoseSolver(tol=self.tol, dt=self.dt, travel_margin=lim.travel_margin)
         return LimitedTipSolver(self.dt, lim.travel_margin, tol=self.tol, tip_speed=lim.tip_speed)
 
     # --- helpers ----------------------------------------------------------------------------
