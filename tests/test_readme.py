@@ -11,26 +11,34 @@ README = Path(__file__).resolve().parents[1] / "README.md"
 
 
 BLOCKS = re.findall(r"```python\n(.*?)```", README.read_text(), flags=re.S)
+IRAMIS, LIMITS, OWN_ROBOT = range(3)
 
 
-def test_readme_has_the_iramis_and_the_own_robot_examples() -> None:
-    assert len(BLOCKS) == 2
+def test_readme_has_the_iramis_the_limits_and_the_own_robot_examples() -> None:
+    assert len(BLOCKS) == 3
 
 
 def test_the_own_robot_example_is_at_most_ten_lines_with_one_import() -> None:
-    lines = [line for line in BLOCKS[1].splitlines() if line.strip()]
+    lines = [line for line in BLOCKS[OWN_ROBOT].splitlines() if line.strip()]
     assert len(lines) <= 10
     assert [line for line in lines if line.startswith(("import ", "from "))] == [
         "import rcmplan as rp"
     ]
 
 
-@pytest.mark.parametrize("block", BLOCKS, ids=["iramis", "own-robot"])
+@pytest.mark.parametrize("block", [BLOCKS[IRAMIS], BLOCKS[OWN_ROBOT]], ids=["iramis", "own-robot"])
 def test_readme_python_examples_run(block: str, capsys, monkeypatch) -> None:
     monkeypatch.chdir(README.parent)  # the robot file's path is relative to the checkout
     exec(compile(block, "README.md", "exec"), {})
     printed = float(capsys.readouterr().out.strip().splitlines()[-1])
     assert 0.0 <= printed <= 1e-6  # each example prints the max RCM deviation in metres
+
+
+def test_the_limits_example_builds_the_rows_it_names(capsys) -> None:  # type: ignore[no-untyped-def]
+    exec(compile(BLOCKS[LIMITS], "README.md", "exec"), {})
+    printed = capsys.readouterr().out.strip().splitlines()[-1]
+    assert printed == str(["RcmLimit", "RetinaBarrier", "SingularMargin", "TipSpeed",
+                           "TissueDepthLimit"])  # fmt: skip
 
 
 def test_readme_opens_with_the_two_commands() -> None:
