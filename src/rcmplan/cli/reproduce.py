@@ -7,7 +7,7 @@ import argparse
 import json
 from typing import Any
 
-from rcmplan.cli.common import print_json
+from rcmplan.cli.output import print_json
 
 HEAD = ["experiment", "setting", "max RCM dev. [um]", "iterations / steps", "per step",
         "wall [s]", "status"]  # fmt: skip
@@ -50,7 +50,7 @@ def experiment_row(key: str, outcomes: dict[str, Any]) -> dict[str, Any]:
 def table_rows(rows: list[dict[str, Any]]) -> tuple[list[list[str]], list[list[str]]]:
     """Text rows: what the thesis reports, and rcmplan's runs of both settings."""
     from rcmplan.analysis.units import fmt
-    from rcmplan.cli.common import one_line
+    from rcmplan.cli.output import one_line
 
     reported, runs = [], []
     for r in rows:
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
     from rcmplan.analysis import thesis
     from rcmplan.analysis.report import jsonable, prepare_folder
     from rcmplan.cli import thesis_hypothesis
-    from rcmplan.cli.robot import table
+    from rcmplan.cli.output import table
 
     out = prepare_folder(args.out)
     rows = []
