@@ -74,7 +74,9 @@ def write_stopped(
         if result is not None:
             write_summary(replace(result, status=status, message=message), out)
             return
-        doc = {"scenario": args.scenario, "status": status, "message": one_line(message)}
+        doc = {"status": status, "message": one_line(message)}
+        if getattr(args, "scenario", None):
+            doc = {"scenario": args.scenario, **doc}
         interrupts.write_stop_file(out, args.command, doc)
 
 
