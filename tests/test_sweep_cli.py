@@ -12,6 +12,7 @@ import pytest
 from rcmplan.cli import sweep as sweep_cli
 from rcmplan.exceptions import InvalidInputError, RcmplanError
 from rcmplan.sweep.errors import CheckpointError, EmptyRegionError, SchedulerError
+from rcmplan.sweep.settings import MotionSettings, SweepSettings
 
 
 def run(argv: list[str]) -> int:
@@ -87,9 +88,14 @@ def test_gain_search_reports_the_best_settings(tmp_path: Path, capsys) -> None:
         (["--timeout", "inf"], InvalidInputError),
     ],
 )
-def test_bad_input_raises_a_clear_error(tmp_path: Path, argv: list[str], error: type) -> None:
-    with pytest.raises(error):
+def test_bad_input_raises_a_clear_error_and_leaves_its_summary(
+    tmp_path: Path, argv: list[str], error: type
+) -> None:
+    with pytest.raises(error) as raised:
         run([*argv, "--out", str(tmp_path)])
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["command"] == "sweep" and summary["status"] == raised.value.status
+    assert summary["message"].startswith(type(raised.value).__name__)
 
 
 def test_a_resumed_sweep_with_nothing_left_reports_no_rate(tmp_path: Path, capsys) -> None:
@@ -183,3 +189,20 @@ def test_an_unknown_sweep_plant_is_refused() -> None:
 
     with pytest.raises(RcmplanError, match="plant"):
         MotionSettings(plant="vrep")
+
+
+def test_sweep_moves_the_scenarios_robot_or_the_one_named(tmp_path: Path) -> None:
+    from rcmplan.scene.scenario import load_scenario
+
+    assert MotionSettings.from_scenario(load_scenario("ur5")).robot == "ur5"
+    assert MotionSettings.from_scenario(load_scenario("default")).robot == "iramis"
+    argv = ["--targets", "2", "--max-angle", "5", "--workers", "1", "--no-plots",
+            "--robot", "ur5", "--out", str(tmp_path)]  # fmt: skip
+    assert run(argv) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["settings"]["motion"]["robot"] == "ur5"
+    assert summary["targets"]["by_status"]["ok"] == summary["targets"]["run"] == 2
+    assert summary["max_rcm_deviation_m"]["max"] <= 1e-6
+    iramis = SweepSettings(motion=MotionSettings())
+    ur5 = SweepSettings(motion=MotionSettings(robot="ur5"))
+    assert iramis.digest() != ur5.digest()  # a checkpoint of one robot never resumes the other

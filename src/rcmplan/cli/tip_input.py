@@ -148,9 +148,10 @@ def eye_frame_reason(
     if isinstance(cause, ActuatorLimitError):
         kind = str(cause).split(" ", 1)[0]  # "slider" or "joint", as the model names them
         k, unit = (1e3, "mm") if robot.actuator_units[cause.index] == "m" else (1.0, "rad")
-        return (f"is out of reach: {kind} {cause.slider} would be at {k * cause.value:.4g} "
-                f"{unit}, beyond its travel [{k * cause.lower:.4g}, {k * cause.upper:.4g}] "
-                f"{unit}")  # fmt: skip
+        value, lo, hi = k * cause.value, k * cause.lower, k * cause.upper
+        past = value - hi if value > hi else lo - value
+        return (f"is out of reach: {kind} {cause.slider} would be at {value:.6g} {unit}, "
+                f"{past:.3g} {unit} beyond its travel [{lo:.6g}, {hi:.6g}] {unit}")  # fmt: skip
     if eye.distance_to_retina(to_base(eye, point_eye_mm[None, :])[0]) < -1e-9:
         r_mm, retina_mm = float(np.linalg.norm(point_eye_mm)), 1e3 * eye.retina_radius
         return (f"lies {r_mm - retina_mm:.4g} mm outside the retina, the sphere of radius "
