@@ -113,7 +113,7 @@ def test_a_sweep_of_other_settings_replaces_the_old_one_and_resume_names_the_mis
     assert run([*SMALL, "--out", str(tmp_path), "--no-plots"]) == 0
     other = ["--targets", "9", "--max-angle", "15", "--workers", "1", "--out", str(tmp_path),
              "--no-plots"]  # fmt: skip
-    with pytest.raises(CheckpointError, match="other sweep settings.*without --resume"):
+    with pytest.raises(CheckpointError, match=r"other sweep settings.*without --resume"):
         run([*other, "--resume"])
     refused = json.loads((tmp_path / "summary.json").read_text())
     assert refused["status"] == "checkpoint_error" and "CheckpointError" in refused["message"]
