@@ -17,6 +17,11 @@ from rcmplan.robot.registry import ROBOTS, check_robot, is_robot_file
 from rcmplan.scene.scenario import Scenario, load_scenario
 from rcmplan.sim.registry import PLANTS
 
+OUT_ROOT = "rcmplan-out"  # --out defaults to OUT_ROOT/<command>
+SEED_MAX = 2**32 - 1  # the largest --seed accepted (32 bits)
+THE_SCENARIOS = "the scenario's"
+ROBOT_HELP = f"robot: a name ({', '.join(ROBOTS)}) or a robot file FILE.toml, docs/robots.md"
+
 
 def add_run_options(
     p: argparse.ArgumentParser, command: str, scenario: str, many_methods: bool = False
@@ -30,9 +35,6 @@ def add_run_options(
     add_out(p, command)
     add_json(p)
     add_no_plots(p, "the chart" if many_methods else "figures and the HTML report")
-
-
-THE_SCENARIOS = "the scenario's"
 
 
 def add_scenario(p: argparse._ActionsContainer, default: str | None = "default",
@@ -76,9 +78,6 @@ def add_out(p: argparse._ActionsContainer, command: str) -> None:
                    help="output folder (%(default)s)")  # fmt: skip
 
 
-OUT_ROOT = "rcmplan-out"
-
-
 def add_json(p: argparse._ActionsContainer) -> None:
     """--json: print summary.json instead of the table."""
     p.add_argument("--json", action="store_true", help="print summary.json instead of the table")
@@ -87,10 +86,6 @@ def add_json(p: argparse._ActionsContainer) -> None:
 def add_no_plots(p: argparse._ActionsContainer, what: str = "the figures") -> None:
     """--no-plots: skip `what` (figures, and a report where the command writes one)."""
     p.add_argument("--no-plots", action="store_true", help=f"skip {what}")
-
-
-SEED_MAX = 2**32 - 1  # the largest --seed (numpy seeds take any integer >= 0; this reads well)
-ROBOT_HELP = "robot: " + ", ".join(ROBOTS) + ", or a robot file FILE.toml (docs/robots.md)"
 
 
 def robot_arg(value: str) -> str:

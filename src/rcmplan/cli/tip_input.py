@@ -142,8 +142,9 @@ def check_tip_points(
 def eye_frame_reason(
     exc: UnreachableTargetError, robot: RobotModel, eye: Eye, point_eye_mm: FloatArray
 ) -> str:
-    """Why a point is out of reach, in mm (the check's own words where they carry no
-    base-frame numbers)."""
+    """Why a point is out of reach, in mm: an actuator's travel and the retina in the user's
+    terms, the check's own words where they carry no position, and any other reason labelled
+    as the robot's base frame it is stated in."""
     cause = exc.__cause__
     if isinstance(cause, ActuatorLimitError):
         kind = str(cause).split(" ", 1)[0]  # "slider" or "joint", as the model names them
@@ -156,9 +157,12 @@ def eye_frame_reason(
         r_mm, retina_mm = float(np.linalg.norm(point_eye_mm)), 1e3 * eye.retina_radius
         return (f"lies {r_mm - retina_mm:.4g} mm outside the retina, the sphere of radius "
                 f"{retina_mm:.4g} mm about the eye centre (the origin)")  # fmt: skip
-    if exc.reason == "the point lies behind the trocar (outside the eye)":
-        return f"lies behind the trocar, at z = {-1e3 * eye.radius:.4g} mm"
-    return f"is out of reach: {exc.reason}"
+    if exc.reason.startswith(FRAMELESS_REASONS):
+        return f"is out of reach: {exc.reason}"
+    return f"is out of reach: {exc.reason} (robot base frame)"
+
+
+FRAMELESS_REASONS = ("lambda = ", "needle angles ")  # `solve_pose` refusals without positions
 
 
 def _typed(p: FloatArray, sep: str = ",") -> str:
