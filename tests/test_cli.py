@@ -147,7 +147,8 @@ def test_compare_runs_each_method_named_by_a_repeated_method_option(tmp_path: Pa
         summary = json.loads((tmp_path / r["method"] / "summary.json").read_text())
         assert r["execution_path"] == summary["execution_path"]
         assert r["compiled_phases"] == summary["compiled_phases"]
-    assert (tmp_path / "compare.png").stat().st_size > 0
+    assert json.loads((tmp_path / "summary.json").read_text()) == doc
+    assert (tmp_path / "figures" / "compare.png").stat().st_size > 0
 
 
 def test_compare_has_no_methods_option_any_more(capsys) -> None:

@@ -104,9 +104,11 @@ def test_a_malformed_target_or_path_is_a_clear_error(tmp_path) -> None:
         read_path_csv(bad)
 
 
-def test_a_target_outside_the_eye_stops_before_motion(tmp_path, capsys) -> None:
-    assert main(["inject", "--target", "0,0,30", "--out", str(tmp_path), "--no-plots"]) == 1
+def test_a_target_outside_the_eye_is_refused_before_motion(tmp_path, capsys) -> None:
+    assert main(["inject", "--target", "0,0,30", "--out", str(tmp_path), "--no-plots"]) == 2
     assert "outside the retina" in capsys.readouterr().err
+    assert json.loads((tmp_path / "summary.json").read_text())["status"] == "unreachable_target"
+    assert not (tmp_path / "log.npz").exists()
 
 
 def test_a_closed_pipe_ends_the_command_without_a_traceback() -> None:
@@ -138,12 +140,12 @@ def test_reproduce_puts_each_thesis_report_with_its_source_beside_both_settings(
     tmp_path, capsys
 ) -> None:
     assert main(["reproduce", "--out", str(tmp_path), "--json"]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    rows = json.loads(capsys.readouterr().out)["experiments"]
     assert [r["experiment"] for r in rows] == ["pivot", "p3-p7", "spiral"]
     for r in rows:
         assert r["thesis_reported"]["source"].startswith("sec. 4.")
         assert {"thesis", "rcmplan", "hypothesis"} <= set(r)
-        assert (tmp_path / f"{r['experiment']}.png").stat().st_size > 0
+        assert (tmp_path / "figures" / f"{r['experiment']}.png").stat().st_size > 0
     pivot = rows[0]["thesis_reported"]
     assert pivot["rcm_deviation_bound_m"] == pytest.approx(30e-6)
 

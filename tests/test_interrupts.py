@@ -111,8 +111,7 @@ def check_left(out: Path, command: str, code: int, sig: int) -> None:
     """What the command left in out, for its exit code: 128 + sig when interrupted; 0, or
     killed by sig (-sig) when the signal came after the command had finished its work."""
     assert code in (0, -sig, 128 + sig)
-    name = "compare.json" if command == "compare" else "summary.json"
-    doc = json.loads((out / name).read_text())
+    doc = json.loads((out / "summary.json").read_text())
     assert doc["status"] == ("interrupted" if code == 128 + sig else "ok")
     if code == 128 + sig:
         assert signal.Signals(sig).name in doc["message"]
@@ -220,16 +219,14 @@ with interrupts.handled():
 
 
 @pytest.mark.parametrize(
-    ("command", "name"),
-    [("spiral", "summary.json"), ("compare", "compare.json"), ("sweep", "summary.json"),
-     ("teleop", "summary.json")],
-)  # fmt: skip
+    "command", ["spiral", "compare", "sweep", "teleop", "subretinal", "reproduce", "render"]
+)
 def test_every_run_command_leaves_its_stop_file_when_interrupted_while_starting(
-    command: str, name: str, tmp_path: Path
+    command: str, tmp_path: Path
 ) -> None:
     code, err = interrupt_after_import(tmp_path, signal.SIGTERM, "numpy", 0.0, command)
     assert code == 143 and not our_tracebacks(err), err[-2000:]
-    doc = json.loads((tmp_path / name).read_text())
+    doc = json.loads((tmp_path / "summary.json").read_text())
     assert doc["command"] == command and doc["status"] == "interrupted"
     assert doc["message"].startswith("interrupted by SIGTERM")
 
@@ -298,7 +295,7 @@ def test_every_stop_file_command_writes_where_its_parser_says() -> None:
     parser = build_parser()
     for command in STOP_FILES:
         args = parser.parse_args([command])
-        assert (args.out or args.out_default) == command_and_out([command])[1]
+        assert args.out == command_and_out([command])[1]
 
 
 def test_an_interrupted_sweep_resumes_to_the_results_of_an_uninterrupted_one(

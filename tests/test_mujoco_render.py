@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import imageio.v2 as iio
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from rcmplan.cli import render as render_cli
+from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.sim.mujoco.plant import MujocoPlant
 from rcmplan.sim.mujoco.render import SceneRenderer, animate, save_animation, save_png
@@ -125,6 +127,10 @@ def test_render_command_writes_snapshots_and_an_animation(tmp_path: Path) -> Non
         ["render", "--out", str(tmp_path), "--width", "160", "--height", "120", "--frames", "4"]
     )
     assert args.run(args) == 0
-    names = sorted(p.name for p in tmp_path.iterdir())
-    assert "home_closeup.png" in names and "home_overview.png" in names
-    assert any(n.endswith(".gif") for n in names)
+    names = sorted(p.name for p in (tmp_path / "figures").iterdir())
+    assert names == ["default.gif", "default_end_closeup.png", "home_closeup.png",
+                     "home_overview.png"]  # fmt: skip
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["scenario"] == "default"
+    assert sorted(Path(p).name for p in summary["figures"].values()) == names
+    assert len(RunLog.load_npz(tmp_path / "log.npz")) == summary["iterations"]

@@ -22,7 +22,7 @@ from rcmplan.analysis.summary_text import (
     violations_text,
 )
 from rcmplan.analysis.units import fmt
-from rcmplan.cli.common import print_summary
+from rcmplan.cli.output import print_summary
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import load_scenario
 

@@ -12,6 +12,7 @@ import pytest
 from rcmplan.cli import sweep as sweep_cli
 from rcmplan.exceptions import InvalidInputError, RcmplanError
 from rcmplan.sweep.errors import CheckpointError, EmptyRegionError, SchedulerError
+from rcmplan.sweep.settings import MotionSettings, SweepSettings
 
 
 def run(argv: list[str]) -> int:
@@ -43,15 +44,27 @@ def test_sweep_writes_summary_targets_checkpoint_and_maps(tmp_path: Path, capsys
     assert (tmp_path / "checkpoint" / "header.json").exists()
 
 
-def test_a_rerun_needs_resume_and_then_runs_nothing_again(tmp_path: Path, capsys) -> None:
+def test_a_rerun_into_the_same_folder_starts_afresh_as_every_command_does(
+    tmp_path: Path, capsys
+) -> None:
     args = [*SMALL, "--out", str(tmp_path), "--no-plots", "--json"]
     assert run(args) == 0
-    with pytest.raises(CheckpointError, match="--resume"):
-        run(args)
+    first = json.loads(capsys.readouterr().out)
+    assert run(args) == 0  # no --resume: the old checkpoint is discarded, every target runs again
+    again = json.loads(capsys.readouterr().out)
+    assert again["targets"]["resumed_from_checkpoint"] == 0
+    assert again["targets_run_now"] == first["targets_run_now"] == 8
+    assert json.loads((tmp_path / "summary.json").read_text())["status"] == "ok"
+
+
+def test_resume_continues_the_checkpoint_and_runs_nothing_again(tmp_path: Path, capsys) -> None:
+    args = [*SMALL, "--out", str(tmp_path), "--no-plots", "--json"]
+    assert run(args) == 0
     capsys.readouterr()
     assert run([*args, "--resume"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["targets"]["resumed_from_checkpoint"] == summary["targets"]["run"]
+    assert summary["targets"]["resumed_from_checkpoint"] == summary["targets"]["run"] == 8
+    assert summary["targets_run_now"] == 0
 
 
 def test_gain_search_reports_the_best_settings(tmp_path: Path, capsys) -> None:
@@ -75,9 +88,14 @@ def test_gain_search_reports_the_best_settings(tmp_path: Path, capsys) -> None:
         (["--timeout", "inf"], InvalidInputError),
     ],
 )
-def test_bad_input_raises_a_clear_error(tmp_path: Path, argv: list[str], error: type) -> None:
-    with pytest.raises(error):
+def test_bad_input_raises_a_clear_error_and_leaves_its_summary(
+    tmp_path: Path, argv: list[str], error: type
+) -> None:
+    with pytest.raises(error) as raised:
         run([*argv, "--out", str(tmp_path)])
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["command"] == "sweep" and summary["status"] == raised.value.status
+    assert summary["message"].startswith(type(raised.value).__name__)
 
 
 def test_a_resumed_sweep_with_nothing_left_reports_no_rate(tmp_path: Path, capsys) -> None:
@@ -89,24 +107,34 @@ def test_a_resumed_sweep_with_nothing_left_reports_no_rate(tmp_path: Path, capsy
     assert "every target came from the checkpoint" in rate
 
 
-def test_a_sweep_of_other_settings_into_an_old_folder_names_overwrite(tmp_path: Path) -> None:
+def test_a_sweep_of_other_settings_replaces_the_old_one_and_resume_names_the_mismatch(
+    tmp_path: Path,
+) -> None:
     assert run([*SMALL, "--out", str(tmp_path), "--no-plots"]) == 0
     other = ["--targets", "9", "--max-angle", "15", "--workers", "1", "--out", str(tmp_path),
              "--no-plots"]  # fmt: skip
-    with pytest.raises(CheckpointError, match="--overwrite"):
-        run(other)
-    assert run([*other, "--overwrite"]) == 0
+    with pytest.raises(CheckpointError, match=r"other sweep settings.*without --resume"):
+        run([*other, "--resume"])
+    refused = json.loads((tmp_path / "summary.json").read_text())
+    assert refused["status"] == "checkpoint_error" and "CheckpointError" in refused["message"]
+    assert run(other) == 0
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["targets"]["sampled"] == 9 and summary["targets"]["resumed_from_checkpoint"] == 0
 
 
-def test_overwrite_refuses_to_remove_a_folder_that_is_no_checkpoint(tmp_path: Path) -> None:
+def test_a_rerun_never_removes_a_folder_that_is_no_checkpoint(tmp_path: Path) -> None:
     keep = tmp_path / "mine"
     keep.mkdir()
     (keep / "notes.txt").write_text("keep me")
     with pytest.raises(CheckpointError, match="not removed"):
-        run([*SMALL, "--out", str(tmp_path), "--checkpoint", str(keep), "--overwrite"])
+        run([*SMALL, "--out", str(tmp_path), "--checkpoint", str(keep)])
     assert (keep / "notes.txt").exists()
+
+
+def test_overwrite_is_gone_a_rerun_overwrites(capsys) -> None:
+    with pytest.raises(SystemExit):
+        run(["--overwrite"])
+    assert "unrecognized arguments: --overwrite" in capsys.readouterr().err
 
 
 def test_every_number_in_the_sweep_summary_has_a_unit(tmp_path: Path) -> None:
@@ -161,3 +189,20 @@ def test_an_unknown_sweep_plant_is_refused() -> None:
 
     with pytest.raises(RcmplanError, match="plant"):
         MotionSettings(plant="vrep")
+
+
+def test_sweep_moves_the_scenarios_robot_or_the_one_named(tmp_path: Path) -> None:
+    from rcmplan.scene.scenario import load_scenario
+
+    assert MotionSettings.from_scenario(load_scenario("ur5")).robot == "ur5"
+    assert MotionSettings.from_scenario(load_scenario("default")).robot == "iramis"
+    argv = ["--targets", "2", "--max-angle", "5", "--workers", "1", "--no-plots",
+            "--robot", "ur5", "--out", str(tmp_path)]  # fmt: skip
+    assert run(argv) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["settings"]["motion"]["robot"] == "ur5"
+    assert summary["targets"]["by_status"]["ok"] == summary["targets"]["run"] == 2
+    assert summary["max_rcm_deviation_m"]["max"] <= 1e-6
+    iramis = SweepSettings(motion=MotionSettings())
+    ur5 = SweepSettings(motion=MotionSettings(robot="ur5"))
+    assert iramis.digest() != ur5.digest()  # a checkpoint of one robot never resumes the other

@@ -27,9 +27,10 @@ def test_thesis_gain_keeps_the_printed_ratios_inside_the_newton_range() -> None:
 
 def test_reproduce_writes_a_row_per_experiment(tmp_path: Path, capsys) -> None:
     assert main(["reproduce", "--out", str(tmp_path), "--json", "--no-plots"]) == 0
-    rows = json.loads(capsys.readouterr().out)
+    doc = json.loads(capsys.readouterr().out)
+    rows = doc["experiments"]
     assert [r["experiment"] for r in rows] == list(thesis.EXPERIMENTS)
     for r in rows:
         assert r["rcmplan"]["status"] == "ok"
         assert r["rcmplan"]["max_rcm_deviation_m"] <= 1e-6
-    assert json.loads((tmp_path / "reproduce.json").read_text()) == rows
+    assert json.loads((tmp_path / "summary.json").read_text()) == doc

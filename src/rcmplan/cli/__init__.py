@@ -92,7 +92,7 @@ def _stopped(args: argparse.Namespace, exc: KeyboardInterrupt) -> None:
     unanswered = not interrupts.answered()
     with interrupts.shielded():
         name = interrupts.signal_name(exc)
-        out = getattr(args, "out", None) or getattr(args, "out_default", None)
+        out = getattr(args, "out", None)
         if unanswered and args.command in interrupts.STOP_FILES and out:
             doc = {"status": "interrupted", "message": f"interrupted by {name} before the run"}
             try:

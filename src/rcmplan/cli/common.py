@@ -1,46 +1,91 @@
-"""Options and output shared by the run commands (inject, spiral, compare)."""
+"""Options shared by the commands: one helper per option (`add_scenario`,
+`add_robot`, `add_method`, `add_plant`, `add_out`, `add_json`, `add_no_plots`), so an option
+reads, checks and defaults the same way in every command that has it; the scenario and robot
+they name (`scenario_from_args`, `announce_robot`). What the commands print and write at their
+end: `rcmplan.cli.output`."""
 
 from __future__ import annotations
 
 import argparse
-import contextlib
-import json
 import sys
-from collections.abc import Callable, Iterator
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
 
-from rcmplan.analysis.result import RunResult
-from rcmplan.cli import interrupts
 from rcmplan.control.methods import METHODS
-from rcmplan.control.phase import Phase
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.registry import ROBOTS, check_robot, is_robot_file
 from rcmplan.scene.scenario import Scenario, load_scenario
 from rcmplan.sim.registry import PLANTS
 
+OUT_ROOT = "rcmplan-out"  # --out defaults to OUT_ROOT/<command>
+SEED_MAX = 2**32 - 1  # the largest --seed accepted (32 bits)
+THE_SCENARIOS = "the scenario's"
+ROBOT_HELP = f"robot: a name ({', '.join(ROBOTS)}) or a robot file FILE.toml, docs/robots.md"
 
-def add_run_options(p: argparse.ArgumentParser, scenario: str, many_methods: bool = False) -> None:
-    """--scenario, --method (repeatable with many_methods), --plant, --out, --json, --no-plots."""
-    p.add_argument("--scenario", default=scenario, help=f"scenario name or TOML file ({scenario})")
-    if many_methods:
-        listed = "{" + ",".join(METHODS) + "}"
+
+def add_run_options(
+    p: argparse.ArgumentParser, command: str, scenario: str, many_methods: bool = False
+) -> None:
+    """--scenario, --robot, --method (repeatable with many_methods), --plant, --out, --json,
+    --no-plots: the options of a command that runs a scenario."""
+    add_scenario(p, scenario)
+    add_robot(p)
+    add_method(p, many=many_methods)
+    add_plant(p)
+    add_out(p, command)
+    add_json(p)
+    add_no_plots(p, "the chart" if many_methods else "figures and the HTML report")
+
+
+def add_scenario(p: argparse._ActionsContainer, default: str | None = "default",
+                 what: str = "the scenario", unset: str = "") -> None:  # fmt: skip
+    """--scenario NAME|FILE.toml: a shipped scenario (`rcmplan scenario --list`) or a file;
+    `unset` says what the command does without one when the default is None."""
+    p.add_argument("--scenario", default=default, metavar="NAME|FILE.toml",
+                   help=f"{what}: a shipped scenario (rcmplan scenario --list) or a scenario "
+                   f"file ({default or unset})")  # fmt: skip
+
+
+def add_robot(p: argparse._ActionsContainer, default: str | None = None,
+              unset: str = THE_SCENARIOS) -> None:  # fmt: skip
+    """--robot NAME|FILE.toml, checked by `robot_arg` as the command line is read."""
+    p.add_argument("--robot", type=robot_arg, default=default, metavar="NAME|FILE.toml",
+                   help=f"{ROBOT_HELP} ({default or unset})")  # fmt: skip
+
+
+def add_method(p: argparse._ActionsContainer, many: bool = False) -> None:
+    """--method, one of METHODS (many: repeatable, every method when absent)."""
+    listed = "{" + ",".join(METHODS) + "}"
+    if many:
         p.add_argument("--method", action="append", choices=METHODS, metavar="METHOD",
-                       help=f"a method to run, repeatable: {listed} (all)")  # fmt: skip
+                       help=f"a method to run, repeatable: {listed} (every method)")  # fmt: skip
     else:
-        p.add_argument("--method", choices=METHODS, help="control method (default: the scenario's)")
-    p.add_argument("--robot", type=robot_arg, metavar="NAME|FILE.toml",
-                   help=f"{ROBOT_HELP} (default: the scenario's)")  # fmt: skip
-    p.add_argument("--plant", choices=sorted(PLANTS), help="plant (default: the scenario's)")
-    p.add_argument("--out", default=None, help="output folder (default: rcmplan-out/<command>)")
-    written = "compare.json" if many_methods else "summary.json"
-    p.add_argument("--json", action="store_true", help=f"print {written} instead of the table")
-    skipped = "the chart" if many_methods else "figures and the HTML report"
-    p.add_argument("--no-plots", action="store_true", help=f"skip {skipped}")
+        p.add_argument("--method", choices=METHODS, metavar=listed,
+                       help=f"control method ({THE_SCENARIOS})")  # fmt: skip
 
 
-ROBOT_HELP = "robot: " + ", ".join(ROBOTS) + ", or a robot file FILE.toml (docs/robots.md)"
+def add_plant(p: argparse._ActionsContainer, choices: tuple[str, ...] | None = None,
+              default: str | None = None, unset: str = THE_SCENARIOS) -> None:  # fmt: skip
+    """--plant, one of `choices` (default: every registered plant)."""
+    names = tuple(sorted(PLANTS)) if choices is None else choices
+    p.add_argument("--plant", choices=names, default=default, metavar="{" + ",".join(names) + "}",
+                   help=f"plant the run drives ({default or unset})")  # fmt: skip
+
+
+def add_out(p: argparse._ActionsContainer, command: str) -> None:
+    """--out DIR, default rcmplan-out/<command>, shown in --help."""
+    p.add_argument("--out", default=f"{OUT_ROOT}/{command}", metavar="DIR",
+                   help="output folder (%(default)s)")  # fmt: skip
+
+
+def add_json(p: argparse._ActionsContainer) -> None:
+    """--json: print summary.json instead of the table."""
+    p.add_argument("--json", action="store_true", help="print summary.json instead of the table")
+
+
+def add_no_plots(p: argparse._ActionsContainer, what: str = "the figures") -> None:
+    """--no-plots: skip `what` (figures, and a report where the command writes one)."""
+    p.add_argument("--no-plots", action="store_true", help=f"skip {what}")
 
 
 def robot_arg(value: str) -> str:
@@ -98,100 +143,3 @@ def scenario_text(source: str) -> str | None:
         return shipped_text(source)
     path = Path(source)
     return path.read_text() if path.is_file() else None
-
-
-@contextlib.contextmanager
-def progress(label: str, total: int | None = None) -> Iterator[Any]:
-    """A progress bar over phases that appears only after about a second (tqdm, if installed)."""
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        yield lambda _phase: None
-        return
-    tqdm.monitor_interval = 0  # no monitor thread: the figures may be drawn in forked processes
-    bar = tqdm(
-        total=total, desc=label, unit="phase", delay=1.0, file=sys.stderr, leave=False,
-        disable=not sys.stderr.isatty(),
-    )  # fmt: skip
-
-    def tick(phase: Phase) -> None:
-        bar.set_postfix_str(phase.name, refresh=False)
-        bar.update(1)
-
-    try:
-        yield tick
-    finally:
-        bar.close()
-
-
-def write_stopped(
-    out: Path, args: argparse.Namespace, status: str, message: str, result: RunResult | None = None
-) -> None:
-    """Outputs of a run command stopped before it finished (interrupted, or a bad scenario):
-    the partial log and summary.json with `status` and `message` when a result exists, else
-    the command's stop file alone (`interrupts.write_stop_file`: no log of an earlier run left
-    beside it). Signals are ignored meanwhile, and every file is written atomically."""
-    from rcmplan.analysis.report import write_summary
-
-    with interrupts.shielded():
-        if result is not None:
-            write_summary(replace(result, status=status, message=message), out)
-            return
-        doc = {"scenario": args.scenario, "status": status, "message": one_line(message)}
-        interrupts.write_stop_file(out, args.command, doc)
-
-
-def interrupted_message(exc: BaseException, where: str) -> str:
-    """ "interrupted by SIGTERM <where>"."""
-    return f"interrupted by {interrupts.signal_name(exc)} {where}".strip()
-
-
-def print_summary(result: RunResult) -> None:
-    """A per-phase table of the run's figures, then the lines report.html also carries
-    (`analysis.summary_text`)."""
-    from rcmplan.analysis.report_html import PHASE_HEAD, phase_rows
-    from rcmplan.analysis.summary_text import summary_lines
-
-    s = result.summary()
-    print(f"scenario {s['scenario']}  procedure {s['procedure']}  method {s['method']}  "
-          f"plant {s['plant']}  status {s['status']}")  # fmt: skip
-    print(table(list(PHASE_HEAD), phase_rows(s)))
-    print("\n".join(summary_lines(s)))
-
-
-def one_line(text: str) -> str:
-    """text with every run of whitespace (newlines too) as one space."""
-    return " ".join(str(text).split())
-
-
-def print_json(obj: Any) -> None:
-    """JSON to stdout."""
-    from rcmplan.analysis.report import jsonable
-
-    print(json.dumps(jsonable(obj), indent=2))
-
-
-def table(header: list[str], rows: list[list[Any]]) -> str:
-    """A plain-text table with aligned columns."""
-    rows = [[str(c) for c in r] for r in rows]
-    widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    line = "  ".join("-" * w for w in widths)
-    fmt = "  ".join("{:<" + str(w) + "}" for w in widths)
-    return "\n".join([fmt.format(*header), line, *(fmt.format(*r) for r in rows)])
-
-
-def finish(args: argparse.Namespace, out: Path, doc: Any, show: Callable[[], None],
-           failure: str | None) -> int:  # fmt: skip
-    """The end of a run command whose outputs are written: they are final (a late signal
-    leaves them as they are), the JSON or the table and the folder on stdout, and exit 1 with
-    `failure` on stderr if the run did not end ok."""
-    interrupts.finished()
-    if args.json:
-        print_json(doc)
-    else:
-        show()
-        print(f"outputs in {out}/")
-    if failure:
-        print(f"rcmplan {args.command}: {failure}", file=sys.stderr)
-        return 1
-    return 0

@@ -14,7 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from rcmplan.cli import interrupts
-from rcmplan.cli.common import add_run_options, one_line, print_json, scenario_from_args
+from rcmplan.cli.common import add_run_options, scenario_from_args
+from rcmplan.cli.output import one_line, print_json
 from rcmplan.control.methods import METHODS
 from rcmplan.exceptions import MissingExtraError
 from rcmplan.job import run_scenario
@@ -35,8 +36,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "default) on one execution path, each after an untimed warm-up run; print and write "
         "max RCM deviation, tip error, iterations and wall time (total and per iteration).",
     )  # fmt: skip
-    add_run_options(p, "default", many_methods=True)
-    p.set_defaults(run=run, out_default="rcmplan-out/compare")
+    add_run_options(p, "compare", "default", many_methods=True)
+    p.set_defaults(run=run)
 
 
 def measure(scenario: Scenario, out: Path | None = None) -> dict[str, Any]:
@@ -83,7 +84,7 @@ def compare_rows(
 def print_table(rows: list[dict[str, Any]], path: str) -> None:
     """The comparison as a text table."""
     from rcmplan.analysis.units import fmt
-    from rcmplan.cli.robot import table
+    from rcmplan.cli.output import table
 
     body = [
         [r["method"], fmt(r["max_rcm_deviation_m"], "um"), fmt(r["max_tip_error_m"], "um"),
@@ -106,30 +107,32 @@ def path_cell(row: dict[str, Any]) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the comparison table; write compare.json, the chart, and each method's run (log
-    and summary.json) in a folder named after the method.
+    """Print the comparison table; write summary.json (one row per method), the chart
+    (figures/compare.png), and each method's run (log and summary.json) in a folder named
+    after the method.
 
-    Interrupted (SIGINT, SIGTERM), it writes compare.json with status "interrupted" and the
+    Interrupted (SIGINT, SIGTERM), it writes summary.json with status "interrupted" and the
     rows of the methods that finished, then re-raises (exit 130 or 143).
     """
     from rcmplan.analysis.report import prepare_folder
 
-    out = prepare_folder(args.out or args.out_default)
+    out = prepare_folder(args.out)
     rows: list[dict[str, Any]] = []
     try:
         with interrupts.surfaced():
             path = compare_rows(args, rows, out)
-            doc = {"status": "ok", "message": "", "execution_path": path, "methods": rows}
-            write_json(out / "compare.json", doc)
+            doc = {"command": "compare", "status": "ok", "message": "", "execution_path": path,
+                   "methods": rows}  # fmt: skip
+            write_json(out / "summary.json", doc)
             if not args.no_plots:
                 from rcmplan.analysis.plots_compare import method_comparison
 
-                method_comparison(rows, out / "compare.png")
+                method_comparison(rows, out / "figures" / "compare.png")
     except KeyboardInterrupt as exc:
         with interrupts.shielded():
             message = f"interrupted by {interrupts.signal_name(exc)} after {len(rows)} methods"
-            write_json(out / "compare.json", {"status": "interrupted", "message": message,
-                                              "methods": rows})  # fmt: skip
+            write_json(out / "summary.json", {"command": "compare", "status": "interrupted",
+                                              "message": message, "methods": rows})  # fmt: skip
         raise
     interrupts.finished()
     if args.json:

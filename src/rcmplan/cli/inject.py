@@ -6,14 +6,12 @@ import argparse
 import sys
 
 from rcmplan.cli import interrupts
-from rcmplan.cli.common import (
-    add_run_options,
+from rcmplan.cli.common import add_run_options, scenario_from_args, scenario_text
+from rcmplan.cli.output import (
     finish,
     interrupted_message,
     print_summary,
     progress,
-    scenario_from_args,
-    scenario_text,
     write_stopped,
 )
 from rcmplan.exceptions import RcmplanError
@@ -33,10 +31,10 @@ def register(sub: argparse._SubParsersAction) -> None:
             name, help=text, description=f"Plan, simulate and measure {text}. A scenario that "
             f"describes another procedure lends its eye, points, steps and controller.",
         )  # fmt: skip
-        add_run_options(p, scenario)
+        add_run_options(p, name, scenario)
         if name == "inject":
             add_tip_options(p)
-        p.set_defaults(run=run, out_default=f"rcmplan-out/{name}", procedure=procedure)
+        p.set_defaults(run=run, procedure=procedure)
 
 
 def add_tip_options(p: argparse.ArgumentParser) -> None:
@@ -73,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     """
     from rcmplan.analysis.report import prepare_folder, summary_json, write_outputs
 
-    out = prepare_folder(args.out or args.out_default)
+    out = prepare_folder(args.out)
     result = None
     try:
         with interrupts.surfaced():

@@ -4,7 +4,7 @@ numerical library or subcommand) to the process's end, whose action follows how 
 has got:
 
 - starting (importing, reading the command line): nothing is open or half-written, so the
-  handler writes the command's stop file (`summary.json`, `compare.json`) in its output folder
+  handler writes the command's stop file (`summary.json`) in its output folder
   with status "interrupted" and ends the process at once;
 - running (inside `handled()`): it raises Interrupted or Terminated (a KeyboardInterrupt), so
   every `finally` runs, pool workers are stopped and the command writes its partial outputs
@@ -45,7 +45,10 @@ STOP_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     "spiral": ("summary.json", ("log.npz", "log.csv", "report.html")),
     "teleop": ("summary.json", ("log.npz", "log.csv", "teleop.npz")),
     "sweep": ("summary.json", ()),
-    "compare": ("compare.json", ()),
+    "compare": ("summary.json", ()),
+    "subretinal": ("summary.json", ("log.npz", "episode.npz")),
+    "reproduce": ("summary.json", ()),
+    "render": ("summary.json", ("log.npz", "log.csv")),
 }
 
 
@@ -176,7 +179,7 @@ def write_stop_file(out: Path, command: str, doc: dict[str, Any]) -> Path:
     for old in stale:
         (out / old).unlink(missing_ok=True)
     body = {"command": command, **doc}
-    if name == "compare.json":
+    if command == "compare":
         body.setdefault("methods", [])
     return write_text(out / name, json.dumps(body, indent=2))
 

@@ -1,22 +1,34 @@
 """`rcmplan render`: PNG snapshots of the MuJoCo scene and an animation with the tip trace.
 
-The animation replays the default injection (run on the kinematic plant unless --plant says
-otherwise) in the MuJoCo scene with the scenario's eye; `--demo` animates a short generated
-slider trajectory instead.
+The animation replays the scenario's run (the default injection on the kinematic plant unless
+--scenario, --method or --plant say otherwise) in the MuJoCo scene with the scenario's eye;
+`--demo` animates a short generated slider trajectory instead. The scene is iRAM!S's (the arms'
+MuJoCo models have no cameras), so a scenario of another robot is refused before it runs.
+
+Outputs in --out: summary.json (the run's summary with the images under `figures`; a demo's
+names the images alone), the run's log (log.npz, log.csv) and the images in figures/.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
+import re
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import FloatArray
+from rcmplan._validate import FloatArray, integer, scalar
+from rcmplan.cli import interrupts
+from rcmplan.cli.common import add_json, add_method, add_out, add_plant, add_scenario
+from rcmplan.exceptions import InvalidInputError, RcmplanError
 from rcmplan.robot.iramis import Iramis
-from rcmplan.sim.mujoco.scene import EyePhantom, phantom_of
-from rcmplan.sim.registry import PLANTS
+
+CAMERAS = ("closeup", "overview")
+MAX_FRAMES = 10_000
+MAX_FPS = 100.0  # GIF frame times are whole hundredths of a second
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -24,22 +36,25 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "render", help="render the MuJoCo scene: snapshots and an animation",
         description="Render headless MuJoCo snapshots of the robot and the eye from both "
-        "cameras, and an animation of the scenario's run (or --demo) with the tip trace.",
+        "cameras, and an animation of the scenario's run (or --demo) with the tip trace. "
+        "The scene is iRAM!S's.",
     )  # fmt: skip
-    p.add_argument("--out", default="rcmplan-out/render", help="output folder")
-    p.add_argument("--width", type=int, default=640, help="image width in pixels (640)")
-    p.add_argument("--height", type=int, default=480, help="image height in pixels (480)")
-    p.add_argument("--camera", choices=("closeup", "overview"), default="closeup",
+    add_scenario(p, "default", "scenario to run and animate (iRAM!S)")
+    add_method(p)
+    add_plant(p, default="kinematic")
+    p.add_argument("--demo", action="store_true", help="animate a generated slider trajectory")
+    p.add_argument("--width", type=int, default=640, help="image width in pixels, 16-1280 (640)")
+    p.add_argument("--height", type=int, default=480, help="image height in pixels, 16-960 (480)")
+    p.add_argument("--camera", choices=CAMERAS, default="closeup",
                    help="animation camera (closeup)")  # fmt: skip
-    p.add_argument("--frames", type=int, default=60, help="animation frames (60)")
-    p.add_argument("--fps", type=float, default=20.0, help="animation frame rate (20)")
+    p.add_argument("--frames", type=int, default=60, help=f"animation frames, 1-{MAX_FRAMES} (60)")
+    p.add_argument("--fps", type=float, default=20.0,
+                   help=f"animation frame rate, 0-{MAX_FPS:g} (20)")  # fmt: skip
     p.add_argument(
         "--format", choices=("gif", "mp4"), default="gif", help="animation (mp4: `video` extra)"
     )
-    p.add_argument("--scenario", default="default", help="scenario to animate (default)")
-    p.add_argument("--plant", choices=sorted(PLANTS), default="kinematic",
-                   help="plant the scenario runs on (kinematic)")  # fmt: skip
-    p.add_argument("--demo", action="store_true", help="animate a generated slider trajectory")
+    add_out(p, "render")
+    add_json(p)
     p.set_defaults(run=run)
 
 
@@ -51,45 +66,113 @@ def demo_trajectory(robot: Iramis, n: int = 240) -> FloatArray:
     return robot.home_actuators + insert + tilt
 
 
-def scenario_trajectory(
-    args: argparse.Namespace, robot: Iramis
-) -> tuple[FloatArray, EyePhantom, tuple[float, float] | None]:
-    """Run the scenario; its logged sliders, the eye as a scene phantom and the needle's arc."""
+def run_scenario_of(args: argparse.Namespace, robot: Iramis, out: Path) -> tuple[Any, Any]:
+    """Run the scenario and write its log and summary; returns the result and the eye as a
+    scene phantom. A scenario of another robot is refused before it runs."""
+    from rcmplan.analysis.report import write_summary
     from rcmplan.job import run_scenario
     from rcmplan.scene.scenario import load_scenario
+    from rcmplan.sim.mujoco.scene import phantom_of
 
     scenario = load_scenario(args.scenario).with_plant(args.plant)
+    if scenario.robot != "iramis":
+        raise InvalidInputError("--scenario", args.scenario, "a scenario of iramis (the robot "
+                                f"the MuJoCo scene draws), not of {scenario.robot}")  # fmt: skip
+    if args.method:
+        scenario = scenario.with_method(args.method)
     result = run_scenario(scenario)
+    write_summary(result, out)
     if not result.ok:
-        print(f"rcmplan render: run stopped early ({result.message}); animating the partial log")
+        print(f"rcmplan render: run stopped early ({result.message}); animating the partial "
+              "log", file=sys.stderr)  # fmt: skip
     eye = scenario.eye(robot)
-    phantom = phantom_of(eye, scenario.points(eye))
-    sliders = np.vstack([robot.home_actuators, result.log.sliders])
-    return sliders, phantom, scenario.needle.arc()
+    return result, phantom_of(eye, scenario.points(eye))
 
 
 def run(args: argparse.Namespace) -> int:
-    """Write home snapshots from both cameras and the animation; print the paths."""
+    """Write home snapshots from both cameras, the animation and its last frame in
+    OUT/figures, and summary.json naming them; print it (--json) or the paths. Refused (a bad
+    option, a scenario of another robot), it writes summary.json with the error and re-raises
+    (exit 2)."""
+    from rcmplan.analysis.report import prepare_folder
+    from rcmplan.cli.output import write_stopped
     from rcmplan.sim.mujoco.plant import MujocoPlant
+
+    out = prepare_folder(args.out)
+    robot = Iramis()
+    try:
+        frames = integer("--frames", args.frames, 1, MAX_FRAMES)
+        fps = scalar("--fps", args.fps, 0.0, MAX_FPS, low_open=True)
+        result, eye, sliders = trajectory(args, robot, out)
+    except RcmplanError as exc:
+        write_stopped(out, args, exc.status, f"{type(exc).__name__}: {exc}")
+        raise
+    name = "demo" if result is None else re.sub(r"[^\w.-]", "_", result.scenario.name)
+    arc = None if result is None else result.scenario.needle.arc()
+    plant = MujocoPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
+    try:
+        figures = render_figures(args, plant, sliders, out / "figures", name, frames, fps)
+    except RcmplanError as exc:
+        write_render_summary(out, result, {}, exc)
+        raise
+    doc = write_render_summary(out, result, figures)
+    interrupts.finished()
+    if args.json:
+        from rcmplan.cli.output import print_json
+
+        print_json(doc)
+    else:
+        for path in figures.values():
+            print(path)
+    return 0
+
+
+def trajectory(args: argparse.Namespace, robot: Iramis, out: Path) -> tuple[Any, Any, FloatArray]:
+    """(the run's result or None, the eye phantom or None, the sliders to animate): the
+    scenario's run (its log and summary written), or the demo's trajectory."""
+    if not args.demo:
+        result, eye = run_scenario_of(args, robot, out)
+        return result, eye, np.vstack([robot.home_actuators, result.log.sliders])
+    for stale in ("log.npz", "log.csv"):  # an earlier run's log: not this render's
+        (out / stale).unlink(missing_ok=True)
+    return None, None, demo_trajectory(robot)
+
+
+def render_figures(args: argparse.Namespace, plant: Any, sliders: FloatArray, folder: Path,
+                   name: str, frames: int, fps: float) -> dict[str, Path]:  # fmt: skip
+    """The home snapshots from both cameras, the animation and its last frame."""
     from rcmplan.sim.mujoco.render import SceneRenderer, animate, save_animation, save_png
 
-    robot = Iramis()
-    out = Path(args.out)
-    if args.demo:
-        sliders, eye, name, arc = demo_trajectory(robot), None, "demo", None
+    model, data = plant.scene()
+    width = integer("--width", args.width, 16, int(model.vis.global_.offwidth))
+    height = integer("--height", args.height, 16, int(model.vis.global_.offheight))
+    renderer = SceneRenderer(model, width, height)
+    try:
+        made = {f"home_{cam}": save_png(folder / f"home_{cam}.png", renderer.render(data, cam))
+                for cam in ("overview", "closeup")}  # fmt: skip
+        images = animate(plant, sliders, renderer, args.camera, frames)
+        made["animation"] = save_animation(folder / f"{name}.{args.format}", images, fps)
+        made["last_frame"] = save_png(folder / f"{name}_end_{args.camera}.png", images[-1])
+    finally:
+        renderer.close()
+    return made
+
+
+def write_render_summary(
+    out: Path, result: Any, figures: dict[str, Path], error: RcmplanError | None = None
+) -> dict[str, Any]:
+    """summary.json: the run's (written with its log) with the images under `figures`, or a
+    demo's naming the images alone; with `error`, its status and message (no images)."""
+    from rcmplan._atomic import write_text
+    from rcmplan.analysis.report import jsonable, summary_json
+
+    if result is None:
+        doc: dict[str, Any] = {"command": "render", "procedure": "demo", "status": "ok",
+                               "message": ""}  # fmt: skip
     else:
-        sliders, phantom, arc = scenario_trajectory(args, robot)
-        eye, name = phantom, args.scenario
-    plant = MujocoPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
-    renderer = SceneRenderer(plant.scene()[0], args.width, args.height)
-    written = [
-        save_png(out / f"home_{cam}.png", renderer.render(plant.scene()[1], cam))
-        for cam in ("overview", "closeup")
-    ]
-    frames = animate(plant, sliders, renderer, args.camera, args.frames)
-    written.append(save_animation(out / f"{name}.{args.format}", frames, args.fps))
-    written.append(save_png(out / f"{name}_end_{args.camera}.png", frames[-1]))
-    renderer.close()
-    for path in written:
-        print(path, file=sys.stdout)
-    return 0
+        doc = summary_json(result)
+    doc["figures"] = {key: str(path) for key, path in figures.items()}
+    if error is not None:
+        doc.update(status=error.status, message=f"{type(error).__name__}: {error}")
+    write_text(out / "summary.json", json.dumps(jsonable(doc), indent=2))
+    return doc

@@ -7,7 +7,9 @@ import argparse
 import json
 from typing import Any
 
-from rcmplan.cli.common import print_json
+from rcmplan.cli import interrupts
+from rcmplan.cli.common import add_json, add_no_plots, add_out
+from rcmplan.cli.output import print_json
 
 HEAD = ["experiment", "setting", "max RCM dev. [um]", "iterations / steps", "per step",
         "wall [s]", "status"]  # fmt: skip
@@ -20,11 +22,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="Rerun the experiments of the thesis's chapter 4 with the thesis's "
         "settings (as interpreted, stated in the output) and rcmplan's, beside the figures "
         "the thesis reports; docs/thesis.md explains why the thesis settings do not "
-        "reproduce the thesis's behaviour.",
+        "reproduce the thesis's behaviour. The experiments run the thesis's robot (iRAM!S) "
+        "with the thesis's and rcmplan's settings, so the command takes no scenario, robot "
+        "or method.",
     )  # fmt: skip
-    p.add_argument("--out", default="rcmplan-out/reproduce", help="output folder")
-    p.add_argument("--json", action="store_true", help="print the table as JSON")
-    p.add_argument("--no-plots", action="store_true", help="skip figures")
+    add_out(p, "reproduce")
+    add_json(p)
+    add_no_plots(p)
     p.set_defaults(run=run)
 
 
@@ -50,7 +54,7 @@ def experiment_row(key: str, outcomes: dict[str, Any]) -> dict[str, Any]:
 def table_rows(rows: list[dict[str, Any]]) -> tuple[list[list[str]], list[list[str]]]:
     """Text rows: what the thesis reports, and rcmplan's runs of both settings."""
     from rcmplan.analysis.units import fmt
-    from rcmplan.cli.common import one_line
+    from rcmplan.cli.output import one_line
 
     reported, runs = [], []
     for r in rows:
@@ -71,14 +75,16 @@ REPORTED_HEAD = ["experiment", "RCM deviation", "iterations", "time", "source"]
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run each experiment with the thesis setting (as interpreted) and rcmplan's."""
+    """Run each experiment with the thesis setting (as interpreted) and rcmplan's; write
+    summary.json (one row per experiment) and a figure per experiment in OUT/figures."""
+    from rcmplan._atomic import write_text
     from rcmplan.analysis import thesis
     from rcmplan.analysis.report import jsonable, prepare_folder
     from rcmplan.cli import thesis_hypothesis
-    from rcmplan.cli.robot import table
+    from rcmplan.cli.output import table
 
     out = prepare_folder(args.out)
-    rows = []
+    rows, figures = [], {}
     for key, experiment in thesis.EXPERIMENTS.items():
         outcomes = {setting: experiment(setting) for setting in ("thesis", "rcmplan")}
         outcomes["hypothesis"] = thesis_hypothesis.EXPERIMENTS[key]()
@@ -87,10 +93,14 @@ def run(args: argparse.Namespace) -> int:
             from rcmplan.cli.thesis_figures import experiment_figure
 
             title = outcomes["thesis"].experiment
-            experiment_figure(key, title, outcomes, out / f"{key}.png")
-    (out / "reproduce.json").write_text(json.dumps(jsonable(rows), indent=2))
+            path = experiment_figure(key, title, outcomes, out / "figures" / f"{key}.png")
+            figures[key] = str(path)
+    doc = {"command": "reproduce", "status": "ok", "message": "", "experiments": rows,
+           "figures": figures}  # fmt: skip
+    write_text(out / "summary.json", json.dumps(jsonable(doc), indent=2))
+    interrupts.finished()
     if args.json:
-        print_json(rows)
+        print_json(doc)
         return 0
     reported, runs = table_rows(rows)
     print("The thesis reports:")

@@ -9,7 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.cli.common import announce_robot, print_json, robot_arg, table
+from rcmplan.cli.common import add_robot, announce_robot
+from rcmplan.cli.output import print_json, table
 from rcmplan.robot.iramis import JOINT_NAMES, SLIDER_NAMES, Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import DEFAULT_ROBOT, ROBOTS, is_robot_file, make_robot
@@ -24,9 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "every assumed parameter with its source, the home pose and the slider ranges; an arm: "
         "its joints from its model file, their limits, the needle and the home pose.",
     )  # fmt: skip
-    p.add_argument("--robot", type=robot_arg, default=DEFAULT_ROBOT, metavar="NAME|FILE.toml",
-                   help=f"the robot to print: {', '.join(ROBOTS)}, or a robot file FILE.toml "
-                   f"({DEFAULT_ROBOT})")  # fmt: skip
+    add_robot(p, DEFAULT_ROBOT)
     p.add_argument("--list", action="store_true", help="name every available robot and stop")
     p.add_argument("--json", action="store_true", help="print the model as JSON (SI units)")
     p.set_defaults(run=run)

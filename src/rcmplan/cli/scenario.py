@@ -248,11 +248,11 @@ def run(args: argparse.Namespace) -> int:
         rows.append({"name": name, "procedure": sc.procedure, "method": sc.method,
                      "plant": sc.plant})  # fmt: skip
     if args.json:
-        from rcmplan.cli.common import print_json
+        from rcmplan.cli.output import print_json
 
         print_json(rows)
         return 0
-    from rcmplan.cli.robot import table
+    from rcmplan.cli.output import table
 
     print(table(["name", "procedure", "method", "plant"], [list(r.values()) for r in rows]))
     return 0

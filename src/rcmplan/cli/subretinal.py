@@ -9,13 +9,14 @@ from typing import Any
 
 from rcmplan.analysis.units import fmt
 from rcmplan.cli.common import (
-    ROBOT_HELP,
+    add_json,
+    add_no_plots,
+    add_out,
+    add_plant,
+    add_robot,
     announce_robot,
-    finish,
-    one_line,
-    robot_arg,
-    table,
 )
+from rcmplan.cli.output import finish, one_line, table
 from rcmplan.exceptions import RcmplanError
 
 COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predictors.PREDICTORS
@@ -37,14 +38,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--motion-um", type=float, default=50.0,
                    help="breathing amplitude, 0-200 um; cardiac 0.2 of it (50)")  # fmt: skip
     p.add_argument("--seed", type=int, default=0, help="seed of the motion and iOCT noise (0)")
-    p.add_argument("--robot", type=robot_arg, default="iramis", metavar="NAME|FILE.toml",
-                   help=f"{ROBOT_HELP} (iramis)")  # fmt: skip
-    p.add_argument("--plant", default="kinematic", help="plant: kinematic (the only one here)")
+    add_robot(p, "iramis")
+    add_plant(p, ("kinematic",), "kinematic")
     p.add_argument("--hold-s", type=float, default=5.0, help="injection time, 0-60 s (5)")
-    p.add_argument("--out", default=None, help="output folder (default: rcmplan-out/subretinal)")
-    p.add_argument("--json", action="store_true", help="print summary.json instead of the table")
-    p.add_argument("--no-plots", action="store_true", help="skip the figure")
-    p.set_defaults(run=run, out_default="rcmplan-out/subretinal")
+    add_out(p, "subretinal")
+    add_json(p)
+    add_no_plots(p, "the figure")
+    p.set_defaults(run=run)
 
 
 def settings_of(args: argparse.Namespace) -> Any:
@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     episode did not end "ok", 2 on a bad option (summary.json then says which)."""
     from rcmplan.analysis.report import prepare_folder
 
-    out = prepare_folder(args.out or args.out_default)
+    out = prepare_folder(args.out)
     try:
         announce_robot(args.robot, "subretinal")
         settings = settings_of(args)

@@ -7,21 +7,34 @@ finished chunk is written to the checkpoint folder at once; --resume continues i
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
 import math
-import shutil
-import sys
-from collections.abc import Iterator
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from rcmplan._validate import integer, scalar
 from rcmplan.cli import interrupts
-from rcmplan.control.methods import METHODS
+from rcmplan.cli.common import (
+    SEED_MAX,
+    add_json,
+    add_method,
+    add_no_plots,
+    add_out,
+    add_plant,
+    add_robot,
+    add_scenario,
+)
+from rcmplan.cli.output import one_line, print_json, progress_bar
+from rcmplan.cli.sweep_outputs import print_tables, write_interrupted, write_outputs
 from rcmplan.exceptions import RcmplanError
-from rcmplan.sim.registry import PLANTS
 from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
-from rcmplan.sweep.settings import SAMPLINGS, MotionSettings, Region, SweepSettings
+from rcmplan.sweep.settings import (
+    MAX_TARGETS,
+    SAMPLINGS,
+    MotionSettings,
+    Region,
+    SweepSettings,
+)
 
 if TYPE_CHECKING:
     from rcmplan.sweep.checkpoint import Checkpoint
@@ -31,99 +44,69 @@ if TYPE_CHECKING:
     from rcmplan.sweep.sampling import Sample
     from rcmplan.sweep.task import TargetResult
 
-OUT_DEFAULT = "rcmplan-out/sweep"
-
 
 def register(sub: argparse._SubParsersAction) -> None:
     """Add the `sweep` subcommand."""
     p = sub.add_parser(
-        "sweep",
-        help="accuracy and convergence maps over the retina, and a gain search",
+        "sweep", help="accuracy and convergence maps over the retina, and a gain search",
         description="Run the insert-and-visit motion to retina targets sampled over the region "
-        "reachable through the trocar; write maps, a summary and per-target results.",
-    )
-    p.add_argument("--scenario", default="default", help="scenario name or TOML file (default)")
+        "reachable through the trocar; write maps, a summary and per-target results. A rerun "
+        "into the same folder starts afresh; --resume continues its checkpoint.",
+    )  # fmt: skip
+    add_scenario(p)
+    add_robot(p)
+    add_method(p)
+    add_plant(p)
     p.add_argument("--targets", type=int, default=1000, help="rays sampled (1000)")
-    p.add_argument(
-        "--max-angle",
-        type=float,
-        default=25.0,
-        help="half-angle of the cone of rays around the insertion axis [deg] (25)",
-    )
+    p.add_argument("--max-angle", type=float, default=25.0, metavar="DEG",
+                   help="half-angle of the cone of rays around the insertion axis, 0-90 deg "
+                   "(25)")  # fmt: skip
     p.add_argument("--sampling", choices=SAMPLINGS, default="grid", help="ray sampling (grid)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (0)")
-    p.add_argument("--method", choices=METHODS, help="control method (default: the scenario's)")
-    p.add_argument("--plant", choices=sorted(PLANTS),
-                   help="plant each target runs on (default: the scenario's)")  # fmt: skip
     p.add_argument("--workers", type=int, help="local processes (default: every core)")
     p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (tcp://...)")
-    p.add_argument(
-        "--timeout",
-        type=float,
-        default=DEFAULT_TIMEOUT_S,
-        help=f"Dask: time [s] to connect, and to wait for a worker when none is left "
-        f"(positive, finite; {DEFAULT_TIMEOUT_S:g})",
-    )
+    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S, metavar="S",
+                   help=f"Dask: time to connect, and to wait for a worker when none is left, "
+                   f"positive, in s ({DEFAULT_TIMEOUT_S:g})")  # fmt: skip
     p.add_argument("--checkpoint", metavar="PATH", help="checkpoint folder (OUT/checkpoint)")
-    p.add_argument("--resume", action="store_true", help="continue an existing checkpoint")
-    p.add_argument("--overwrite", action="store_true",
-                   help="discard an existing checkpoint of any settings, start afresh")  # fmt: skip
-    p.add_argument(
-        "--gain-search",
-        choices=("none", "grid", "optimize"),
-        default="none",
-        help="search K and the step size on a subsample (none)",
-    )
+    p.add_argument("--resume", action="store_true",
+                   help="continue the checkpoint of an interrupted sweep of the same settings "
+                   "(without it, a rerun discards the checkpoint and starts afresh)")  # fmt: skip
+    p.add_argument("--gain-search", choices=("none", "grid", "optimize"), default="none",
+                   help="search K and the step size on a subsample (none)")  # fmt: skip
     p.add_argument("--subsample", type=int, default=16, help="targets per gain candidate (16)")
-    p.add_argument(
-        "--max-evaluations", type=int, default=30, help="candidates the optimiser may evaluate (30)"
-    )
-    p.add_argument(
-        "--rcm-bound",
-        type=float,
-        default=10.0,
-        help="gain search: largest accepted RCM deviation [um] (10)",
-    )
-    p.add_argument("--out", default=OUT_DEFAULT, help=f"output folder ({OUT_DEFAULT})")
-    p.add_argument("--json", action="store_true", help="print summary.json instead of tables")
-    p.add_argument("--no-plots", action="store_true", help="skip the figures")
-    p.set_defaults(run=run)  # fmt: skip
+    p.add_argument("--max-evaluations", type=int, default=30,
+                   help="candidates the optimiser may evaluate (30)")  # fmt: skip
+    p.add_argument("--rcm-bound", type=float, default=10.0, metavar="UM",
+                   help="gain search: largest accepted RCM deviation, in um (10)")  # fmt: skip
+    add_out(p, "sweep")
+    add_json(p)
+    add_no_plots(p)
+    p.set_defaults(run=run)
 
 
 def settings_from_args(args: argparse.Namespace) -> SweepSettings:
-    """Region and motion settings from the command line and the scenario."""
+    """Region and motion settings from the command line and the scenario (with --robot,
+    --method and --plant in place of its own), each option checked under its own name and
+    in the unit it is typed in."""
     from rcmplan.scene.scenario import load_scenario
 
     sc = load_scenario(args.scenario)
-    changes = {k: getattr(args, k) for k in ("method", "plant") if getattr(args, k, None)}
-    region = Region(math.radians(args.max_angle), args.targets, args.sampling, args.seed)
+    changes = {k: getattr(args, k) for k in ("robot", "method", "plant") if getattr(args, k)}
+    angle = scalar("--max-angle", args.max_angle, 0.0, 90.0, low_open=True, high_open=True)
+    targets = integer("--targets", args.targets, 1, MAX_TARGETS)
+    seed = integer("--seed", args.seed, 0, SEED_MAX)
+    region = Region(math.radians(angle), targets, args.sampling, seed)
     return SweepSettings(region, MotionSettings.from_scenario(sc, **changes))
 
 
-class _NoBar:
-    """Stands in for a tqdm bar when tqdm (extra "progress") is not installed."""
+def check_search_options(args: argparse.Namespace) -> None:
+    """The gain search's options, each under its own name and unit (before any motion)."""
+    from rcmplan.sweep.gains import RCM_BOUND_MAX_M
 
-    def reset(self, total: int | None = None) -> None:
-        """Nothing to show."""
-
-    def update(self, n: int = 1) -> None:
-        """Nothing to show."""
-
-
-@contextlib.contextmanager
-def progress_bar(label: str, unit: str) -> Iterator[Any]:
-    """A tqdm bar on stderr that appears after a second, only on a terminal."""
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        yield _NoBar()
-        return
-    bar = tqdm(desc=label, unit=unit, delay=1.0, file=sys.stderr, leave=False,
-               disable=not sys.stderr.isatty())  # fmt: skip
-    try:
-        yield bar
-    finally:
-        bar.close()
+    integer("--subsample", args.subsample, 1, MAX_TARGETS)
+    integer("--max-evaluations", args.max_evaluations, 1, 10_000)
+    scalar("--rcm-bound", args.rcm_bound, 0.0, 1e6 * RCM_BOUND_MAX_M, low_open=True)
 
 
 def run_main(args: argparse.Namespace, settings: SweepSettings, checkpoint: Checkpoint,
@@ -160,62 +143,19 @@ def run_gains(args: argparse.Namespace, result: SweepResult, checkpoint: Checkpo
         return optimize_search(search, args.max_evaluations)
 
 
-def write_outputs(
-    args: argparse.Namespace, out: Path, result: SweepResult, gains: GainSearchResult | None
-) -> dict[str, Any]:
-    """summary.json, targets.csv, gains.json and the figures; returns the summary."""
-    from rcmplan._atomic import write_text
-    from rcmplan.analysis.report import jsonable
-    from rcmplan.sweep import report
-
-    s = {"status": "ok", "message": "", **report.summary(result)}
-    if gains is not None:
-        s["gain_search"] = report.gain_summary(gains)
-    write_text(out / "summary.json", json.dumps(jsonable(s), indent=2))
-    report.write_targets_csv(result, out / "targets.csv")
-    if not args.no_plots:
-        from rcmplan.sweep import maps
-
-        figs = maps.sweep_maps(result, out / "figures")
-        if gains is not None:
-            figs["gains"] = maps.gain_tradeoff(gains, out / "figures" / "gains.png")
-        s["figures"] = {k: str(v) for k, v in figs.items()}
-    return s
-
-
-def print_tables(s: dict[str, Any], gains: GainSearchResult | None) -> None:
-    """The summary table and, after a gain search, the candidates table."""
-    from rcmplan.cli.robot import table
-    from rcmplan.sweep import report
-
-    print(table(["figure", "value", "unit"], report.summary_rows(s)))
-    if gains is not None:
-        print(f"\ngain search ({gains.mode}): {s['gain_search']['objective']} "
-              f"({1e6 * gains.objective.rcm_bound_m:g} um); {gains.message}")  # fmt: skip
-        print(table(report.GAIN_HEADER, report.gain_rows(gains)))
-        if gains.best is None:
-            print("no candidate met the constraints")
-
-
-def open_checkpoint(path: Path, settings: SweepSettings, args: argparse.Namespace) -> Checkpoint:
-    """Open the checkpoint: --overwrite discards an old one first; without --resume or
-    --overwrite, an old checkpoint of other settings or with results is a clear error."""
-    from rcmplan.sweep.checkpoint import HEADER, Checkpoint
+def open_checkpoint(path: Path, settings: SweepSettings, resume: bool) -> Checkpoint:
+    """The sweep's checkpoint: with --resume the one at `path` continued (it must hold these
+    settings), else a new one in place of the checkpoint an earlier sweep left there, as every
+    command writes over its earlier outputs (a folder that is no checkpoint is never removed)."""
+    from rcmplan.sweep.checkpoint import Checkpoint, discard
     from rcmplan.sweep.errors import CheckpointError
 
-    if args.resume and args.overwrite:
-        raise CheckpointError(path, "--resume and --overwrite exclude each other")
-    if args.overwrite and path.exists():
-        if path.is_dir() and not any(path.iterdir()):
-            pass
-        elif not (path / HEADER).is_file():
-            raise CheckpointError(path, "is not a checkpoint folder (no header.json); not removed")
-        else:
-            shutil.rmtree(path)
+    if not resume:
+        discard(path)
     try:
-        return Checkpoint.open(path, settings, args.resume)
+        return Checkpoint.open(path, settings, resume)
     except CheckpointError as exc:
-        hint = "" if args.resume else "; or rerun with --overwrite to discard it"
+        hint = "; rerun without --resume to start afresh" if resume else ""
         raise CheckpointError(exc.path, exc.problem + hint) from exc
 
 
@@ -225,8 +165,7 @@ REACH_ROLLS = 12  # needle rolls tried per retina point by the curved needle's r
 def run_curved_reach(args: argparse.Namespace, out: Path) -> int | None:
     """A curved needle's scenario: the reach map from poses (`rcmplan.scene.reach`, --targets
     points over the retinal sphere) beside the straight shaft's; None for a straight needle."""
-    import json
-
+    from rcmplan._atomic import write_text
     from rcmplan.control.curved import curved
     from rcmplan.robot.registry import make_robot
     from rcmplan.scene.reach import reach_map
@@ -235,15 +174,18 @@ def run_curved_reach(args: argparse.Namespace, out: Path) -> int | None:
     sc = load_scenario(args.scenario)
     if sc.needle.kind != "curved":
         return None
+    if args.robot:
+        sc = sc.with_robot(args.robot)
+    points = integer("--targets", args.targets, 1, MAX_TARGETS)
     robot = curved(sc.needle.fit(make_robot(sc.robot)))
-    m = reach_map(robot, sc.eye(robot), n=args.targets, rolls=REACH_ROLLS)
-    s = {"scenario": sc.name, "robot": robot.name, "needle": "curved",
-         "radius_m": sc.needle.radius, "arc_angle_rad": sc.needle.arc_angle,
-         "lattice_points": args.targets, "rolls": REACH_ROLLS, **m.summary()}  # fmt: skip
-    (out / "summary.json").write_text(json.dumps(s, indent=2))
+    m = reach_map(robot, sc.eye(robot), n=points, rolls=REACH_ROLLS)
+    s = {"command": "sweep", "status": "ok", "message": "", "scenario": sc.name,
+         "robot": robot.name, "needle": "curved", "radius_m": sc.needle.radius,
+         "arc_angle_rad": sc.needle.arc_angle, "lattice_points": points, "rolls": REACH_ROLLS,
+         **m.summary()}  # fmt: skip
+    write_text(out / "summary.json", json.dumps(s, indent=2))
+    interrupts.finished()
     if args.json:
-        from rcmplan.cli.common import print_json
-
         print_json(s)
     else:
         from rcmplan.analysis.units import fmt
@@ -256,20 +198,50 @@ def run_curved_reach(args: argparse.Namespace, out: Path) -> int | None:
 def run(args: argparse.Namespace) -> int:
     """Run the sweep (and the gain search), write the outputs, print the tables.
 
-    Interrupted (SIGINT, SIGTERM), it stops the workers, writes summary.json with status
-    "interrupted" (the finished results stay in the checkpoint for --resume) and re-raises
-    the interrupt (exit 130 or 143).
+    Refused (bad options, no reachable target, a scheduler that does not answer), it writes
+    summary.json with the error's status and re-raises (exit 2). Interrupted (SIGINT,
+    SIGTERM), it stops the workers, writes summary.json with status "interrupted" (the
+    finished results stay in the checkpoint for --resume) and re-raises the interrupt (exit
+    130 or 143).
     """
     from rcmplan.analysis.report import prepare_folder
-    from rcmplan.sweep.executors import check_timeout, make_executor
 
-    check_timeout(args.timeout)
     out = prepare_folder(args.out)
-    reach = run_curved_reach(args, out)
-    if reach is not None:
-        return reach
+    try:
+        check_options(args)
+        reach = run_curved_reach(args, out)
+        if reach is not None:
+            return reach
+        return run_straight(args, out)
+    except RcmplanError as exc:
+        with interrupts.shielded():
+            doc = {"scenario": args.scenario, "status": exc.status,
+                   "message": one_line(f"{type(exc).__name__}: {exc}")}  # fmt: skip
+            interrupts.write_stop_file(out, "sweep", doc)
+        raise
+
+
+MAX_WORKERS = 1024  # local processes one sweep starts at most
+
+
+def check_options(args: argparse.Namespace) -> None:
+    """The options a sweep's settings do not hold, each under its own name and unit."""
+    from rcmplan.sweep.executors import check_timeout
+
+    check_timeout(args.timeout, "--timeout")
+    if args.workers is not None:
+        integer("--workers", args.workers, 1, MAX_WORKERS)
+    if args.gain_search != "none":
+        check_search_options(args)
+
+
+def run_straight(args: argparse.Namespace, out: Path) -> int:
+    """The sweep of a straight needle: targets on the executor, checkpointed, then the maps."""
+    from rcmplan.sweep.executors import make_executor
+
     settings = settings_from_args(args)
-    checkpoint = open_checkpoint(Path(args.checkpoint or out / "checkpoint"), settings, args)
+    checkpoint = open_checkpoint(Path(args.checkpoint or out / "checkpoint"), settings,
+                                 args.resume)  # fmt: skip
     try:
         with interrupts.surfaced():
             with make_executor(args.workers, args.scheduler, args.timeout) as executor:
@@ -282,28 +254,8 @@ def run(args: argparse.Namespace) -> int:
         raise
     interrupts.finished()
     if args.json:
-        from rcmplan.cli.common import print_json
-
         print_json(s)
     else:
         print_tables(s, gains)
         print(f"outputs in {out}/")
     return 0
-
-
-def write_interrupted(out: Path, checkpoint: Checkpoint, exc: BaseException) -> None:
-    """summary.json of an interrupted sweep: status, why, and the results kept for --resume."""
-    from rcmplan._atomic import write_text
-
-    with interrupts.shielded():
-        try:
-            kept = len(checkpoint.load())
-        except RcmplanError:
-            kept = 0
-        name = interrupts.signal_name(exc)
-        message = (f"interrupted by {name}; {kept} finished results are kept in "
-                   f"{checkpoint.path}; rerun with --resume to continue")  # fmt: skip
-        doc = {"status": "interrupted", "message": message, "checkpoint": str(checkpoint.path),
-               "results_kept": kept}  # fmt: skip
-        write_text(out / "summary.json", json.dumps(doc, indent=2))
-        print(f"rcmplan sweep: {message}", file=sys.stderr)

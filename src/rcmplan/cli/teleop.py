@@ -8,18 +8,20 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+from rcmplan._validate import integer, scalar
 from rcmplan.cli import interrupts
 from rcmplan.cli.common import (
-    ROBOT_HELP,
+    SEED_MAX,
+    add_json,
+    add_no_plots,
+    add_out,
+    add_plant,
+    add_robot,
+    add_scenario,
     announce_robot,
-    finish,
-    interrupted_message,
-    one_line,
-    robot_arg,
-    table,
 )
+from rcmplan.cli.output import finish, interrupted_message, one_line, table
 from rcmplan.exceptions import RcmplanError
-from rcmplan.sim.registry import PLANTS
 
 FILTERS = ("none", "lowpass", "wflc")  # rcmplan.teleop.FILTERS (a test checks they agree)
 
@@ -34,28 +36,53 @@ def register(sub: argparse._SubParsersAction) -> None:
         "speed held by the QP at every 1 kHz period. The default input is a 20 s synthetic "
         "surgeon (100 um RMS tremor) who pushes the tip past the retina margin once.",
     )  # fmt: skip
+    add_scenario(
+        p,
+        None,
+        "scenario lending its robot and plant (a straight needle, the robot's default eye)",
+        unset="none: iramis on the kinematic plant",
+    )
+    add_robot(p, unset="the scenario's, else iramis")
+    add_plant(p, unset="the scenario's, else kinematic")
     p.add_argument("--input", default="synthetic", metavar="synthetic|FILE",
                    help="'synthetic' or a replay file (.csv or .npz; docs/teleop.md)")  # fmt: skip
     p.add_argument("--scale", type=float, default=20.0, help="motion scaling, 1-50 (20)")
     p.add_argument("--filter", choices=FILTERS, default="wflc", help="tremor filter (wflc)")
-    p.add_argument("--plant", choices=sorted(PLANTS), default="kinematic", help="plant")
-    p.add_argument("--robot", type=robot_arg, default="iramis", metavar="NAME|FILE.toml",
-                   help=f"{ROBOT_HELP} (iramis)")  # fmt: skip
     p.add_argument("--seed", type=int, default=0, help="seed of the synthetic surgeon (0)")
     p.add_argument("--tremor-um", type=float, default=100.0,
-                   help="synthetic tremor, RMS of its 3-D magnitude in um (100)")  # fmt: skip
-    p.add_argument("--out", default=None, help="output folder (default: rcmplan-out/teleop)")
-    p.add_argument("--json", action="store_true", help="print summary.json instead of the table")
-    p.add_argument("--no-plots", action="store_true", help="skip the figures")
-    p.set_defaults(run=run, out_default="rcmplan-out/teleop")
+                   help="synthetic tremor, RMS of its 3-D magnitude, 0-5000 um "
+                   "(100)")  # fmt: skip
+    add_out(p, "teleop")
+    add_json(p)
+    add_no_plots(p)
+    p.set_defaults(run=run)
+
+
+def settings_of(args: argparse.Namespace) -> Any:
+    """TeleopSettings from the options, each checked under its own name and unit; a scenario
+    lends its robot and plant where --robot and --plant do not name them."""
+    from rcmplan.teleop import TeleopSettings
+    from rcmplan.teleop.scaling import SCALE_RANGE
+    from rcmplan.teleop.settings import session_scenario
+
+    robot, plant = args.robot or "iramis", args.plant or "kinematic"
+    if args.scenario:
+        sc = session_scenario(args.scenario, args.robot)[0]
+        robot, plant = sc.robot, args.plant or sc.plant
+    announce_robot(robot, "teleop")
+    scale = scalar("--scale", args.scale, *SCALE_RANGE)
+    return TeleopSettings(robot=robot, plant=plant, scale=scale, filter=args.filter)
 
 
 def track_of(args: argparse.Namespace, settings: Any) -> Any:
     """The input track: the synthetic surgeon, or the file (checked row by row)."""
     from rcmplan.teleop import SyntheticSurgeon, read_track
+    from rcmplan.teleop.synthetic import TREMOR_RMS_MAX_M
 
     if args.input == "synthetic":
-        return SyntheticSurgeon(seed=args.seed, tremor_rms=args.tremor_um * 1e-6).track()
+        seed = integer("--seed", args.seed, 0, SEED_MAX)
+        tremor_um = scalar("--tremor-um", args.tremor_um, 0.0, 1e6 * TREMOR_RMS_MAX_M)
+        return SyntheticSurgeon(seed=seed, tremor_rms=tremor_um * 1e-6).track()
     return read_track(args.input, settings.max_input_speed)
 
 
@@ -64,16 +91,14 @@ def run(args: argparse.Namespace) -> int:
     broke a fixture. Interrupted, it writes what it has with status "interrupted" and
     re-raises (exit 130 or 143)."""
     from rcmplan.analysis.report import prepare_folder
-    from rcmplan.teleop import TeleopSettings, run_replay
+    from rcmplan.teleop import run_replay
     from rcmplan.teleop.outputs import write_outputs
 
-    out = prepare_folder(args.out or args.out_default)
+    out = prepare_folder(args.out)
     result, doc = None, None
     try:
         with interrupts.surfaced():
-            announce_robot(args.robot, "teleop")
-            settings = TeleopSettings(robot=args.robot, plant=args.plant, scale=args.scale,
-                                      filter=args.filter)  # fmt: skip
+            settings = settings_of(args)
             track = track_of(args, settings)
             result = run_replay(settings, track)
             doc, _ = write_outputs(result, out, figures=not args.no_plots)

@@ -14,6 +14,7 @@ path's first point, the path, back to p3, retract and withdraw.
 from __future__ import annotations
 
 import csv
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -21,11 +22,12 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.phase import Phase
-from rcmplan.exceptions import InvalidInputError
+from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.exceptions import ActuatorLimitError, InvalidInputError, UnreachableTargetError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import Eye, eye_frame
-from rcmplan.scene.procedures import path_procedure
+from rcmplan.scene.procedures import check_inside, path_procedure
 from rcmplan.scene.scenario import Scenario
 
 MM = 1e-3
@@ -72,11 +74,15 @@ def _numeric(row: list[str]) -> bool:
 
 
 def with_targets(sc: Scenario, targets_eye_mm: list[tuple[float, float, float]]) -> Scenario:
-    """The scenario's injection visiting the given eye-frame points (mm) instead of p4..p7."""
+    """The scenario's injection visiting the given eye-frame points (mm) instead of p4..p7,
+    each checked before any motion (`check_tip_points`)."""
     if not 1 <= len(targets_eye_mm) <= len(SLOTS):
         raise InvalidInputError("--target", len(targets_eye_mm), "1 to 4 targets")
-    eye = sc.eye(make_robot(sc.robot))
-    base = to_base(eye, np.array(targets_eye_mm))
+    robot = sc.needle.fit(make_robot(sc.robot))  # the model the run moves
+    eye = sc.eye(robot)
+    points = np.array(targets_eye_mm, dtype=float)
+    check_tip_points(robot, eye, points, lambda i: f"--target {_typed(points[i])}")
+    base = to_base(eye, points)
     overrides = dict(sc.point_overrides)
     overrides.update({s: tuple(p) for s, p in zip(SLOTS, base, strict=False)})
     return replace(sc, procedure="injection", point_overrides=overrides,
@@ -96,10 +102,69 @@ class PathScenario(Scenario):
 
 
 def with_path(sc: Scenario, path_eye_mm: FloatArray) -> PathScenario:
-    """The scenario following the given eye-frame tip path (mm) from p3."""
-    eye = sc.eye(make_robot(sc.robot))
-    base = to_base(eye, path_eye_mm)
+    """The scenario following the given eye-frame tip path (mm) from p3; every point checked
+    inside the eye and some (`POSED_PATH_POINTS` spread over the path, and its last) for a
+    pose, before any motion (`check_tip_points`)."""
+    robot = sc.needle.fit(make_robot(sc.robot))  # the model the run moves
+    eye = sc.eye(robot)
+    points = np.asarray(path_eye_mm, dtype=float)
+    every = max(1, len(points) // POSED_PATH_POINTS)
+    check_tip_points(robot, eye, points, lambda i: f"--path point {i + 1} "
+                     f"({_typed(points[i], ', ')})", every)  # fmt: skip
     fields = {f: getattr(sc, f) for f in sc.__dataclass_fields__}
     fields["procedure"] = "path"
-    points = tuple((float(p[0]), float(p[1]), float(p[2])) for p in base)
-    return PathScenario(**fields, path_m=points)
+    path_m = tuple((float(p[0]), float(p[1]), float(p[2])) for p in to_base(eye, points))
+    return PathScenario(**fields, path_m=path_m)
+
+
+POSED_PATH_POINTS = 24  # path points checked for a pose before motion (the procedure's count)
+
+
+def check_tip_points(
+    robot: RobotModel, eye: Eye, points_eye_mm: FloatArray, label: Callable[[int], str],
+    every: int = 1,
+) -> None:  # fmt: skip
+    """Raise UnreachableTargetError, in the eye frame and in mm and naming point i as
+    `label(i)` gives it, unless each point lies inside the retina and in front of the trocar
+    and each `every`-th point (and the last) has a pose with the RCM at the trocar."""
+    base = to_base(eye, points_eye_mm)
+    posed = {*range(0, len(base), every), len(base) - 1}
+    for i, p in enumerate(base):
+        try:
+            check_inside(eye, "the point", p)
+            if i in posed:
+                solve_pose(robot, rcm_target(p, eye.port))
+        except UnreachableTargetError as exc:
+            why = eye_frame_reason(exc, robot, eye, points_eye_mm[i])
+            raise UnreachableTargetError(f"{label(i)} (mm, eye frame) {why}") from exc
+
+
+def eye_frame_reason(
+    exc: UnreachableTargetError, robot: RobotModel, eye: Eye, point_eye_mm: FloatArray
+) -> str:
+    """Why a point is out of reach, in mm: an actuator's travel and the retina in the user's
+    terms, the check's own words where they carry no position, and any other reason labelled
+    as the robot's base frame it is stated in."""
+    cause = exc.__cause__
+    if isinstance(cause, ActuatorLimitError):
+        kind = str(cause).split(" ", 1)[0]  # "slider" or "joint", as the model names them
+        k, unit = (1e3, "mm") if robot.actuator_units[cause.index] == "m" else (1.0, "rad")
+        value, lo, hi = k * cause.value, k * cause.lower, k * cause.upper
+        past = value - hi if value > hi else lo - value
+        return (f"is out of reach: {kind} {cause.slider} would be at {value:.6g} {unit}, "
+                f"{past:.3g} {unit} beyond its travel [{lo:.6g}, {hi:.6g}] {unit}")  # fmt: skip
+    if eye.distance_to_retina(to_base(eye, point_eye_mm[None, :])[0]) < -1e-9:
+        r_mm, retina_mm = float(np.linalg.norm(point_eye_mm)), 1e3 * eye.retina_radius
+        return (f"lies {r_mm - retina_mm:.4g} mm outside the retina, the sphere of radius "
+                f"{retina_mm:.4g} mm about the eye centre (the origin)")  # fmt: skip
+    if exc.reason.startswith(FRAMELESS_REASONS):
+        return f"is out of reach: {exc.reason}"
+    return f"is out of reach: {exc.reason} (robot base frame)"
+
+
+FRAMELESS_REASONS = ("lambda = ", "needle angles ")  # `solve_pose` refusals without positions
+
+
+def _typed(p: FloatArray, sep: str = ",") -> str:
+    """A point's coordinates as typed: 1.5,-2,6."""
+    return sep.join(f"{v:g}" for v in p)

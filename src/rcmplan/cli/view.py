@@ -14,10 +14,9 @@ import threading
 from typing import Any
 
 from rcmplan.cli import interrupts
-from rcmplan.cli.common import ROBOT_HELP, robot_arg
+from rcmplan.cli.common import add_plant, add_robot, add_scenario
 from rcmplan.cli.teleop import FILTERS  # not rcmplan.teleop: its import costs scipy.signal
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.scene.scenario import PLANTS
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -35,11 +34,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (127.0.0.1)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
     live = p.add_argument_group("live mode")
-    live.add_argument("--scenario", default="default", help="scenario of the eye (default)")
-    live.add_argument("--robot", type=robot_arg, metavar="NAME|FILE.toml",
-                      help=f"{ROBOT_HELP} (default: the scenario's)")  # fmt: skip
-    live.add_argument("--plant", choices=PLANTS, default="kinematic",
-                      help="plant the live control drives (kinematic)")  # fmt: skip
+    add_scenario(live, "default", "scenario of the robot, the eye and the start point p3")
+    add_robot(live)
+    add_plant(live, default="kinematic")
     live.add_argument("--scale", type=float, default=1.0,
                       help="motion scaling in [1, 50]: the tip moves 1/scale of the "
                       "gizmo (1)")  # fmt: skip
@@ -66,10 +63,13 @@ def checked_source(args: argparse.Namespace) -> Any:
     """What the view will show, read and checked before any server starts: the live settings,
     or the runs of RUN_DIR."""
     if args.live:
+        from rcmplan._validate import scalar
+        from rcmplan.teleop.scaling import SCALE_RANGE
         from rcmplan.view.live import live_settings
 
+        scale = scalar("--scale", args.scale, *SCALE_RANGE)
         return live_settings(args.scenario, args.robot, args.plant, not args.no_realtime,
-                             args.scale, args.filter)  # fmt: skip
+                             scale, args.filter)  # fmt: skip
     from rcmplan.view.run_folder import load_runs
 
     return load_runs(args.run_dir)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -57,6 +58,17 @@ def _read_json(path: Path) -> Any:
         return json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise CheckpointError(path, f"is not readable JSON ({exc}); it is corrupt") from exc
+
+
+def discard(path: str | Path) -> None:
+    """Remove the checkpoint folder at `path` (nothing there, or an empty folder: nothing to
+    do); CheckpointError, nothing removed, when `path` is not a checkpoint folder."""
+    folder = Path(path)
+    if not folder.exists() or (folder.is_dir() and not any(folder.iterdir())):
+        return
+    if not (folder / HEADER).is_file():
+        raise CheckpointError(folder, "is not a checkpoint folder (no header.json); not removed")
+    shutil.rmtree(folder)
 
 
 class Checkpoint:

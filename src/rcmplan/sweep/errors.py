@@ -27,6 +27,8 @@ class CheckpointError(RcmplanError):
         problem: What is wrong with it.
     """
 
+    status = "checkpoint_error"
+
     def __init__(self, path: str | Path, problem: str) -> None:
         self.path = Path(path)
         self.problem = problem
@@ -40,6 +42,8 @@ class SchedulerError(RcmplanError):
         address: The scheduler address.
         timeout_s: The connection timeout in [s].
     """
+
+    status = "scheduler_error"
 
     def __init__(self, address: str, timeout_s: float, problem: str) -> None:
         self.address = address

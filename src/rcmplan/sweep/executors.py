@@ -46,14 +46,15 @@ class Executor(Protocol):
         ...
 
 
-def check_timeout(timeout_s: float) -> float:
-    """timeout_s as a float, or InvalidInputError unless it is positive and finite."""
+def check_timeout(timeout_s: float, name: str = "timeout") -> float:
+    """timeout_s as a float, or InvalidInputError (naming the argument `name`) unless it is
+    positive and finite."""
     try:
         t = float(timeout_s)
     except (TypeError, ValueError, OverflowError):
         t = math.nan
     if not (math.isfinite(t) and t > 0):
-        raise InvalidInputError("timeout", timeout_s, "a positive finite time in s")
+        raise InvalidInputError(name, timeout_s, "a positive finite time in s")
     return t
 
 

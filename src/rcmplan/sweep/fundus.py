@@ -24,7 +24,7 @@ from rcmplan.sweep.sampling import MISSES_RETINA, REACHABLE, Sample, trocar_fram
 CAUSES = (
     "converged",
     "motion failed",
-    "slider travel",
+    "actuator travel",
     "singular margin",
     "RCM cone (RCM off the needle)",
     "other robot limit",
@@ -35,7 +35,7 @@ CONVERGED, FAILED, SLIDER, SINGULAR, CONE, OTHER, WALL = range(len(CAUSES))
 
 def refusal_cause(reason: str) -> int:
     """The cause index of an unreachable target from its refusal message."""
-    if reason.startswith("slider "):
+    if reason.startswith(("slider ", "joint ")):
         return SLIDER
     if "leave the reach |cos" in reason or "singular" in reason:
         return SINGULAR

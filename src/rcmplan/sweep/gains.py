@@ -45,6 +45,7 @@ DEFAULT_GRID: dict[str, tuple[float, ...]] = {
 }
 GAIN_BOUNDS = (0.05, 1.95)
 STEP_BOUNDS = (0.05 * MM, 2.0 * MM)
+RCM_BOUND_MAX_M = 1e-2  # the largest RCM-deviation bound a gain search accepts [m]
 
 
 @dataclass(frozen=True)
@@ -60,7 +61,7 @@ class Objective:
     penalty: float = 1e4
 
     def __post_init__(self) -> None:
-        scalar("rcm_bound_m", self.rcm_bound_m, 0.0, 1e-2, low_open=True)
+        scalar("rcm_bound_m", self.rcm_bound_m, 0.0, RCM_BOUND_MAX_M, low_open=True)
         scalar("penalty", self.penalty, 0.0, math.inf, low_open=True)
 
 

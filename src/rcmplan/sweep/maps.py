@@ -2,7 +2,7 @@
 
 Each target is a dot where its ray meets the retina, in fundus coordinates (`fundus.py`): the
 retina unrolled about the point opposite the trocar, arc lengths in [mm], +z_base up. Maps:
-reachability with each unreachable target coloured by its cause (slider travel, singular
+reachability with each unreachable target coloured by its cause (actuator travel, singular
 margin, RCM cone, eye wall), maximum RCM deviation in [um] and control iterations. The dashed
 curve is the edge of the sampled cone.
 """
@@ -16,7 +16,6 @@ import numpy as np
 
 from rcmplan.analysis import style
 from rcmplan.analysis.style import BLACK, BLUE, GREEN, ORANGE, PURPLE, SKY, VERMILLION
-from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.eye import Eye
 from rcmplan.sweep import fundus
 from rcmplan.sweep.gains import GainSearchResult
@@ -31,7 +30,8 @@ ORIENTATION = "fundus view about the point opposite the trocar; up = +z_base"
 
 
 def _eye(result: SweepResult) -> Eye:
-    return result.settings.motion.eye(Iramis())
+    motion = result.settings.motion
+    return motion.eye(motion.model())
 
 
 def _axes(plt: Any, result: SweepResult, eye: Eye, title: str) -> tuple[Any, Any]:

@@ -13,7 +13,6 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from rcmplan.robot.iramis import Iramis
 from rcmplan.sweep.checkpoint import Checkpoint
 from rcmplan.sweep.errors import CheckpointError
 from rcmplan.sweep.executors import Executor, LocalExecutor, make_chunks
@@ -102,7 +101,7 @@ def run_sweep(
         on_sample: Called once with the sample, before any motion.
     """
     start = time.perf_counter()
-    sample = sample_region(settings.region, settings.motion, Iramis())
+    sample = sample_region(settings.region, settings.motion)
     if on_sample is not None:
         on_sample(sample)
     own = executor is None

@@ -25,7 +25,7 @@ from numpy.typing import NDArray
 from rcmplan._validate import FloatArray
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import UnreachableTargetError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.scene.eye import Eye
 from rcmplan.sweep.errors import EmptyRegionError
 from rcmplan.sweep.settings import MotionSettings, Region
@@ -104,7 +104,7 @@ def start_point(eye: Eye, motion: MotionSettings) -> FloatArray:
     return np.asarray(eye.port + motion.start_depth * eye.axis)
 
 
-def classify(robot: Iramis, eye: Eye, direction: FloatArray, standoff: float) -> tuple[
+def classify(robot: RobotModel, eye: Eye, direction: FloatArray, standoff: float) -> tuple[
     int, FloatArray, str
 ]:  # fmt: skip
     """(status, target point, reason) of one ray."""
@@ -119,14 +119,16 @@ def classify(robot: Iramis, eye: Eye, direction: FloatArray, standoff: float) ->
     return REACHABLE, point, ""
 
 
-def sample_region(region: Region, motion: MotionSettings, robot: Iramis | None = None) -> Sample:
+def sample_region(
+    region: Region, motion: MotionSettings, robot: RobotModel | None = None
+) -> Sample:
     """Sample the region's rays, mark each target's reachability, or raise if none is reachable.
 
     Raises:
         UnreachableTargetError: The start point p3 itself is unreachable.
         EmptyRegionError: No sampled target is reachable.
     """
-    robot = robot or Iramis()
+    robot = robot or motion.model()
     eye = motion.eye(robot)
     start = start_point(eye, motion)
     solve_pose(robot, rcm_target(start, eye.port))

@@ -6,19 +6,22 @@ checkpoint header and print as JSON. SI units throughout: m, rad, s.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any, Literal
 
-from rcmplan._validate import scalar
+from rcmplan._validate import integer, scalar
 from rcmplan._version import __version__
 from rcmplan.control.methods import METHODS, MethodSettings
 from rcmplan.control.phase import LoopSettings
 from rcmplan.control.solvers import Tolerance, check_damping, check_gains
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
+from rcmplan.robot.registry import check_robot, is_robot_file, make_robot
 from rcmplan.scene.eye import Eye, default_eye
 from rcmplan.scene.procedures import Steps
 from rcmplan.scene.scenario import Scenario
@@ -27,6 +30,7 @@ from rcmplan.sim.registry import PLANTS
 SamplingKind = Literal["grid", "random"]
 SAMPLINGS = ("grid", "random")
 FORMAT_VERSION = 1
+MAX_TARGETS = 1_000_000  # rays one sweep samples at most
 
 
 @dataclass(frozen=True)
@@ -35,7 +39,7 @@ class Region:
 
     Attributes:
         max_angle: Half-angle of the cone in [rad], in (0, pi/2).
-        n_targets: Number of rays sampled (reachable or not), >= 1.
+        n_targets: Number of rays sampled (reachable or not), 1 to MAX_TARGETS.
         sampling: "grid" (deterministic equal-area spiral) or "random" (seeded, uniform on the
             cone's solid angle).
         seed: Seed of the "random" sampling.
@@ -50,10 +54,7 @@ class Region:
 
     def __post_init__(self) -> None:
         scalar("max_angle", self.max_angle, 0.0, 0.5 * math.pi, low_open=True, high_open=True)
-        if not isinstance(self.n_targets, int) or isinstance(self.n_targets, bool):
-            raise InvalidInputError("n_targets", self.n_targets, "an integer >= 1")
-        if self.n_targets < 1:
-            raise InvalidInputError("n_targets", self.n_targets, "an integer >= 1 (empty region)")
+        integer("n_targets", self.n_targets, 1, MAX_TARGETS)
         if self.sampling not in SAMPLINGS:
             raise InvalidInputError("sampling", self.sampling, f"one of {SAMPLINGS}")
         scalar("standoff", self.standoff, 0.0, 5e-3)
@@ -77,6 +78,7 @@ class MotionSettings:
         insertion_angles: Needle angles (phi, psi) of the insertion axis in [rad].
         start_depth: Depth of the start point p3 on the insertion axis inside the trocar in [m].
         plant: Plant each target's motion runs on (rcmplan.sim.registry.PLANTS).
+        robot: The robot: a name (`rcmplan.robot.registry.ROBOTS`) or a robot file (.toml).
     """
 
     method: str = "pinv"
@@ -96,8 +98,10 @@ class MotionSettings:
     insertion_angles: tuple[float, float] = (0.05, 0.12)
     start_depth: float = 8e-3
     plant: str = "kinematic"
+    robot: str = "iramis"
 
     def __post_init__(self) -> None:
+        check_robot(self.robot)
         if self.method not in METHODS:
             raise InvalidInputError("method", self.method, f"one of {METHODS}")
         if self.plant not in PLANTS:
@@ -110,7 +114,11 @@ class MotionSettings:
         scalar("dt", self.dt, 0.0, 0.1, low_open=True)
         scalar("start_depth", self.start_depth, 0.0, 2 * self.eye_radius, low_open=True)
 
-    def eye(self, robot: Iramis) -> Eye:
+    def model(self) -> RobotModel:
+        """The robot model (loaded once per process and robot)."""
+        return _model(self.robot)
+
+    def eye(self, robot: RobotModel) -> Eye:
         """The eye placed for the robot."""
         return default_eye(
             robot,
@@ -159,8 +167,14 @@ class MotionSettings:
             insertion_angles=tuple(eye.get("insertion_angles", (0.05, 0.12))),
             start_depth=scenario.point_options.get("depth", 8e-3),
             plant=scenario.plant,
+            robot=scenario.robot,
         )
         return replace(base, **changes)
+
+
+@functools.lru_cache(maxsize=4)
+def _model(robot: str) -> RobotModel:
+    return make_robot(robot)
 
 
 @dataclass(frozen=True)
@@ -176,20 +190,26 @@ class SweepSettings:
 
     def digest(self) -> str:
         """SHA-256 over the settings, the robot parameters and the format and package versions."""
-        return settings_digest(self.as_dict())
+        return settings_digest(self.as_dict(), self.motion.robot)
 
 
-def robot_parameters() -> dict[str, Any]:
-    """The default robot's parameters as plain values (sources left out)."""
+def robot_parameters(robot: str = "iramis") -> dict[str, Any]:
+    """What defines the robot: iRAM!S's parameters as plain values (sources left out), a robot
+    file's SHA-256, or a shipped arm's name (its file ships with this version)."""
+    if is_robot_file(robot):
+        with open(robot, "rb") as fh:
+            return {"file": robot, "sha256": hashlib.sha256(fh.read()).hexdigest()}
+    if robot != "iramis":
+        return {"name": robot}
     p = Iramis().params
     return {f.name: getattr(p, f.name) for f in fields(p) if f.name != "sources"}
 
 
-def settings_digest(settings: dict[str, Any]) -> str:
+def settings_digest(settings: dict[str, Any], robot: str = "iramis") -> str:
     """SHA-256 (hex) of canonical JSON of the settings, robot, format and rcmplan version."""
     payload = {
         "settings": settings,
-        "robot": robot_parameters(),
+        "robot": robot_parameters(robot),
         "format": FORMAT_VERSION,
         "rcmplan": __version__,
     }

@@ -31,7 +31,7 @@ from rcmplan.exceptions import (
     SliderLimitError,
     UnreachableTargetError,
 )
-from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel
 from rcmplan.scene.eye import Eye, default_points
 from rcmplan.scene.procedures import line_targets
 from rcmplan.sim.registry import make_plant
@@ -95,9 +95,9 @@ class TargetResult:
 
 
 @functools.lru_cache(maxsize=16)
-def scene(motion: MotionSettings) -> tuple[Iramis, Eye, FloatArray, FloatArray]:
-    """(robot, eye, start point p3, start sliders), built once per worker process."""
-    robot = Iramis()
+def scene(motion: MotionSettings) -> tuple[RobotModel, Eye, FloatArray, FloatArray]:
+    """(robot, eye, start point p3, start actuators), built once per worker process."""
+    robot = motion.model()
     eye = motion.eye(robot)
     start = start_point(eye, motion)
     pose = solve_pose(robot, rcm_target(start, eye.port))

@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from rcmplan._validate import scalar, vector
 from rcmplan.exceptions import InvalidInputError
@@ -13,6 +16,11 @@ from rcmplan.teleop.fixtures import Fixtures
 from rcmplan.teleop.samples import MAX_SPEED_M_S
 from rcmplan.teleop.scaling import SCALE_RANGE
 from rcmplan.teleop.wflc import WflcFilter
+
+if TYPE_CHECKING:
+    from rcmplan.robot.model import RobotModel
+    from rcmplan.scene.eye import Eye
+    from rcmplan.scene.scenario import Scenario
 
 
 @dataclass(frozen=True)
@@ -75,3 +83,27 @@ class TeleopSettings:
         if self.filter == "wflc":
             return WflcFilter(self.rate_hz)
         return NoFilter()
+
+
+def session_scenario(scenario: str, robot: str | None = None) -> tuple[Scenario, RobotModel, Eye]:
+    """The scenario a session runs in (name or file; `robot` in place of its own when given),
+    its robot model and its eye. Raises InvalidInputError for a curved needle (a session's
+    target is a tip point with the RCM: a straight needle's task) or an eye other than the
+    robot's default one (the one `Session` places)."""
+    from rcmplan.robot.registry import make_robot
+    from rcmplan.scene.eye import default_eye
+    from rcmplan.scene.scenario import load_scenario
+
+    sc = load_scenario(scenario)
+    if robot:
+        sc = sc.with_robot(robot)
+    if sc.needle.kind != "straight":
+        raise InvalidInputError("scenario needle", sc.needle.kind, "'straight' in a session")
+    model = make_robot(sc.robot)
+    eye, default = sc.eye(model), default_eye(model)
+    if not (np.allclose(eye.center, default.center, rtol=0.0, atol=1e-12)
+            and np.allclose(eye.port, default.port, rtol=0.0, atol=1e-12)
+            and eye.radius == default.radius and eye.wall == default.wall):  # fmt: skip
+        raise InvalidInputError("scenario eye", sc.eye_options,
+                                "the robot's default eye in a session")  # fmt: skip
+    return sc, model, eye

@@ -37,6 +37,7 @@ from rcmplan.teleop.motion_plan import DEFAULT_PLAN, MotionPlan
 from rcmplan.teleop.samples import MasterTrack, check_track
 
 TREMOR_BAND_HZ = (6.0, 16.0)
+TREMOR_RMS_MAX_M = 5e-3  # the largest synthetic tremor accepted, RMS of its 3-D magnitude [m]
 
 
 @dataclass(frozen=True)
@@ -69,7 +70,7 @@ class SyntheticSurgeon:
         if not isinstance(self.seed, int) or isinstance(self.seed, bool) or self.seed < 0:
             raise InvalidInputError("seed", self.seed, "an integer >= 0")
         scalar("rate_hz", self.rate_hz, 100.0, 10_000.0)
-        scalar("tremor_rms", self.tremor_rms, 0.0, 5e-3)
+        scalar("tremor_rms", self.tremor_rms, 0.0, TREMOR_RMS_MAX_M)
         scalar("tremor_frequency_hz", self.tremor_frequency_hz, *TREMOR_BAND_HZ)
         scalar("frequency_drift_hz", self.frequency_drift_hz, 0.0, 5.0)
         scalar("amplitude_drift", self.amplitude_drift, 0.0, 0.5)

@@ -20,10 +20,9 @@ from typing import Any
 import numpy as np
 
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.scene.eye import default_eye, eye_frame
+from rcmplan.scene.eye import eye_frame
 from rcmplan.scene.record import SceneRecord
-from rcmplan.scene.scenario import load_scenario
-from rcmplan.teleop.settings import TeleopSettings
+from rcmplan.teleop.settings import TeleopSettings, session_scenario
 from rcmplan.view.camera import CameraViews
 from rcmplan.view.links import robot_links
 from rcmplan.view.live_control import LiveSettings, LiveState
@@ -48,20 +47,7 @@ def live_settings(
     curved needle (the live target is a tip point with the RCM: a straight needle's task), an
     eye other than the robot's default one (the teleoperation session's), a start point
     outside the fixtures."""
-    from rcmplan.robot.registry import make_robot
-
-    sc = load_scenario(scenario)
-    if robot:
-        sc = sc.with_robot(robot)
-    if sc.needle.kind != "straight":
-        raise InvalidInputError("scenario needle", sc.needle.kind, "'straight' in live mode")
-    model = make_robot(sc.robot)
-    eye, default = sc.eye(model), default_eye(model)
-    if not (np.allclose(eye.center, default.center, rtol=0.0, atol=1e-12)
-            and np.allclose(eye.port, default.port, rtol=0.0, atol=1e-12)
-            and eye.radius == default.radius and eye.wall == default.wall):  # fmt: skip
-        raise InvalidInputError("scenario eye", sc.eye_options,
-                                "the robot's default eye in live mode")  # fmt: skip
+    sc, model, eye = session_scenario(scenario, robot)
     points = sc.points(eye).as_dict()
     start = eye_frame(eye).T @ (points["p3"] - eye.center)
     teleop = TeleopSettings(robot=sc.robot, plant=plant, scale=scale, filter=filter,

@@ -1,7 +1,8 @@
 """Read a run folder for the view: the log, summary.json and its scene, every file checked.
 
 A run folder is what `rcmplan inject`, `spiral` and `teleop` write (`summary.json`, `log.npz`,
-`log.csv`, ...); `rcmplan compare` writes `compare.json` and one run folder per method. Any
+`log.csv`, ...); `rcmplan compare` writes a summary.json listing its `methods` and one run
+folder per method (an older version wrote `compare.json` instead of that summary). Any
 other folder, a log written by another version of rcmplan (fields missing, another layout, no
 `scene` block), or a truncated file raises RunFolderError naming the file and what is wrong,
 before a server starts.
@@ -25,7 +26,8 @@ from rcmplan.scene.record import SceneRecord, read_scene_record
 
 WHAT_A_RUN_IS = (
     "a run folder holds summary.json and log.npz (written by rcmplan inject, spiral or "
-    "teleop); a comparison folder holds compare.json and one run folder per method"
+    "teleop); a comparison folder holds summary.json with a `methods` list and one run folder "
+    "per method"
 )
 
 
@@ -63,9 +65,11 @@ def load_runs(path: str | Path) -> list[RunData]:
     if not folder.is_dir():
         raise RunFolderError(folder, f"not a folder; {WHAT_A_RUN_IS}")
     if (folder / "summary.json").is_file():
+        if "methods" in read_json(folder / "summary.json"):
+            return _comparison(folder / "summary.json")
         return [load_run(folder)]
     if (folder / "compare.json").is_file():
-        return _comparison(folder)
+        return _comparison(folder / "compare.json")
     raise RunFolderError(folder, f"not a run folder (no summary.json); {WHAT_A_RUN_IS}")
 
 
@@ -87,11 +91,13 @@ def load_run(folder: Path, label: str | None = None) -> RunData:
     return RunData(folder, label or folder.name, summary, log, scene)
 
 
-def _comparison(folder: Path) -> list[RunData]:
-    doc = read_json(folder / "compare.json")
+def _comparison(path: Path) -> list[RunData]:
+    """The runs of a comparison whose summary (summary.json, or an older compare.json) is
+    `path`, one per method with a run folder beside it."""
+    folder, doc = path.parent, read_json(path)
     rows = doc.get("methods")
     if not isinstance(rows, list):
-        raise RunFolderError(folder / "compare.json", "no `methods` list: not a comparison")
+        raise RunFolderError(path, "no `methods` list: not a comparison")
     runs = []
     for row in rows:
         method = row.get("method") if isinstance(row, dict) else None
@@ -99,7 +105,7 @@ def _comparison(folder: Path) -> list[RunData]:
             runs.append(load_run(folder / method, method))
     if not runs:
         raise RunFolderError(
-            folder / "compare.json", "no method has a run folder beside it (written by a version "
+            path, "no method has a run folder beside it (written by a version "
             "of rcmplan that kept no logs of a comparison?): run rcmplan compare again",
         )  # fmt: skip
     return runs
