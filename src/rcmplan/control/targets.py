@@ -25,7 +25,7 @@ from rcmplan.exceptions import (
 )
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import angles_from_axis, axis_from_angles, x_ext_tip
+from rcmplan.robot.needle import axis_from_angles, x_ext_tip
 
 
 def checked_target(
@@ -185,10 +185,3 @@ def solve_pose(robot: RobotModel, x_ext: FloatArray, seed: FloatArray | None = N
     except (SliderLimitError, PcjmAngleError) as exc:
         raise UnreachableTargetError(str(exc), x_ext) from exc
     return Pose(q, lam)
-
-
-def solve_tip_pose(robot: RobotModel, tip: FloatArray, axis: FloatArray) -> FloatArray:
-    """Joints q placing the tip at `tip` with the needle along `axis` (unit), checked."""
-    phi, psi = angles_from_axis(vector("axis", axis, 3))
-    trocar = vector("tip", tip, 3) - 0.5 * robot.needle_length * axis_from_angles(phi, psi)
-    return solve_pose(robot, np.array([tip[0], phi, psi, *trocar])).q

@@ -80,8 +80,3 @@ def roll_joint(chain: JointChain, needle: StraightNeedle) -> int | None:
     ends = [chain.tip[:3, :3] @ needle.point_local(lam) + chain.tip[:3, 3] for lam in (0.0, 1.0)]
     on_axis = all(np.linalg.norm(np.cross(chain.axes[k], p)) < 1e-9 for p in ends)
     return k if on_axis else None
-
-
-def home_pose(arm: SerialArm) -> FloatArray:
-    """The arm's needle base and tip at home, (2, 3) in [m]."""
-    return np.array([arm.needle_point(arm.home, 0.0), arm.tip(arm.home)])
