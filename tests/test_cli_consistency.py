@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from rcmplan.cli import COMMANDS, build_parser, main
-from rcmplan.cli.tip_input import eye_frame, parse_point, read_path_csv, to_base
+from rcmplan.cli.tip_input import parse_point, read_path_csv
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.scene.eye import default_eye
+from rcmplan.scene.eye import default_eye, eye_frame
+from rcmplan.scene.eye_text import to_base
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 

@@ -101,3 +101,17 @@ def test_a_robot_file_with_a_bad_value_names_the_file_the_key_and_its_unit(
     line = refused(["inject", "--robot", str(robot), "--no-plots"], tmp_path / "out", capsys)
     assert f"robot file '{robot}': [robot] needle_length_mm = -5.0 is invalid" in line
     assert "(0, 1000] mm" in line
+
+
+def test_a_scenario_point_out_of_reach_is_refused_before_motion_in_eye_frame_millimetres(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["scenario", "--show", "default"]) == 0
+    text = capsys.readouterr().out.replace("spread_rad = 0.12 ", "spread_rad = 0.6 ")
+    (tmp_path / "wide.toml").write_text(text)
+    line = refused(["inject", "--scenario", str(tmp_path / "wide.toml"), "--no-plots"],
+                   tmp_path / "out", capsys)  # fmt: skip
+    assert line.startswith("rcmplan inject: refused before motion: ")
+    assert re.search(r"point p4 at \(-?[\d.]+, -?[\d.]+, -?[\d.]+\) mm \(eye frame\) is out of "
+                     r"reach: slider L1 would be at -99\.8\d* mm", line), line  # fmt: skip
+    assert not BASE_FRAME_TUPLE.search(line)

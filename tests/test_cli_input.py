@@ -11,8 +11,8 @@ import pytest
 
 from rcmplan.cli import build_parser, main
 from rcmplan.cli.inject import scenario_for
-from rcmplan.cli.tip_input import to_base
 from rcmplan.robot.registry import make_robot
+from rcmplan.scene.eye_text import to_base
 from rcmplan.scene.scenario import load_scenario, scenario_names
 
 

@@ -64,7 +64,8 @@ def scenario_for(args: argparse.Namespace) -> Scenario:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the scenario, write the outputs, print the summary; exit 1 if the run stopped early.
+    """Run the scenario, write the outputs, print the summary; exit 1 if the run stopped early,
+    2 if its plan was refused before any motion.
 
     Interrupted (SIGINT, SIGTERM) at any point, it writes what it has with status
     "interrupted" and re-raises the interrupt (the exit code is the CLI's, 130 or 143).
@@ -96,5 +97,9 @@ def run(args: argparse.Namespace) -> int:
             where = f"while writing the outputs (the run ended with status {result.status!r})"
         write_stopped(out, args, "interrupted", interrupted_message(exc, where), result)
         raise
-    failure = None if result.ok else f"run stopped early: {result.message}"
-    return finish(args, out, summary_json(result), lambda: print_summary(result), failure)
+    refused = not result.ok and len(result.log) == 0  # the plan's checks, before any motion
+    failure = None
+    if not result.ok:
+        failure = f"{'refused before motion' if refused else 'run stopped early'}: {result.message}"
+    return finish(args, out, summary_json(result), lambda: print_summary(result), failure,
+                  2 if refused else 1)  # fmt: skip

@@ -120,10 +120,11 @@ def table(header: list[str], rows: list[list[Any]]) -> str:
 
 
 def finish(args: argparse.Namespace, out: Path, doc: Any, show: Callable[[], None],
-           failure: str | None) -> int:  # fmt: skip
+           failure: str | None, code: int = 1) -> int:  # fmt: skip
     """The end of a run command whose outputs are written: they are final (a late signal
-    leaves them as they are), the JSON or the table and the folder on stdout, and exit 1 with
-    `failure` on stderr if the run did not end ok."""
+    leaves them as they are), the JSON or the table and the folder on stdout, and exit `code`
+    (1: stopped early; 2: refused before motion) with `failure` on stderr if the run did not
+    end ok."""
     interrupts.finished()
     if args.json:
         print_json(doc)
@@ -132,5 +133,5 @@ def finish(args: argparse.Namespace, out: Path, doc: Any, show: Callable[[], Non
         print(f"outputs in {out}/")
     if failure:
         print(f"rcmplan {args.command}: {failure}", file=sys.stderr)
-        return 1
+        return code
     return 0

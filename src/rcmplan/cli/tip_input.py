@@ -23,20 +23,15 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.control.phase import Phase
 from rcmplan.control.targets import rcm_target, solve_pose
-from rcmplan.exceptions import ActuatorLimitError, InvalidInputError, UnreachableTargetError
+from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
-from rcmplan.scene.eye import Eye, eye_frame
+from rcmplan.scene.eye import Eye
+from rcmplan.scene.eye_text import eye_frame_reason, to_base
 from rcmplan.scene.procedures import check_inside, path_procedure
 from rcmplan.scene.scenario import Scenario
 
-MM = 1e-3
 SLOTS = ("p4", "p5", "p6", "p7")
-
-
-def to_base(eye: Eye, points_eye_mm: FloatArray) -> FloatArray:
-    """Points (N, 3) in mm in the eye frame -> points (N, 3) in m in the robot base frame."""
-    return eye.center + (np.asarray(points_eye_mm, dtype=float) * MM) @ eye_frame(eye).T
 
 
 def parse_point(text: str) -> tuple[float, float, float]:
@@ -137,32 +132,6 @@ def check_tip_points(
         except UnreachableTargetError as exc:
             why = eye_frame_reason(exc, robot, eye, points_eye_mm[i])
             raise UnreachableTargetError(f"{label(i)} (mm, eye frame) {why}") from exc
-
-
-def eye_frame_reason(
-    exc: UnreachableTargetError, robot: RobotModel, eye: Eye, point_eye_mm: FloatArray
-) -> str:
-    """Why a point is out of reach, in mm: an actuator's travel and the retina in the user's
-    terms, the check's own words where they carry no position, and any other reason labelled
-    as the robot's base frame it is stated in."""
-    cause = exc.__cause__
-    if isinstance(cause, ActuatorLimitError):
-        kind = str(cause).split(" ", 1)[0]  # "slider" or "joint", as the model names them
-        k, unit = (1e3, "mm") if robot.actuator_units[cause.index] == "m" else (1.0, "rad")
-        value, lo, hi = k * cause.value, k * cause.lower, k * cause.upper
-        past = value - hi if value > hi else lo - value
-        return (f"is out of reach: {kind} {cause.slider} would be at {value:.6g} {unit}, "
-                f"{past:.3g} {unit} beyond its travel [{lo:.6g}, {hi:.6g}] {unit}")  # fmt: skip
-    if eye.distance_to_retina(to_base(eye, point_eye_mm[None, :])[0]) < -1e-9:
-        r_mm, retina_mm = float(np.linalg.norm(point_eye_mm)), 1e3 * eye.retina_radius
-        return (f"lies {r_mm - retina_mm:.4g} mm outside the retina, the sphere of radius "
-                f"{retina_mm:.4g} mm about the eye centre (the origin)")  # fmt: skip
-    if exc.reason.startswith(FRAMELESS_REASONS):
-        return f"is out of reach: {exc.reason}"
-    return f"is out of reach: {exc.reason} (robot base frame)"
-
-
-FRAMELESS_REASONS = ("lambda = ", "needle angles ")  # `solve_pose` refusals without positions
 
 
 def _typed(p: FloatArray, sep: str = ",") -> str:

@@ -22,6 +22,7 @@ from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import angles_from_axis
 from rcmplan.scene.eye import Eye, EyePoints
+from rcmplan.scene.eye_text import eye_frame_reason, eye_point_text, to_eye_mm
 
 DEFAULT_VISITS = ("p4", "p5", "p6", "p7")
 
@@ -121,6 +122,19 @@ def check_inside(eye: Eye, name: str, p: FloatArray) -> None:
         raise UnreachableTargetError(f"{name} lies behind the trocar (outside the eye)", p)
 
 
+def check_point(robot: RobotModel, eye: Eye, label: str, p: FloatArray) -> None:
+    """Raise UnreachableTargetError naming the point as `label`, in the eye frame and in mm,
+    unless p (3,) [m] lies inside the eye, in front of the trocar, and has a pose with the RCM
+    at the trocar (`eye_text.eye_frame_reason`)."""
+    try:
+        check_inside(eye, "the point", p)
+        solve_pose(robot, rcm_target(p, eye.port))
+    except UnreachableTargetError as exc:
+        mm = to_eye_mm(eye, p)
+        why = eye_frame_reason(exc, robot, eye, mm)
+        raise UnreachableTargetError(f"{label} at {eye_point_text(mm)} {why}") from exc
+
+
 def injection(
     robot: RobotModel,
     eye: Eye,
@@ -141,8 +155,7 @@ def injection(
         if not isinstance(name, str) or name not in pts or name in ("p1", "p2"):
             raise InvalidInputError("visits", visits, "names among p3..p7")
     for name in ("p3", *visits):
-        check_inside(eye, name, pts[name])
-        solve_pose(robot, rcm_target(pts[name], eye.port))
+        check_point(robot, eye, f"point {name}", pts[name])
     c = eye.port
     phases = [approach_phase(robot, points.p2, steps), align_phase(robot, eye, steps)]
     phases.append(Phase("insert", line_targets(points.p2, points.p3, c, steps)))
