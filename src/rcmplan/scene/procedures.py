@@ -239,8 +239,9 @@ def path_procedure(
     name: str = "path",
 ) -> list[Phase]:
     """Approach, align, insert to p3, move to the path's start, follow the tip path (N, 3),
-    return to p3, retract, withdraw. Every path point is checked inside the eye, and targets
-    along it (every 1/24 of the path and its end) for a pose, before any motion."""
+    return to p3, retract, withdraw. Every path point is checked inside the eye, and points along
+    it (every 1/24 of the path and its end) for a pose, before any motion; a refusal names the
+    point in the eye frame, in mm (`check_point`)."""
     steps = check_scene(robot, eye, points, steps)
     path = np.atleast_2d(array("path", path, 2))
     if path.shape[1] != 3 or len(path) < 2:
@@ -248,10 +249,9 @@ def path_procedure(
     c = eye.port
     for i, p in enumerate(path):
         check_inside(eye, f"{name} point {i}", p)
+    for i in {*range(0, len(path), max(1, len(path) // 24)), len(path) - 1}:
+        check_point(robot, eye, f"{name} point {i}", path[i])
     targets = path_targets(path, c, steps)
-    for t in targets[:: max(1, len(targets) // 24)]:
-        solve_pose(robot, t)
-    solve_pose(robot, rcm_target(path[-1], c))
     return [
         approach_phase(robot, points.p2, steps),
         align_phase(robot, eye, steps),
