@@ -216,6 +216,10 @@ BAD = {  # case: (keys changed, error type, what the message names)
     "flange not in the file": ({"flange": '"tool0"'}, RobotFileError,
                                r"flange = 'tool0'.*one of .*j2s6s200_link_6"),
     "needle axis": ({"needle_axis": '"z"'}, RobotFileError, r"needle_axis = 'z'.*\+x -x \+y"),
+    "needle axis zero": ({"needle_axis": "[0, 0, 0]"}, RobotFileError,
+                         r"needle_axis = \(0, 0, 0\).*non-zero direction"),
+    "needle offset": ({"needle_offset_mm": "[0, 25]"}, RobotFileError,
+                      r"needle_offset_mm = \(0, 25\).*\[x, y, z\]"),
     "home outside the limits": ({"home": "[1.5707, 2.618, -1.5707, 3.1415, 2.618, 0.0]"},
                                 RobotFileError,
                                 r"home\[2\] \(joint 'j2s6s200_joint_3'\) = -1\.5707.*"
@@ -252,3 +256,22 @@ def test_a_bad_robot_file_stops_inject_with_exit_2_and_its_status(tmp_path, caps
     assert summary["status"] == BAD[case][1].status
     assert summary["message"].startswith(BAD[case][1].__name__)
     assert not (tmp_path / "out" / "log.npz").exists()  # refused before any motion
+
+
+def test_a_needle_with_its_own_direction_and_offset_on_the_flange(tmp_path, capsys) -> None:  # type: ignore[no-untyped-def]
+    """needle_axis as a direction gives the named axis's robot; needle_offset_mm moves the
+    needle's base in the flange frame (its axis unchanged), and the arm runs the default
+    injection with the RCM held."""
+    home = {"home": KINOVA_HOME}
+    named = load_robot_file(robot_toml(tmp_path / "a.toml", **home)).arm
+    vector = load_robot_file(robot_toml(tmp_path / "b.toml", needle_axis="[2, 0, 0]", **home)).arm
+    np.testing.assert_allclose(vector.tip(vector.home), named.tip(named.home), atol=1e-12)
+    path = robot_toml(tmp_path / "c.toml", needle_offset_mm="[0, 0, 25]", **home)
+    moved = load_robot_file(path).arm
+    base = moved.needle_point(moved.home, 0.0) - named.needle_point(named.home, 0.0)
+    assert np.linalg.norm(base) == pytest.approx(25e-3, abs=1e-12)
+    np.testing.assert_allclose(moved.needle_axis(moved.home), named.needle_axis(named.home),
+                               atol=1e-12)  # fmt: skip
+    code, summary = inject(tmp_path, path, capsys)
+    assert code == 0 and summary["status"] == "ok"
+    assert summary["max_rcm_deviation_m"] <= 1e-6

@@ -58,16 +58,31 @@ def needle_arm(
                      singular_threshold=singular_threshold)  # fmt: skip
 
 
-def needle_mount(axis: str) -> FloatArray:
-    """The (4, 4) needle mount at the flange origin whose z axis is `axis` (one of NEEDLE_AXES);
-    its x axis (a curved needle's bend) is the flange's z for +-x and +-y, its x for +-z."""
-    if axis not in NEEDLE_AXES:
-        raise InvalidInputError("needle_axis", axis, "one of " + " ".join(NEEDLE_AXES))
-    z = np.zeros(3)
-    z["xyz".index(axis[1])] = 1.0 if axis[0] == "+" else -1.0
-    x = np.array([1.0, 0.0, 0.0]) if axis[1] == "z" else np.array([0.0, 0.0, 1.0])
+def needle_mount(
+    axis: str | Sequence[float], offset: Sequence[float] = (0.0, 0.0, 0.0)
+) -> FloatArray:
+    """The (4, 4) needle mount in the flange frame: its origin (the needle base) at `offset`
+    (3,) [m], its z axis (the needle) along `axis`, one of NEEDLE_AXES or a direction (3,) (made
+    unit). Its x axis (a curved needle's bend) is the flange's z made normal to the needle, or
+    the flange's x for a needle within 25 degrees of the flange's z (for the named axes: the
+    flange's z for +-x and +-y, its x for +-z)."""
+    if isinstance(axis, str):
+        if axis not in NEEDLE_AXES:
+            raise InvalidInputError("needle_axis", axis, "one of " + " ".join(NEEDLE_AXES))
+        z = np.zeros(3)
+        z["xyz".index(axis[1])] = 1.0 if axis[0] == "+" else -1.0
+    else:
+        z = vector("needle_axis", axis, 3)
+        norm = float(np.linalg.norm(z))
+        if not norm > 1e-9:
+            raise InvalidInputError("needle_axis", axis, "a non-zero direction (3,)")
+        z = z / norm
+    x = np.array([0.0, 0.0, 1.0]) if abs(z[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    x = x - (x @ z) * z
+    x /= np.linalg.norm(x)
     M = np.eye(4)
     M[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    M[:3, 3] = vector("needle_offset", offset, 3)
     return M
 
 

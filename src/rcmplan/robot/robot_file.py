@@ -7,21 +7,23 @@ needle on it and the home pose. The shipped arms (`rcmplan/robots/*.toml`) use t
     urdf = "package://example-robot-data/kinova_description/robots/kinova.urdf"
     flange = "j2s6s200_end_effector" # URDF link (MJCF: body or site) holding the needle
     needle_axis = "+x"               # the needle's direction in the flange frame ("+z")
+    needle_offset_mm = [0, 0, 25]    # the needle base in the flange frame ([0, 0, 0])
     needle_length_mm = 60.0          # (60)
     home = [...]                     # joints at home, rad or m (absent: searched)
 
 `urdf` or `mjcf` (exactly one) is a path relative to the robot file, an absolute path, or
 `package://example-robot-data/<path under the package's robots folder>` (extra `robots`). The
-needle starts at the flange origin and runs along `needle_axis` (one of +x -x +y -y +z -z): its
-mount's z axis. The last joint is held as the needle roll when it turns the needle about its
-own axis. A home, given or searched (`rcmplan.robot.home_search`), lies within the joint limits;
-the arm is then turned about the vertical so that the needle points along -x at home
-(`rcmplan.robot.arms.place_arm`). Every fault raises `RobotFileError` naming the file and key.
+needle starts at `needle_offset_mm` in the flange frame (the flange origin by default) and runs
+along `needle_axis`, one of +x -x +y -y +z -z or a direction [x, y, z]: its mount's z axis
+(`rcmplan.robot.arms.needle_mount`). The last joint is held as the needle roll when it turns
+the needle about its own axis. A home, given or searched (`rcmplan.robot.home_search`), lies
+within the joint limits; the arm is then turned about the vertical so that the needle points
+along -x at home (`rcmplan.robot.arms.place_arm`). Every fault raises `RobotFileError` naming
+the file and key.
 """
 
 from __future__ import annotations
 
-import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
@@ -37,14 +39,15 @@ from rcmplan.exceptions import (
     RobotFileError,
     UnknownFrameError,
 )
-from rcmplan.robot.arms import NEEDLE_AXES, needle_mount, place_arm, roll_joint
+from rcmplan.robot import robot_file_values as values
+from rcmplan.robot.arms import needle_mount, place_arm, roll_joint
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.home_search import HomeSearch, search_home
 from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
 
-KEYS = ("name", "description", "urdf", "mjcf", "flange", "needle_axis", "needle_length_mm", "home")
-NEEDLE_LENGTH_MM = 60.0
+KEYS = ("name", "description", "urdf", "mjcf", "flange", "needle_axis", "needle_offset_mm",
+        "needle_length_mm", "home")  # fmt: skip
 MIN_MOVING_JOINTS = 5  # joints moving the needle, to hold an RCM and reach a point
 MAX_FILE_BYTES = 1 << 16
 SINGULAR_THRESHOLD = 0.01  # the arms' smallest accepted singularity measure
@@ -57,7 +60,8 @@ class RobotSpec:
     Attributes:
         path: The robot file. name, description, flange: As written.
         model_kind: "urdf" or "mjcf"; model: the model file as written (see module docstring).
-        needle_axis: One of NEEDLE_AXES. needle_length: In [m].
+        needle_axis: One of NEEDLE_AXES, or a unit direction (3,) in the flange frame.
+        needle_offset: The needle base (3,) in the flange frame [m]. needle_length: In [m].
         home: Joints at home in [rad] or [m], or None (searched).
     """
 
@@ -67,8 +71,9 @@ class RobotSpec:
     model_kind: str
     model: str
     flange: str
-    needle_axis: str = "+z"
-    needle_length: float = NEEDLE_LENGTH_MM / 1e3
+    needle_axis: str | tuple[float, float, float] = "+z"
+    needle_length: float = values.NEEDLE_LENGTH_MM / 1e3
+    needle_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     home: tuple[float, ...] | None = None
 
     def error(self, key: str, value: Any, valid: str) -> RobotFileError:
@@ -118,11 +123,9 @@ def read_robot_file(path: str | Path) -> RobotSpec:
     if len(kinds) != 1:
         value = "missing" if not kinds else "both urdf and mjcf"
         raise RobotFileError(path, "urdf", value, "one model file: urdf = PATH or mjcf = PATH")
-    axis = text("needle_axis", "+z")
-    if axis not in NEEDLE_AXES:
-        raise RobotFileError(path, "needle_axis", axis, "one of " + " ".join(NEEDLE_AXES))
     return RobotSpec(path, text("name"), text("description", ""), kinds[0], text(kinds[0]),
-                     text("flange"), axis, _length(path, table), _home(path, table))  # fmt: skip
+                     text("flange"), values.axis(path, table), values.length(path, table),
+                     values.offset(path, table), values.home(path, table))  # fmt: skip
 
 
 def _table(path: Path) -> dict[str, Any]:
@@ -144,31 +147,6 @@ def _table(path: Path) -> dict[str, Any]:
     if unknown:
         raise RobotFileError(path, unknown[0], table[unknown[0]], "a key among " + ", ".join(KEYS))
     return table
-
-
-def _number(value: Any) -> bool:
-    """An int (not a bool) or a finite float."""
-    if isinstance(value, bool):
-        return False
-    return isinstance(value, int) or (isinstance(value, float) and math.isfinite(value))
-
-
-def _length(path: Path, table: dict[str, Any]) -> float:
-    """needle_length_mm in (0, 1000] as metres."""
-    value = table.get("needle_length_mm", NEEDLE_LENGTH_MM)
-    if not _number(value) or not 0.0 < value <= 1000.0:
-        raise RobotFileError(path, "needle_length_mm", value, "a number in (0, 1000] mm")
-    return float(value) / 1e3
-
-
-def _home(path: Path, table: dict[str, Any]) -> tuple[float, ...] | None:
-    """home as a tuple of floats, or None when absent."""
-    if "home" not in table:
-        return None
-    value = table["home"]
-    if not isinstance(value, list) or not value or not all(_number(v) for v in value):
-        raise RobotFileError(path, "home", value, "a list of joint values in rad or m")
-    return tuple(float(v) for v in value)
 
 
 def model_path(spec: RobotSpec) -> Path:
@@ -214,7 +192,7 @@ def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> Loade
         instance("search", search, HomeSearch, "a HomeSearch or None (the default search)")
     spec = read_robot_file(file_path("path", path))
     chain = model_chain(spec)
-    needle = StraightNeedle(spec.needle_length, needle_mount(spec.needle_axis))
+    needle = StraightNeedle(spec.needle_length, needle_mount(spec.needle_axis, spec.needle_offset))
     roll = roll_joint(chain, needle)
     moving = [n for i, n in enumerate(chain.joint_names) if i != roll]
     if len(moving) < MIN_MOVING_JOINTS:
@@ -272,7 +250,7 @@ def _search_key(spec: RobotSpec, chain: JointChain, search: HomeSearch) -> tuple
     arrays = (chain.base, chain.origins, chain.axes, chain.tip, chain.lower, chain.upper,
               chain.prismatic)  # fmt: skip
     numbers = np.concatenate([np.ravel(a) for a in arrays])
-    return (numbers.tobytes(), spec.needle_axis, spec.needle_length, search)
+    return (numbers.tobytes(), spec.needle_axis, spec.needle_offset, spec.needle_length, search)
 
 
 _SEARCHED: dict[tuple[Any, ...], tuple[tuple[float, ...] | None, float, tuple[int, int]]] = {}
