@@ -34,3 +34,20 @@ def test_reproduce_writes_a_row_per_experiment(tmp_path: Path, capsys) -> None:
         assert r["rcmplan"]["status"] == "ok"
         assert r["rcmplan"]["max_rcm_deviation_m"] <= 1e-6
     assert json.loads((tmp_path / "summary.json").read_text()) == doc
+
+
+def test_a_setting_that_skips_steps_is_drawn_at_its_own_control_steps() -> None:
+    """The hypothesised V-REP spiral iterates only on steps whose error exceeds its 0.1 mm
+    precision: its points sit at their control steps (increasing, up to the spiral's end),
+    not packed at the start of the axis."""
+    import numpy as np
+
+    from rcmplan.cli import thesis_hypothesis
+    from rcmplan.cli.thesis_figures import step_numbers
+
+    o = thesis_hypothesis.EXPERIMENTS["spiral"]()
+    sub = o.log.select(np.all(np.isfinite(o.log.trocar), axis=1))
+    x = step_numbers(sub)
+    assert len(x) < o.steps  # some steps took no iteration
+    assert np.all(np.diff(x) > 0) and x[0] >= 1
+    assert x[-1] > 0.9 * o.steps  # the last points lie near the spiral's end
