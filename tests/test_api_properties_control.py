@@ -295,5 +295,5 @@ def test_configurations_objectives_and_depth_limits_are_finite_or_refused(
               ok=lambda c: finite(c.q))  # fmt: skip
         if obj is not None:
             probe("Objective.cost", obj.cost, cfg, ok=lambda hf: finite(hf[0]) and finite(hf[1]))
-    probe("TissueDepthLimit", rp.TissueDepthLimit, EYE.center, EYE.retina_radius, gain / 2,
+    probe("TissueDepthLimit", rp.TissueDepthLimit, EYE.center, EYE.retina_radius, gain,
           names=("gain",), ok=lambda lim: math.isfinite(lim.gap_m(EYE.center)))  # fmt: skip

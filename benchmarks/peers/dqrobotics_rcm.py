@@ -311,7 +311,8 @@ class DqRcmController:
         """The RCM as two components of `trocar_moment` normal to the needle, each kept within
         tol / sqrt(2) (4 rows, in um per unit of x)."""
         m_c, J_mc = trocar_moment(Jl, line, axis, vec4(goal.trocar)[1:])
-        N = normal_basis(axis)
+        N = np.empty((2, 3))
+        normal_basis(np.ascontiguousarray(axis, dtype=np.float64), N)
         box = self.limits.rcm_tolerance / math.sqrt(2.0)
         G = N @ J_mc  # [m] of m_c per unit of x, times 1 / SCALE
         r = N @ m_c
