@@ -7,8 +7,19 @@
 # and they are required; otherwise they run when a Chromium is on PATH and are skipped, with a
 # line saying so, when none is. RCMPLAN_REQUIRE_BROWSER=1 requires them whatever happens (their
 # absence is then a failure); RCMPLAN_REQUIRE_BROWSER=0 never requires them.
+#
+# `bash scripts/check.sh --heavy` (or RCMPLAN_HEAVY_TESTS=1) also runs the heavy suites in
+# full: the tests marked `heavy` (random interrupts of teleop sessions, an interrupted sweep
+# resumed, the QP on the dynamic MuJoCo plant, the home search that finds none) and the
+# generated-input suites with their full case counts (tests/heavy.py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
+for arg in "$@"; do
+  case "$arg" in
+    --heavy) export RCMPLAN_HEAVY_TESTS=1 ;;
+    *) echo "check.sh: unknown argument $arg (valid: --heavy)" >&2; exit 2 ;;
+  esac
+done
 
 # Headless MuJoCo rendering through EGL and Mesa (no GPU needed), and Chromium.
 EGL_PACKAGES="libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 chromium"

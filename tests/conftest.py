@@ -18,6 +18,33 @@ if os.environ.get("RCMPLAN_REQUIRE_BROWSER") == "0":
     del os.environ["RCMPLAN_REQUIRE_BROWSER"]  # the browser tests read any other value as set
 
 
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    """Deselect the tests marked `heavy` unless RCMPLAN_HEAVY_TESTS=1 (tests/heavy.py)."""
+    from heavy import HEAVY
+
+    if HEAVY:
+        return
+    keep = [item for item in items if item.get_closest_marker("heavy") is None]
+    dropped = [item for item in items if item.get_closest_marker("heavy") is not None]
+    if dropped:
+        config.hook.pytest_deselected(items=dropped)
+        items[:] = keep
+        config.stash[HEAVY_DROPPED] = len(dropped)
+
+
+HEAVY_DROPPED = pytest.StashKey[int]()
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    """Say how many heavy tests were left out, and how to run them."""
+    n = terminalreporter.config.stash.get(HEAVY_DROPPED, 0)
+    if n:
+        terminalreporter.write_line(
+            f"{n} heavy tests deselected; RCMPLAN_HEAVY_TESTS=1 (bash scripts/check.sh --heavy) "
+            "runs them, and the generated-input suites in full"
+        )
+
+
 @pytest.fixture
 def robot() -> Iramis:
     return Iramis()

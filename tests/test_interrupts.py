@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from heavy import cases, heavy
 from rcmplan.control.log import RunLog
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
@@ -31,8 +32,9 @@ COMMANDS = {  # command line, and the span [s] after start-up in which the signa
     "teleop": (["teleop"], None),
 }
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
-# Interruptions per command: 4 in CI; `benchmarks/bench_interruptions.py` runs 100 per command.
-RUNS = int(os.environ.get("RCMPLAN_INTERRUPTIONS", "4"))
+# Interruptions per command: 3 (12 with RCMPLAN_HEAVY_TESTS=1, teleop's only then);
+# `benchmarks/bench_interruptions.py` runs 100 per command.
+RUNS = int(os.environ.get("RCMPLAN_INTERRUPTIONS", str(cases(3, 12))))
 
 
 def children_of(pid: int) -> set[int]:
@@ -119,7 +121,9 @@ def check_left(out: Path, command: str, code: int, sig: int) -> None:
     assert not [p.name for p in out.rglob("*") if ".tmp" in p.name]
 
 
-@pytest.mark.parametrize("command", sorted(COMMANDS))
+@pytest.mark.parametrize(
+    "command", [pytest.param(c, marks=heavy) if c == "teleop" else c for c in sorted(COMMANDS)]
+)
 def test_signals_at_random_points_leave_a_summary_a_loadable_log_and_no_process(
     command: str, tmp_path: Path
 ) -> None:
@@ -298,6 +302,7 @@ def test_every_stop_file_command_writes_where_its_parser_says() -> None:
         assert args.out == command_and_out([command])[1]
 
 
+@heavy
 def test_an_interrupted_sweep_resumes_to_the_results_of_an_uninterrupted_one(
     tmp_path: Path,
 ) -> None:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from heavy import heavy
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import Scenario, load_scenario
 
@@ -35,7 +36,7 @@ def short(tmp_path: Path, method: str) -> Scenario:
     return load_scenario(path)
 
 
-@pytest.mark.parametrize("method", ["pinv", "dls", "qp"])
+@pytest.mark.parametrize("method", ["pinv", "dls", pytest.param("qp", marks=heavy)])
 def test_a_short_injection_on_the_dynamic_plant_holds_the_rcm_within_2_um(
     tmp_path: Path, method: str
 ) -> None:

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from heavy import cases
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import scenario_from_dict
 
@@ -45,7 +46,7 @@ def outcome(data: dict[str, Any], mode: str) -> tuple[str, str, int]:
     return result.status, result.message, len(result.log)
 
 
-@settings(max_examples=60, derandomize=True, database=None, deadline=None)
+@settings(max_examples=cases(15, 60), derandomize=True, database=None, deadline=None)
 @given(controller=controllers, step_sizes=steps)
 def test_reference_and_compiled_paths_give_the_same_status(
     controller: dict[str, Any], step_sizes: dict[str, Any]

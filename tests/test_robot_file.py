@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from heavy import heavy
 from rcmplan.cli import main
 from rcmplan.exceptions import InvalidInputError, NoHomeFoundError, RobotFileError, ScenarioError
 from rcmplan.robot.arms import NEEDLE_AXES, needle_arm, needle_mount, roll_joint
@@ -241,7 +242,10 @@ def bad_file(tmp_path: Path, case: str) -> Path:
     return robot_toml(tmp_path / "bad.toml", **BAD[case][0])
 
 
-@pytest.mark.parametrize("case", sorted(BAD))
+CASES = [pytest.param(c, marks=heavy) if c == "no home found" else c for c in sorted(BAD)]
+
+
+@pytest.mark.parametrize("case", CASES)
 def test_a_bad_robot_file_raises_its_typed_error_naming_the_fault(tmp_path, case: str) -> None:
     path = bad_file(tmp_path, case)
     with pytest.raises(BAD[case][1], match=BAD[case][2]) as exc:
@@ -249,7 +253,7 @@ def test_a_bad_robot_file_raises_its_typed_error_naming_the_fault(tmp_path, case
     assert exc.value.path == path and str(path) in str(exc.value)
 
 
-@pytest.mark.parametrize("case", sorted(BAD))
+@pytest.mark.parametrize("case", CASES)
 def test_a_bad_robot_file_stops_inject_with_exit_2_and_its_status(tmp_path, capsys, case) -> None:
     code, summary = inject(tmp_path, bad_file(tmp_path, case), capsys)
     assert code == 2
