@@ -3,8 +3,9 @@ what an interrupt at any instant of `rcmplan inject`, from the process's start, 
 
 Run alone: python benchmarks/bench_interruptions.py [--runs N] [--from-start M]
 Runs tests/test_interrupts.py's harness with RCMPLAN_INTERRUPTIONS=N (default 100; 10 with
---quick through benchmarks/run.py): per command (inject, spiral, compare, sweep, teleop), N real
-processes each get SIGINT or SIGTERM at a seeded random point of the run; each must leave a
+--quick through benchmarks/run.py): per command (inject, inject on the MuJoCo plant, spiral,
+compare, sweep, teleop), N real processes each get SIGINT or SIGTERM at a seeded random point
+of the run; each must leave a
 summary saying why it stopped, a loadable log or none, no temporary file and no process behind.
 One row per command: the interruptions that broke any of these (the lost logs), out of N.
 
@@ -37,16 +38,22 @@ from typing import Any
 from _common import quick, row
 
 ROOT = Path(__file__).resolve().parents[1]
-COMMANDS = ("compare", "inject", "spiral", "sweep", "teleop")
+COMMANDS = ("compare", "inject", "inject-mujoco", "spiral", "sweep", "teleop")
 
 
 def run_command(command: str, runs: int) -> tuple[int | str, float]:
     """(failed interruptions: 0, or ">= 1" when the harness stopped at one; wall time [s])."""
-    env = {**os.environ, "RCMPLAN_INTERRUPTIONS": str(runs), "MUJOCO_GL": "egl"}
+    env = {
+        **os.environ,
+        "RCMPLAN_INTERRUPTIONS": str(runs),
+        "MUJOCO_GL": "egl",
+        "RCMPLAN_HEAVY_TESTS": "1",
+    }  # teleop's case is a heavy test
     start = time.perf_counter()
     proc = subprocess.run(
         [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-         str(ROOT / "tests" / "test_interrupts.py"), "-k", f"random_points and {command}",
+         str(ROOT / "tests" / "test_interrupts.py") + "::test_signals_at_random_points_leave_a"
+         f"_summary_a_loadable_log_and_no_process[{command}]",
          "--maxfail=1000"],
         env=env, cwd=ROOT, capture_output=True, text=True,
     )  # fmt: skip

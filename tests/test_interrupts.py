@@ -26,13 +26,15 @@ SRC = str(Path(__file__).resolve().parents[1] / "src")
 COMMANDS = {  # command line, and the span [s] after start-up in which the signal lands (None:
     # the duration of an uninterrupted run on this machine, measured first)
     "inject": (["inject"], None),
+    "inject-mujoco": (["inject", "--plant", "mujoco", "--no-plots"], None),
     "spiral": (["spiral"], None),
     "compare": (["compare", "--method", "pinv", "--method", "dls"], None),
     "sweep": (["sweep", "--targets", "30000", "--workers", "2", "--no-plots"], 3.0),
     "teleop": (["teleop"], None),
 }
+HEAVY_COMMANDS = ("teleop", "inject-mujoco")  # long runs: with RCMPLAN_HEAVY_TESTS=1 only
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
-# Interruptions per command: 3 (12 with RCMPLAN_HEAVY_TESTS=1, teleop's only then);
+# Interruptions per command: 3 (12 with RCMPLAN_HEAVY_TESTS=1, HEAVY_COMMANDS' only then);
 # `benchmarks/bench_interruptions.py` runs 100 per command.
 RUNS = int(os.environ.get("RCMPLAN_INTERRUPTIONS", str(cases(3, 12))))
 
@@ -122,7 +124,8 @@ def check_left(out: Path, command: str, code: int, sig: int) -> None:
 
 
 @pytest.mark.parametrize(
-    "command", [pytest.param(c, marks=heavy) if c == "teleop" else c for c in sorted(COMMANDS)]
+    "command",
+    [pytest.param(c, marks=heavy) if c in HEAVY_COMMANDS else c for c in sorted(COMMANDS)],
 )
 def test_signals_at_random_points_leave_a_summary_a_loadable_log_and_no_process(
     command: str, tmp_path: Path
