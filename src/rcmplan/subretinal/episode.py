@@ -112,6 +112,7 @@ class Episode:
             eye, target_fraction=cfg.target_fraction, band_fraction=cfg.band_fraction
         )
         self.normal = unit_direction(cfg.direction)
+        self.normal_base = self.R @ self.normal  # the target's normal in the base frame
         self.durations = phase_durations(cfg, layers)
         self.length_s = sum(self.durations.values())
         motion = MotionModel(
@@ -127,7 +128,10 @@ class Episode:
         self.guard = self.predictor if bounded == cfg.compensation else make_predictor(bounded)
         self._next = 0
         self.n_periods = round(self.length_s / cfg.dt)
-        self.wall_m = self.motion.displacement(cfg.warmup_s + cfg.dt * np.arange(self.n_periods))
+        self.t_s = cfg.warmup_s + cfg.dt * np.arange(self.n_periods)  # period k's time
+        self.wall_m = self.motion.displacement(self.t_s)
+        self.predicted_m, self.bound_m = np.empty(self.n_periods), np.empty(self.n_periods)
+        self._predicted_to = 0  # periods [0, _predicted_to) have their predictions
         self.start_radius = layers.ilm_radius_m - cfg.start_height_m
         start_tip = self.to_base(self.start_radius)
         pose = solve_pose(robot, rcm_target(start_tip, eye.port))
@@ -148,7 +152,7 @@ class Episode:
 
     def to_base(self, radius_m: float) -> FloatArray:
         """The point at `radius_m` [m] from the eye centre on the target's normal, base frame."""
-        return np.asarray(self.eye.center + self.R @ (radius_m * self.normal))
+        return np.asarray(self.eye.center + radius_m * self.normal_base)
 
     def limit_radius(self, displacement_m: float) -> float:
         """Radius [m] the depth limit holds the tip within: the RPE displaced by
@@ -166,6 +170,22 @@ class Episode:
             if self.guard is not self.predictor:
                 self.guard.update(t_acq, value)
             self._next += 1
+
+    def predictions(self, k: int) -> tuple[float, float]:
+        """The compensation's prediction and the depth limit's displacement [m] at period k.
+
+        The predictors change only when an estimate arrives, so one call predicts every period
+        from k to the next arrival (as `trace.prediction_errors` does)."""
+        if k >= self._predicted_to:
+            t = self.t_s
+            self.deliver(float(t[k]))
+            arrival = self.arrival_s[self._next] if self._next < self.arrival_s.size else np.inf
+            end = max(k + 1, int(np.searchsorted(t, arrival, side="left")))
+            self.predicted_m[k:end] = self.predictor.predict(t[k:end])
+            guard = self.guard.predict(t[k:end]) if self.guard is not self.predictor else None
+            self.bound_m[k:end] = self.predicted_m[k:end] if guard is None else guard
+            self._predicted_to = end
+        return float(self.predicted_m[k]), float(self.bound_m[k])
 
     def phase_at(self, t_loop_s: float) -> tuple[str, float]:
         """The phase at loop time t_loop_s [s] and the fraction of it done (None past the end)."""
@@ -188,13 +208,11 @@ class Episode:
     def period(self) -> None:
         """One control period (module docstring)."""
         robot, plant, trocar, cfg = self.robot, self.plant, self.eye.port, self.cfg
-        t_loop = plant.time
-        t = cfg.warmup_s + t_loop
-        self.deliver(t)
-        predicted = float(self.predictor.predict(t))
-        bound = predicted if self.guard is self.predictor else float(self.guard.predict(t))
+        k = len(self.rows["t_s"])
+        t = float(self.t_s[k])
+        predicted, bound = self.predictions(k)
         self.depth_limit.set_floor(self.limit_radius(bound))
-        phase, a = self.phase_at(t_loop)
+        phase, a = self.phase_at(k * cfg.dt)
         radius, c = self.tip_radius(phase, a, predicted)
         s = plant.read_actuators()
         q = robot.joints_from_actuators(s)
@@ -213,7 +231,7 @@ class Episode:
         self.log.append(time=t, sliders=s, joints=q, lam=lam, tip=tip, rcm=rcm, trocar=trocar,
                         base=base, target_tip=desired, error=e, step=len(self.log), iteration=0,
                         solver=self._sid, phase=self._pids[phase])  # fmt: skip
-        wall = float(self.wall_m[len(self.rows["t_s"])])
+        wall = float(self.wall_m[k])
         z = float(np.linalg.norm(tip - self.eye.center)) - (self.layers.ilm_radius_m + wall)
         reading = self.tissue.update(z)
         deviation = float(np.linalg.norm(rcm - trocar))
