@@ -38,11 +38,7 @@ from rcmplan.robot.needle import closest_lambda
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.sim.registry import make_plant
-from rcmplan.subretinal.episode_settings import (
-    SEGMENTATION_BIAS_M,
-    SEGMENTATION_STD_M,
-    EpisodeSettings,
-)
+from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, EpisodeSettings
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.layers import RetinaLayers, unit_direction
 from rcmplan.subretinal.motion import MotionModel, sample_motion
@@ -116,12 +112,15 @@ class Episode:
         self.durations = phase_durations(cfg, layers)
         self.length_s = sum(self.durations.values())
         motion = MotionModel(
-            breathing_amplitude_m=cfg.breathing_m, cardiac_amplitude_m=cfg.cardiac_m
+            breathing_amplitude_m=cfg.breathing_m,
+            breathing_rate_hz=cfg.breathing_rate_hz,
+            cardiac_amplitude_m=cfg.cardiac_m,
+            cardiac_rate_hz=cfg.cardiac_rate_hz,
         )
         rng = np.random.default_rng(cfg.seed)
         self.motion = sample_motion(motion, cfg.warmup_s + self.length_s + 1.0, rng)
         ioct = IoctModel(volume_rate_hz=cfg.ioct_rate_hz, latency_s=cfg.latency_s)
-        self.trace = noisy_trace(self.motion, ioct, SEGMENTATION_STD_M, rng, SEGMENTATION_BIAS_M)
+        self.trace = noisy_trace(self.motion, ioct, cfg.noise_std_m, rng, SEGMENTATION_BIAS_M)
         self.arrival_s = self.trace.t_acq_s + cfg.latency_s
         self.predictor = make_predictor(cfg.compensation)
         bounded = "hold" if cfg.compensation == "none" else cfg.compensation

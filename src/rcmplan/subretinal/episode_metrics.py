@@ -12,10 +12,13 @@ from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, SEGMENTATIO
 from rcmplan.subretinal.layers import in_target_band
 from rcmplan.subretinal.tissue import TissueState
 
-IOCT_SOURCE = (
-    "measured-noise stand-in for the segmented B-scans "
-    f"(bias {SEGMENTATION_BIAS_M * 1e6:.2f} um, sd {SEGMENTATION_STD_M * 1e6:.2f} um)"
-)
+
+def ioct_source(noise_std_m: float) -> str:
+    """What the controller's iOCT estimates were (the measured-noise stand-in)."""
+    measured = ", the measured sd" if noise_std_m == SEGMENTATION_STD_M else ""
+    bias, sd = SEGMENTATION_BIAS_M * 1e6, noise_std_m * 1e6
+    stand_in = "measured-noise stand-in for the segmented B-scans"
+    return f"{stand_in} (bias {bias:.2f} um, sd {sd:.2f} um{measured})"
 
 
 def _rms(x: FloatArray) -> float | None:
@@ -61,9 +64,13 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
         "compensation": cfg.compensation,
         "ioct_rate_hz": cfg.ioct_rate_hz,
         "latency_s": cfg.latency_s,
-        "ioct_estimates": IOCT_SOURCE,
+        "ioct_estimates": ioct_source(cfg.noise_std_m),
+        "noise_std_m": cfg.noise_std_m,
         "breathing_amplitude_m": cfg.breathing_m,
         "cardiac_amplitude_m": cfg.cardiac_m,
+        "breathing_rate_hz": cfg.breathing_rate_hz,
+        "cardiac_rate_hz": cfg.cardiac_rate_hz,
+        "target_fraction": cfg.target_fraction,
         "seed": cfg.seed,
         "hold_s": cfg.hold_s,
         "standoff_m": cfg.standoff_m,

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from rcmplan._validate import scalar, vector
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.registry import check_robot
+from rcmplan.subretinal.motion import BREATHING_BAND_HZ, CARDIAC_BAND_HZ
 from rcmplan.subretinal.predictors import PREDICTORS
 
 # The measured error of the ILM offset segmented from the synthetic B-scans (docs/subretinal.md,
@@ -28,8 +29,13 @@ class EpisodeSettings:
         compensation: Predictor of the ILM displacement: none, hold, fft or kalman.
         ioct_rate_hz: iOCT volume rate [Hz].
         latency_s: iOCT latency, acquisition to delivery [s].
-        breathing_m: Breathing amplitude along the normal [m]; the cardiac amplitude is
-            `CARDIAC_PER_BREATHING` of it.
+        breathing_m: Breathing amplitude along the normal [m].
+        cardiac_amplitude_m: Cardiac amplitude along the normal [m]; None: `CARDIAC_PER_BREATHING`
+            of the breathing amplitude.
+        breathing_rate_hz: Nominal breathing rate [Hz], in the motion model's band (0.2-0.33).
+        cardiac_rate_hz: Nominal heart rate [Hz], in the motion model's band (1-2).
+        noise_std_m: Standard deviation of the iOCT estimates' error [m] (its bias is the
+            measured `SEGMENTATION_BIAS_M`).
         seed: Seed of the motion and of the iOCT noise.
         hold_s: Injection time at the target depth [s].
         standoff_m: Hover height above the ILM along the normal [m].
@@ -56,6 +62,10 @@ class EpisodeSettings:
     ioct_rate_hz: float = 9.0
     latency_s: float = 0.15
     breathing_m: float = 50e-6
+    cardiac_amplitude_m: float | None = None
+    breathing_rate_hz: float = 0.25
+    cardiac_rate_hz: float = 1.5
+    noise_std_m: float = SEGMENTATION_STD_M
     seed: int = 0
     hold_s: float = 5.0
     standoff_m: float = 100e-6
@@ -84,6 +94,11 @@ class EpisodeSettings:
         scalar("ioct_rate_hz", self.ioct_rate_hz, 0.5, 200.0)
         scalar("latency_s", self.latency_s, 0.0, 1.0)
         scalar("breathing_m", self.breathing_m, 0.0, 200e-6)
+        if self.cardiac_amplitude_m is not None:
+            scalar("cardiac_amplitude_m", self.cardiac_amplitude_m, 0.0, 200e-6)
+        scalar("breathing_rate_hz", self.breathing_rate_hz, *BREATHING_BAND_HZ)
+        scalar("cardiac_rate_hz", self.cardiac_rate_hz, *CARDIAC_BAND_HZ)
+        scalar("noise_std_m", self.noise_std_m, 0.0, 50e-6)
         if not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
             raise InvalidInputError("seed", self.seed, "an integer in [0, 2**32)")
         scalar("hold_s", self.hold_s, 0.0, 60.0, low_open=True)
@@ -103,4 +118,6 @@ class EpisodeSettings:
     @property
     def cardiac_m(self) -> float:
         """Cardiac amplitude along the normal [m]."""
+        if self.cardiac_amplitude_m is not None:
+            return self.cardiac_amplitude_m
         return CARDIAC_PER_BREATHING * self.breathing_m
