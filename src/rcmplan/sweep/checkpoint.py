@@ -1,6 +1,8 @@
 """Checkpoints: finished results on disk as they arrive, so an interrupted sweep resumes.
 
-A checkpoint is a folder:
+`RecordCheckpoint` holds records of any run whose settings hash and whose records have an id
+and a plain-dictionary form; `Checkpoint` is a sweep's (settings `SweepSettings`, records
+`TargetResult`). A checkpoint is a folder:
 
     header.json            {"format": "rcmplan-sweep-checkpoint", "version": 1,
                             "settings_hash": <sha256>, "settings": {...}, "n_targets": N}
@@ -22,7 +24,7 @@ import os
 import shutil
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, Generic, Protocol, Self, TypeVar
 
 from rcmplan._atomic import atomic_path
 from rcmplan.sweep.errors import CheckpointError
@@ -31,6 +33,35 @@ from rcmplan.sweep.task import TargetResult
 
 FORMAT_NAME = "rcmplan-sweep-checkpoint"
 HEADER = "header.json"
+
+
+class Plan(Protocol):
+    """What a checkpointed run runs: hashed into every file, written into the header."""
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON-ready dictionary."""
+        ...
+
+    def digest(self) -> str:
+        """A hash of the settings (hex)."""
+        ...
+
+
+class Record(Protocol):
+    """One finished item of a checkpointed run."""
+
+    @property
+    def id(self) -> int:
+        """The item's id, in [0, the run's item count)."""
+        ...
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain JSON-ready dictionary."""
+        ...
+
+
+S = TypeVar("S", bound=Plan)
+R = TypeVar("R", bound=Record)
 
 
 def _canonical(obj: Any) -> str:
@@ -71,23 +102,39 @@ def discard(path: str | Path) -> None:
     shutil.rmtree(folder)
 
 
-class Checkpoint:
-    """A checkpoint folder bound to one sweep's settings; use Checkpoint.open.
+class RecordCheckpoint(Generic[S, R]):
+    """A checkpoint folder bound to one run's settings; use `open`. Subclasses say how many
+    items the settings hold (`count`) and read a record back (`parse`).
 
     Attributes:
         path: The folder.
         digest: The settings hash every file must carry.
         n_targets: Ids must lie in [0, n_targets).
+        kind: What runs, in messages ("sweep").
+        format_name: The header's "format".
     """
 
-    def __init__(self, path: Path, settings: SweepSettings) -> None:
+    kind = "run"
+    format_name = FORMAT_NAME
+
+    def __init__(self, path: Path, settings: S) -> None:
         self.path = path
         self.settings = settings
         self.digest = settings.digest()
-        self.n_targets = settings.region.n_targets
+        self.n_targets = self.count(settings)
+
+    @staticmethod
+    def count(settings: S) -> int:
+        """The number of items the settings hold."""
+        raise NotImplementedError
+
+    @staticmethod
+    def parse(row: dict[str, Any]) -> R:
+        """A record from its dictionary; KeyError or TypeError when malformed."""
+        raise NotImplementedError
 
     @classmethod
-    def open(cls, path: str | Path, settings: SweepSettings, resume: bool) -> Checkpoint:
+    def open(cls, path: str | Path, settings: S, resume: bool) -> Self:
         """Create the checkpoint, or reopen an existing one for the same settings.
 
         Raises CheckpointError if the path is not a folder, the header is corrupt or for other
@@ -117,7 +164,7 @@ class Checkpoint:
     def header(self) -> dict[str, Any]:
         """The header record of this checkpoint."""
         return {
-            "format": FORMAT_NAME,
+            "format": self.format_name,
             "version": FORMAT_VERSION,
             "settings_hash": self.digest,
             "settings": self.settings.as_dict(),
@@ -128,23 +175,24 @@ class Checkpoint:
         """Raise CheckpointError unless header.json is this format and these settings."""
         path = self.path / HEADER
         data = _read_json(path)
-        if not isinstance(data, dict) or data.get("format") != FORMAT_NAME:
-            raise CheckpointError(path, f"is not a {FORMAT_NAME} header")
+        if not isinstance(data, dict) or data.get("format") != self.format_name:
+            raise CheckpointError(path, f"is not a {self.format_name} header")
         if data.get("version") != FORMAT_VERSION:
             raise CheckpointError(path, f"has format version {data.get('version')!r}, "
                                   f"expected {FORMAT_VERSION}")  # fmt: skip
         if data.get("settings_hash") != self.digest:
+            theirs = str(data.get("settings_hash"))[:12]
             raise CheckpointError(
                 path,
-                f"was written for other sweep settings (hash {str(data.get('settings_hash'))[:12]}"
-                f", this sweep {self.digest[:12]}); choose another path or remove it",
+                f"was written for other {self.kind} settings (hash {theirs}, this {self.kind} "
+                f"{self.digest[:12]}); choose another path or remove it",
             )
 
     def chunk_files(self) -> list[Path]:
         """Finished chunk files, sorted by name."""
         return sorted(self.path.glob("chunk-*.json"))
 
-    def write(self, results: Iterable[TargetResult]) -> Path | None:
+    def write(self, results: Iterable[R]) -> Path | None:
         """Write one finished chunk atomically; returns its path (None for an empty chunk)."""
         rows = [r.as_dict() for r in sorted(results, key=lambda r: r.id)]
         if not rows:
@@ -154,9 +202,9 @@ class Checkpoint:
         write_atomic(path, _canonical(record))
         return path
 
-    def load(self) -> dict[int, TargetResult]:
+    def load(self) -> dict[int, R]:
         """Every finished result by id, each chunk checked (CheckpointError names a bad file)."""
-        out: dict[int, TargetResult] = {}
+        out: dict[int, R] = {}
         for path in self.chunk_files():
             for result in self._load_chunk(path):
                 if result.id in out:
@@ -164,17 +212,17 @@ class Checkpoint:
                 out[result.id] = result
         return out
 
-    def _load_chunk(self, path: Path) -> list[TargetResult]:
+    def _load_chunk(self, path: Path) -> list[R]:
         data = _read_json(path)
         if not isinstance(data, dict) or not isinstance(data.get("results"), list):
             raise CheckpointError(path, "is not a chunk record (no 'results' list); corrupt")
         if data.get("settings_hash") != self.digest:
-            raise CheckpointError(path, "was written for other sweep settings")
+            raise CheckpointError(path, f"was written for other {self.kind} settings")
         rows = data["results"]
         if data.get("sha256") != _digest(rows):
             raise CheckpointError(path, "fails its checksum; it is corrupt")
         try:
-            results = [TargetResult.from_dict(row) for row in rows]
+            results = [self.parse(row) for row in rows]
         except (KeyError, TypeError) as exc:
             raise CheckpointError(path, f"holds a malformed result ({exc})") from exc
         for r in results:
@@ -182,3 +230,19 @@ class Checkpoint:
                 bad = f"holds target id {r.id!r} outside [0, {self.n_targets})"
                 raise CheckpointError(path, bad)
         return results
+
+
+class Checkpoint(RecordCheckpoint[SweepSettings, TargetResult]):
+    """A sweep's checkpoint: one record per reachable target of the region."""
+
+    kind = "sweep"
+
+    @staticmethod
+    def count(settings: SweepSettings) -> int:
+        """The region's number of targets."""
+        return settings.region.n_targets
+
+    @staticmethod
+    def parse(row: dict[str, Any]) -> TargetResult:
+        """A target's result."""
+        return TargetResult.from_dict(row)

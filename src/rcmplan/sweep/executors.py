@@ -1,9 +1,10 @@
-"""Executors: run chunks of targets on local processes or on a Dask distributed cluster.
+"""Executors: run chunks of jobs on local processes or on a Dask distributed cluster.
 
 Both yield each finished chunk as soon as it completes (in completion order), so the caller can
-checkpoint it at once. Chunks batch several targets per task to amortise the per-task overhead
-(pickling, scheduling). Results do not depend on the executor: each target is a pure function of
-(motion settings, target).
+checkpoint it at once. Chunks batch several jobs per task to amortise the per-task overhead
+(pickling, scheduling). A job is `fn(context, chunk)` with a module-level `fn` (the sweep's
+`run_chunk` by default) and picklable arguments; results do not depend on the executor when
+`fn` is a pure function of them, as a sweep's targets are of (motion settings, target).
 """
 
 from __future__ import annotations
@@ -14,9 +15,9 @@ import math
 import multiprocessing
 import os
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from types import TracebackType
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeVar
 
 from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import InvalidInputError, require_extra
@@ -25,6 +26,10 @@ from rcmplan.sweep.settings import MotionSettings
 from rcmplan.sweep.task import TargetItem, TargetResult, run_chunk
 
 Chunk = list[TargetItem]
+C = TypeVar("C")  # what every job of a run shares (a sweep's motion settings)
+Item = TypeVar("Item")
+R = TypeVar("R")
+ChunkFn = Callable[[C, Sequence[Item]], list[R]]
 DEFAULT_TIMEOUT_S = 10.0
 POLL_S = 0.02  # how often a Dask sweep looks for finished chunks [s]
 
@@ -39,6 +44,11 @@ class Executor(Protocol):
         list[TargetResult]
     ]:  # fmt: skip
         """Results of each chunk, in completion order."""
+        ...
+
+    def map_jobs(self, fn: ChunkFn[C, Item, R], context: C, chunks: Sequence[Sequence[Item]]
+                 ) -> Iterator[list[R]]:  # fmt: skip
+        """fn(context, chunk) for each chunk, in completion order."""
         ...
 
     def close(self) -> None:
@@ -58,8 +68,8 @@ def check_timeout(timeout_s: float, name: str = "timeout") -> float:
     return t
 
 
-def make_chunks(items: Sequence[TargetItem], workers: int, size: int | None = None) -> list[Chunk]:
-    """Split items into chunks: `size` each, or about 8 chunks per worker, 1 to 50 targets."""
+def make_chunks(items: Sequence[Item], workers: int, size: int | None = None) -> list[list[Item]]:
+    """Split items into chunks: `size` each, or about 8 chunks per worker, 1 to 50 items."""
     if size is None:
         size = min(50, max(1, math.ceil(len(items) / (8 * max(1, workers)))))
     if size < 1:
@@ -85,20 +95,23 @@ class LocalExecutor(_ExecutorBase):
 
     Args:
         workers: Number of processes (default: every core, os.cpu_count()).
+        preload: Modules the workers import before their first job (those of the jobs' `fn`).
     """
 
-    def __init__(self, workers: int | None = None) -> None:
+    def __init__(self, workers: int | None = None,
+                 preload: Sequence[str] = ("rcmplan.sweep.task",)) -> None:  # fmt: skip
         n = (os.cpu_count() or 1) if workers is None else workers
-        if not isinstance(n, int) or n < 1:
+        if not isinstance(n, int) or isinstance(n, bool) or n < 1:
             raise InvalidInputError("workers", workers, "an integer >= 1")
         self.workers = n
         self.label = f"local ({n} process{'es' if n > 1 else ''})"
+        self.preload = list(preload)
         self._pool: cf.ProcessPoolExecutor | None = None
 
     def _get_pool(self) -> cf.ProcessPoolExecutor:
         if self._pool is None:
             ctx = multiprocessing.get_context("forkserver")
-            ctx.set_forkserver_preload(["rcmplan.sweep.task"])
+            ctx.set_forkserver_preload(self.preload)
             self._pool = cf.ProcessPoolExecutor(max_workers=self.workers, mp_context=ctx)
         return self._pool
 
@@ -106,13 +119,19 @@ class LocalExecutor(_ExecutorBase):
         list[TargetResult]
     ]:  # fmt: skip
         """Each chunk's results as it finishes; pending chunks are cancelled if we stop early."""
+        return self.map_jobs(run_chunk, motion, chunks)
+
+    def map_jobs(self, fn: ChunkFn[C, Item, R], context: C, chunks: Sequence[Sequence[Item]]
+                 ) -> Iterator[list[R]]:  # fmt: skip
+        """fn(context, chunk) for each chunk as it finishes; pending chunks are cancelled if we
+        stop early. One worker runs them in this process, in order."""
         if self.workers == 1:
             for chunk in chunks:
-                yield run_chunk(motion, chunk)
+                yield fn(context, chunk)
             return
         with signals_deferred():  # the pool starts whole: every worker it launches is tracked
             pool = self._get_pool()
-            futures = [pool.submit(run_chunk, motion, chunk) for chunk in chunks]
+            futures = [pool.submit(fn, context, chunk) for chunk in chunks]
         try:
             for fut in cf.as_completed(futures):
                 yield fut.result()
@@ -207,10 +226,16 @@ class DaskExecutor(_ExecutorBase):
     def map_chunks(self, motion: MotionSettings, chunks: Sequence[Chunk]) -> Iterator[
         list[TargetResult]
     ]:  # fmt: skip
-        """Each chunk's results as it finishes. A worker that dies costs only its chunks, which
-        the scheduler runs again elsewhere (`label` counts the lost workers); a chunk whose
-        workers keep dying, or no worker left for `timeout_s`, raises SchedulerError."""
-        futures = [self.client.submit(run_chunk, motion, c, pure=False) for c in chunks]
+        """Each chunk's results as it finishes (`map_jobs`)."""
+        return self.map_jobs(run_chunk, motion, chunks)
+
+    def map_jobs(self, fn: ChunkFn[C, Item, R], context: C, chunks: Sequence[Sequence[Item]]
+                 ) -> Iterator[list[R]]:  # fmt: skip
+        """fn(context, chunk) for each chunk as it finishes. A worker that dies costs only its
+        chunks, which the scheduler runs again elsewhere (`label` counts the lost workers); a
+        chunk whose workers keep dying, or no worker left for `timeout_s`, raises
+        SchedulerError."""
+        futures = [self.client.submit(fn, context, c, pure=False) for c in chunks]
         done = self._distributed.as_completed(futures, loop=self.client.loop)
         waited = time.monotonic()
         try:
@@ -242,12 +267,12 @@ class DaskExecutor(_ExecutorBase):
                 f"{pending} chunks not run (finished ones are in the checkpoint)",
             )  # fmt: skip
 
-    def _result(self, fut: Any, pending: int) -> list[TargetResult]:
+    def _result(self, fut: Any, pending: int) -> list[Any]:
         """The chunk's results; a result lost with its worker is waited for while workers
         remain (the scheduler recomputes it)."""
         while True:
             try:
-                result: list[TargetResult] = fut.result(timeout=self.timeout_s)
+                result: list[Any] = fut.result(timeout=self.timeout_s)
                 return result
             except self._distributed.KilledWorker as exc:
                 raise SchedulerError(
@@ -262,9 +287,13 @@ class DaskExecutor(_ExecutorBase):
 
 
 def make_executor(
-    workers: int | None = None, scheduler: str | None = None, timeout_s: float = DEFAULT_TIMEOUT_S
+    workers: int | None = None,
+    scheduler: str | None = None,
+    timeout_s: float = DEFAULT_TIMEOUT_S,
+    preload: Sequence[str] = ("rcmplan.sweep.task",),
 ) -> LocalExecutor | DaskExecutor:
-    """A Dask executor when a scheduler address is given, else local processes."""
+    """A Dask executor when a scheduler address is given, else local processes (importing
+    `preload` before their first job)."""
     if scheduler:
         return DaskExecutor(scheduler, timeout_s)
-    return LocalExecutor(workers)
+    return LocalExecutor(workers, preload)
