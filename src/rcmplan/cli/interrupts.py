@@ -44,9 +44,9 @@ STOP_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     "inject": ("summary.json", ("log.npz", "log.csv", "report.html")),
     "spiral": ("summary.json", ("log.npz", "log.csv", "report.html")),
     "teleop": ("summary.json", ("log.npz", "log.csv", "teleop.npz")),
+    "subretinal": ("summary.json", ("log.npz", "episode.npz", "episodes.csv", "episodes.json")),
     "sweep": ("summary.json", ()),
     "compare": ("summary.json", ()),
-    "subretinal": ("summary.json", ("log.npz", "episode.npz")),
     "reproduce": ("summary.json", ()),
     "render": ("summary.json", ("log.npz", "log.csv")),
 }

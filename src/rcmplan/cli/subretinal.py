@@ -1,4 +1,5 @@
-"""`rcmplan subretinal`: one simulated subretinal injection under iOCT with motion compensation."""
+"""`rcmplan subretinal`: one simulated subretinal injection under iOCT with motion compensation,
+or with --episodes N many, drawn (`cli/subretinal_episodes.py`)."""
 
 from __future__ import annotations
 
@@ -17,9 +18,12 @@ from rcmplan.cli.common import (
     announce_robot,
 )
 from rcmplan.cli.output import finish, one_line, table
-from rcmplan.exceptions import RcmplanError
+from rcmplan.exceptions import InvalidInputError, RcmplanError
+from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 
 COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predictors.PREDICTORS
+SINGLE_DEFAULTS = {"compensation": "kalman", "ioct_rate_hz": 9.0, "latency_ms": 150.0,
+                   "motion_um": 50.0}  # fmt: skip
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -31,20 +35,53 @@ def register(sub: argparse._SubParsersAction) -> None:
         "step per 1 kHz period holds the RCM and a depth limit above the estimated RPE "
         "(docs/subretinal.md).",
     )  # fmt: skip
-    p.add_argument("--compensation", choices=COMPENSATIONS, default="kalman",
-                   help="predictor of the ILM motion (kalman)")  # fmt: skip
-    p.add_argument("--ioct-rate-hz", type=float, default=9.0, help="iOCT volume rate, 0.5-200 (9)")
-    p.add_argument("--latency-ms", type=float, default=150.0, help="iOCT latency, 0-1000 (150)")
-    p.add_argument("--motion-um", type=float, default=50.0,
-                   help="breathing amplitude, 0-200 um; cardiac 0.2 of it (50)")  # fmt: skip
-    p.add_argument("--seed", type=int, default=0, help="seed of the motion and iOCT noise (0)")
+    p.add_argument("--compensation", choices=(*COMPENSATIONS, "all"), default=None,
+                   help="predictor of the ILM motion (kalman; with --episodes: all)")  # fmt: skip
+    drawn = "; with --episodes: drawn unless given"
+    p.add_argument("--ioct-rate-hz", type=float, default=None,
+                   help=f"iOCT volume rate, 0.5-200 (9{drawn})")  # fmt: skip
+    p.add_argument("--latency-ms", type=float, default=None,
+                   help=f"iOCT latency, 0-1000 (150{drawn})")  # fmt: skip
+    p.add_argument("--motion-um", type=float, default=None,
+                   help=f"breathing amplitude 0-200 um, cardiac 0.2 of it (50{drawn})")  # fmt: skip
+    p.add_argument("--seed", type=int, default=0,
+                   help="seed of the motion and noise; --episodes: of the draws (0)")  # fmt: skip
     add_robot(p, "iramis")
     add_plant(p, ("kinematic",), "kinematic")
     p.add_argument("--hold-s", type=float, default=5.0, help="injection time, 0-60 s (5)")
+    p.add_argument("--hover-s", type=float, default=1.0,
+                   help="hover at the stand-off before the advance, 0-60 s (1)")  # fmt: skip
+    add_episode_options(p)
     add_out(p, "subretinal")
     add_json(p)
     add_no_plots(p, "the figure")
     p.set_defaults(run=run)
+
+
+def add_episode_options(p: argparse.ArgumentParser) -> None:
+    """The options of many episodes: --episodes and where and how they run."""
+    p.add_argument(
+        "--episodes",
+        type=int,
+        default=None,
+        help="run N drawn episodes, each with every method (docs/subretinal.md)",
+    )
+    p.add_argument("--workers", type=int, help="--episodes: local processes (every core)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="--episodes: Dask scheduler address (tcp://...)")  # fmt: skip
+    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S,
+                   help=f"--episodes, Dask: time [s] to connect, and to wait for a worker when "
+                   f"none is left ({DEFAULT_TIMEOUT_S:g})")  # fmt: skip
+    p.add_argument("--checkpoint", metavar="PATH", help="--episodes: checkpoint (OUT/checkpoint)")
+    p.add_argument("--resume", action="store_true",
+                   help="--episodes: continue the checkpoint of an interrupted run of the same "
+                   "settings (without it, a rerun discards the checkpoint)")  # fmt: skip
+
+
+def option(args: argparse.Namespace, name: str) -> Any:
+    """An option's value, or its one-episode default when not given."""
+    value = getattr(args, name)
+    return SINGLE_DEFAULTS[name] if value is None else value
 
 
 def settings_of(args: argparse.Namespace) -> Any:
@@ -52,23 +89,33 @@ def settings_of(args: argparse.Namespace) -> Any:
     from rcmplan._validate import scalar
     from rcmplan.subretinal.episode_settings import EpisodeSettings
 
+    compensation = option(args, "compensation")
+    if compensation == "all" and args.episodes is None:
+        raise InvalidInputError("--compensation", "all", "one method for one episode; all "
+                                "with --episodes N")  # fmt: skip
     return EpisodeSettings(
         robot=args.robot,
         plant=args.plant,
-        compensation=args.compensation,
-        ioct_rate_hz=scalar("--ioct-rate-hz", args.ioct_rate_hz, 0.5, 200.0),
-        latency_s=1e-3 * scalar("--latency-ms", args.latency_ms, 0.0, 1000.0),
-        breathing_m=1e-6 * scalar("--motion-um", args.motion_um, 0.0, 200.0),
+        compensation="kalman" if compensation == "all" else compensation,
+        ioct_rate_hz=scalar("--ioct-rate-hz", option(args, "ioct_rate_hz"), 0.5, 200.0),
+        latency_s=1e-3 * scalar("--latency-ms", option(args, "latency_ms"), 0.0, 1000.0),
+        breathing_m=1e-6 * scalar("--motion-um", option(args, "motion_um"), 0.0, 200.0),
         seed=args.seed,
         hold_s=scalar("--hold-s", args.hold_s, 0.0, 60.0, low_open=True),
+        hover_s=scalar("--hover-s", args.hover_s, 0.0, 60.0),
     )
 
 
 def run(args: argparse.Namespace) -> int:
     """Run the episode, write log.npz, episode.npz, summary.json and the figure; exit 1 if the
-    episode did not end "ok", 2 on a bad option (summary.json then says which)."""
+    episode did not end "ok", 2 on a bad option (summary.json then says which). With
+    --episodes, run many (`subretinal_episodes.run_episodes`)."""
     from rcmplan.analysis.report import prepare_folder
 
+    if args.episodes is not None:
+        from rcmplan.cli.subretinal_episodes import run_episodes
+
+        return run_episodes(args)
     out = prepare_folder(args.out)
     try:
         announce_robot(args.robot, "subretinal")

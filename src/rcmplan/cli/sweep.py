@@ -10,7 +10,7 @@ import argparse
 import json
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from rcmplan._validate import integer, scalar
 from rcmplan.cli import interrupts
@@ -37,7 +37,7 @@ from rcmplan.sweep.settings import (
 )
 
 if TYPE_CHECKING:
-    from rcmplan.sweep.checkpoint import Checkpoint
+    from rcmplan.sweep.checkpoint import Checkpoint, RecordCheckpoint
     from rcmplan.sweep.executors import Executor
     from rcmplan.sweep.gains import GainSearchResult
     from rcmplan.sweep.runner import SweepResult
@@ -143,17 +143,21 @@ def run_gains(args: argparse.Namespace, result: SweepResult, checkpoint: Checkpo
         return optimize_search(search, args.max_evaluations)
 
 
-def open_checkpoint(path: Path, settings: SweepSettings, resume: bool) -> Checkpoint:
-    """The sweep's checkpoint: with --resume the one at `path` continued (it must hold these
-    settings), else a new one in place of the checkpoint an earlier sweep left there, as every
-    command writes over its earlier outputs (a folder that is no checkpoint is never removed)."""
-    from rcmplan.sweep.checkpoint import Checkpoint, discard
+CP = TypeVar("CP", bound="RecordCheckpoint[Any, Any]")
+
+
+def open_checkpoint(path: Path, settings: Any, resume: bool, kind: type[CP]) -> CP:
+    """The run's checkpoint of type `kind` (the sweep's `Checkpoint`, or another run's): with
+    --resume the one at `path` continued (it must hold these settings), else a new one in place
+    of the checkpoint an earlier run left there, as every command writes over its earlier
+    outputs (a folder that is no checkpoint is never removed)."""
+    from rcmplan.sweep.checkpoint import discard
     from rcmplan.sweep.errors import CheckpointError
 
     if not resume:
         discard(path)
     try:
-        return Checkpoint.open(path, settings, resume)
+        return kind.open(path, settings, resume)
     except CheckpointError as exc:
         hint = "; rerun without --resume to start afresh" if resume else ""
         raise CheckpointError(exc.path, exc.problem + hint) from exc
@@ -237,11 +241,12 @@ def check_options(args: argparse.Namespace) -> None:
 
 def run_straight(args: argparse.Namespace, out: Path) -> int:
     """The sweep of a straight needle: targets on the executor, checkpointed, then the maps."""
+    from rcmplan.sweep.checkpoint import Checkpoint
     from rcmplan.sweep.executors import make_executor
 
     settings = settings_from_args(args)
-    checkpoint = open_checkpoint(Path(args.checkpoint or out / "checkpoint"), settings,
-                                 args.resume)  # fmt: skip
+    path = Path(args.checkpoint or out / "checkpoint")
+    checkpoint = open_checkpoint(path, settings, args.resume, Checkpoint)
     try:
         with interrupts.surfaced():
             with make_executor(args.workers, args.scheduler, args.timeout) as executor:

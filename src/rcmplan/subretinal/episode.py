@@ -127,7 +127,7 @@ class Episode:
         self.guard = self.predictor if bounded == cfg.compensation else make_predictor(bounded)
         self._next = 0
         self.n_periods = round(self.length_s / cfg.dt)
-        self.t_s = cfg.warmup_s + cfg.dt * np.arange(self.n_periods)  # period k's time
+        self.t_s: FloatArray = cfg.warmup_s + cfg.dt * np.arange(self.n_periods, dtype=float)
         self.wall_m = self.motion.displacement(self.t_s)
         self.predicted_m, self.bound_m = np.empty(self.n_periods), np.empty(self.n_periods)
         self._predicted_to = 0  # periods [0, _predicted_to) have their predictions
