@@ -77,7 +77,11 @@ def test_bad_ranges_are_refused_naming_the_value_and_the_range(
 
 def test_ranges_the_episodes_cannot_take_are_refused_before_any_motion() -> None:
     with pytest.raises(InvalidInputError, match=r"target_fraction\[1\] = 0\.95.*\[0\.1, 0\.9\]"):
-        BatchSettings(episodes=2, ranges=DrawRanges(target_fraction=(0.3, 0.95)))
+        BatchSettings(episodes=2, ranges=DrawRanges(target_fraction=(0.5, 0.95)))
+    with pytest.raises(
+        InvalidInputError, match=r"target_fraction\[0\] = 0\.3 .*above 0\.4: .*100 um"
+    ):
+        BatchSettings(episodes=2, ranges=DrawRanges(target_fraction=(0.3, 0.7)))
     reach = DrawRanges(breathing_amplitude_m=(20e-6, 90e-6), cardiac_amplitude_m=(2e-6, 15e-6))
     with pytest.raises(InvalidInputError, match="stand-off, 100 um") as info:
         BatchSettings(episodes=2, ranges=reach)
