@@ -2,8 +2,10 @@
 
 The needle starts inserted through the trocar, `start_height_m` above the target's ILM point.
 Every 1 kHz period does what a teleoperated session's period does (`rcmplan.teleop.session`):
-read the plant, lambda by `closest_lambda`, the target X_ext by `rcm_target(tip, trocar)`, one
-`QpSolver.step`, command the plant. The QP holds the RCM, actuator travel and speed and, as an
+read the plant, lambda by `closest_lambda`, the target X_ext (`rcm_targets(tip, trocar)`, for
+the periods up to the next iOCT estimate at once: `Episode.plan`), one
+`QpSolver.step` (compiled, `compiled.qp_period.period_step`, where it applies; the Python step
+otherwise), command the plant. The QP holds the RCM, actuator travel and speed and, as an
 extra limit, `TissueDepthLimit`: the tip above the ESTIMATED RPE less `rpe_margin_m`. The QP's
 retina barrier is off (no eye is given to it): the needle has to pass the ILM.
 
@@ -32,8 +34,8 @@ from rcmplan.control.limits import TissueDepthLimit
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.targets import rcm_target, solve_pose
-from rcmplan.exceptions import RcmBoundError
+from rcmplan.control.targets import rcm_target, rcm_targets, solve_pose
+from rcmplan.exceptions import RcmBoundError, UnreachableTargetError
 from rcmplan.robot.needle import closest_lambda
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
@@ -45,6 +47,7 @@ from rcmplan.subretinal.motion import MotionModel, sample_motion
 from rcmplan.subretinal.predictors import make_predictor
 from rcmplan.subretinal.tissue import TissueContact
 from rcmplan.subretinal.trace import IlmTrace, noisy_trace
+from rcmplan.teleop.session import fast_period_step
 
 PHASES = ("approach", "hover", "advance", "hold", "retract", "settle")
 SERIES = ("t_s", "phase", "wall_m", "predicted_m", "limit_m", "command_depth_m",
@@ -129,8 +132,11 @@ class Episode:
         self.n_periods = round(self.length_s / cfg.dt)
         self.t_s: FloatArray = cfg.warmup_s + cfg.dt * np.arange(self.n_periods, dtype=float)
         self.wall_m = self.motion.displacement(self.t_s)
-        self.predicted_m, self.bound_m = np.empty(self.n_periods), np.empty(self.n_periods)
-        self._predicted_to = 0  # periods [0, _predicted_to) have their predictions
+        n = self.n_periods  # per period, planned a block at a time (`plan`):
+        self.predicted_m, self.bound_m, self.command_m = np.empty(n), np.empty(n), np.empty(n)
+        self.phase = np.zeros(n, dtype=int)  # index in PHASES
+        self.desired, self.targets = np.empty((n, 3)), np.empty((n, 6))
+        self._planned_to = 0  # periods [0, _planned_to) are planned
         self.start_radius = layers.ilm_radius_m - cfg.start_height_m
         start_tip = self.to_base(self.start_radius)
         pose = solve_pose(robot, rcm_target(start_tip, eye.port))
@@ -140,6 +146,7 @@ class Episode:
         self.depth_limit = TissueDepthLimit(eye.center, self.limit_radius(0.0))
         extra = (self.depth_limit,) if cfg.depth_limit else ()
         self.solver = QpSolver(robot, None, cfg.dt, limits=QpLimits(), extra_limits=extra)
+        self.fast_step = fast_period_step(self.solver)  # the compiled step where it applies
         self.tissue = TissueContact()
         self.log = LogBuilder()
         self.log.actuator_labels = tuple(
@@ -149,9 +156,10 @@ class Episode:
         self._sid = self.log.solver_id(self.solver.name)
         self.rows: dict[str, list[float]] = {k: [] for k in SERIES}
 
-    def to_base(self, radius_m: float) -> FloatArray:
-        """The point at `radius_m` [m] from the eye centre on the target's normal, base frame."""
-        return np.asarray(self.eye.center + radius_m * self.normal_base)
+    def to_base(self, radius_m: float | FloatArray) -> FloatArray:
+        """The point (3,) at `radius_m` [m] from the eye centre on the target's normal, base
+        frame; (N, 3) for N radii."""
+        return np.asarray(self.eye.center + np.multiply.outer(radius_m, self.normal_base))
 
     def limit_radius(self, displacement_m: float) -> float:
         """Radius [m] the depth limit holds the tip within: the RPE displaced by
@@ -170,21 +178,29 @@ class Episode:
                 self.guard.update(t_acq, value)
             self._next += 1
 
-    def predictions(self, k: int) -> tuple[float, float]:
-        """The compensation's prediction and the depth limit's displacement [m] at period k.
-
-        The predictors change only when an estimate arrives, so one call predicts every period
-        from k to the next arrival (as `trace.prediction_errors` does)."""
-        if k >= self._predicted_to:
-            t = self.t_s
-            self.deliver(float(t[k]))
-            arrival = self.arrival_s[self._next] if self._next < self.arrival_s.size else np.inf
-            end = max(k + 1, int(np.searchsorted(t, arrival, side="left")))
-            self.predicted_m[k:end] = self.predictor.predict(t[k:end])
-            guard = self.guard.predict(t[k:end]) if self.guard is not self.predictor else None
-            self.bound_m[k:end] = self.predicted_m[k:end] if guard is None else guard
-            self._predicted_to = end
-        return float(self.predicted_m[k]), float(self.bound_m[k])
+    def plan(self, k: int) -> None:
+        """Plan the periods from k to the next estimate's arrival: the compensation's
+        prediction, the depth limit's displacement, the phase, the commanded depth, the tip
+        target and its X_ext. The predictors change only when an estimate arrives, so one call
+        predicts the whole block (as `trace.prediction_errors` does)."""
+        t, dt = self.t_s, self.cfg.dt
+        self.deliver(float(t[k]))
+        arrival = self.arrival_s[self._next] if self._next < self.arrival_s.size else np.inf
+        end = max(k + 1, int(np.searchsorted(t, arrival, side="left")))
+        block = slice(k, end)
+        self.predicted_m[block] = self.predictor.predict(t[block])
+        guard = self.guard.predict(t[block]) if self.guard is not self.predictor else None
+        self.bound_m[block] = self.predicted_m[block] if guard is None else guard
+        radius = np.empty(end - k)
+        for j in range(k, end):
+            phase, a = self.phase_at(j * dt)
+            self.phase[j] = PHASES.index(phase)
+            radius[j - k], self.command_m[j] = self.tip_radius(phase, a, self.predicted_m[j])
+        self.desired[block] = self.to_base(radius)
+        self.targets[block] = rcm_targets(self.desired[block], self.eye.port)
+        if not np.isfinite(self.targets[block]).all():  # as rcm_target refuses it
+            raise UnreachableTargetError("the tip target coincides with the trocar")
+        self._planned_to = end
 
     def phase_at(self, t_loop_s: float) -> tuple[str, float]:
         """The phase at loop time t_loop_s [s] and the fraction of it done (None past the end)."""
@@ -208,20 +224,22 @@ class Episode:
         """One control period (module docstring)."""
         robot, plant, trocar, cfg = self.robot, self.plant, self.eye.port, self.cfg
         k = len(self.rows["t_s"])
-        t = float(self.t_s[k])
-        predicted, bound = self.predictions(k)
-        self.depth_limit.set_floor(self.limit_radius(bound))
-        phase, a = self.phase_at(k * cfg.dt)
-        radius, c = self.tip_radius(phase, a, predicted)
+        if k >= self._planned_to:
+            self.plan(k)
+        t, predicted, bound = float(self.t_s[k]), float(self.predicted_m[k]), self.bound_m[k]
+        self.depth_limit.set_floor(self.limit_radius(float(bound)))
+        phase, c = PHASES[self.phase[k]], self.command_m[k]
+        desired, target = self.desired[k], self.targets[k]
         s = plant.read_actuators()
         q = robot.joints_from_actuators(s)
         base, end = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
         lam = closest_lambda(base, end, trocar)
         tip = robot.tip(q)
-        desired = self.to_base(radius)
-        target = rcm_target(desired, trocar)
         e = target - extended_task(robot, q, lam)
-        dq, _ = self.solver.step(robot, q, lam, target, e)
+        if self.fast_step is not None:
+            dq = self.fast_step(q, lam, target)
+        else:
+            dq, _ = self.solver.step(robot, q, lam, target, e)
         q_new = q.copy()
         q_new[list(robot.active)] += dq
         plant.command_actuators(robot.actuators_from_joints(q_new))
