@@ -130,8 +130,7 @@ def test_cli_writes_the_summary(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("option", "value", "named"),
     [("--ioct-rate-hz", "0", "--ioct-rate-hz"), ("--latency-ms", "-5", "--latency-ms"),
-     ("--motion-um", "500", "--motion-um"), ("--hold-s", "0", "--hold-s"),
-     ("--plant", "mujoco", "kinematic")],
+     ("--motion-um", "500", "--motion-um"), ("--hold-s", "0", "--hold-s")],
 )  # fmt: skip
 def test_cli_refuses_a_bad_option(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str, value: str, named: str
@@ -141,3 +140,11 @@ def test_cli_refuses_a_bad_option(
     assert named in capsys.readouterr().err
     doc = json.loads((out / "summary.json").read_text())
     assert doc["status"] == "invalid_input" and value in doc["message"]
+
+
+def test_cli_offers_only_the_kinematic_plant(capsys: pytest.CaptureFixture[str]) -> None:
+    """The episode runs on the kinematic plant only: the option's choices refuse another."""
+    with pytest.raises(SystemExit) as exc:
+        main(["subretinal", "--plant", "mujoco", "--no-plots"])
+    assert exc.value.code == 2
+    assert "invalid choice: 'mujoco' (choose from 'kinematic')" in capsys.readouterr().err
