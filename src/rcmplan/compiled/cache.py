@@ -113,7 +113,8 @@ def stamp_path() -> Path:
     key = hashlib.sha256()
     robot = here.parent / "robot"
     for path in (*sorted(here.glob("*.py")),
-                 *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics", "needle")),
+                 *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics",
+                                                "chain_singular", "needle")),
                  here.parent / "control" / "rcm_step.py",
                  here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
         key.update(path.read_bytes())
