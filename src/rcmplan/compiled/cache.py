@@ -58,6 +58,13 @@ def arm_loop() -> ModuleType:
     return _load("arm_loop")
 
 
+def arm_qp_kernels() -> ModuleType:
+    """The QP step's kernels for a serial arm (`arm_qp_kernels`); MissingExtraError without
+    DAQP."""
+    require_extra("daqp", "qp")
+    return _load("arm_qp_kernels")
+
+
 def loop_kernels() -> ModuleType:
     """The compiled control loop (`loop`)."""
     return _load("loop")

@@ -29,6 +29,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.robot.needle import axis_angles
 
 IntArray = NDArray[np.int64]
 ROWS = 6  # X_ext = (x_tip, phi, psi, p_rcm)
@@ -194,9 +195,7 @@ def angle_rows(A: FloatArray, ix: IntArray, W: FloatArray, thesis: bool, J: Floa
 def task_at(A: FloatArray, n: int, W: FloatArray, lam: float, x: FloatArray) -> None:
     """X_ext = (x_tip [m], phi, psi [rad], p_rcm [m]) (eq. 3.14) at the frames in W into x."""
     x[0] = needle_point(A, n, W, 1.0)[0]
-    ax, ay, az = needle_axis(A, n, W)
-    x[1] = math.atan2(az, -ax)
-    x[2] = math.atan2(-ay, math.hypot(ax, az))
+    x[1], x[2] = axis_angles(*needle_axis(A, n, W))
     x[3], x[4], x[5] = needle_point(A, n, W, lam)
 
 
