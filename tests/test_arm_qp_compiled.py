@@ -15,11 +15,13 @@ from rcmplan.control.augmented import extended_task
 from rcmplan.control.limits import TissueDepthLimit
 from rcmplan.control.limits.workspace import WorkspaceBound
 from rcmplan.control.log import RunLog
+from rcmplan.control.objective import Objective
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_backends import solve
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, StepInput, build_step
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.control.tasks import Posture
 from rcmplan.controller import Controller
 from rcmplan.exceptions import InvalidInputError, QPError
 from rcmplan.robot.model import SerialArm
@@ -167,7 +169,7 @@ class SubclassQp(QpSolver):
 
 
 @pytest.mark.parametrize("case", ["other back end", "subclass", "daqp binding unusable",
-                                  "servo", "three extra limits"])  # fmt: skip
+                                  "servo", "three extra limits", "posture objective"])  # fmt: skip
 def test_the_compiled_arm_step_declines_what_it_does_not_reproduce(
     arm: SerialArm, case: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -184,8 +186,11 @@ def test_the_compiled_arm_step_declines_what_it_does_not_reproduce(
         solver = QpSolver(arm, eye)
     elif case == "servo":
         solver = QpSolver(arm, eye, servo=ServoPlant(arm))
-    else:
+    elif case == "three extra limits":
         solver = QpSolver(arm, eye, extra_limits=(box, box, box))
+    else:  # a cost term the compiled assembly does not hold
+        posture = Objective(Posture(), arm.home[list(arm.active)], 0.2, 1e-3)
+        solver = QpSolver(arm, eye, objectives=(posture,))
     assert not arm_qp_applies(solver)
     with pytest.raises(InvalidInputError, match="solver"):
         ArmQpStep(solver)

@@ -139,7 +139,7 @@ def compile_arm_kernels() -> None:
 
 def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:
     """The arm's compiled QP step (`arm_qp`), one solve and one assembly; nothing if DAQP's C
-    solver cannot be called from compiled code (`cache.qp_loop`)."""
+    solver cannot be called from compiled code (`cache.daqp_callable`)."""
     from rcmplan.compiled.arm_qp import arm_qp_step
     from rcmplan.control.qp import QpSolver
 

@@ -5,11 +5,12 @@ controller's Python loop (`arm_qp_kernels.solve_arm_step`), behind the runner se
 Applies to a `QpSolver` itself (exact type: a subclass may change its step) with the DAQP back
 end and a straight needle, planning from the measured state (no servo plan), on a `SerialArm`
 itself whose kinematics the chain kernels reproduce (`arm.arm_arrays`), with an eye whose
-retina is the kernels' sphere and extra limits the kernels hold (`qp_params`), where DAQP's C
-function can be called from compiled code (`cache.qp_loop`). `ArmQpStep` then stands in for the
-solver in the loop: the same task error, tolerance and step to rounding, the QP assembled with
-the same row kernels. A solve that DAQP does not finish optimally is repeated by the solver
-itself, which raises its QPError (or returns its step at the edge of DAQP's tolerances).
+retina is the kernels' sphere, extra limits the kernels hold and no extra cost terms
+(`qp_params`), where DAQP's C function can be called from compiled code
+(`cache.daqp_callable`). `ArmQpStep` then stands in for the solver in the loop: the same task
+error, tolerance and step to rounding, the QP assembled with the same row kernels. A solve that
+DAQP does not finish optimally is repeated by the solver itself, which raises its QPError (or
+returns its step at the edge of DAQP's tolerances).
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ def arm_qp_applies(solver: object) -> bool:
         return False
     if solver.servo is not None or type(solver.robot) is not SerialArm:
         return False
-    if arm_arrays(solver.robot) is None or fast_cache.qp_loop() is None:
+    if arm_arrays(solver.robot) is None or not fast_cache.daqp_callable():
         return False
     return qp_params(solver.robot, solver) is not None
 

@@ -77,18 +77,21 @@ def qp_kernels() -> ModuleType:
     return _load("qp_kernels")
 
 
-def qp_loop() -> ModuleType | None:
-    """The compiled QP loop (`qp_loop`), or None if DAQP's C solver cannot be called from
-    compiled code here (`daqp_c.abi_ok`: a DAQP version whose structures are not the ones
-    copied, or no DAQP at all: the QP then raises MissingExtraError at its first solve);
-    checked once per process."""
+def daqp_callable() -> bool:
+    """True if DAQP's C solver can be called from compiled code here (`daqp_c.abi_ok`: False
+    for a DAQP version whose structures are not the ones copied, or no DAQP at all: the QP then
+    raises MissingExtraError at its first solve); checked once per process."""
     if importlib.util.find_spec("daqp") is None:
-        return None
+        return False
     if _state["daqp_abi"] is None:
         _state["daqp_abi"] = _load("daqp_c").abi_ok()
-    if not _state["daqp_abi"]:
-        return None
-    return _load("qp_loop")
+    return bool(_state["daqp_abi"])
+
+
+def qp_loop() -> ModuleType | None:
+    """The compiled QP loop (`qp_loop`), or None if DAQP's C solver cannot be called from
+    compiled code here (`daqp_callable`)."""
+    return _load("qp_loop") if daqp_callable() else None
 
 
 def closed_loop() -> ModuleType:
