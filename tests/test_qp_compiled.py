@@ -333,8 +333,9 @@ def test_the_period_step_declines_what_it_does_not_reproduce(robot: Iramis) -> N
     assert period_step(QpSolver(robot, eye, extra_limits=(box, box))) is not None
     assert period_step(QpSolver(robot, eye, extra_limits=(box, box, box))) is None  # > MAX_EXTRA
     assert period_step(QpSolver(robot, eye, extra_limits=(TipSpeed(0.01),))) is None  # no kind
-    ur5 = make_robot("ur5")
-    assert period_step(QpSolver(ur5, default_eye(ur5))) is None
+    ur5 = make_robot("ur5")  # an arm's QP runs compiled too (`arm_qp`)
+    assert period_step(QpSolver(ur5, default_eye(ur5))) is not None
+    assert period_step(QpSolver(ur5, default_eye(ur5), backend="quadprog")) is None
 
 
 def test_a_moving_depth_limit_is_read_at_each_step(robot: Iramis, rng) -> None:  # type: ignore[no-untyped-def]

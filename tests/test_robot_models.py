@@ -28,6 +28,8 @@ from rcmplan.scene.procedures import injection
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.sim.kinematic import KinematicPlant
 
+from chain_oracle import jacobian_derivatives
+from chain_oracle import singular_terms as singular_terms_oracle
 from fd import fd_jacobian
 
 TASKS = (TipPosition(), NeedleAngles(), RcmPoint(), NeedleBase(), Posture())
@@ -235,7 +237,45 @@ def test_chain_jacobian_derivatives_equal_finite_differences_with_prismatic_join
     for _ in range(5):
         q = rng.uniform(-0.3, 0.3, chain.n)
         T = chain.frames(q)
-        d = chain.jacobian_derivatives(T, jac(q))
+        d = jacobian_derivatives(chain, T, jac(q))
         for j in range(chain.n):
             fd = fd_jacobian(lambda x, j=j: jac(x).ravel(), q)[:, j].reshape(6, chain.n)
             np.testing.assert_allclose(d[j], fd, rtol=0, atol=1e-7)
+
+
+@pytest.mark.parametrize("name", ["ur5", "panda"])
+def test_an_arms_singular_terms_equal_the_svd_oracle_at_random_poses(name: str) -> None:
+    """Anywhere within the joint limits: the kernel's measure and gradient equal numpy's SVD
+    formulation, and the gradient the measure's finite differences, where both extreme
+    singular values are simple (the gradient exists) and the pose is not singular."""
+    arm = make_robot(name)
+    rng = np.random.default_rng(11)
+    lower, upper = np.maximum(arm.lower, -np.pi), np.minimum(arm.upper, np.pi)
+    checked = 0
+    for _ in range(200):
+        q = rng.uniform(lower, upper)
+        value, grad = arm.singular_terms(q)
+        ref_value, ref_grad = singular_terms_oracle(arm, q)
+        assert value[0] == arm.singularity_measure(q)
+        assert value[0] == pytest.approx(ref_value[0], rel=1e-10)
+        s = np.linalg.svd(_measure_matrix(arm, q), compute_uv=False)
+        if s[-1] / s[0] < 1e-3 or min(s[0] - s[1], s[-2] - s[-1]) < 1e-3 * s[0]:
+            continue
+        scale = np.abs(ref_grad).max()
+        np.testing.assert_allclose(grad, ref_grad, rtol=0, atol=1e-9 * scale)
+        fd = fd_jacobian(lambda x: np.array([arm.singularity_measure(x)]), q)
+        np.testing.assert_allclose(grad, fd, rtol=0, atol=1e-6 * scale)
+        checked += 1
+    assert checked >= 100
+
+
+def _measure_matrix(arm: SerialArm, q: np.ndarray) -> np.ndarray:
+    """M = [J_tip / l; N J_omega] over the active joints (the measure's matrix)."""
+    a = arm.needle_axis(q)
+    helper = np.zeros(3)
+    helper[int(np.argmin(np.abs(a)))] = 1.0
+    n1 = np.cross(a, helper)
+    n1 /= np.linalg.norm(n1)
+    N = np.array([n1, np.cross(a, n1)])
+    J_tip = arm.tip_jacobian(q)[:, :-1] / arm.needle_length
+    return np.vstack([J_tip, N @ arm.needle_angular_jacobian(q)[:, :-1]])

@@ -106,9 +106,9 @@ class _SteppedPlant(KinematicPlant):
 
 
 def compile_arm_kernels() -> None:
-    """Compile (or load from numba's cache) the arm kernels, both loops and the target screen
-    with the argument types used here, on iRAM!S's DH chain holding its needle (no robot
-    package needed)."""
+    """Compile (or load from numba's cache) the arm kernels, both loops, the target screen and
+    the QP step with the argument types used here, on iRAM!S's DH chain holding its needle (no
+    robot package needed)."""
     from rcmplan.sim.kinematic import KinematicPlant
 
     robot = Iramis()
@@ -133,6 +133,20 @@ def compile_arm_kernels() -> None:
             ctl = Controller(KinematicPlant(arm), solver)
             ctl.lam = 0.5
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
+    if importlib.util.find_spec("daqp") is not None:
+        _compile_arm_qp(arm, rcm[0])
+
+
+def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:
+    """The arm's compiled QP step (`arm_qp`), one solve and one assembly; nothing if DAQP's C
+    solver cannot be called from compiled code (`cache.daqp_callable`)."""
+    from rcmplan.compiled.arm_qp import arm_qp_step
+    from rcmplan.control.qp import QpSolver
+
+    fast = arm_qp_step(QpSolver(arm))
+    if fast is not None:
+        fast.solve(arm.home, 0.5, target)
+        fast.problem(arm.home, 0.5, target)
 
 
 def compile_curved_kernels() -> None:

@@ -57,7 +57,7 @@ from rcmplan.compiled.records import (
     TIP,
 )
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
-from rcmplan.robot.needle import axis_into, closest_point
+from rcmplan.robot.needle import axis_angles, axis_into, closest_point
 
 
 @njit(cache=True)
@@ -79,9 +79,9 @@ def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: flo
             e[i] = tip_t[i] - p_tip[i]
             e[3 + i] = (tip_t[i] - A[5 * n + 12, 0] * a[i] if pivot else target[3 + i]) - p[i]
         return 6
-    ax, ay, az = needle_axis(A, n, W)
+    phi, psi = axis_angles(*needle_axis(A, n, W))
     p = needle_point(A, n, W, lam)
-    x = (p_tip[0], math.atan2(az, -ax), math.atan2(-ay, math.hypot(ax, az)), p[0], p[1], p[2])
+    x = (p_tip[0], phi, psi, p[0], p[1], p[2])
     for i in range(6):
         e[i] = target[i] - x[i]
     return 6

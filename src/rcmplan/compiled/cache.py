@@ -58,6 +58,13 @@ def arm_loop() -> ModuleType:
     return _load("arm_loop")
 
 
+def arm_qp_kernels() -> ModuleType:
+    """The QP step's kernels for a serial arm (`arm_qp_kernels`); MissingExtraError without
+    DAQP."""
+    require_extra("daqp", "qp")
+    return _load("arm_qp_kernels")
+
+
 def loop_kernels() -> ModuleType:
     """The compiled control loop (`loop`)."""
     return _load("loop")
@@ -70,18 +77,21 @@ def qp_kernels() -> ModuleType:
     return _load("qp_kernels")
 
 
-def qp_loop() -> ModuleType | None:
-    """The compiled QP loop (`qp_loop`), or None if DAQP's C solver cannot be called from
-    compiled code here (`daqp_c.abi_ok`: a DAQP version whose structures are not the ones
-    copied, or no DAQP at all: the QP then raises MissingExtraError at its first solve);
-    checked once per process."""
+def daqp_callable() -> bool:
+    """True if DAQP's C solver can be called from compiled code here (`daqp_c.abi_ok`: False
+    for a DAQP version whose structures are not the ones copied, or no DAQP at all: the QP then
+    raises MissingExtraError at its first solve); checked once per process."""
     if importlib.util.find_spec("daqp") is None:
-        return None
+        return False
     if _state["daqp_abi"] is None:
         _state["daqp_abi"] = _load("daqp_c").abi_ok()
-    if not _state["daqp_abi"]:
-        return None
-    return _load("qp_loop")
+    return bool(_state["daqp_abi"])
+
+
+def qp_loop() -> ModuleType | None:
+    """The compiled QP loop (`qp_loop`), or None if DAQP's C solver cannot be called from
+    compiled code here (`daqp_callable`)."""
+    return _load("qp_loop") if daqp_callable() else None
 
 
 def closed_loop() -> ModuleType:
@@ -113,7 +123,8 @@ def stamp_path() -> Path:
     key = hashlib.sha256()
     robot = here.parent / "robot"
     for path in (*sorted(here.glob("*.py")),
-                 *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics", "needle")),
+                 *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics",
+                                                "chain_singular", "needle")),
                  here.parent / "control" / "rcm_step.py",
                  here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
         key.update(path.read_bytes())

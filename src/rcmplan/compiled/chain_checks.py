@@ -23,7 +23,7 @@ from rcmplan.robot.chain_kinematics import (
     needle_point,
     point_jacobian,
 )
-from rcmplan.robot.needle import x_ext_tip
+from rcmplan.robot.needle import axis_angles, x_ext_tip
 
 
 @njit(cache=True)
@@ -42,8 +42,8 @@ def needle_pose(A: FloatArray, ix: IntArray, W: FloatArray, tip: FloatArray, phi
         px, py, pz = needle_point(A, n, W, 1.0)
         ax, ay, az = needle_axis(A, n, W)
         err[0], err[1], err[2] = tip[0] - px, tip[1] - py, tip[2] - pz
-        err[3] = phi - math.atan2(az, -ax)
-        err[4] = psi - math.atan2(-ay, math.hypot(ax, az))
+        phi_now, psi_now = axis_angles(ax, ay, az)
+        err[3], err[4] = phi - phi_now, psi - psi_now
         within = True  # every |error| <= tol (False for NaN)
         for i in range(5):
             if i >= 3:

@@ -1,6 +1,7 @@
 """The compiled kernels of any serial arm holding a straight needle, gathered for
 `rcmplan.compiled.cache.chain_kernels`: kinematics (`chain_kinematics`, which also states the
-memory layout), steps (`chain_solve`) and checks (`chain_checks`).
+memory layout), the singularity measure (`chain_singular`), steps (`chain_solve`) and checks
+(`chain_checks`).
 
 The same maths as `SerialArm` (`robot/model.py`), `angles_jacobian` (`robot/needle.py`), the
 X_ext stacking (`control/augmented.py`) and `PinvSolver` / `DlsSolver` (`control/solvers.py`),
@@ -20,7 +21,6 @@ from rcmplan.compiled.chain_solve import (
 )
 from rcmplan.robot.chain_kinematics import (
     AXIS,
-    CERTIFY,
     ROWS,
     SING,
     TIP,
@@ -34,8 +34,6 @@ from rcmplan.robot.chain_kinematics import (
     compose,
     evaluate,
     frames,
-    gram_extremes,
-    is_singular,
     jacobian_at,
     joint_axis,
     move,
@@ -43,11 +41,17 @@ from rcmplan.robot.chain_kinematics import (
     needle_point,
     point_jacobian,
     rotate,
-    singular_gram,
-    singularity_measure,
     task_at,
     task_jacobian,
     work_shape,
+)
+from rcmplan.robot.chain_singular import (
+    CERTIFY,
+    gram_extremes,
+    is_singular,
+    singular_gram,
+    singular_terms,
+    singularity_measure,
 )
 
 __all__ = [
@@ -84,6 +88,7 @@ __all__ = [
     "rotate",
     "screen_targets",
     "singular_gram",
+    "singular_terms",
     "singularity_measure",
     "square_solve",
     "task_at",

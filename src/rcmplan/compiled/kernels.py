@@ -9,13 +9,12 @@ Parameters travel as one float64 array P (`iramis_kernels.PARAMS`).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.robot.iramis_kernels import point, point_jacobian, trig
+from rcmplan.robot.needle import axis_angles
 
 
 @njit(cache=True)
@@ -25,8 +24,7 @@ def task(P: FloatArray, q: FloatArray, tr: tuple, lam: float, x: FloatArray) -> 
     ax, ay, az = -c1 * c3, -s3, s1 * c3
     point(P, q, tr, lam, x[3:])
     x[0] = P[1] * s1 - c1 * c3 * (q[4] + 1.0 * P[5]) - P[4] * c1 * s3  # x of p(1)
-    x[1] = math.atan2(az, -ax)
-    x[2] = math.atan2(-ay, math.hypot(ax, az))
+    x[1], x[2] = axis_angles(ax, ay, az)
 
 
 @njit(cache=True)

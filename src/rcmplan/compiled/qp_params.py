@@ -1,8 +1,9 @@
 """The QP controller's settings as the compiled kernels read them: one float64 vector Q.
 
 No numba here (the runner checks whether the compiled QP applies without loading it); the
-kernels (`qp_kernels`) read the indices below as compile-time constants. The rows themselves
-are the limits' own kernels (`control/limits/`), which the Python QP calls too.
+kernels (`qp_rows`, `qp_kernels`, `arm_qp_kernels`) read the indices below as compile-time
+constants. The rows themselves are the limits' own kernels (`control/limits/`), which the
+Python QP calls too.
 """
 
 from __future__ import annotations
@@ -24,20 +25,21 @@ if TYPE_CHECKING:
 
 # Indices of Q: `QpLimits` fields in SI units, the solver's dt [s] and damping, the retina's
 # recovery per step [m], the tip's step bound tip_speed x dt [m] (0: none), the eye (HAS_EYE 1
-# or 0, retina radius [m], centre (3,) and trocar point (3,) [m]), slider speeds (6,), the cost's
-# row weights (6,).
+# or 0, retina radius [m], centre (3,) and trocar point (3,) [m]), the cost's row weights (6,).
 RCM_TOL, TRAVEL_MARGIN, RETINA_MARGIN, EYE_GAIN, PORT_ZONE, CONTACT_TOL = range(6)
 SINGULAR_FLOOR, SINGULAR_GAIN, DT, DAMPING, RETINA_RECOVERY, TIP_STEP = range(6, 12)
-HAS_EYE, RETINA_RADIUS, CENTER, PORT, SPEED, WEIGHTS = 12, 13, 14, 17, 20, 26
+HAS_EYE, RETINA_RADIUS, CENTER, PORT, WEIGHTS = 12, 13, 14, 17, 20
 # Extra limits the kernels hold, in the solver's order: N_EXTRA, then per limit a slot of
 # EXTRA_SLOT numbers, its kind (one of EXTRA_KINDS) and its packed parameters.
-N_EXTRA, EXTRA = 32, 33
+N_EXTRA, EXTRA = 26, 27
 BOX, DEPTH = 1.0, 2.0
 EXTRA_KINDS: dict[type, tuple[float, int]] = {WorkspaceBound: (BOX, BOX_PACKED),
                                               TissueDepthLimit: (DEPTH, DEPTH_PACKED)}  # fmt: skip
 EXTRA_SLOT = 1 + max(n for _, n in EXTRA_KINDS.values())
 MAX_EXTRA = 2
-Q_SIZE = EXTRA + MAX_EXTRA * EXTRA_SLOT
+# Last, the speeds of the robot's active actuators (m,) in [m/s] or [rad/s], in the order of
+# `RobotModel.active`: Q holds Q_SIZE + m numbers.
+SPEED = Q_SIZE = EXTRA + MAX_EXTRA * EXTRA_SLOT
 
 _PROBES = np.array([[0.0, 0.0, 0.0], [3e-3, -2e-3, 7e-3], [-0.02, 0.01, 0.03]])
 
@@ -82,7 +84,8 @@ def qp_params(robot: RobotModel, solver: QpSolver) -> tuple[FloatArray, FloatArr
         return None
     if solver.objectives:  # cost terms the kernels do not assemble
         return None
-    Q = np.zeros(Q_SIZE)
+    active = list(robot.active)
+    Q = np.zeros(Q_SIZE + len(active))
     pack_extras(solver, Q)
     Q[RCM_TOL], Q[TRAVEL_MARGIN], Q[RETINA_MARGIN] = (
         lim.rcm_tolerance, lim.travel_margin, lim.retina_margin
@@ -92,7 +95,7 @@ def qp_params(robot: RobotModel, solver: QpSolver) -> tuple[FloatArray, FloatArr
     Q[DT], Q[DAMPING] = solver.dt, solver.damping
     Q[RETINA_RECOVERY] = lim.retina_recovery(solver.dt)
     Q[TIP_STEP] = 0.0 if lim.tip_speed is None else lim.tip_speed * solver.dt
-    Q[SPEED : SPEED + 6] = robot.speed
+    Q[SPEED:] = robot.speed[active]
     Q[WEIGHTS : WEIGHTS + 6] = solver.weights
     if eye is not None:
         Q[HAS_EYE], Q[RETINA_RADIUS] = 1.0, eye.retina_radius

@@ -3,10 +3,11 @@ period towards a target that moves (teleoperation), where the controller's phase
 (`qp_phase`) does not apply.
 
 `period_step` returns a function (q, lam, target) -> dq that equals `QpSolver.step` to rounding
-(the same QP assembled and solved in compiled code, `FastQpStep`; the joints recovered exactly
-from the actuator step as the reference does), or None where the compiled step does not
-apply. A solve that fails in compiled code is repeated on the reference path, which raises its
-own QPError (or, at the edge of DAQP's tolerances, returns its step).
+(the same QP assembled and solved in compiled code: `FastQpStep` on iRAM!S, `arm_qp.ArmQpStep`
+on a serial arm; the joints recovered exactly from the actuator step as the reference does),
+or None where the compiled step does not apply. A solve that fails in compiled code is
+repeated on the reference path, which raises its own QPError (or, at the edge of DAQP's
+tolerances, returns its step).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from collections.abc import Callable
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.arm_qp import ArmQpStep, arm_qp_applies
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.runner import kernel_params
@@ -27,15 +29,17 @@ StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 
 
 def period_step(solver: QpSolver) -> StepFunction | None:
-    """A compiled `solver.step`, or None: not a plain QpSolver with
-    DAQP and a straight needle, a servo plan, a robot or eye or limit the kernels do not
-    reproduce (`qp_params`: one workspace box is the only extra limit), DAQP's C binding
+    """A compiled `solver.step`, or None: not a plain QpSolver with DAQP and a straight needle,
+    a servo plan, a robot or eye or limit the kernels do not reproduce (`qp_params`: up to
+    `MAX_EXTRA` workspace boxes and tissue-depth limits as extra limits), DAQP's C binding
     unusable."""
     if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
         return None
     if solver.servo is not None:
         return None
     robot = solver.robot
+    if arm_qp_applies(solver):
+        return _arm_period_step(solver)
     if kernel_params(robot) is None or fast_cache.qp_loop() is None:
         return None
     if qp_params(robot, solver) is None:
@@ -58,5 +62,20 @@ def period_step(solver: QpSolver) -> StepFunction | None:
             e = solver.task_error(robot, q, lam, target)
             return solver.step(robot, q, lam, target, e)[0]
         return joints_step(robot, fast.s, x, q)[0]
+
+    return step
+
+
+def _arm_period_step(solver: QpSolver) -> StepFunction:
+    """`period_step` on a serial arm (`arm_qp.ArmQpStep`), its compiled code loaded now."""
+    robot, fast = solver.robot, ArmQpStep(solver)
+    home = robot.home
+    target = extended_task(robot, home, 1.0)
+    with contextlib.suppress(RcmplanError):  # the reference step a failed solve falls back to
+        fast.solve(home, 1.0, target)
+        solver.step(robot, home, 1.0, target, solver.task_error(robot, home, 1.0, target))
+
+    def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+        return fast.step(robot, q, lam, target, fast.e)[0]
 
     return step

@@ -131,6 +131,20 @@ def raise_qp_failure(
     )
 
 
+def assembled_step(qp: tuple, rows: int, s: FloatArray) -> StepQP:
+    """The QP a compiled assembly left in its buffers `qp` (`qp_rows.buffers`, `rows` rows of
+    A) as `qp_problem.build_step` returns it, at actuators s (contact left False)."""
+    from rcmplan.compiled.daqp_c import EQUALITY
+
+    H, f, A, upper, lower, sense, task = (a.copy() for a in qp[:7])
+    nb = H.shape[0]
+    eq = sense[nb : nb + rows] == EQUALITY
+    G, h = A[:rows][~eq], upper[nb : nb + rows][~eq]
+    problem = QPProblem(H, f, G, h, A[:rows][eq], upper[nb : nb + rows][eq], lower[:nb],
+                        upper[:nb])  # fmt: skip
+    return StepQP(problem, task * SCALE, s.copy(), False)
+
+
 class FastQpStep:
     """One QP step of a QpSolver assembled and solved in compiled code, from Python (tests and
     benchmarks; the loop calls the kernels directly).
@@ -162,13 +176,7 @@ class FastQpStep:
             pack_extras(self.solver, self.Q)
         rows = self._k.build_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam), target,
                                   self.s, self.e, self.qp)  # fmt: skip
-        H, f, A, upper, lower, sense, task = (a.copy() for a in self.qp[:7])
-        nb = self._k.N_BOUNDS
-        eq = sense[nb : nb + rows] == self._k.EQUALITY
-        G, h = A[:rows][~eq], upper[nb : nb + rows][~eq]
-        problem = QPProblem(H, f, G, h, A[:rows][eq], upper[nb : nb + rows][eq], lower[:nb],
-                            upper[:nb])  # fmt: skip
-        return StepQP(problem, task * SCALE, self.s.copy(), False)
+        return assembled_step(self.qp, rows, self.s)
 
     def solve(self, q: FloatArray, lam: float, target: FloatArray) -> tuple[FloatArray, FloatArray]:
         """(x, error J x* / K) of the step's QP; QPError naming DAQP's exit flag if not optimal."""

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.compiled import arm_phase, curved_phase, qp_phase
+from rcmplan.compiled import arm_phase, arm_qp, curved_phase, qp_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import check_arm_targets
 from rcmplan.compiled.curved import check_curved_targets
@@ -227,3 +227,9 @@ class CompiledRunner:
     ) -> bool:
         """Run a phase in compiled code, where it applies."""
         return fast_converge_phase(controller, solver, targets, pid, sid)
+
+    def solver_for(self, controller: Controller, solver: Solver) -> Solver | None:
+        """The QP on a serial arm, compiled one step at a time (`arm_qp`), where it applies."""
+        if getattr(solver, "robot", None) is not controller.robot:
+            return None
+        return arm_qp.arm_qp_step(solver)  # type: ignore[arg-type]

@@ -17,7 +17,6 @@ import numpy as np
 from rcmplan._validate import FloatArray, instance, pose, scalar, text, vector
 from rcmplan.exceptions import InvalidInputError, UnknownJointTypeError
 from rcmplan.robot.dh import JOINT_TYPES, DHChain, JointType, dh_transform
-from rcmplan.robot.needle import cross3
 
 
 @dataclass(frozen=True)
@@ -167,31 +166,6 @@ class JointChain:
         J[:3] = lin.T
         J[3:] = np.where(prismatic[:, None], 0.0, z).T
         return J
-
-    def jacobian_derivatives(self, T: FloatArray, J: FloatArray) -> FloatArray:
-        """d J / d q_j for every joint j, (n, 6, n), of the point Jacobian J (6, n)
-        (`point_jacobian` at frames T).
-
-        Column k of a revolute joint is (z_k x (p - o_k), z_k); of a prismatic one (z_k, 0).
-        A revolute joint j turns the joints after it and the point: for k > j the column turns
-        with it, z_j x J_k; for k <= j only the point moves, z_k x J_v,j (revolute k). A
-        prismatic joint j moves the point and the later joints' origins alike: only columns
-        k <= j of revolute joints change, z_k x z_j.
-        """
-        n = self.n
-        z = np.einsum("kij,kj->ki", T[:n, :3, :3], np.asarray(self.axes))
-        revolute = ~np.asarray(self.prismatic, dtype=bool)
-        jj, kk = np.meshgrid(np.arange(n), np.arange(n), indexing="ij")
-        early = (kk <= jj) & revolute[None, :]  # z_k x J_v,j
-        late = (kk > jj) & revolute[:, None]  # z_j x J_k
-        out = np.zeros((n, 6, n))
-        lin_early = cross3(z[None, :, :], J[:3].T[:, None, :])  # [j, k] = z_k x J_v,j
-        lin_late = cross3(z[:, None, :], J[:3].T[None, :, :])  # [j, k] = z_j x J_v,k
-        ang_late = cross3(z[:, None, :], J[3:].T[None, :, :])  # [j, k] = z_j x J_w,k
-        lin = np.where(early[..., None], lin_early, 0.0) + np.where(late[..., None], lin_late, 0.0)
-        out[:, :3, :] = lin.transpose(0, 2, 1)
-        out[:, 3:, :] = np.where(late[..., None], ang_late, 0.0).transpose(0, 2, 1)
-        return out
 
     @classmethod
     def from_dh(cls, chain: DHChain, name: str = "dh") -> JointChain:

@@ -9,8 +9,9 @@ An arm travels as two arrays (`pack` builds them):
   (joint k's unit axis, joint k's home), then row 5 n + 12 = (needle length l [m], 0, 0, 0).
 - ix (int64): n, m, prismatic flags (n,), active joint indices (m,).
 One work array W (float64, `work_shape(n, m)`) holds the frames (rows 4 k..4 k + 3 for frame
-k), J, a 6 x 6 scratch, vector rows, and the singularity measure's (5, m) matrix and (5, 5)
-Gram matrix. The kernels allocate nothing and index A and W by row offsets: numba views
+k), J, a 6 x 6 scratch, vector rows, the singularity measure's (5, m) matrix, (5, 5) Gram
+matrix, (5, 5) eigenvectors and two (m,) right singular vectors (`chain_singular`), and the
+joint axes in the world. The kernels allocate nothing and index A and W by row offsets: numba views
 (slices, reshapes) cost tens of ns each, as much as a joint's kinematics.
 Joints q (n,) in [rad] or [m]; steps d = (dq[active], dlambda), (m + 1,).
 
@@ -28,12 +29,12 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.robot.needle import axis_angles
 
 IntArray = NDArray[np.int64]
 ROWS = 6  # X_ext = (x_tip, phi, psi, p_rcm)
 X, E, F, Z, TIP, AXIS = range(6)  # vector rows of W after J and the scratch S
 SING = 5  # rows of the singularity measure's matrix [J_tip / l; N J_omega]
-CERTIFY = 1e-6  # relative margin of the singularity certificate (rounding is ~1e-15)
 
 
 def work_shape(n: int, m: int) -> tuple[int, int]:
@@ -44,7 +45,14 @@ def work_shape(n: int, m: int) -> tuple[int, int]:
 @njit(cache=True)
 def axes_row(n: int) -> int:
     """First row of W's joint axes in the world (row axes_row(n) + k: joint k's, 3 columns)."""
-    return 4 * (n + 1) + 2 * ROWS + 6 + 2 * SING
+    return singular_row(n) + 3 * SING + 2
+
+
+@njit(cache=True)
+def singular_row(n: int) -> int:
+    """First row of the singularity measure's matrix M in W; its Gram matrix, eigenvectors
+    and right singular vectors follow (`chain_singular`)."""
+    return 4 * (n + 1) + 2 * ROWS + 6
 
 
 @njit(cache=True)
@@ -187,9 +195,7 @@ def angle_rows(A: FloatArray, ix: IntArray, W: FloatArray, thesis: bool, J: Floa
 def task_at(A: FloatArray, n: int, W: FloatArray, lam: float, x: FloatArray) -> None:
     """X_ext = (x_tip [m], phi, psi [rad], p_rcm [m]) (eq. 3.14) at the frames in W into x."""
     x[0] = needle_point(A, n, W, 1.0)[0]
-    ax, ay, az = needle_axis(A, n, W)
-    x[1] = math.atan2(az, -ax)
-    x[2] = math.atan2(-ay, math.hypot(ax, az))
+    x[1], x[2] = axis_angles(*needle_axis(A, n, W))
     x[3], x[4], x[5] = needle_point(A, n, W, lam)
 
 
@@ -245,119 +251,3 @@ def angular_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, J: FloatArray, 
         k = ix[2 + n + j]
         if ix[2 + k] == 0:
             J[r, j], J[r + 1, j], J[r + 2, j] = joint_axis(A, n, W, k)
-
-
-@njit(cache=True)
-def singular_gram(A: FloatArray, ix: IntArray, W: FloatArray) -> int:
-    """M = [J_tip / l; N J_omega] (5, m) over the active joints at the frames in W, as
-    `SerialArm.singularity_measure` builds it (N: the two unit normals to the needle axis), and
-    its Gram matrix G = M M^T (5, 5), into W; returns G's first row. J_tip = d p(1) / d theta_ext
-    is left in W's J rows 0..2 for the step."""
-    n, m = ix[0], ix[1]
-    o = 4 * (n + 1)
-    r = o + 2 * ROWS + 6
-    g = r + SING
-    point_jacobian(A, ix, W, 1.0, W, o)
-    ax, ay, az = needle_axis(A, n, W)
-    ux, uy, uz = 1.0, 0.0, 0.0  # the helper axis: the first smallest |a_i| (np.argmin)
-    if abs(ay) < abs(ax):
-        ux, uy = 0.0, 1.0
-    if abs(az) < min(abs(ax), abs(ay)):
-        ux, uy, uz = 0.0, 0.0, 1.0
-    n1x, n1y, n1z = ay * uz - az * uy, az * ux - ax * uz, ax * uy - ay * ux
-    norm = math.sqrt(n1x * n1x + n1y * n1y + n1z * n1z)
-    n1x, n1y, n1z = n1x / norm, n1y / norm, n1z / norm
-    n2x, n2y, n2z = ay * n1z - az * n1y, az * n1x - ax * n1z, ax * n1y - ay * n1x
-    length = A[5 * n + 12, 0]
-    for j in range(m):
-        k = ix[2 + n + j]
-        wx, wy, wz = 0.0, 0.0, 0.0
-        if ix[2 + k] == 0:
-            wx, wy, wz = joint_axis(A, n, W, k)
-        for i in range(3):
-            W[r + i, j] = W[o + i, j] / length
-        W[r + 3, j] = n1x * wx + n1y * wy + n1z * wz
-        W[r + 4, j] = n2x * wx + n2y * wy + n2z * wz
-    for i in range(SING):
-        for j in range(i + 1):
-            acc = 0.0
-            for k in range(m):
-                acc += W[r + i, k] * W[r + j, k]
-            W[g + i, j], W[g + j, i] = acc, acc
-    return g
-
-
-@njit(cache=True)
-def gram_extremes(W: FloatArray, g: int) -> tuple[float, float]:
-    """(smallest, largest) eigenvalue of the symmetric (5, 5) matrix at rows g of W, by cyclic
-    Jacobi rotations (the matrix is overwritten)."""
-    fro2 = 0.0
-    for i in range(SING):
-        for j in range(SING):
-            fro2 += W[g + i, j] ** 2
-    for _ in range(50):
-        off = 0.0
-        for i in range(SING):
-            for j in range(i + 1, SING):
-                off += W[g + i, j] ** 2
-        if off <= 1e-32 * fro2:
-            break
-        for p in range(SING - 1):
-            for r in range(p + 1, SING):
-                apq = W[g + p, r]
-                if apq == 0.0:
-                    continue
-                theta = (W[g + r, r] - W[g + p, p]) / (2.0 * apq)
-                t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
-                if theta < 0.0:
-                    t = -t
-                c = 1.0 / math.sqrt(t * t + 1.0)
-                s = t * c
-                for k in range(SING):  # G = R^T G R with R the rotation in the (p, r) plane
-                    a, b = W[g + k, p], W[g + k, r]
-                    W[g + k, p], W[g + k, r] = c * a - s * b, s * a + c * b
-                for k in range(SING):
-                    a, b = W[g + p, k], W[g + r, k]
-                    W[g + p, k], W[g + r, k] = c * a - s * b, s * a + c * b
-    lo, hi = W[g, 0], W[g, 0]
-    for i in range(1, SING):
-        lo, hi = min(lo, W[g + i, i]), max(hi, W[g + i, i])
-    return lo, hi
-
-
-@njit(cache=True)
-def singularity_measure(A: FloatArray, ix: IntArray, W: FloatArray) -> float:
-    """`SerialArm.singularity_measure` at the frames in W: sigma_min / sigma_max of M, the
-    square roots of G's extreme eigenvalues (to about 1e-12 relative where it is 0.01)."""
-    lo, hi = gram_extremes(W, singular_gram(A, ix, W))
-    return math.sqrt(max(lo, 0.0) / hi) if hi > 0.0 else 0.0
-
-
-@njit(cache=True)
-def is_singular(A: FloatArray, ix: IntArray, W: FloatArray, thr: float) -> bool:
-    """True if `SerialArm.singularity_measure` at the frames in W is below thr.
-
-    Usually decided by a certificate: lambda_max(G) <= ||G||_F = U, so a Cholesky factorisation
-    of G - thr^2 U (1 + CERTIFY) I that succeeds proves sigma_min^2 > thr^2 sigma_max^2; only
-    when it fails is the measure computed (`gram_extremes`). No allocation either way."""
-    n = ix[0]
-    g = singular_gram(A, ix, W)
-    S = 4 * (n + 1) + ROWS  # the 6 x 6 scratch rows
-    fro2 = 0.0
-    for i in range(SING):
-        for j in range(SING):
-            fro2 += W[g + i, j] ** 2
-    shift = thr * thr * math.sqrt(fro2) * (1.0 + CERTIFY)
-    for i in range(SING):  # Cholesky of G - shift I into the scratch (1 / L_ii on its diagonal)
-        for j in range(i + 1):
-            acc = W[g + i, j] - (shift if i == j else 0.0)
-            for k in range(j):
-                acc -= W[S + i, k] * W[S + j, k]
-            if i != j:
-                W[S + i, j] = acc * W[S + j, j]
-            elif acc > 0.0:
-                W[S + i, i] = 1.0 / math.sqrt(acc)
-            else:
-                lo, hi = gram_extremes(W, g)
-                return (math.sqrt(max(lo, 0.0) / hi) if hi > 0.0 else 0.0) < thr
-    return False

@@ -23,8 +23,9 @@ from rcmplan.exceptions import (
     UnreachableTargetError,
 )
 from rcmplan.robot import chain_kinematics as kin
+from rcmplan.robot import chain_singular as sing
 from rcmplan.robot.chain import JointChain
-from rcmplan.robot.needle import StraightNeedle, angles_from_axis, cross3
+from rcmplan.robot.needle import StraightNeedle, angles_from_axis
 
 IK_ITERATIONS = 100  # Newton iterations of `SerialArm.needle_pose`
 IK_TOLERANCE = 1e-12  # [m] and [rad]
@@ -287,9 +288,9 @@ class SerialArm:
     def singularity_measure(self, q: FloatArray) -> float:
         """Inverse condition number of M = [J_tip / l; N J_omega] over the active joints, in
         [0, 1]: zero exactly where the needle loses a direction of motion (N: the two normals to
-        it). The square roots of the extreme eigenvalues of M M^T (`chain_kinematics`)."""
+        it). The square roots of the extreme eigenvalues of M M^T (`chain_singular`)."""
         W = self._kernel_frames(q)
-        return float(kin.singularity_measure(self._A, self._ix, W))
+        return float(sing.singularity_measure(self._A, self._ix, W))
 
     def singular_values(self, q: FloatArray) -> FloatArray:
         """The singular terms' values (1,) without their gradient (the measure)."""
@@ -297,36 +298,12 @@ class SerialArm:
 
     def singular_terms(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """The measure kappa = s_min / s_max of M = [J_tip / l; N J_omega] (1,) and its exact
-        gradient (1, n): d s_i / d q_j = u_i' (dM / dq_j) v_i (distinct singular values), with
-        dM / dq_j from the chain's second derivatives (`jacobian_derivatives`) and the motion of
-        the normals N with the needle axis (d a / d q_j = omega_j x a)."""
-        q = vector("q", q, self.chain.n)
-        T = self._frames(q)
-        act = list(self.active)
-        J = self._point_jacobian(q, 1.0)
-        a = self.needle_axis(q)
-        helper = np.zeros(3)
-        helper[int(np.argmin(np.abs(a)))] = 1.0
-        c = cross3(a, helper)
-        n1 = c / np.linalg.norm(c)
-        N = np.array([n1, cross3(a, n1)])
-        length = self.needle_length
-        M = np.vstack([J[:3, act] / length, N @ J[3:, act]])
-        U, S, Vt = np.linalg.svd(M, full_matrices=False)
+        gradient (1, n), zero on held joints (`chain_singular.singular_terms`)."""
+        W = self._kernel_frames(q)
         grad = np.zeros((1, self.chain.n))
-        if S[0] <= 0.0:
-            return np.array([0.0]), grad
-        kappa = S[-1] / S[0]
-        dJ = self.chain.jacobian_derivatives(T, J)[act][:, :, act]  # (m, 6, m)
-        da = cross3(J[3:, act].T, a)  # (m, 3): omega_j x a
-        dc = cross3(da, helper)
-        dn1 = (dc - np.outer(dc @ n1, n1)) / np.linalg.norm(c)
-        dn2 = cross3(da, n1) + cross3(a, dn1)
-        dN = np.stack([dn1, dn2], axis=1)  # (m, 2, 3)
-        dM = np.concatenate([dJ[:, :3] / length, dN @ J[3:, act] + N @ dJ[:, 3:]], axis=1)
-        ds_min = np.einsum("i,jik,k->j", U[:, -1], dM, Vt[-1])
-        ds_max = np.einsum("i,jik,k->j", U[:, 0], dM, Vt[0])
-        grad[0, act] = (ds_min * S[0] - S[-1] * ds_max) / S[0] ** 2
+        g = np.empty(len(self.active))
+        kappa = sing.singular_terms(self._A, self._ix, W, g)
+        grad[0, list(self.active)] = g
         return np.array([kappa]), grad
 
     def check_singularity(self, q: FloatArray, threshold: float | None = None) -> None:

@@ -88,8 +88,14 @@ def closest_lambda(p_base: FloatArray, p_tip: FloatArray, point: FloatArray) -> 
 
 
 def angles_from_axis(axis: FloatArray) -> tuple[float, float]:
-    """(phi, psi) in [rad] of a needle axis (see module docstring)."""
-    ax, ay, az = float(axis[0]), float(axis[1]), float(axis[2])
+    """(phi, psi) in [rad] of a needle axis (see module docstring; `axis_angles`)."""
+    return axis_angles(float(axis[0]), float(axis[1]), float(axis[2]))
+
+
+@njit(cache=True)
+def axis_angles(ax: float, ay: float, az: float) -> tuple[float, float]:
+    """(phi, psi) in [rad] of the needle axis (ax, ay, az): the one definition, which Python
+    and compiled code call alike (libm's hypot, not CPython's, which differs in the last bit)."""
     return math.atan2(az, -ax), math.atan2(-ay, math.hypot(ax, az))
 
 

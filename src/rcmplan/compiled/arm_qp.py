@@ -1,0 +1,126 @@
+"""The QP controller's error and step on a serial arm, compiled: one call per iteration of the
+controller's Python loop (`arm_qp_kernels.solve_arm_step`), behind the runner seam
+(`CompiledRunner.solver_for`).
+
+Applies to a `QpSolver` itself (exact type: a subclass may change its step) with the DAQP back
+end and a straight needle, planning from the measured state (no servo plan), on a `SerialArm`
+itself whose kinematics the chain kernels reproduce (`arm.arm_arrays`), with an eye whose
+retina is the kernels' sphere, extra limits the kernels hold and no extra cost terms
+(`qp_params`), where DAQP's C function can be called from compiled code
+(`cache.daqp_callable`). `ArmQpStep` then stands in for the solver in the loop: the same task
+error, tolerance and step to rounding, the QP assembled with the same row kernels. A solve that
+DAQP does not finish optimally is repeated by the solver itself, which raises its QPError (or
+returns its step at the edge of DAQP's tolerances).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rcmplan._validate import FloatArray, vector
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.arm import arm_arrays
+from rcmplan.compiled.qp_params import pack_extras, qp_params
+from rcmplan.compiled.qp_phase import assembled_step
+from rcmplan.control.qp import QpSolver
+from rcmplan.control.qp_problem import StepQP
+from rcmplan.control.solvers import SolverKind
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.model import RobotModel, SerialArm
+
+
+def arm_qp_applies(solver: object) -> bool:
+    """True if `ArmQpStep` reproduces this solver (see the module docstring)."""
+    if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
+        return False
+    if solver.servo is not None or type(solver.robot) is not SerialArm:
+        return False
+    if arm_arrays(solver.robot) is None or not fast_cache.daqp_callable():
+        return False
+    return qp_params(solver.robot, solver) is not None
+
+
+class ArmQpStep:
+    """A QpSolver's `error` and `step` on its serial arm, each state's QP assembled and solved
+    in compiled code once (`error` and `step` at the same state share the solve).
+
+    Args:
+        solver: The QP solver reproduced (InvalidInputError unless `arm_qp_applies`).
+    """
+
+    def __init__(self, solver: QpSolver) -> None:
+        if not arm_qp_applies(solver):
+            raise InvalidInputError("solver", solver, "a QpSolver on a SerialArm that the "
+                                    "compiled arm QP reproduces (`arm_qp_applies`)")  # fmt: skip
+        self.solver, robot = solver, solver.robot
+        self.name: str = solver.name
+        self.kind: SolverKind = solver.kind
+        self.A, self.ix = arm_arrays(robot)  # type: ignore[misc]
+        self.n, self.m = int(self.ix[0]), int(self.ix[1])
+        active = list(robot.active)
+        self.travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
+        self.Q, self.contacts = qp_params(robot, solver)  # type: ignore[misc]
+        self.K = np.ascontiguousarray(solver.K, dtype=np.float64)
+        self._k = fast_cache.arm_qp_kernels()
+        self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, self.m))
+        self.qp = self._k.buffers(self.m + 1)
+        self.s, self.e, self.d = np.empty(self.m), np.empty(6), np.empty(self.m + 1)
+        self._key, self._flag = b"", 0
+
+    def tolerance(self) -> FloatArray:
+        """The solver's tolerance per X_ext component."""
+        return self.solver.tolerance()
+
+    def check_targets(self, targets: FloatArray) -> None:
+        """The solver's own target check (`QpSolver.check_targets`)."""
+        self.solver.check_targets(targets)
+
+    def solve(self, q: FloatArray, lam: float, target: FloatArray) -> int:
+        """Assemble and solve the QP at (q, lambda) for the X_ext target (float64 arrays (n,)
+        and (6,)), once per state; DAQP's exit flag (1: optimal, then `e` and `d` hold the
+        error and the step)."""
+        key = q.tobytes() + np.float64(lam).tobytes() + target.tobytes()
+        if key != self._key:
+            if self.solver.extra_limits:  # a moving limit's parameters as they are now
+                pack_extras(self.solver, self.Q)
+            self._flag = self._k.solve_arm_step(self.A, self.ix, self.W, self.travel, self.Q,
+                                                self.contacts, self.K, q, float(lam), target,
+                                                self.s, self.e, self.d, self.qp)  # fmt: skip
+            self._key = key
+        return int(self._flag)
+
+    def problem(self, q: FloatArray, lam: float, target: FloatArray) -> StepQP:
+        """The QP at (q, lambda) for the X_ext target as `qp_problem.build_step` returns it
+        (contact left False; `sliders` the joints); `e` then holds the X_ext error."""
+        q = np.ascontiguousarray(vector("q", q, self.n))
+        target = np.ascontiguousarray(vector("target", target, 6))
+        if self.solver.extra_limits:
+            pack_extras(self.solver, self.Q)
+        rows = self._k.build_arm_step(self.A, self.ix, self.W, self.travel, self.Q,
+                                      self.contacts, self.K, q, float(lam), target, self.s,
+                                      self.e, self.qp)  # fmt: skip
+        self._key = b""  # the buffers no longer hold the last solve
+        return assembled_step(self.qp, rows, q)
+
+    def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+        """`QpSolver.error`: J x* / K, or the plain X_ext error at an actuator's full speed."""
+        target = self.solver.check_target(target)
+        q = vector("q", q, self.n)
+        if self.solve(q, lam, target) != 1:
+            return self.solver.error(robot, q, lam, target)
+        return self.e.copy()
+
+    def step(
+        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
+    ) -> tuple[FloatArray, float]:
+        """`QpSolver.step`: the active joints' increments and d lambda."""
+        target = vector("target", target, 6)
+        q = vector("q", q, self.n)
+        if self.solve(q, lam, target) != 1:
+            return self.solver.step(robot, q, lam, target, error)
+        return self.d[: self.m].copy(), float(self.d[self.m])
+
+
+def arm_qp_step(solver: QpSolver) -> ArmQpStep | None:
+    """The compiled stand-in for `solver` on its arm, or None where it does not apply."""
+    return ArmQpStep(solver) if arm_qp_applies(solver) else None

@@ -1,0 +1,104 @@
+"""The QP controller's step for a serial arm in compiled code: the QP of `qp_problem.build_step`
+on any arm the chain kernels reproduce, solved by DAQP's C function, and the step read from its
+solution.
+
+The arm's kinematics come from the chain kernels (`robot/chain_kinematics.py`: frames, needle
+points and axis, point Jacobians, the exact angle rows, X_ext) and its singular term from
+`robot/chain_singular.py` (the measure kappa and its gradient); `qp_rows.assemble` then writes
+the QP with the code every robot's compiled step shares. An arm's actuators are its joints, so
+T = d(q[active], lambda) / d(s[active], l lambda) is the identity on the active joints and 1 / l
+for lambda (`limits.base.variable_map`): variables x = (dq[active], l dlambda) / SCALE.
+
+The arm travels as the chain kernels' (A, ix) with a work array W (`chain_kinematics.
+work_shape`), its active joints' travel as travel (2, m) [rad or m], the settings as Q
+(`qp_params`, the speeds of the active joints last), and the buffers of one solve as
+`qp_rows.buffers(m + 1)`.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from rcmplan._validate import FloatArray
+from rcmplan.compiled.qp_rows import X, assemble, buffers, solve_assembled
+from rcmplan.control.limits.base import SCALE
+from rcmplan.robot.chain_kinematics import (
+    IntArray,
+    angle_rows,
+    frames,
+    needle_axis,
+    needle_point,
+    point_jacobian,
+    task_at,
+)
+from rcmplan.robot.chain_singular import singular_terms
+
+__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step"]
+
+
+@njit(cache=True)
+def arm_kinematics(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, J: FloatArray,
+                   JT: FloatArray, pts: FloatArray) -> None:  # fmt: skip
+    """What the rows read (`limits.base.kinematics`) at the frames in W: J (6, w) the tip's and
+    the RCM point's Jacobians over (q[active], lambda); JT = (J_tip T, J_rcm T, the angle rows
+    times T); the tip, the RCM point and the needle axis (rows of pts)."""
+    n, m = ix[0], ix[1]
+    point_jacobian(A, ix, W, 1.0, J, 0)
+    J[0, m] = J[1, m] = J[2, m] = 0.0  # the tip does not move with lambda
+    point_jacobian(A, ix, W, lam, J, 3)
+    per_l = 1.0 / A[5 * n + 12, 0]  # T's lambda entry
+    for i in range(6):
+        for j in range(m):
+            JT[i, j] = J[i, j]
+        JT[i, m] = J[i, m] * per_l
+    angle_rows(A, ix, W, False, JT, 6)  # no lambda column: T leaves the rows as they are
+    pts[0, 0], pts[0, 1], pts[0, 2] = needle_point(A, n, W, 1.0)
+    pts[1, 0], pts[1, 1], pts[1, 2] = needle_point(A, n, W, lam)
+    pts[2, 0], pts[2, 1], pts[2, 2] = needle_axis(A, n, W)
+
+
+@njit(cache=True)
+def build_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
+                   Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray, lam: float,
+                   target: FloatArray, s: FloatArray, e: FloatArray,
+                   qp: tuple) -> int:  # fmt: skip
+    """The QP of one step at joints q (n,), lambda (`qp_problem.build_step`) into the buffers;
+    also the active actuators s (m,) and the X_ext error e (6,). Returns the number of rows of
+    A (`qp_rows.assemble`)."""
+    n, m = ix[0], ix[1]
+    J = qp[8]
+    JT, pts, _, grads = qp[15:]
+    frames(A, ix, q, W)
+    for j in range(m):
+        s[j] = q[ix[2 + n + j]]
+    task_at(A, n, W, lam, e)
+    for i in range(6):
+        e[i] = target[i] - e[i]
+    arm_kinematics(A, ix, W, lam, J, JT, pts)
+    values = qp[9][:1]
+    values[0] = singular_terms(A, ix, W, grads[0])  # SerialArm.singular_terms, over active
+    grads[0, m] = 0.0  # kappa does not depend on lambda
+    return assemble(Q, contacts, K, lam, target, e, s, travel[0], travel[1], A[5 * n + 12, 0],
+                    values, qp)  # fmt: skip
+
+
+@njit(cache=True)
+def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
+                   Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray, lam: float,
+                   target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray,
+                   qp: tuple) -> int:  # fmt: skip
+    """One QP step at (q, lambda): build and solve the QP; returns DAQP's exit flag (1:
+    optimal). Then e (6,) holds `QpSolver.error` (J x* / K, or the plain X_ext error when a
+    joint moves at full speed) and d (m + 1,) `QpSolver.step`: the active joints' increments
+    (q + x SCALE) - q and d lambda."""
+    rows = build_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, qp)
+    flag = solve_assembled(Q, K, rows, e, qp)
+    if flag != 1:
+        return flag
+    n, m = ix[0], ix[1]
+    x = qp[X]
+    for j in range(m):  # `qp.joints_step`: the actuators moved by x, as joints
+        k = ix[2 + n + j]
+        d[j] = (q[k] + x[j] * SCALE) - q[k]
+    d[m] = x[m] * SCALE / A[5 * n + 12, 0]
+    return flag

@@ -1,0 +1,221 @@
+"""The compiled QP step on serial arms equals the reference QP controller: the assembled
+problem, its solution, whole runs, and where the compiled step declines."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they do not skip)
+import numpy as np
+import pytest
+
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.arm_qp import ArmQpStep, arm_qp_applies
+from rcmplan.control.augmented import extended_task
+from rcmplan.control.limits import TissueDepthLimit
+from rcmplan.control.limits.workspace import WorkspaceBound
+from rcmplan.control.log import RunLog
+from rcmplan.control.objective import Objective
+from rcmplan.control.qp import QpSolver
+from rcmplan.control.qp_backends import solve
+from rcmplan.control.qp_limits import QpLimits
+from rcmplan.control.qp_problem import SCALE, StepInput, build_step
+from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.control.tasks import Posture
+from rcmplan.controller import Controller
+from rcmplan.exceptions import InvalidInputError, QPError
+from rcmplan.robot.model import SerialArm
+from rcmplan.robot.registry import make_robot
+from rcmplan.scene.eye import default_eye, default_points, eye_frame
+from rcmplan.scene.procedures import injection
+from rcmplan.sim import KinematicPlant
+
+from logcheck import assert_same_log
+from paths import use_path
+
+X_TOL = 1e-6  # DAQP's primal tolerance, in the variables' unit (um, urad)
+RUN_TOL = 1e-11  # [m], [rad]: the tolerance of the other compiled-path tests
+
+
+@pytest.fixture(scope="module", params=["ur5", "panda"])
+def arm(request: pytest.FixtureRequest) -> SerialArm:
+    robot = make_robot(request.param)
+    assert isinstance(robot, SerialArm)
+    return robot
+
+
+@pytest.fixture(autouse=True)
+def fast_on() -> Iterator[None]:
+    use_path("on")
+    yield
+    use_path(None)
+
+
+def solvers(arm: SerialArm) -> list[QpSolver]:
+    """QP solvers that exercise every row: the default one, an RCM equality, a retina contact
+    listed at a point with other gains, damping and singular margin, no eye, and a tip speed
+    bound with two extra limits (a tissue-depth sphere, then a turned workspace box)."""
+    eye = default_eye(arm)
+    contact = tuple(default_points(eye).p5)
+    box = WorkspaceBound(tuple(eye.center), tuple(map(tuple, eye_frame(eye))),
+                         (-3e-3, -2e-3, -4e-3), (2e-3, 3e-3, 1e-3), gain=0.3)  # fmt: skip
+    depth = TissueDepthLimit(eye.center, eye.retina_radius - 1e-3, gain=0.7, recovery=2e-6)
+    return [
+        QpSolver(arm, eye),
+        QpSolver(arm, eye, limits=QpLimits(rcm_tolerance=0.0)),
+        QpSolver(arm, eye, K=(0.5, 1.2, 0.8, 1.0, 1.5, 0.7), damping=3e-3,
+                 limits=QpLimits(contacts=(contact,), rcm_weight=4.0, singular_margin=0.05)),
+        QpSolver(arm, None, dt=2e-3),
+        QpSolver(arm, eye, limits=QpLimits(tip_speed=5e-3), extra_limits=(depth, box)),
+    ]  # fmt: skip
+
+
+def states(arm: SerialArm, rng: np.random.Generator, n: int,
+           spread: float = 1e-3) -> Iterator[tuple]:  # fmt: skip
+    """(q, lam, target): random poses about home (some near the singular floor), each with the
+    target of a pose `spread` away (rad), and poses near the injection's targets, on and off
+    the retina and with the tip in the trocar's zone."""
+    eye = default_eye(arm)
+    for _ in range(n):
+        q = arm.home + rng.normal(0.0, 0.4, arm.home.shape)
+        lam = float(rng.uniform(0.0, 1.0))
+        yield q, lam, extended_task(arm, q + rng.normal(0.0, spread, q.shape), lam)
+    pts = default_points(eye)
+    for point in (pts.p3, pts.p4, pts.p5, pts.p6, pts.p7, eye.port + 1e-3 * eye.axis):
+        target = rcm_target(point, eye.port)
+        pose = solve_pose(arm, target)
+        yield pose.q + rng.normal(0.0, spread / 10, pose.q.shape), pose.lam, target
+
+
+def relative_gap(a: np.ndarray, b: np.ndarray) -> float:
+    """max |a - b| over max |a| (0 for empty arrays)."""
+    assert a.shape == b.shape
+    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(a)), 1e-300)) if a.size else 0.0
+
+
+def test_compiled_arm_qp_equals_build_step_at_many_states(arm: SerialArm) -> None:
+    rng = np.random.default_rng(20180507)
+    rows = set()
+    for solver in solvers(arm):
+        fast = ArmQpStep(solver)
+        for q, lam, target in states(arm, rng, 60):
+            step = fast.problem(q, lam, target)
+            np.testing.assert_allclose(fast.e, solver.task_error(arm, q, lam, target), rtol=0,
+                                       atol=1e-15)  # fmt: skip
+            inp = StepInput(q, lam, target, fast.e.copy(), solver.K, solver.damping, solver.dt,
+                            solver.weights)  # fmt: skip
+            ref = build_step(arm, inp, solver.rows, solver.bounds)
+            for name in ("P", "q", "G", "h", "A", "b", "lb", "ub"):
+                gap = relative_gap(getattr(ref.problem, name), getattr(step.problem, name))
+                assert gap <= 1e-12, (name, gap)
+            assert relative_gap(ref.task, step.task) <= 1e-12
+            np.testing.assert_array_equal(ref.sliders, step.sliders)
+            rows.add(step.problem.G.shape[0])
+    assert len(rows) >= 4, rows  # the retina row on and off, the box and tip rows, no eye
+
+
+def test_compiled_arm_step_solves_to_the_reference_solvers_step(arm: SerialArm) -> None:
+    rng = np.random.default_rng(7)
+    outcomes = {"solved": 0, "infeasible": 0}
+    for solver in solvers(arm):
+        fast = ArmQpStep(solver)
+        for q, lam, target in states(arm, rng, 40, spread=1e-6):
+            e = solver.task_error(arm, q, lam, target)
+            inp = StepInput(q, lam, target, e, solver.K, solver.damping, solver.dt,
+                            solver.weights)  # fmt: skip
+            ref = build_step(arm, inp, solver.rows, solver.bounds)
+            try:
+                x_ref = solve(ref.problem).x
+            except QPError:
+                assert fast.solve(q, lam, target) != 1
+                outcomes["infeasible"] += 1
+                continue
+            assert fast.solve(q, lam, target) == 1
+            # QpSolver.error: J x* / K, or the plain error for a step at full joint speed.
+            e_ref = e if solver.speed_limited(arm, x_ref) else ref.task @ x_ref / solver.K
+            np.testing.assert_allclose(fast.e, e_ref, rtol=0, atol=X_TOL * SCALE)
+            m = len(arm.active)
+            np.testing.assert_allclose(fast.d[:m], x_ref[:m] * SCALE, rtol=0, atol=X_TOL * SCALE)
+            assert fast.d[m] == pytest.approx(x_ref[m] * SCALE / arm.needle_length,
+                                              abs=X_TOL * SCALE)  # fmt: skip
+            outcomes["solved"] += 1
+    assert outcomes["solved"] > 150 and outcomes["infeasible"] > 0, outcomes
+
+
+def run(arm: SerialArm, compiled: bool) -> tuple[RunLog, Controller]:
+    eye = default_eye(arm)
+    ctl = Controller(KinematicPlant(arm), QpSolver(arm, eye))
+    use_path("on" if compiled else "off")
+    return ctl.run(injection(arm, eye, default_points(eye))), ctl
+
+
+def test_an_arm_qp_injection_runs_its_steps_compiled_with_the_reference_log(
+    arm: SerialArm,
+) -> None:
+    (a, ref), (b, fast) = run(arm, False), run(arm, True)
+    assert isinstance(a, RunLog) and len(a) > 1000
+    assert_same_log(a, b, RUN_TOL)
+    np.testing.assert_allclose(ref.plant.read_actuators(), fast.plant.read_actuators(),
+                               rtol=0, atol=RUN_TOL)  # fmt: skip
+    assert abs(ref.lam - fast.lam) <= RUN_TOL
+    inside = [name for name, path in fast.phase_paths.items() if path == "compiled"]
+    assert set(ref.phase_paths.values()) == {"reference"}
+    assert inside == ["align", "insert", "p3-p4", "p4-p3", "p3-p5", "p5-p3", "p3-p6", "p6-p3",
+                      "p3-p7", "p7-p3", "retract"]  # fmt: skip
+
+
+class SubclassQp(QpSolver):
+    """A subclass may change the step: it runs on the reference path."""
+
+
+@pytest.mark.parametrize("case", ["other back end", "subclass", "daqp binding unusable",
+                                  "servo", "three extra limits", "posture objective"])  # fmt: skip
+def test_the_compiled_arm_step_declines_what_it_does_not_reproduce(
+    arm: SerialArm, case: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    eye = default_eye(arm)
+    assert arm_qp_applies(QpSolver(arm, eye))
+    box = WorkspaceBound((0.0, 0.0, 0.0), tuple(map(tuple, np.eye(3))), (-1.0,) * 3, (1.0,) * 3)
+    solver: QpSolver
+    if case == "other back end":
+        solver = QpSolver(arm, eye, backend="quadprog")
+    elif case == "subclass":
+        solver = SubclassQp(arm, eye)
+    elif case == "daqp binding unusable":
+        monkeypatch.setitem(fast_cache._state, "daqp_abi", False)
+        solver = QpSolver(arm, eye)
+    elif case == "servo":
+        solver = QpSolver(arm, eye, servo=ServoPlant(arm))
+    elif case == "three extra limits":
+        solver = QpSolver(arm, eye, extra_limits=(box, box, box))
+    else:  # a cost term the compiled assembly does not hold
+        posture = Objective(Posture(), arm.home[list(arm.active)], 0.2, 1e-3)
+        solver = QpSolver(arm, eye, objectives=(posture,))
+    assert not arm_qp_applies(solver)
+    with pytest.raises(InvalidInputError, match="solver"):
+        ArmQpStep(solver)
+    ctl = Controller(KinematicPlant(arm), solver)
+    assert ctl.runner.solver_for(ctl, solver) is None
+
+
+class ServoPlant(KinematicPlant):
+    """A plant whose servos follow commands over several periods (the QP plans from them)."""
+
+    exact_commands = False
+
+    @property
+    def command(self) -> np.ndarray:
+        return self.read_actuators()
+
+
+def test_the_period_step_runs_an_arms_qp_compiled(arm: SerialArm) -> None:
+    from rcmplan.compiled.qp_period import period_step
+
+    eye = default_eye(arm)
+    solver = QpSolver(arm, eye)
+    step = period_step(solver)
+    assert step is not None
+    rng = np.random.default_rng(5)
+    for q, lam, target in list(states(arm, rng, 0, spread=1e-6)):
+        ref = solver.step(arm, q, lam, target, solver.task_error(arm, q, lam, target))[0]
+        np.testing.assert_allclose(step(q, lam, target), ref, rtol=0, atol=X_TOL * SCALE)
