@@ -17,13 +17,12 @@ from rcmplan.cli.common import (
     add_robot,
     announce_robot,
 )
-from rcmplan.cli.output import finish, one_line, table
-from rcmplan.exceptions import InvalidInputError, RcmplanError
+from rcmplan.cli.output import finish, table
+from rcmplan.cli.subretinal_settings import settings_of, write_failed
+from rcmplan.exceptions import RcmplanError
 from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 
 COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predictors.PREDICTORS
-SINGLE_DEFAULTS = {"compensation": "kalman", "ioct_rate_hz": 9.0, "latency_ms": 150.0,
-                   "motion_um": 50.0}  # fmt: skip
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -78,34 +77,6 @@ def add_episode_options(p: argparse.ArgumentParser) -> None:
                    "settings (without it, a rerun discards the checkpoint)")  # fmt: skip
 
 
-def option(args: argparse.Namespace, name: str) -> Any:
-    """An option's value, or its one-episode default when not given."""
-    value = getattr(args, name)
-    return SINGLE_DEFAULTS[name] if value is None else value
-
-
-def settings_of(args: argparse.Namespace) -> Any:
-    """EpisodeSettings from the options, each checked under its own name and unit."""
-    from rcmplan._validate import scalar
-    from rcmplan.subretinal.episode_settings import EpisodeSettings
-
-    compensation = option(args, "compensation")
-    if compensation == "all" and args.episodes is None:
-        raise InvalidInputError("--compensation", "all", "one method for one episode; all "
-                                "with --episodes N")  # fmt: skip
-    return EpisodeSettings(
-        robot=args.robot,
-        plant=args.plant,
-        compensation="kalman" if compensation == "all" else compensation,
-        ioct_rate_hz=scalar("--ioct-rate-hz", option(args, "ioct_rate_hz"), 0.5, 200.0),
-        latency_s=1e-3 * scalar("--latency-ms", option(args, "latency_ms"), 0.0, 1000.0),
-        breathing_m=1e-6 * scalar("--motion-um", option(args, "motion_um"), 0.0, 200.0),
-        seed=args.seed,
-        hold_s=scalar("--hold-s", args.hold_s, 0.0, 60.0, low_open=True),
-        hover_s=scalar("--hover-s", args.hover_s, 0.0, 60.0),
-    )
-
-
 def run(args: argparse.Namespace) -> int:
     """Run the episode, write log.npz, episode.npz, summary.json and the figure; exit 1 if the
     episode did not end "ok", 2 on a bad option (summary.json then says which). With
@@ -149,16 +120,6 @@ def write_outputs(settings: Any, out: Path, figures: bool) -> dict[str, Any]:
 
         doc["figure"] = str(depth_figure(result, out / "figures" / "depth.png"))
     return doc
-
-
-def write_failed(out: Path, status: str, message: str) -> None:
-    """summary.json of an episode refused before motion (no log of an earlier run kept)."""
-    from rcmplan._atomic import write_text
-
-    for name in ("log.npz", "episode.npz"):
-        (out / name).unlink(missing_ok=True)
-    doc = {"command": "subretinal", "status": status, "message": one_line(message)}
-    write_text(out / "summary.json", json.dumps(doc, indent=2))
 
 
 def print_table(doc: dict[str, Any]) -> None:

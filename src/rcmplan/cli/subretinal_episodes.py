@@ -28,7 +28,7 @@ if TYPE_CHECKING:
 
 def batch_of(args: argparse.Namespace) -> BatchSettings:
     """The batch from the options (checked; a given condition is fixed, not drawn)."""
-    from rcmplan.cli.subretinal import settings_of
+    from rcmplan.cli.subretinal_settings import settings_of
     from rcmplan.subretinal.episode_batch import MAX_EPISODES, METHODS, BatchSettings
     from rcmplan.subretinal.episode_draws import DrawRanges
 
@@ -51,7 +51,7 @@ def batch_of(args: argparse.Namespace) -> BatchSettings:
 def run_episodes(args: argparse.Namespace) -> int:
     """Run the batch, write summary.json, episodes.csv, episodes.json and the curves."""
     from rcmplan.analysis.report import prepare_folder
-    from rcmplan.cli.subretinal import write_failed
+    from rcmplan.cli.subretinal_settings import write_failed
     from rcmplan.cli.sweep import MAX_WORKERS, open_checkpoint
     from rcmplan.subretinal.episode_batch import EpisodeCheckpoint
     from rcmplan.sweep.executors import check_timeout
