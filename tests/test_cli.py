@@ -48,15 +48,15 @@ def test_inject_json_prints_the_summary(tmp_path: Path, capsys) -> None:
     assert s["method"] == "dls" and s["status"] == "ok"
 
 
-def test_unreachable_scenario_sets_status_and_exits_non_zero(tmp_path: Path, capsys) -> None:
+def test_an_unreachable_scenario_point_is_refused_before_motion(tmp_path: Path, capsys) -> None:
     scenario = tmp_path / "far.toml"
     scenario.write_text('name = "far"\n[points]\np5_mm = [-160.0, 71.5, 102.3]\n')
     out = tmp_path / "out"
-    assert main(["inject", "--scenario", str(scenario), "--out", str(out), "--no-plots"]) == 1
+    assert main(["inject", "--scenario", str(scenario), "--out", str(out), "--no-plots"]) == 2
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "unreachable_target"
-    assert s["message"].startswith("UnreachableTargetError")
-    assert "stopped early" in capsys.readouterr().err
+    assert s["message"].startswith("UnreachableTargetError: target unreachable: point p5 at (")
+    assert "refused before motion" in capsys.readouterr().err
 
 
 def test_run_that_stops_midway_keeps_its_partial_log(tmp_path: Path) -> None:
