@@ -218,9 +218,23 @@ def test_a_first_run_says_once_that_numba_compiles(tmp_path) -> None:
         "result = run_scenario(load_scenario('default'))\n"
         "print(result.status, result.extra['execution_path'])\n"
     )
-    env = {"XDG_CACHE_HOME": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    # A cache folder of its own: the run compiles afresh and leaves the suite's cache alone.
+    env = {"XDG_CACHE_HOME": str(tmp_path), "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
+           "PATH": "/usr/bin:/bin"}  # fmt: skip
     runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                            env=env, check=True) for _ in range(2)]  # fmt: skip
     assert [r.stdout.split() for r in runs] == [["ok", "compiled"]] * 2
     assert "numba compiles each kernel" in runs[0].stderr
     assert runs[1].stderr == ""
+
+
+def test_the_first_run_stamp_covers_every_file_that_holds_a_kernel() -> None:
+    """numba checks a cached kernel against its own file only, so the stamp that clears the
+    cache must change with every file holding a kernel (`cache.kernel_sources`)."""
+    from pathlib import Path
+
+    import rcmplan
+
+    package = Path(rcmplan.__file__).parent
+    holding = {p for p in package.rglob("*.py") if "@njit" in p.read_text()}
+    assert holding <= set(fast_cache.kernel_sources())

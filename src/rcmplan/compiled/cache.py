@@ -102,18 +102,37 @@ def closed_loop() -> ModuleType:
 
 
 def clear_stale() -> None:
-    """Remove rcmplan's kernels from numba's cache. numba checks a cached function against its
-    own file only; a kernel whose callee moved or changed in another file would load stale code
-    (or fail to load). The stamp changes with any kernel source, so a new stamp clears them."""
+    """Remove rcmplan's kernels from numba's cache (NUMBA_CACHE_DIR when set, else the
+    package's __pycache__ folders). numba checks a cached function against its own file only;
+    a kernel whose callee moved or changed in another file would load stale code (or fail to
+    load). The stamp changes with any kernel source, so a new stamp clears them."""
     package = Path(__file__).parent.parent
-    folders = [*package.rglob("__pycache__")]
     custom = os.environ.get("NUMBA_CACHE_DIR")
-    if custom:
-        folders += [f for f in Path(custom).rglob("*") if f.is_dir() and "rcmplan" in str(f)]
+    if custom:  # numba's cache of this process: the folders it keeps for rcmplan's files
+        folders = [f for f in Path(custom).rglob("*") if f.is_dir() and "rcmplan" in str(f)]
+    else:
+        folders = [*package.rglob("__pycache__")]
     for folder in folders:
         for path in [*folder.glob("*.nbi"), *folder.glob("*.nbc")]:
             with contextlib.suppress(OSError):  # another process removed it first
                 path.unlink()
+
+
+def kernel_sources() -> list[Path]:
+    """The files that hold rcmplan's numba kernels (a test keeps the list whole): this folder,
+    the robot kernels, the control kernels (the step bound, the cost, the limits' rows) and the
+    compiled MuJoCo plant."""
+    package = Path(__file__).parent.parent
+    robot, control = package / "robot", package / "control"
+    return [
+        *sorted(Path(__file__).parent.glob("*.py")),
+        *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics", "chain_singular",
+                                       "needle")),
+        control / "rcm_step.py",
+        control / "cost.py",
+        *sorted((control / "limits").glob("*.py")),
+        package / "sim" / "mujoco" / "compiled.py",
+    ]  # fmt: skip
 
 
 def stamp_path() -> Path:
@@ -121,12 +140,7 @@ def stamp_path() -> Path:
     their source, numba, Python and the cache folder)."""
     here = Path(__file__).parent
     key = hashlib.sha256()
-    robot = here.parent / "robot"
-    for path in (*sorted(here.glob("*.py")),
-                 *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics",
-                                                "chain_singular", "needle")),
-                 here.parent / "control" / "rcm_step.py",
-                 here.parent / "sim" / "mujoco" / "compiled.py"):  # fmt: skip
+    for path in kernel_sources():
         key.update(path.read_bytes())
     key.update(metadata.version("numba").encode())
     key.update(sys.version.encode())
