@@ -11,27 +11,18 @@ from numba import njit
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.limits.base import Constraint, Kinematics, StepInput
 from rcmplan.control.limits.rows import SCALE
+from rcmplan.robot.chain_singular import needle_normals
 from rcmplan.robot.model import RobotModel
 
 
 @njit(cache=True)
 def normal_basis(axis: FloatArray, N: FloatArray) -> None:
-    """Two unit vectors N (2, 3) normal to a unit axis (3,) and to each other: n1 = axis x e_k
-    normalised, e_k the first axis of smallest |axis_k|, and n2 = axis x n1."""
-    k = 0
-    for i in range(1, 3):
-        if abs(axis[i]) < abs(axis[k]):
-            k = i
-    a0, a1, a2 = axis[0], axis[1], axis[2]
-    e0 = 1.0 if k == 0 else 0.0
-    e1 = 1.0 if k == 1 else 0.0
-    e2 = 1.0 if k == 2 else 0.0
-    n0, n1, n2 = a1 * e2 - a2 * e1, a2 * e0 - a0 * e2, a0 * e1 - a1 * e0
-    norm = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-    N[0, 0], N[0, 1], N[0, 2] = n0 / norm, n1 / norm, n2 / norm
-    N[1, 0] = a1 * N[0, 2] - a2 * N[0, 1]
-    N[1, 1] = a2 * N[0, 0] - a0 * N[0, 2]
-    N[1, 2] = a0 * N[0, 1] - a1 * N[0, 0]
+    """Two unit vectors N (2, 3) normal to a unit axis (3,) and to each other
+    (`chain_singular.needle_normals`: n1 = axis x e_k normalised, e_k the first axis of smallest
+    |axis_k|, and n2 = axis x n1)."""
+    n1, n2, _, _ = needle_normals(axis[0], axis[1], axis[2])
+    for i in range(3):
+        N[0, i], N[1, i] = n1[i], n2[i]
 
 
 @njit(cache=True)
