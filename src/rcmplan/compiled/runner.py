@@ -76,10 +76,11 @@ def fast_converge_phase(
             return False
         return qp_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
     exact = getattr(controller.plant, "exact_commands", False)
+    physics = getattr(controller.plant, "compiled_physics", False)
     # The QP's free-space step (`LimitedTipSolver`) has no `method_code`: it runs compiled on
-    # iRAM!S with exact commands (`records.iramis_method`).
+    # iRAM!S with exact commands or in the closed MuJoCo loop (`records.iramis_method`).
     if method_code(solver) is None and not (
-        exact and iramis_method(solver, controller.robot) is not None
+        (exact or physics) and iramis_method(solver, controller.robot) is not None
     ):
         return False
     if kernel_params(controller.robot) is None:
@@ -87,10 +88,12 @@ def fast_converge_phase(
     if exact:
         run_phase_compiled(controller, solver, targets, pid, sid)
         return True
-    if getattr(controller.plant, "compiled_physics", False):
+    if physics:
         done = fast_cache.closed_loop().run_phase_on_mujoco(controller, solver, targets, pid, sid)
         if done:
             return True
+    if method_code(solver) is None:  # the per-iteration path runs `method_code`'s solvers
+        return False
     run_phase_on_plant(controller, solver, targets, pid, sid)
     return True
 
