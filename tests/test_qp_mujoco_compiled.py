@@ -10,6 +10,7 @@ import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they
 import numpy as np
 import pytest
 
+from heavy import heavy
 from rcmplan import Iramis
 from rcmplan.control import Phase, extended_task, interpolate
 from rcmplan.control.log import RunLog
@@ -23,7 +24,6 @@ from rcmplan.scene.scenario import load_scenario
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.plant import MujocoPlant
 
-from heavy import heavy
 from logcheck import assert_same_log
 from paths import use_path
 
@@ -62,7 +62,9 @@ def phases(robot: Iramis) -> list[Phase]:
     return [pivot, Phase("free", free, kind="free")]
 
 
-def run(path: str, objectives: tuple[Objective, ...] = ()) -> tuple[RunLog, MujocoPlant, Controller]:
+def run(
+    path: str, objectives: tuple[Objective, ...] = ()
+) -> tuple[RunLog, MujocoPlant, Controller]:
     """The phases on a fresh dynamic plant with a QP whose servo is the plant, on `path`."""
     use_path(path)
     robot = Iramis()
