@@ -4,7 +4,7 @@ Run alone: MUJOCO_GL=egl python benchmarks/bench_mujoco_methods.py [--method qp 
 For pinv, DLS and the QP: status, max RCM deviation inside the eye, max tip error at the
 targets, wall time, simulated time and real-time factor (over wall and over CPU time: the host
 is shared) of `rcmplan inject --plant mujoco`
-(`run_scenario`, on its default execution path: pinv and DLS compiled, the QP in Python). Peer
+(`run_scenario`, on its default execution path: every method compiled). Peer
 of each: the same method on the plant with the former velocity-step servo reference
 (`PiezoParameters.ramp_time = 0`), run beside it; and MuJoCo's bare step rate measured before
 each run, since this host's speed drifts by up to 2x within a minute. The issue's targets:

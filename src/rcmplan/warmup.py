@@ -13,7 +13,7 @@ import importlib.util
 import numpy as np
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled import arm_phase, curved_phase, qp_phase
+from rcmplan.compiled import arm_phase, curved_phase, qp_mujoco_phase, qp_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm, check_arm_targets
 from rcmplan.compiled.curved import curved_arrays, screen
@@ -99,6 +99,21 @@ def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -
         ctl = Controller(plant, solver, settings=LoopSettings(max_iterations=1000))
         ctl.lam = 1.0 - 8e-3 / robot.params.l6
         loop.run_phase_on_mujoco(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0)
+    if importlib.util.find_spec("daqp") is not None:
+        _compile_qp_mujoco_loop(robot, jobs[0][1])
+
+
+def _compile_qp_mujoco_loop(robot: Iramis, targets: FloatArray) -> None:
+    """The QP's compiled loop around the dynamic MuJoCo plant (`qp_mujoco_phase`), on the first
+    of the short RCM move's targets."""
+    from rcmplan.control.qp import QpSolver
+    from rcmplan.sim.mujoco.plant import MujocoPlant
+
+    plant = MujocoPlant(robot, mode="dynamic")
+    solver = QpSolver(robot, servo=plant)
+    ctl = Controller(plant, solver, settings=LoopSettings(max_iterations=1000))
+    ctl.lam = 1.0 - 8e-3 / robot.params.l6
+    qp_mujoco_phase.run_if_ready(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0)
 
 
 class _SteppedPlant(KinematicPlant):

@@ -101,6 +101,14 @@ def closed_loop() -> ModuleType:
     return _load("mujoco_loop")
 
 
+def qp_mujoco_loop() -> ModuleType:
+    """The compiled QP loop around the dynamic MuJoCo plant (`qp_mujoco_loop`); needs MuJoCo
+    and DAQP (MissingExtraError naming the extra otherwise)."""
+    require_extra("mujoco", "sim")
+    require_extra("daqp", "qp")
+    return _load("qp_mujoco_loop")
+
+
 def clear_stale() -> None:
     """Remove rcmplan's kernels from numba's cache (NUMBA_CACHE_DIR when set, else the
     package's __pycache__ folders). numba checks a cached function against its own file only;

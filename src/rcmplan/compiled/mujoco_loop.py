@@ -18,15 +18,16 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.loop import iterate_recorded, target_frame
+from rcmplan.compiled.curved_kernels import BLOCK_ROWS
+from rcmplan.compiled.loop import holds_rcm, iterate_recorded, target_frame
 from rcmplan.compiled.records import (
     DONE,
     NO_TIP,
     PAUSED,
     STEPPED,
     append_records,
+    iramis_method,
     loop_bounds,
-    method_code,
     raise_stop,
     robot_params,
     solver_arrays,
@@ -62,13 +63,13 @@ def run_targets_on_mujoco(
     return info = (records written, target reached, detail) and, after PAUSED (the record block
     is full), info[1], info[2] are the target and iteration to resume from.
     """
-    w, d, f, v = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-    J, A = np.empty((6, 6)), np.empty((6, 6))
+    w, d, f, v = np.empty(6), np.empty(7), np.empty(7), np.empty(6)
+    J, A = np.empty((BLOCK_ROWS, 7)), np.empty((6, 6))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
     n, cap = 0, rec.shape[0]
     for k in range(k0, targets.shape[0]):
         info[0], info[1] = n, k
-        kind = target_frame(targets[k], method != 3, w, tip_t, trocar)
+        kind = target_frame(targets[k], holds_rcm(method), w, tip_t, trocar)
         if kind < 0:
             return NO_TIP
         for it in range(it0 if k == k0 else 0, max_it + 1):
@@ -109,10 +110,14 @@ def run_phase_on_mujoco(
     if arrays is None:
         return False
     cfg = controller.settings
-    K, damping, tol = solver_arrays(solver)
+    method = iramis_method(solver, controller.robot)
+    if method is None:
+        raise ValueError(f"the iRAM!S loop does not run solver {solver.name!r}")
+    code, K = method
+    _, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     head: tuple[Any, ...] = (
-        robot_params(controller.robot), method_code(solver), K, damping, tol,
+        robot_params(controller.robot), code, K, damping, tol,
         cfg.max_iterations, cfg.drift_correction, loop_bounds(controller), targets,
     )  # fmt: skip
     s, cmd = np.empty(6), plant.command

@@ -49,7 +49,7 @@ def iterate_qp(
     """One iteration from sliders s (see the module docstring); returns DONE, STEPPED (the
     next command in fail[12:18]) or a stop code. state = (lambda, time [s], dt [s]); fail
     holds (q, q_new, s_new, error) and fail[24:30] the actuators the QP was built at."""
-    q, qn, sn, e, s_qp = fail[0:6], fail[6:12], fail[12:18], fail[18:24], fail[24:30]
+    q, e, s_qp = fail[0:6], fail[18:24], fail[24:30]
     joints_from_actuators(P, s, q)
     tr = trig(q)
     if drift:
@@ -66,7 +66,19 @@ def iterate_qp(
         return NO_CONVERGENCE
     if min(abs(tr[0]), abs(tr[2])) < bounds[0]:
         return SINGULAR
-    dlam = step_joints(P, q, s_qp, qp[X], qn, w)
+    return step_command(P, q, s_qp, qp[X], trocar, bounds, state, fail, info, w)
+
+
+@njit(cache=True)
+def step_command(
+    P: FloatArray, q: FloatArray, s_qp: FloatArray, x: FloatArray, trocar: FloatArray,
+    bounds: FloatArray, state: FloatArray, fail: FloatArray, info: np.ndarray, w: FloatArray,
+) -> int:  # fmt: skip
+    """The step of the QP's solution x built at actuators s_qp, from joints q: bounded from
+    the RCM tolerance, lambda moved in state[0], the joints and sliders commanded in fail[6:12]
+    and fail[12:18]; returns STEPPED or a stop code (`loop.command_status`)."""
+    qn, sn = fail[6:12], fail[12:18]
+    dlam = step_joints(P, q, s_qp, x, qn, w)
     for i in range(5):  # the step in joints and lambda, bounded from the RCM tolerance
         sn[i] = qn[i] - q[i]
     sn[5] = dlam
@@ -74,7 +86,7 @@ def iterate_qp(
         for i in range(5):
             qn[i] = q[i] + sn[i]
     else:
-        step_joints(P, q, s_qp, qp[X], qn, w)  # qn as the QP's step left it
+        step_joints(P, q, s_qp, x, qn, w)  # qn as the QP's step left it
     state[0] += sn[5]
     return command_status(P, qn, sn, info)
 

@@ -156,6 +156,16 @@ def assemble(Q: FloatArray, contacts: FloatArray, K: FloatArray, lam: float,
 
 
 @njit(cache=True)
+def full_speed(Q: FloatArray, x: FloatArray) -> bool:
+    """True if an active actuator moves at its full speed over dt in the solution x (w,), the
+    last variable lambda's (`QpSolver.speed_limited`)."""
+    for j in range(x.shape[0] - 1):
+        if abs(x[j]) >= (1.0 - SPEED_ACTIVE) * (Q[SPEED + j] * Q[DT] / SCALE):
+            return True
+    return False
+
+
+@njit(cache=True)
 def solve_assembled(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, qp: tuple) -> int:
     """Solve the QP `assemble` left in the buffers; returns DAQP's exit flag (1: optimal). The
     solution is in qp[X]; e (6,), the X_ext error on entry, becomes the error a feasible step
@@ -164,11 +174,8 @@ def solve_assembled(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, qp: 
     x, lam_d, problem, result, settings = qp[10:15]
     nb = H.shape[0]
     flag = quadprog(H, f, A, up, lo, sense, nb, rows, x, lam_d, problem, result, settings)
-    if flag != 1:
+    if flag != 1 or full_speed(Q, x):  # a step at full speed leaves the plain error
         return flag
-    for j in range(nb - 1):  # a step at full speed leaves the plain error (`speed_limited`)
-        if abs(x[j]) >= (1.0 - SPEED_ACTIVE) * (Q[SPEED + j] * Q[DT] / SCALE):
-            return flag
     for i in range(6):
         acc = 0.0
         for j in range(nb):

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.compiled import arm_phase, arm_qp, curved_phase, qp_phase
+from rcmplan.compiled import arm_phase, arm_qp, curved_phase, qp_mujoco_phase, qp_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import check_arm_targets
 from rcmplan.compiled.curved import check_curved_targets
@@ -54,7 +54,8 @@ def fast_converge_phase(
     """Run Algorithm 1 on every target of a phase in compiled code, if it applies.
 
     Applies when the solver is a PinvSolver, DlsSolver or TipSolver; a QpSolver on the
-    kinematic plant runs its own compiled loop (`qp_phase`), a curved needle's solver its own
+    kinematic plant runs its own compiled loop (`qp_phase`), on the dynamic MuJoCo plant with
+    the plant as its servo another (`qp_mujoco_phase`), a curved needle's solver its own
     phases (`curved_phase`, on the kinematic plant). On a KinematicPlant, and on a dynamic
     MujocoPlant (physics through MuJoCo's C functions, `fast_mujoco`), the whole loop is
     compiled; on any other plant the plant steps in Python and each iteration's control work
@@ -66,15 +67,20 @@ def fast_converge_phase(
         return curved_phase.run_if_fast(controller, solver, targets, pid, sid)
     if arm_phase.applies(controller, solver):  # any serial arm, on any plant
         return arm_phase.run_if_fast(controller, solver, targets, pid, sid)
+    if qp_mujoco_phase.applies(controller, solver):  # the QP, on the dynamic MuJoCo plant
+        if kernel_params(controller.robot) is None:
+            return False
+        return qp_mujoco_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
     if qp_phase.applies(controller, solver):  # the QP controller, on the kinematic plant
         if kernel_params(controller.robot) is None:
             return False
         return qp_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
     exact = getattr(controller.plant, "exact_commands", False)
+    physics = getattr(controller.plant, "compiled_physics", False)
     # The QP's free-space step (`LimitedTipSolver`) has no `method_code`: it runs compiled on
-    # iRAM!S with exact commands (`records.iramis_method`).
+    # iRAM!S with exact commands or in the closed MuJoCo loop (`records.iramis_method`).
     if method_code(solver) is None and not (
-        exact and iramis_method(solver, controller.robot) is not None
+        (exact or physics) and iramis_method(solver, controller.robot) is not None
     ):
         return False
     if kernel_params(controller.robot) is None:
@@ -82,10 +88,12 @@ def fast_converge_phase(
     if exact:
         run_phase_compiled(controller, solver, targets, pid, sid)
         return True
-    if getattr(controller.plant, "compiled_physics", False):
+    if physics:
         done = fast_cache.closed_loop().run_phase_on_mujoco(controller, solver, targets, pid, sid)
         if done:
             return True
+    if method_code(solver) is None:  # the per-iteration path runs `method_code`'s solvers
+        return False
     run_phase_on_plant(controller, solver, targets, pid, sid)
     return True
 

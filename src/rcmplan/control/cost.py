@@ -1,8 +1,10 @@
 """The QP's cost terms as kernels: the X_ext Jacobian from its parts and a weighted task's
-(H, f). The Python QP (`qp_problem`, `objective`) and the compiled QP step call them."""
+(H, f), and its synchronisation on a servo plant. The Python QP (`qp_problem`, `objective`,
+`qp`) and the compiled QP step call them."""
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
@@ -37,3 +39,18 @@ def weighted_cost(task: FloatArray, weights: FloatArray, K: FloatArray, e: Float
         for i in range(k):
             acc += (weights[i] * task[i, j]) * (weights[i] * K[i] * e[i] / SCALE)
         f[j] = -acc
+
+
+@njit(cache=True)
+def synchronise(H: FloatArray, f: FloatArray, window: FloatArray) -> float:
+    """Scale the linear term f (w,) of 1/2 x'Hx + f'x by 1 / sigma when sigma > 1, sigma the
+    largest fraction |x_i| / window_i that the unconstrained optimum x = -H^-1 f uses of the
+    first k = len(window) variables' windows (`qp.synchronised_step`); returns sigma."""
+    x = np.linalg.solve(H, f)  # -x: H is positive definite (damping)
+    sigma = 0.0
+    for i in range(window.shape[0]):
+        sigma = max(sigma, abs(x[i]) / window[i])
+    if sigma > 1.0:
+        for j in range(f.shape[0]):
+            f[j] /= sigma
+    return sigma

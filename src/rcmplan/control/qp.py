@@ -37,6 +37,7 @@ import numpy as np
 
 from rcmplan._validate import F64, FloatArray, scalar, vector
 from rcmplan.control.augmented import extended_task
+from rcmplan.control.cost import synchronise
 from rcmplan.control.curved import (
     CURVED_TASKS,
     LimitedPoseSolver,
@@ -294,14 +295,11 @@ def synchronised_step(robot: RobotModel, step: StepQP, dt: float) -> StepQP:
     acceleration cannot follow such reversals, and leaves the commanded (RCM-holding) path.
     Only the linear cost term changes (it is linear in e); the limits are untouched.
     """
-    active = list(robot.active)
-    m = len(active)
-    x = np.linalg.solve(step.problem.P, step.problem.q)  # -x: P is positive definite (damping)
-    window = robot.speed[active] * dt / SCALE  # [QP units]
-    sigma = float(np.max(np.abs(x[:m]) / window))
-    if sigma <= 1.0:
+    window = np.ascontiguousarray(robot.speed[list(robot.active)] * dt / SCALE)  # [QP units]
+    f = np.array(step.problem.q, dtype=np.float64)
+    if synchronise(np.ascontiguousarray(step.problem.P, dtype=np.float64), f, window) <= 1.0:
         return step
-    return replace(step, problem=replace(step.problem, q=step.problem.q / sigma))
+    return replace(step, problem=replace(step.problem, q=f))
 
 
 def make_qp(

@@ -1,0 +1,130 @@
+"""The QP controller's phases on the dynamic MuJoCo plant in compiled code (`qp_mujoco_loop`),
+behind the runner seam.
+
+Applies to a `QpSolver` itself (exact type) with the DAQP back end, a straight needle, and the
+controller's plant as its servo (`QpSolver.servo`: steps planned from the plant's last command
+rounded to its `actuator_resolution`), on a plant whose period runs in compiled code
+(`compiled_physics`), for a robot the iRAM!S kernels reproduce, an eye and limits the kernels
+reproduce (`qp_params`), when DAQP's and MuJoCo's C functions can be called from compiled code.
+Everything else runs on the reference path.
+
+The side effects are the reference loop's: records go to the controller's log, the plant ends
+at its last command and time, controller.lam holds the last lambda, and a stop raises the
+reference exception (a failed solve: `qp_phase.raise_qp_failure`, the plant's failed check:
+its own SimulationError).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any, cast
+
+import numpy as np
+
+from rcmplan._validate import FloatArray
+from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.qp_params import qp_params
+from rcmplan.compiled.qp_phase import raise_qp_failure
+from rcmplan.compiled.records import (
+    DONE,
+    PAUSED,
+    QP_FAILED,
+    append_records,
+    loop_bounds,
+    raise_stop,
+    robot_params,
+    solver_arrays,
+)
+from rcmplan.control.qp import QpSolver
+from rcmplan.control.solvers import Solver
+from rcmplan.exceptions import SimulationError
+
+if TYPE_CHECKING:
+    from rcmplan.control.runner import ControlState as Controller
+    from rcmplan.sim.mujoco.plant import MujocoPlant
+
+CAPACITY = 1 << 15  # records per block
+
+
+def applies(controller: Controller, solver: Solver) -> bool:
+    """Cheap checks: a QpSolver itself with DAQP and a straight needle whose servo is the
+    controller's plant, a plant that rounds commands to a resolution and whose period runs
+    compiled (the robot, the eye and the C bindings are checked in `run_if_ready`)."""
+    plant = controller.plant
+    return (
+        type(solver) is QpSolver
+        and solver.backend == "daqp"
+        and not solver.curved
+        and solver.servo is plant
+        and getattr(plant, "actuator_resolution", None) is not None
+        and bool(getattr(plant, "compiled_physics", False))
+    )
+
+
+def run_if_ready(
+    controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int
+) -> bool:
+    """Run the phase compiled if DAQP's and MuJoCo's C functions are usable and the eye and
+    limits are the kernels'; False (nothing done) otherwise. The caller has checked the
+    robot."""
+    from rcmplan.sim.mujoco.compiled import plant_arrays
+
+    params = qp_params(controller.robot, solver)
+    if params is None or fast_cache.qp_loop() is None:
+        return False
+    arrays = plant_arrays(controller.plant)
+    if arrays is None:
+        return False
+    run_qp_phase_on_mujoco(controller, solver, targets, pid, sid, params, arrays)
+    return True
+
+
+def run_qp_phase_on_mujoco(
+    controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int,
+    params: tuple[FloatArray, FloatArray], arrays: Any,
+) -> None:  # fmt: skip
+    """Algorithm 1 with the QP on each target in turn on the MuJoCo plant, compiled (see the
+    module docstring)."""
+    plant = cast("MujocoPlant", controller.plant)
+    robot, cfg = controller.robot, controller.settings
+    loop = fast_cache.qp_mujoco_loop()
+    K, _, tol = solver_arrays(solver)
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    res = np.ascontiguousarray(plant.actuator_resolution, dtype=np.float64)
+    head = (robot_params(robot), *params, K, tol, cfg.max_iterations, cfg.drift_correction,
+            loop_bounds(controller), targets)  # fmt: skip
+    s, cmd = np.empty(6), np.array(plant.command, dtype=np.float64)
+    state = np.array([controller.lam, plant.time, plant.dt])
+    rec, irec = np.empty((CAPACITY, 35)), np.empty((CAPACITY, 2), dtype=np.int64)
+    info, fail = np.zeros(3, dtype=np.int64), np.empty(loop.FAIL_WIDTH)
+    tail = (s, cmd, res, state, rec, irec, info, fail, fast_cache.qp_kernels().buffers(),
+            arrays.slider_qpos, *arrays.args())  # fmt: skip
+    status, k0, it0 = PAUSED, 0, 0
+    try:
+        while status == PAUSED:
+            status = int(loop.run_targets_qp_on_mujoco(*head, k0, it0, *tail))
+            append_records(controller.log, rec, irec, int(info[0]), pid, sid)
+            k0, it0 = int(info[1]), int(info[2])
+    finally:
+        plant.command_actuators(cmd)
+        plant.time = float(state[1])
+        controller.lam = float(state[0])
+    _raise_stop(controller, solver, status, info, targets, fail, tol, pid, loop.PLANT_STOPPED)
+
+
+def _raise_stop(
+    controller: Controller, solver: QpSolver, status: int, info: Any, targets: FloatArray,
+    fail: FloatArray, tol: FloatArray, pid: int, plant_stopped: int,
+) -> None:  # fmt: skip
+    """Raise what the reference loop raises for the compiled loop's stop (nothing if DONE)."""
+    if status == DONE:
+        return
+    k = int(info[1])
+    if status == plant_stopped:
+        cast("MujocoPlant", controller.plant).check()  # raises the plant's own SimulationError
+        raise SimulationError(
+            f"the plant stopped (check {int(info[2])}) at t = {controller.plant.time} s"
+        )
+    if status == QP_FAILED:
+        raise_qp_failure(controller, solver, targets[k], fail, int(info[2]))
+    where = f"phase {controller.log.phase_names[pid]!r} step {k}"
+    raise_stop(controller, status, k, targets, fail, tol, where)
