@@ -94,6 +94,12 @@ def qp_loop() -> ModuleType | None:
     return _load("qp_loop") if daqp_callable() else None
 
 
+def qp_periods() -> ModuleType | None:
+    """The compiled block of control periods of the QP controller (`qp_periods`), or None if
+    DAQP's C solver cannot be called from compiled code here (`daqp_callable`)."""
+    return _load("qp_periods") if daqp_callable() else None
+
+
 def closed_loop() -> ModuleType:
     """The compiled loop around the dynamic MuJoCo plant (`mujoco_loop`); needs MuJoCo
     (MissingExtraError naming the `sim` extra otherwise)."""

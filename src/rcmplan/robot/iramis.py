@@ -319,11 +319,11 @@ class Iramis:
 
     # --- limits and singularities --------------------------------------------------------
     def check_actuators(self, s: Sequence[float] | FloatArray) -> FloatArray:
-        """Return s if every slider is within its travel, else raise SliderLimitError."""
+        """Return s if every slider is within its travel, else raise SliderLimitError (the
+        travel rule of the compiled loops: `iramis_kernels.first_beyond_travel`)."""
         s = vector("s", s, 6)
-        bad = (s < self.lower) | (s > self.upper)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
+        i = kernels.first_beyond_travel(self.P, s)
+        if i >= 0:
             raise SliderLimitError(i, SLIDER_NAMES[i], float(s[i]), self.lower[i], self.upper[i])
         return s
 

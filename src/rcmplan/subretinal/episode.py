@@ -3,9 +3,10 @@
 The needle starts inserted through the trocar, `start_height_m` above the target's ILM point.
 Every 1 kHz period does what a teleoperated session's period does (`rcmplan.teleop.session`):
 read the plant, lambda by `closest_lambda`, the target X_ext (`rcm_targets(tip, trocar)`, for
-the periods up to the next iOCT estimate at once: `Episode.plan`), one
-`QpSolver.step` (compiled, `compiled.qp_period.period_step`, where it applies; the Python step
-otherwise), command the plant. The QP holds the RCM, actuator travel and speed and, as an
+the periods up to the next iOCT estimate at once: `Episode.plan`), one `QpSolver.step`, command
+the plant. Where the compiled QP applies on the kinematic plant the planned periods run as one
+compiled call (`episode_blocks`); elsewhere one period at a time (`Episode.period`, its step
+compiled by `compiled.qp_period.period_step` where that applies). The QP holds the RCM, actuator travel and speed and, as an
 extra limit, `TissueDepthLimit`: the tip above the ESTIMATED RPE less `rpe_margin_m`. The QP's
 retina barrier is off (no eye is given to it): the needle has to pass the ILM.
 
@@ -40,6 +41,7 @@ from rcmplan.robot.needle import closest_lambda
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.sim.registry import make_plant
+from rcmplan.subretinal.episode_blocks import PeriodBlocks
 from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, EpisodeSettings
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.layers import RetinaLayers, unit_direction
@@ -102,6 +104,8 @@ def commanded_depth(
 class Episode:
     """Everything one episode needs, built and checked before any motion."""
 
+    phase_names = PHASES
+
     def __init__(self, cfg: EpisodeSettings) -> None:
         self.cfg = cfg
         self.robot = robot = make_robot(cfg.robot)
@@ -134,6 +138,7 @@ class Episode:
         self.wall_m = self.motion.displacement(self.t_s)
         n = self.n_periods  # per period, planned a block at a time (`plan`):
         self.predicted_m, self.bound_m, self.command_m = np.empty(n), np.empty(n), np.empty(n)
+        self.floor_m = np.empty(n)  # the depth limit's floor radius [m]
         self.phase = np.zeros(n, dtype=int)  # index in PHASES
         self.desired, self.targets = np.empty((n, 3)), np.empty((n, 6))
         self._planned_to = 0  # periods [0, _planned_to) are planned
@@ -143,7 +148,7 @@ class Episode:
         scene = {"eye": eye, "points": default_points(eye)}
         self.plant = make_plant(cfg.plant, robot, scene=scene, dt=cfg.dt)
         self.plant.reset(robot.actuators_from_joints(pose.q))
-        self.depth_limit = TissueDepthLimit(eye.center, self.limit_radius(0.0))
+        self.depth_limit = TissueDepthLimit(eye.center, float(self.limit_radius(np.zeros(()))))
         extra = (self.depth_limit,) if cfg.depth_limit else ()
         self.solver = QpSolver(robot, None, cfg.dt, limits=QpLimits(), extra_limits=extra)
         self.fast_step = fast_period_step(self.solver)  # the compiled step where it applies
@@ -154,17 +159,19 @@ class Episode:
         )
         self._pids = {p: self.log.phase_id(p) for p in PHASES}
         self._sid = self.log.solver_id(self.solver.name)
-        self.rows: dict[str, list[float]] = {k: [] for k in SERIES}
+        self.series = {k: np.empty(n) for k in SERIES}
+        self.done = 0  # periods run (their records logged and stored)
+        self.blocks = PeriodBlocks.make(self)  # None: one period at a time
 
     def to_base(self, radius_m: float | FloatArray) -> FloatArray:
         """The point (3,) at `radius_m` [m] from the eye centre on the target's normal, base
         frame; (N, 3) for N radii."""
         return np.asarray(self.eye.center + np.multiply.outer(radius_m, self.normal_base))
 
-    def limit_radius(self, displacement_m: float) -> float:
-        """Radius [m] the depth limit holds the tip within: the RPE displaced by
-        `displacement_m` less the margin."""
-        return self.layers.rpe_radius_m + displacement_m - self.cfg.rpe_margin_m
+    def limit_radius(self, displacement_m: FloatArray) -> FloatArray:
+        """Radii [m] the depth limit holds the tip within: the RPE displaced by
+        `displacement_m` [m] less the margin."""
+        return np.asarray(self.layers.rpe_radius_m + displacement_m - self.cfg.rpe_margin_m)
 
     def deliver(self, t_s: float) -> None:
         """Feed the predictors every estimate that has arrived by episode time t_s [s]."""
@@ -191,6 +198,10 @@ class Episode:
         self.predicted_m[block] = self.predictor.predict(t[block])
         guard = self.guard.predict(t[block]) if self.guard is not self.predictor else None
         self.bound_m[block] = self.predicted_m[block] if guard is None else guard
+        self.floor_m[block] = self.limit_radius(self.bound_m[block])
+        bad = ~((self.floor_m[block] > 0.0) & (self.floor_m[block] <= 0.05))  # NaN too
+        if bad.any():  # the limit's own check raises
+            self.depth_limit.set_floor(float(self.floor_m[block][bad][0]))
         radius = np.empty(end - k)
         for j in range(k, end):
             phase, a = self.phase_at(j * dt)
@@ -221,14 +232,12 @@ class Episode:
         return ilm + c, c
 
     def period(self) -> None:
-        """One control period (module docstring)."""
+        """Run the next control period on its own (module docstring)."""
         robot, plant, trocar, cfg = self.robot, self.plant, self.eye.port, self.cfg
-        k = len(self.rows["t_s"])
+        k = self.done
         if k >= self._planned_to:
             self.plan(k)
-        t, predicted, bound = float(self.t_s[k]), float(self.predicted_m[k]), self.bound_m[k]
-        self.depth_limit.set_floor(self.limit_radius(float(bound)))
-        phase, c = PHASES[self.phase[k]], self.command_m[k]
+        self.depth_limit.set_floor(float(self.floor_m[k]))
         desired, target = self.desired[k], self.targets[k]
         s = plant.read_actuators()
         q = robot.joints_from_actuators(s)
@@ -245,31 +254,48 @@ class Episode:
         plant.command_actuators(robot.actuators_from_joints(q_new))
         plant.advance()
         rcm = base + lam * (end - base)
-        self.log.append(time=t, sliders=s, joints=q, lam=lam, tip=tip, rcm=rcm, trocar=trocar,
-                        base=base, target_tip=desired, error=e, step=len(self.log), iteration=0,
-                        solver=self._sid, phase=self._pids[phase])  # fmt: skip
-        wall = float(self.wall_m[k])
-        z = float(np.linalg.norm(tip - self.eye.center)) - (self.layers.ilm_radius_m + wall)
-        reading = self.tissue.update(z)
+        self.log.append(time=float(self.t_s[k]), sliders=s, joints=q, lam=lam, tip=tip, rcm=rcm,
+                        trocar=trocar, base=base, target_tip=desired, error=e, step=k,
+                        iteration=0, solver=self._sid,
+                        phase=self._pids[PHASES[self.phase[k]]])  # fmt: skip
         deviation = float(np.linalg.norm(rcm - trocar))
-        row = (t, self._pids[phase], wall, predicted, bound, c, z, reading.depth_in_tissue_m,
-               int(reading.state), deviation)  # fmt: skip
-        for key, value in zip(SERIES, row, strict=True):
-            self.rows[key].append(float(value))
+        self.store(k, tip[None, :], np.array([deviation]))
         if deviation > cfg.rcm_bound_m:
-            raise RcmBoundError(phase, deviation, cfg.rcm_bound_m)
+            raise RcmBoundError(PHASES[self.phase[k]], deviation, cfg.rcm_bound_m)
+
+    def store(self, k: int, tips: FloatArray, deviation_m: FloatArray) -> None:
+        """The series of the periods k.. that ran, from their tips (n, 3) [m] and RCM
+        deviations (n,) [m]; the tissue model reads each tip in turn."""
+        n = tips.shape[0]
+        block, wall = slice(k, k + n), self.wall_m[k : k + n]
+        z = np.linalg.norm(tips - self.eye.center, axis=1) - (self.layers.ilm_radius_m + wall)
+        readings = [self.tissue.update(float(depth)) for depth in z]
+        pids = np.array([self._pids[p] for p in PHASES], dtype=float)
+        columns = (self.t_s[block], pids[self.phase[block]], wall, self.predicted_m[block],
+                   self.bound_m[block], self.command_m[block], z,
+                   [r.depth_in_tissue_m for r in readings], [int(r.state) for r in readings],
+                   deviation_m)  # fmt: skip
+        for key, values in zip(SERIES, columns, strict=True):
+            self.series[key][block] = values
+        self.done = k + n
 
     def run(self) -> EpisodeResult:
-        """Feed the warm-up estimates, run every period, return the result (also when the RCM
-        bound stopped it: status "rcm_bound_exceeded")."""
+        """Feed the warm-up estimates, run every period (a planned block at a time where the
+        compiled block loop applies), return the result (also when the RCM bound stopped it:
+        status "rcm_bound_exceeded")."""
         self.deliver(self.cfg.warmup_s)
         status, message = "ok", ""
         try:
-            for _ in range(self.n_periods):
-                self.period()
+            while self.done < self.n_periods:
+                if self.blocks is None:
+                    self.period()
+                    continue
+                if self.done >= self._planned_to:
+                    self.plan(self.done)
+                self.blocks.run(self, self.done, self._planned_to)
         except RcmBoundError as exc:
             status, message = exc.status, str(exc)
-        series = {k: np.asarray(v) for k, v in self.rows.items()}
+        series = {k: v[: self.done].copy() for k, v in self.series.items()}
         starts, t0 = {}, self.cfg.warmup_s
         for name, length in self.durations.items():
             starts[name] = t0

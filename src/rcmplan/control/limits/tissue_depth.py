@@ -11,6 +11,7 @@ from rcmplan.robot.model import RobotModel
 
 # The limit as the compiled QP reads it (`pack`): centre (3,), floor radius, gain, recovery.
 PACKED = 6
+FLOOR_AT = 3  # the floor radius's place in the packed numbers (a block loop moves it there)
 
 
 class TissueDepthLimit:
@@ -52,7 +53,7 @@ class TissueDepthLimit:
     def pack(self, out: FloatArray) -> None:
         """Write the limit as the compiled QP reads it (`PACKED` numbers) into out."""
         out[:3] = self.center
-        out[3], out[4], out[5] = self.floor_radius_m, self.gain, self.recovery
+        out[FLOOR_AT], out[4], out[5] = self.floor_radius_m, self.gain, self.recovery
 
     def constraint(self, robot: RobotModel, inp: StepInput, kin: Kinematics) -> Constraint:
         """One damper row on the gap along the outward normal at the tip."""
