@@ -6,9 +6,10 @@ read the plant, lambda by `closest_lambda`, the target X_ext (`rcm_targets(tip, 
 the periods up to the next iOCT estimate at once: `Episode.plan`), one `QpSolver.step`, command
 the plant. Where the compiled QP applies on the kinematic plant the planned periods run as one
 compiled call (`episode_blocks`); elsewhere one period at a time (`Episode.period`, its step
-compiled by `compiled.qp_period.period_step` where that applies). The QP holds the RCM, actuator travel and speed and, as an
-extra limit, `TissueDepthLimit`: the tip above the ESTIMATED RPE less `rpe_margin_m`. The QP's
-retina barrier is off (no eye is given to it): the needle has to pass the ILM.
+compiled by `compiled.qp_period.period_step` where that applies). The QP holds the RCM,
+actuator travel and speed and, as an extra limit, `TissueDepthLimit`: the tip above the
+ESTIMATED RPE less `rpe_margin_m`. The QP's retina barrier is off (no eye is given to it): the
+needle has to pass the ILM.
 
 The tip target lies on the target's normal n (the ray from the eye centre along `direction`):
 p = (R_ilm + d_pred(t) + c(t)) n, with d_pred the compensation's prediction of the ILM
@@ -42,6 +43,7 @@ from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.sim.registry import make_plant
 from rcmplan.subretinal.episode_blocks import PeriodBlocks
+from rcmplan.subretinal.episode_phases import PHASES, phase_durations, phases_at, tip_radius
 from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, EpisodeSettings
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.layers import RetinaLayers, unit_direction
@@ -51,7 +53,6 @@ from rcmplan.subretinal.tissue import TissueContact
 from rcmplan.subretinal.trace import IlmTrace, noisy_trace
 from rcmplan.teleop.session import fast_period_step
 
-PHASES = ("approach", "hover", "advance", "hold", "retract", "settle")
 SERIES = ("t_s", "phase", "wall_m", "predicted_m", "limit_m", "command_depth_m",
           "depth_vs_undeformed_m", "depth_m", "tissue_state", "rcm_deviation_m")  # fmt: skip
 
@@ -70,35 +71,6 @@ class EpisodeResult:
     status: str = "ok"
     message: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
-
-
-def phase_durations(cfg: EpisodeSettings, layers: RetinaLayers) -> dict[str, float]:
-    """Duration [s] of each phase, in order."""
-    travel = (cfg.standoff_m + layers.target_depth_m + cfg.overshoot_m) / cfg.advance_speed_m_s
-    return {
-        "approach": (cfg.start_height_m - cfg.standoff_m) / cfg.approach_speed_m_s,
-        "hover": cfg.hover_s,
-        "advance": travel,
-        "hold": cfg.hold_s,
-        "retract": travel,
-        "settle": cfg.settle_s,
-    }
-
-
-def commanded_depth(
-    phase: str, a: float, cfg: EpisodeSettings, layers: RetinaLayers
-) -> float | None:
-    """Commanded depth [m] below the predicted ILM at the fraction a in [0, 1] of a phase;
-    None during the approach (a blend from the start point, `Episode.tip_radius`)."""
-    top, target = -cfg.standoff_m, layers.target_depth_m + cfg.overshoot_m
-    return {
-        "approach": None,
-        "hover": top,
-        "advance": top + a * (target - top),
-        "hold": target,
-        "retract": target + a * (top - target),
-        "settle": top,
-    }[phase]
 
 
 class Episode:
@@ -202,34 +174,15 @@ class Episode:
         bad = ~((self.floor_m[block] > 0.0) & (self.floor_m[block] <= 0.05))  # NaN too
         if bad.any():  # the limit's own check raises
             self.depth_limit.set_floor(float(self.floor_m[block][bad][0]))
-        radius = np.empty(end - k)
-        for j in range(k, end):
-            phase, a = self.phase_at(j * dt)
-            self.phase[j] = PHASES.index(phase)
-            radius[j - k], self.command_m[j] = self.tip_radius(phase, a, self.predicted_m[j])
+        self.phase[block], a = phases_at(self.durations, np.arange(k, end, dtype=float) * dt)
+        radius, self.command_m[block] = tip_radius(
+            self.phase[block], a, self.predicted_m[block], self.start_radius, self.cfg, self.layers
+        )
         self.desired[block] = self.to_base(radius)
         self.targets[block] = rcm_targets(self.desired[block], self.eye.port)
         if not np.isfinite(self.targets[block]).all():  # as rcm_target refuses it
             raise UnreachableTargetError("the tip target coincides with the trocar")
         self._planned_to = end
-
-    def phase_at(self, t_loop_s: float) -> tuple[str, float]:
-        """The phase at loop time t_loop_s [s] and the fraction of it done (None past the end)."""
-        start = 0.0
-        for name, length in self.durations.items():
-            if t_loop_s < start + length:
-                return name, (t_loop_s - start) / length
-            start += length
-        return "settle", 1.0
-
-    def tip_radius(self, phase: str, a: float, predicted_m: float) -> tuple[float, float]:
-        """Commanded radius of the tip [m] and depth below the predicted ILM [m]."""
-        ilm = self.layers.ilm_radius_m + predicted_m
-        c = commanded_depth(phase, a, self.cfg, self.layers)
-        if c is None:
-            r = (1.0 - a) * self.start_radius + a * (ilm - self.cfg.standoff_m)
-            return r, r - ilm
-        return ilm + c, c
 
     def period(self) -> None:
         """Run the next control period on its own (module docstring)."""

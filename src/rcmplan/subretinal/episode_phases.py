@@ -1,0 +1,68 @@
+"""The phases of a subretinal episode and the depth commanded in each (`episode` module
+docstring), for many periods at once."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray
+from rcmplan.subretinal.episode_settings import EpisodeSettings
+from rcmplan.subretinal.layers import RetinaLayers
+
+PHASES = ("approach", "hover", "advance", "hold", "retract", "settle")
+APPROACH, HOVER, ADVANCE, HOLD, RETRACT, SETTLE = range(len(PHASES))
+
+
+def phase_durations(cfg: EpisodeSettings, layers: RetinaLayers) -> dict[str, float]:
+    """Duration [s] of each phase, in order."""
+    travel = (cfg.standoff_m + layers.target_depth_m + cfg.overshoot_m) / cfg.advance_speed_m_s
+    return {
+        "approach": (cfg.start_height_m - cfg.standoff_m) / cfg.approach_speed_m_s,
+        "hover": cfg.hover_s,
+        "advance": travel,
+        "hold": cfg.hold_s,
+        "retract": travel,
+        "settle": cfg.settle_s,
+    }
+
+
+def phases_at(
+    durations: dict[str, float], t_loop_s: FloatArray
+) -> tuple[NDArray[np.int64], FloatArray]:
+    """The phase (index in PHASES) at each loop time t_loop_s [s] and the fraction of it done;
+    past the end, the settle phase done (1). A phase of zero length is never current."""
+    lengths = np.array([durations[p] for p in PHASES], dtype=float)
+    ends = np.cumsum(lengths)
+    starts = np.concatenate(([0.0], ends[:-1]))
+    phase = np.searchsorted(ends, t_loop_s, side="right")
+    past = phase >= len(PHASES)
+    phase[past] = SETTLE
+    a = np.where(past, 1.0, (t_loop_s - starts[phase]) / np.where(past, 1.0, lengths[phase]))
+    return phase, a
+
+
+def commanded_depth(
+    phase: NDArray[np.int64], a: FloatArray, cfg: EpisodeSettings, layers: RetinaLayers
+) -> FloatArray:
+    """Commanded depth [m] below the predicted ILM per period, in its phase (index in PHASES)
+    at the fraction a in [0, 1] of it; NaN during the approach (a blend from the start point,
+    `tip_radius`)."""
+    top, target = -cfg.standoff_m, layers.target_depth_m + cfg.overshoot_m
+    choices = (np.nan, top, top + a * (target - top), target, target + a * (top - target), top)
+    return np.select([phase == i for i in range(len(PHASES))], choices)
+
+
+def tip_radius(
+    phase: NDArray[np.int64], a: FloatArray, predicted_m: FloatArray, start_radius_m: float,
+    cfg: EpisodeSettings, layers: RetinaLayers,
+) -> tuple[FloatArray, FloatArray]:  # fmt: skip
+    """Commanded radius of the tip [m] and depth below the predicted ILM [m] per period, from
+    the predicted ILM displacement [m]; the approach blends from `start_radius_m` [m] to the
+    stand-off."""
+    ilm = layers.ilm_radius_m + predicted_m
+    c = commanded_depth(phase, a, cfg, layers)
+    blend = (1.0 - a) * start_radius_m + a * (ilm - cfg.standoff_m)
+    approach = phase == APPROACH
+    radius = np.where(approach, blend, ilm + c)
+    return radius, np.where(approach, blend - ilm, c)
