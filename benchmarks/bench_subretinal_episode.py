@@ -1,17 +1,22 @@
-"""What one default subretinal episode costs, and where: the QP step against the rest.
+"""What one default subretinal episode costs, and where: the compiled block loop against one
+period at a time.
 
 Run alone: python benchmarks/bench_subretinal_episode.py [--repeats N]; `rows()` for run.py
-(1 run per figure under --quick). Alone, it prints one JSON object: per compensation and QP
-path (the compiled step, `period_step`, and the Python `QpSolver.step`), the minimum and median
-over N runs (3) of the episode's loop (`Episode.run`, 9,350 periods of 1 ms, built beforehand)
-in [s], and of that the time inside the QP step in [s] (timed around each call). The machine's
-load average is printed with them.
+(1 run per figure under --quick). Alone, it prints one JSON object: per compensation and path
+(`blocks`: the planned periods of each iOCT interval as one compiled call, `episode_blocks`;
+`periods`: one period at a time with the compiled QP step, `period_step`; `python`: one period
+at a time with the Python `QpSolver.step`), the minimum and median over N runs (3) of the
+episode's loop (`Episode.run`, 9,350 periods of 1 ms, built beforehand) in [s], the real-time
+factor of the fastest run (simulated 9.35 s / loop wall time), and for the per-period paths
+the time inside the QP step in [s] (timed around each call). The machine's load average is
+printed with them.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import statistics
 import time
@@ -21,58 +26,64 @@ from _common import quick, row
 from rcmplan.subretinal.episode import Episode
 from rcmplan.subretinal.episode_settings import EpisodeSettings
 
+PATHS = ("blocks", "periods", "python")
 
-def timed_run(compensation: str, compiled: bool) -> tuple[float, float]:
-    """(loop wall time, time in the QP step) [s] of one default episode."""
+
+def timed_run(compensation: str, path: str) -> tuple[float, float, float]:
+    """(loop wall time [s], time in the QP step [s] (NaN for the block loop), simulated time
+    [s]) of one default episode on a path (PATHS)."""
     ep = Episode(EpisodeSettings(compensation=compensation))
     spent = [0.0]
-    if not compiled or ep.fast_step is None:
-        ep.fast_step = None
-        python_step = ep.solver.step
+    if path == "blocks" and ep.blocks is None:
+        raise RuntimeError("the compiled block loop does not apply here")
+    if path != "blocks":
+        ep.blocks = None
+        if path == "python" or ep.fast_step is None:
+            ep.fast_step = None
+            inner = ep.solver.step
+        else:
+            inner = ep.fast_step
 
         def step(*args: Any) -> Any:
             t = time.perf_counter()
-            out = python_step(*args)
+            out = inner(*args)
             spent[0] += time.perf_counter() - t
             return out
 
-        ep.solver.step = step  # type: ignore[method-assign]
-    else:
-        fast = ep.fast_step
-
-        def fast_step(*args: Any) -> Any:
-            t = time.perf_counter()
-            out = fast(*args)
-            spent[0] += time.perf_counter() - t
-            return out
-
-        ep.fast_step = fast_step
+        if ep.fast_step is None:
+            ep.solver.step = step  # type: ignore[method-assign]
+        else:
+            ep.fast_step = step
     start = time.perf_counter()
     ep.run()
-    return time.perf_counter() - start, spent[0]
+    loop = time.perf_counter() - start
+    return loop, spent[0] if path != "blocks" else math.nan, ep.length_s
 
 
 def measure(repeats: int) -> dict[str, Any]:
-    """Per compensation and QP path: the loop's minimum and median [s], the QP step's share."""
+    """Per compensation and path: the loop's minimum and median [s], the real-time factor at
+    the minimum, the QP step's share."""
     out: dict[str, Any] = {"load_average": os.getloadavg()}
     for compensation in ("none", "kalman"):
-        for path, compiled in (("compiled", True), ("python", False)):
-            runs = [timed_run(compensation, compiled) for _ in range(repeats)]
+        for path in PATHS:
+            runs = [timed_run(compensation, path) for _ in range(repeats)]
             loop = [r[0] for r in runs]
+            best = runs[loop.index(min(loop))]
             out[f"{compensation}/{path}"] = {
                 "loop_s_min": min(loop), "loop_s_median": statistics.median(loop),
-                "qp_step_s_at_min": runs[loop.index(min(loop))][1],
+                "real_time_factor": best[2] / best[0], "qp_step_s_at_min": best[1],
             }  # fmt: skip
     out["load_average_after"] = os.getloadavg()
     return out
 
 
 def rows() -> list[dict[str, Any]]:
-    """The loop of the default episode on the compiled QP step, against the Python step."""
+    """The loop of the default episode as compiled blocks, against one period at a time with
+    the compiled QP step."""
     m = measure(1 if quick() else 3)
-    return [row(f"subretinal episode loop, 9,350 periods ({c}), compiled QP step",
-                m[f"{c}/compiled"]["loop_s_min"], "s", "Python QP step",
-                m[f"{c}/python"]["loop_s_min"]) for c in ("none", "kalman")]  # fmt: skip
+    return [row(f"subretinal episode loop, 9,350 periods ({c}), compiled blocks",
+                m[f"{c}/blocks"]["loop_s_min"], "s", "one period at a time, compiled QP step",
+                m[f"{c}/periods"]["loop_s_min"]) for c in ("none", "kalman")]  # fmt: skip
 
 
 def main() -> None:

@@ -9,12 +9,13 @@ from typing import Any
 import numpy as np
 import pytest
 
-from logcheck import assert_same_log
 from rcmplan.compiled.qp_periods import RCM_BOUND
 from rcmplan.compiled.records import QP_FAILED
 from rcmplan.exceptions import QPError
 from rcmplan.subretinal.episode import Episode, EpisodeResult
 from rcmplan.subretinal.episode_settings import EpisodeSettings
+
+from logcheck import assert_same_log
 
 # Short episodes: 0.2 mm approach, 0.5 s hover, 1 s hold, a faster advance.
 SHORT = EpisodeSettings(hold_s=1.0, start_height_m=200e-6, hover_s=0.5, advance_speed_m_s=0.4e-3,
