@@ -130,6 +130,7 @@ class Episode:
             f"{n}_{u}" for n, u in zip(robot.actuator_names, robot.actuator_units, strict=True)
         )
         self._pids = {p: self.log.phase_id(p) for p in PHASES}
+        self._pid_of = np.array([self._pids[p] for p in PHASES], dtype=float)  # by PHASES index
         self._sid = self.log.solver_id(self.solver.name)
         self.series = {k: np.empty(n) for k in SERIES}
         self.done = 0  # periods run (their records logged and stored)
@@ -223,8 +224,7 @@ class Episode:
         block, wall = slice(k, k + n), self.wall_m[k : k + n]
         z = np.linalg.norm(tips - self.eye.center, axis=1) - (self.layers.ilm_radius_m + wall)
         readings = [self.tissue.update(float(depth)) for depth in z]
-        pids = np.array([self._pids[p] for p in PHASES], dtype=float)
-        columns = (self.t_s[block], pids[self.phase[block]], wall, self.predicted_m[block],
+        columns = (self.t_s[block], self._pid_of[self.phase[block]], wall, self.predicted_m[block],
                    self.bound_m[block], self.command_m[block], z,
                    [r.depth_in_tissue_m for r in readings], [int(r.state) for r in readings],
                    deviation_m)  # fmt: skip
