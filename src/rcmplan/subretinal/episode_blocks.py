@@ -59,6 +59,17 @@ class PeriodBlocks:
         self.info = np.zeros(3, dtype=np.int64)
         self.sid = ep.log.solver_id(solver.name)
         self.pid_of = np.array([ep.log.phase_id(p) for p in ep.phase_names])
+        self.call(ep, 0, 0, ep.plant.read_actuators(), np.empty((0, REC_WIDTH)), np.empty(0))
+        # (no period: numba loads the compiled code now, not in the first block)
+
+    def call(self, ep: Episode, k: int, end: int, s: np.ndarray, rec: np.ndarray,
+             deviation: np.ndarray) -> int:  # fmt: skip
+        """The kernel on periods k..end-1 from sliders s; returns its status."""
+        return int(self.kernels.run_periods(
+            self.P, self.Q, self.contacts, self.K, self.floor_at, ep.cfg.rcm_bound_m, self.trocar,
+            ep.t_s[k:end], ep.targets[k:end], ep.desired[k:end], ep.floor_m[k:end], s, rec,
+            deviation, self.info, self.qp,
+        ))  # fmt: skip
 
     @classmethod
     def make(cls, ep: Episode) -> PeriodBlocks | None:
@@ -85,11 +96,7 @@ class PeriodBlocks:
         plant, n_block = ep.plant, end - k
         s = plant.read_actuators()
         rec, deviation = np.empty((n_block, REC_WIDTH)), np.empty(n_block)
-        status = int(self.kernels.run_periods(
-            self.P, self.Q, self.contacts, self.K, self.floor_at, ep.cfg.rcm_bound_m, self.trocar,
-            ep.t_s[k:end], ep.targets[k:end], ep.desired[k:end], ep.floor_m[k:end], s, rec,
-            deviation, self.info, self.qp,
-        ))  # fmt: skip
+        status = self.call(ep, k, end, s, rec, deviation)
         n = int(self.info[0])
         if n > 0:
             self.log_records(ep, k, rec[:n])
