@@ -17,7 +17,7 @@ period's record, as the per-period path does.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -32,7 +32,25 @@ from rcmplan.exceptions import MissingExtraError, RcmBoundError
 if TYPE_CHECKING:
     from types import ModuleType
 
-    from rcmplan.subretinal.episode import Episode
+
+class Episode(Protocol):
+    """What the block loop reads and calls of an episode (`subretinal.episode.Episode`)."""
+
+    cfg: Any
+    robot: Any
+    plant: Any
+    eye: Any
+    solver: Any
+    log: Any
+    t_s: np.ndarray
+    targets: np.ndarray
+    desired: np.ndarray
+    floor_m: np.ndarray
+    phase: np.ndarray
+    phase_names: Any
+
+    def period(self) -> None: ...
+    def store(self, k: int, tips: np.ndarray, deviation_m: np.ndarray) -> None: ...
 
 
 def floor_index(extra_limits: tuple[object, ...]) -> int:
