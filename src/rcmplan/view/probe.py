@@ -47,11 +47,14 @@ def start_playwright() -> Any:
     return require_extra("playwright.sync_api", "dev").sync_playwright().start()
 
 
+SCREENSHOT_TIMEOUT_MS = 120_000  # a software-rendered page on a loaded 2-core machine is slow
+
+
 def screenshot(page: Any) -> Image:
     """The page as RGB pixels (height, width, 3)."""
     from PIL import Image as PilImage
 
-    png = page.screenshot()
+    png = page.screenshot(timeout=SCREENSHOT_TIMEOUT_MS)
     return np.asarray(PilImage.open(io.BytesIO(png)).convert("RGB"), dtype=np.uint8)
 
 
