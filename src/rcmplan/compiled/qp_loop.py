@@ -58,6 +58,21 @@ def iterate_qp(
     if flag != 1:
         info[2] = flag
         return QP_FAILED
+    return record_and_step(P, tol, max_it, bounds, tip_t, trocar, s, state, it, row, fail,
+                           info, w, q, tr, e, s_qp, qp[X])  # fmt: skip
+
+
+@njit(cache=True)
+def record_and_step(
+    P: FloatArray, tol: FloatArray, max_it: int, bounds: FloatArray, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
+    fail: FloatArray, info: np.ndarray, w: FloatArray, q: FloatArray, tr: tuple, e: FloatArray,
+    s_qp: FloatArray, x: FloatArray,
+) -> int:  # fmt: skip
+    """The end of a QP iteration once its error e is known (Algorithm 1, as
+    `Controller.converge`): the record (from the second iteration on), the tolerance check, the
+    iteration cap, the singularity check, then the step from the actuators s_qp the QP was
+    built at (`step_command`)."""
     if it > 0:
         record(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e, 6)
     if converged(e, tol, 6):
@@ -66,7 +81,7 @@ def iterate_qp(
         return NO_CONVERGENCE
     if min(abs(tr[0]), abs(tr[2])) < bounds[0]:
         return SINGULAR
-    return step_command(P, q, s_qp, qp[X], trocar, bounds, state, fail, info, w)
+    return step_command(P, q, s_qp, x, trocar, bounds, state, fail, info, w)
 
 
 @njit(cache=True)

@@ -25,18 +25,16 @@ from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import task
-from rcmplan.compiled.loop import closest_lambda, converged, put, record, target_frame
+from rcmplan.compiled.loop import closest_lambda, put, target_frame
 from rcmplan.compiled.qp_kernels import X, build_step
-from rcmplan.compiled.qp_loop import step_command
+from rcmplan.compiled.qp_loop import record_and_step
 from rcmplan.compiled.qp_params import DT, SPEED
 from rcmplan.compiled.qp_rows import full_speed, solve_assembled
 from rcmplan.compiled.records import (
     DONE,
-    NO_CONVERGENCE,
     NO_TIP,
     PAUSED,
     QP_FAILED,
-    SINGULAR,
     STEPPED,
 )
 from rcmplan.control.cost import synchronise
@@ -80,15 +78,8 @@ def iterate_qp_servo(
     for i in range(6):
         now = target[i] - x_now[i]
         e[i] = now if limited else e[i] + (now - e_plan[i])
-    if it > 0:
-        record(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e, 6)
-    if converged(e, tol, 6):
-        return DONE
-    if it == max_it:
-        return NO_CONVERGENCE
-    if min(abs(tr[0]), abs(tr[2])) < bounds[0]:
-        return SINGULAR
-    return step_command(P, q, s_qp, qp[X], trocar, bounds, state, fail, info, w)
+    return record_and_step(P, tol, max_it, bounds, tip_t, trocar, s, state, it, row, fail,
+                           info, w, q, tr, e, s_qp, qp[X])  # fmt: skip
 
 
 @njit(cache=True)
