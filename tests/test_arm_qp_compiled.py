@@ -9,8 +9,10 @@ import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they
 import numpy as np
 import pytest
 
+from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm_qp import ArmQpStep, arm_qp_applies
+from rcmplan.compiled.records import QP
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.limits import TissueDepthLimit
 from rcmplan.control.limits.workspace import WorkspaceBound
@@ -164,6 +166,30 @@ def test_an_arm_qp_injection_runs_its_steps_compiled_with_the_reference_log(
                       "p3-p7", "p7-p3", "retract"]  # fmt: skip
 
 
+class SteppedPlant(KinematicPlant):
+    """A kinematic plant the loop cannot step inside compiled code (`exact_commands` False):
+    the arm loop's iteration is one compiled call, the plant steps in Python."""
+
+    exact_commands = False
+
+
+def test_the_arm_loop_runs_the_qp_on_a_plant_stepping_in_python(arm: SerialArm) -> None:
+    eye = default_eye(arm)
+    plan = injection(arm, eye, default_points(eye))[:4]  # approach, align, insert, p3-p4
+    logs, ctls = [], []
+    for mode in ("off", "on"):
+        use_path(mode)
+        ctl = Controller(SteppedPlant(arm), QpSolver(arm, eye))
+        logs.append(ctl.run(plan))
+        ctls.append(ctl)
+    assert len(logs[0]) > 300
+    assert_same_log(logs[0], logs[1], RUN_TOL)
+    assert set(ctls[0].phase_paths.values()) == {"reference"}
+    assert [k for k, v in ctls[1].phase_paths.items() if v == "compiled"] == [
+        "align", "insert", "p3-p4"]  # fmt: skip
+    assert arm_phase.arm_code(ctls[1], ctls[1].solver) == QP
+
+
 class SubclassQp(QpSolver):
     """A subclass may change the step: it runs on the reference path."""
 
@@ -195,7 +221,7 @@ def test_the_compiled_arm_step_declines_what_it_does_not_reproduce(
     with pytest.raises(InvalidInputError, match="solver"):
         ArmQpStep(solver)
     ctl = Controller(KinematicPlant(arm), solver)
-    assert ctl.runner.solver_for(ctl, solver) is None
+    assert arm_phase.arm_code(ctl, solver) is None
 
 
 class ServoPlant(KinematicPlant):

@@ -173,11 +173,10 @@ class Controller:
                     if len(self.log) > first:  # stopped in the runner's code, after moving
                         self._note_path(phase.name, "compiled")
                     raise
-                stand_in = None if ran else self.runner.solver_for(self, solver)
-                self._note_path(phase.name, "compiled" if ran or stand_in else "reference")
+                self._note_path(phase.name, "compiled" if ran else "reference")
                 if not ran:
                     for k, target in enumerate(targets):
-                        self.converge(stand_in or solver, target, pid, sid, k)
+                        self.converge(solver, target, pid, sid, k)
             except KeyboardInterrupt:
                 raise  # an interrupt is reported as such, the bound unchecked
             except BaseException:

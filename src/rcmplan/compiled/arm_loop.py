@@ -14,6 +14,10 @@ Records go to preallocated rows in the `records.record_columns(n)` layout: time 
 sliders (n,), joints (n,), lambda, tip, rcm, trocar, base, target tip (3 each) [m], error (6,)
 NaN-padded. Stops return the status codes of `rcmplan.compiled.records`.
 
+The QP controller (method QP, a `QpSolver` that `arm_qp.arm_qp_applies` accepts) takes the same
+loop: its error (J x* / K) and step come from one solve (`arm_qp_kernels.solve_arm_step`) in place
+of the error and step kernels; `qpa` carries what the solve reads (`QpArgs`), and a solve DAQP
+does not finish optimally stops the loop with QP_FAILED (DAQP's exit flag in qpa's last array).
 A curved needle (method codes from CURVED on, the arrays of `rcmplan.compiled.curved`) takes the
 same loop: its error, step and tip come from `curved_arm`, the roll joint moves with the others
 (the curved needle's active joints), its rows have the roll error column
@@ -29,6 +33,7 @@ from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import curved_arm
+from rcmplan.compiled.arm_qp_kernels import solve_arm_step
 from rcmplan.compiled.chain_kernels import (
     ROWS,
     IntArray,
@@ -51,6 +56,8 @@ from rcmplan.compiled.records import (
     NO_TIP,
     PAUSED,
     PINV_THESIS,
+    QP,
+    QP_FAILED,
     SINGULAR,
     SLIDER_LIMIT,
     STEPPED,
@@ -142,14 +149,15 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
 @njit(cache=True, inline="always")  # inlined into run_arm_targets: a call costs ~0.2 us
 def arm_iterate(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, target: FloatArray, pivot: bool,
-    tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray,
+    pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
     row: FloatArray, fail: FloatArray, W: FloatArray, d: FloatArray, framed: bool = False,
 ) -> int:  # fmt: skip
     """One iteration from joints s (n,). Returns DONE, STEPPED (the next joints in fail[n:2n]),
-    NO_CONVERGENCE or SINGULAR. state = (lambda, time [s], ...); lambda is updated. fail holds
-    (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). `framed`: W already holds
-    the frames of s."""
+    NO_CONVERGENCE, SINGULAR or QP_FAILED. state = (lambda, time [s], ...); lambda is updated.
+    fail holds (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). qpa: the QP's
+    arrays (`arm_phase.qp_arrays`), read only for method QP. `framed`: W already holds the
+    frames of s."""
     n, m = ix[0], ix[1]
     first, curved = 2 + n, method >= CURVED  # the moving joints: the arm's active ones
     if curved:  # or the curved needle's (with the roll joint)
@@ -164,7 +172,14 @@ def arm_iterate(
         lam, now = closest_on_needle(A, n, W, trocar)
         if drift:
             state[0] = lam
-    if curved:
+    if method == QP:  # error and step from one solve (`ArmQpStep`)
+        travel, Q, contacts, qp, act, flag = qpa
+        flag[0] = solve_arm_step(A, ix, W, travel, Q, contacts, K, s, state[0], target, act, e,
+                                 d, qp)  # fmt: skip
+        if flag[0] != 1:
+            return QP_FAILED
+        ne = 6
+    elif curved:
         ne = curved_arm.task_error(A, ix, W, method, state[0], target, e)
     else:
         ne = task_error(A, ix, W, method, state[0], target, tip_t, pivot, e)
@@ -180,7 +195,7 @@ def arm_iterate(
         return SINGULAR
     if curved:
         curved_arm.step(A, ix, W, method, K, gain, damping, s, state[0], e, d)
-    else:
+    elif method != QP:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
     for _ in range(STEP_TRIES if holds_rcm(method) and bounds[1] > 0.0 else 0):
         stepped(n, ix, first, m, s, d, fail)
@@ -234,10 +249,10 @@ def command_status(fail: FloatArray, n: int, lower: FloatArray, upper: FloatArra
 @njit(cache=True)
 def run_arm_targets(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, lower: FloatArray,
-    upper: FloatArray,
-    targets: FloatArray, k0: int, s: FloatArray, state: FloatArray, rec: FloatArray,
-    irec: IntArray, info: IntArray, fail: FloatArray, W: FloatArray, d: FloatArray,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple,
+    lower: FloatArray, upper: FloatArray, targets: FloatArray, k0: int, s: FloatArray,
+    state: FloatArray, rec: FloatArray, irec: IntArray, info: IntArray, fail: FloatArray,
+    W: FloatArray, d: FloatArray,
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] from joints s, on a plant that reaches every command
     exactly; returns a status.
@@ -259,10 +274,10 @@ def run_arm_targets(
         if kind < 0:
             return NO_TIP
         for it in range(max_it + 1):  # the first reuses the last target's final frames
-            status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds,
+            status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa,
                                  target, kind == 1, tip_t, trocar, s, state, it, rec[count],
                                  fail, W, d, it == 0 and k > k0)  # fmt: skip
-            if it > 0:
+            if it > 0 and status != QP_FAILED:
                 irec[count, 0], irec[count, 1] = k, it
                 count += 1
                 info[0] = count

@@ -4,12 +4,15 @@ one compiled call per iteration with the plant stepping in Python (`arm_loop.arm
 
 Applies to a `SerialArm` itself (exact type: a subclass may change its actuator map) whose
 kinematics the chain kernels reproduce (`arm.arm_arrays`), with a solver the kernels implement
-(exact types, `records.method_code`); `curved_phase` runs a curved needle on an arm through
+(exact types, `records.method_code`) or the QP controller where the arm's compiled QP step
+reproduces it (`arm_qp.arm_qp_applies`: one solve gives the iteration's error and step, in the
+same loop); `curved_phase` runs a curved needle on an arm through
 `run_arm_phase_exact` with the curved needle's arrays. The side effects are the reference
 loop's: records go to the controller's log, the plant and controller.lam end where
 `Controller.converge` leaves them, and a stop raises the reference exception with the partial
 log kept (`records.raise_arm_stop` repeats the failing check with the reference function: the
-plant's own command checks, the robot's singularity check).
+plant's own command checks, the robot's singularity check; a failed QP solve is repeated by the
+solver itself, `qp_phase.raise_qp_failure`).
 """
 
 from __future__ import annotations
@@ -21,12 +24,18 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
+from rcmplan.compiled.arm_qp import arm_qp_applies
 from rcmplan.compiled.curved import CurvedArrays, arm_work_shape
+from rcmplan.compiled.qp_params import qp_params
+from rcmplan.compiled.qp_phase import raise_qp_failure
+from rcmplan.compiled.qp_rows import buffers
 from rcmplan.compiled.records import (
     BLOCK,
     DONE,
     NO_TIP,
     PAUSED,
+    QP,
+    QP_FAILED,
     STEPPED,
     TIP,
     append_rows,
@@ -36,6 +45,7 @@ from rcmplan.compiled.records import (
     record_width,
     solver_arrays,
 )
+from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 from rcmplan.robot.model import SerialArm
 
@@ -45,10 +55,33 @@ if TYPE_CHECKING:
 ITERATIONS_PER_TARGET = 3  # on a kinematic plant: 150 records for the UR5 p3-p4 phase's 50 targets
 
 
+def arm_code(controller: Controller, solver: Solver) -> int | None:
+    """The arm loop's method code for the solver (`records.method_code`, or QP for a QpSolver
+    on the controller's robot that the compiled arm QP reproduces), else None."""
+    code = method_code(solver)
+    if code is None and isinstance(solver, QpSolver) and solver.robot is controller.robot:
+        return QP if arm_qp_applies(solver) else None
+    return code
+
+
 def applies(controller: Controller, solver: Solver) -> bool:
-    """True for a SerialArm itself and a solver the arm loop implements (cheap checks; whether
-    the kernels reproduce the arm is probed in `run_if_fast`)."""
-    return type(controller.robot) is SerialArm and method_code(solver) is not None
+    """True for a SerialArm itself and a solver the arm loop implements (whether the kernels
+    reproduce the arm is probed in `run_if_fast`)."""
+    return type(controller.robot) is SerialArm and arm_code(controller, solver) is not None
+
+
+def qp_arrays(solver: Solver, m: int) -> tuple:
+    """What the arm loop's QP solve reads (`arm_loop.arm_iterate`'s qpa) for m active joints:
+    travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are now), the
+    solve's buffers (`qp_rows.buffers`), the active joints (m,) and DAQP's exit flag (1,). For
+    another solver, arrays of the same types that the loop does not read."""
+    if isinstance(solver, QpSolver) and arm_qp_applies(solver):
+        robot, active = solver.robot, list(solver.robot.active)
+        travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
+        Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
+    else:
+        travel, Q, contacts = np.zeros((2, m)), np.zeros(1), np.zeros((0, 3))
+    return travel, Q, contacts, buffers(m + 1), np.empty(m), np.zeros(1, dtype=np.int64)
 
 
 def run_if_fast(
@@ -75,11 +108,12 @@ class _Setup:
         packed = arm_arrays(controller.robot) if curved is None else curved.arm()
         A, ix = packed  # type: ignore[misc]
         self.n, m = int(ix[0]), int(ix[1])
-        code, (K, damping, tol) = method_code(solver), solver_arrays(solver)
+        code, (K, damping, tol) = arm_code(controller, solver), solver_arrays(solver)
         self.code, self.tol = int(code), tol  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
+        self.qpa = qp_arrays(solver, int(ix[1]))
         self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
-                     bool(cfg.drift_correction), loop_bounds(controller))  # fmt: skip
+                     bool(cfg.drift_correction), loop_bounds(controller), self.qpa)  # fmt: skip
         if curved is None:
             self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
             self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)
@@ -91,6 +125,9 @@ class _Setup:
     def stop(self, controller: Controller, solver: Solver, status: int, target: FloatArray,
              where: str) -> None:  # fmt: skip
         """Raise the reference exception for a stop status."""
+        if status == QP_FAILED:
+            flag = int(self.qpa[-1][0])
+            raise_qp_failure(controller, solver, target, self.fail[: self.n], flag)  # type: ignore[arg-type]
         tol = self.tol[: solver.tolerance().shape[0]]
         raise_arm_stop(controller, status, target, self.fail, self.n, tol, where)
 
@@ -183,7 +220,7 @@ def run_arm_phase(
                 s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
                 status = iterate(*setup.args, targets[k], pivot, tip_t, trocar, s, state, it,
                                  buf.rec[buf.count], fail, setup.W, setup.d)  # fmt: skip
-                if it > 0:
+                if it > 0 and status != QP_FAILED:
                     buf.keep(k, it)
                 controller.lam = float(state[0])
                 if status == DONE:

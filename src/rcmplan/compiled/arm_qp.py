@@ -1,14 +1,15 @@
-"""The QP controller's error and step on a serial arm, compiled: one call per iteration of the
-controller's Python loop (`arm_qp_kernels.solve_arm_step`), behind the runner seam
-(`CompiledRunner.solver_for`).
+"""The QP controller's error and step on a serial arm, compiled, one call per step from Python
+(`arm_qp_kernels.solve_arm_step`): the step function of code that drives the solver period by
+period (`qp_period.period_step`: teleoperation, the subretinal episode). A `Controller` runs the
+same solve inside the arm loop (`arm_loop.arm_iterate`, method QP).
 
 Applies to a `QpSolver` itself (exact type: a subclass may change its step) with the DAQP back
 end and a straight needle, planning from the measured state (no servo plan), on a `SerialArm`
 itself whose kinematics the chain kernels reproduce (`arm.arm_arrays`), with an eye whose
 retina is the kernels' sphere, extra limits the kernels hold and no extra cost terms
 (`qp_params`), where DAQP's C function can be called from compiled code
-(`cache.daqp_callable`). `ArmQpStep` then stands in for the solver in the loop: the same task
-error, tolerance and step to rounding, the QP assembled with the same row kernels. A solve that
+(`cache.daqp_callable`). `ArmQpStep` then gives the solver's task error, tolerance and step to
+rounding, the QP assembled with the same row kernels. A solve that
 DAQP does not finish optimally is repeated by the solver itself, which raises its QPError (or
 returns its step at the edge of DAQP's tolerances).
 """

@@ -125,6 +125,6 @@ def _raise_stop(
             f"the plant stopped (check {int(info[2])}) at t = {controller.plant.time} s"
         )
     if status == QP_FAILED:
-        raise_qp_failure(controller, solver, targets[k], fail, int(info[2]))
+        raise_qp_failure(controller, solver, targets[k], fail[0:6], int(info[2]))
     where = f"phase {controller.log.phase_names[pid]!r} step {k}"
     raise_stop(controller, status, k, targets, fail, tol, where)

@@ -109,20 +109,19 @@ def run_qp_phase(
     k = int(info[1])
     where = f"phase {controller.log.phase_names[pid]!r} step {k}"
     if status == QP_FAILED:
-        raise_qp_failure(controller, solver, targets[k], fail, int(info[2]))
+        raise_qp_failure(controller, solver, targets[k], fail[0:6], int(info[2]))
     raise_stop(controller, status, k, targets, fail, tol, where)
 
 
 def raise_qp_failure(
-    controller: Controller, solver: QpSolver, target: FloatArray, fail: FloatArray, flag: int
+    controller: Controller, solver: QpSolver, target: FloatArray, q: FloatArray, flag: int
 ) -> None:
     """Raise the reference QPError of a solve that failed compiled: the same solve on the
-    reference path at the failing state (joints fail[0:6], controller.lam); if it succeeds
-    there (a failure at the edge of DAQP's tolerances), a QPError with the compiled flag."""
+    reference path at the failing state (joints q, controller.lam); if it succeeds there (a
+    failure at the edge of DAQP's tolerances), a QPError with the compiled flag."""
     from rcmplan.compiled.daqp_c import exit_name
 
-    q = fail[0:6].copy()
-    solver.error(controller.robot, q, controller.lam, target)
+    solver.error(controller.robot, q.copy(), controller.lam, target)
     raise QPError(
         f"QP solve failed: daqp exit flag {flag} ({exit_name(flag)}) in compiled code; the "
         "same solve succeeded on the reference path",

@@ -31,7 +31,9 @@ PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3  # method codes of the kernels
 # The QP's free-space step on iRAM!S (`LimitedTipSolver`): the TIP step scaled to hold the
 # actuators' speed and travel. Only the iRAM!S loop runs it (`iramis_method`).
 TIP_LIMITED = 4
-QP = 4  # the QP controller: its own loop (`qp_loop`), see `qp_phase.qp_applies`
+# The QP controller on a serial arm, in the arm loop (`arm_phase.arm_code`); on iRAM!S it has its
+# own loops (`qp_loop`, `qp_mujoco_loop`)
+QP = 5
 # A curved needle's methods (`rcmplan.control.curved`): codes from CURVED on (X_c, 7 rows)
 CURVED = 16
 CURVED_PINV, CURVED_DLS, CURVED_POSE = CURVED, CURVED + 1, CURVED + 2

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
-from rcmplan.compiled import arm_phase, arm_qp, curved_phase, qp_mujoco_phase, qp_phase
+from rcmplan.compiled import arm_phase, curved_phase, qp_mujoco_phase, qp_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import check_arm_targets
 from rcmplan.compiled.curved import check_curved_targets
@@ -53,8 +53,9 @@ def fast_converge_phase(
 ) -> bool:
     """Run Algorithm 1 on every target of a phase in compiled code, if it applies.
 
-    Applies when the solver is a PinvSolver, DlsSolver or TipSolver; a QpSolver on the
-    kinematic plant runs its own compiled loop (`qp_phase`), on the dynamic MuJoCo plant with
+    Applies when the solver is a PinvSolver, DlsSolver or TipSolver, or a QpSolver on a serial
+    arm (the arm loop, `arm_phase`); a QpSolver on iRAM!S and the kinematic plant runs its own
+    compiled loop (`qp_phase`), on the dynamic MuJoCo plant with
     the plant as its servo another (`qp_mujoco_phase`), a curved needle's solver its own
     phases (`curved_phase`, on the kinematic plant). On a KinematicPlant, and on a dynamic
     MujocoPlant (physics through MuJoCo's C functions, `fast_mujoco`), the whole loop is
@@ -235,9 +236,3 @@ class CompiledRunner:
     ) -> bool:
         """Run a phase in compiled code, where it applies."""
         return fast_converge_phase(controller, solver, targets, pid, sid)
-
-    def solver_for(self, controller: Controller, solver: Solver) -> Solver | None:
-        """The QP on a serial arm, compiled one step at a time (`arm_qp`), where it applies."""
-        if getattr(solver, "robot", None) is not controller.robot:
-            return None
-        return arm_qp.arm_qp_step(solver)  # type: ignore[arg-type]

@@ -235,11 +235,12 @@ class QpSolver:
         self.last, self._key = (step, result), key
         return self.last
 
-    def check_target(self, target: FloatArray) -> FloatArray:
+    def check_target(self, target: FloatArray, pose: bool = True) -> FloatArray:
         """Refuse a target no feasible motion reaches, before moving towards it; return it as
         a float64 array.
 
-        Pose within slider travel and the singular range (solve_pose), and with an eye the
+        Pose within slider travel and the singular range (solve_pose; skipped with
+        `pose=False`, for a target whose pose the caller has checked), and with an eye the
         target tip inside the eye (on or within the retina) and in front of the trocar.
         InvalidInputError unless the target is (6,) finite numbers ((7,) on a curved needle).
         """
@@ -247,10 +248,10 @@ class QpSolver:
         key = target.tobytes()
         if key in self._checked:
             return target
-        if self.curved:  # each check continues from the last pose: only the last is kept
+        if pose and self.curved:  # each check continues from the last pose: the last is kept
             self._seed = solve_curved_pose(self.robot, target, self._seed).q
             self._checked.clear()
-        else:
+        elif pose:
             solve_pose(self.robot, target)
         if self.eye is not None:
             tip = target_tip(target)
@@ -265,9 +266,11 @@ class QpSolver:
         return target
 
     def check_targets(self, targets: FloatArray) -> None:
-        """check_target for every row of (N, 6) targets (call before a run)."""
+        """The QP's own check of a phase's targets (N, 6), which a `Controller` makes before
+        motion after it has checked every target's pose itself (`Controller.check_targets`):
+        `check_target` without the pose search; the targets then count as checked."""
         for t in np.atleast_2d(targets):
-            self.check_target(t)
+            self.check_target(t, pose=False)
 
     def _in_port(self, tip: FloatArray) -> bool:
         eye = self.eye

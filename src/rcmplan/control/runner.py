@@ -2,8 +2,7 @@
 
 `Controller` asks its runner, before the reference Python code, whether it will check a phase's
 targets or run a whole phase itself; a runner that says yes leaves the controller, its log and
-the plant exactly as the reference loop would. For a phase it does not run, the runner may hand
-the Python loop a stand-in for the solver whose error and step run compiled (`solver_for`).
+the plant exactly as the reference loop would.
 The compiled runner (`rcmplan.compiled`) decides by itself, from the robot, solver and plant,
 whether it applies, and says no otherwise (a solver or robot subclass, a plant it does not
 know). It is every Controller's default; `Controller(runner=ReferenceRunner())` runs the
@@ -54,12 +53,6 @@ class Runner(Protocol):
         """Algorithm 1 on every target of a phase; False: nothing done."""
         ...
 
-    def solver_for(self, controller: ControlState, solver: Solver) -> Solver | None:
-        """For a phase the controller's Python loop runs: a solver equal to `solver` to
-        rounding (error, tolerance, step) whose work runs compiled, one call per iteration;
-        None: the loop calls `solver` itself."""
-        ...
-
 
 class ReferenceRunner:
     """Runs nothing: the controller's own Python code does everything."""
@@ -79,10 +72,6 @@ class ReferenceRunner:
     ) -> bool:
         """Not done here."""
         return False
-
-    def solver_for(self, controller: ControlState, solver: Solver) -> Solver | None:
-        """The solver itself."""
-        return None
 
 
 _default: list[Runner | None] = [None]
