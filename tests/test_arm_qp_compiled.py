@@ -37,6 +37,7 @@ from paths import use_path
 
 X_TOL = 1e-6  # DAQP's primal tolerance, in the variables' unit (um, urad)
 RUN_TOL = 1e-11  # [m], [rad]: the tolerance of the other compiled-path tests
+NULL_SPACE_TOL = 1e-9  # [rad]: a redundant arm's joints (see the injection test)
 
 
 @pytest.fixture(scope="module", params=["ur5", "panda"])
@@ -144,6 +145,15 @@ def test_compiled_arm_step_solves_to_the_reference_solvers_step(arm: SerialArm) 
     assert outcomes["solved"] > 150 and outcomes["infeasible"] > 0, outcomes
 
 
+def joint_tolerance(arm: SerialArm) -> float:
+    """The joints' tolerance between the two paths: RUN_TOL, or NULL_SPACE_TOL on a redundant
+    arm, whose null space (Panda: 6 active joints and lambda for the 6 X_ext rows) no task
+    holds: the 1-ulp differences the paths leave at the approach's end move along it (3.8e-11
+    rad at most over the injection, while the tip, RCM point, lambda and errors agree to
+    1e-12)."""
+    return NULL_SPACE_TOL if len(arm.active) + 1 > 6 else RUN_TOL
+
+
 def run(arm: SerialArm, compiled: bool) -> tuple[RunLog, Controller]:
     eye = default_eye(arm)
     ctl = Controller(KinematicPlant(arm), QpSolver(arm, eye))
@@ -156,14 +166,15 @@ def test_an_arm_qp_injection_runs_its_steps_compiled_with_the_reference_log(
 ) -> None:
     (a, ref), (b, fast) = run(arm, False), run(arm, True)
     assert isinstance(a, RunLog) and len(a) > 1000
-    assert_same_log(a, b, RUN_TOL)
+    joint_tol = joint_tolerance(arm)
+    assert_same_log(a, b, RUN_TOL, joint_atol=joint_tol)
     np.testing.assert_allclose(ref.plant.read_actuators(), fast.plant.read_actuators(),
-                               rtol=0, atol=RUN_TOL)  # fmt: skip
+                               rtol=0, atol=joint_tol)  # fmt: skip
     assert abs(ref.lam - fast.lam) <= RUN_TOL
     inside = [name for name, path in fast.phase_paths.items() if path == "compiled"]
     assert set(ref.phase_paths.values()) == {"reference"}
-    assert inside == ["align", "insert", "p3-p4", "p4-p3", "p3-p5", "p5-p3", "p3-p6", "p6-p3",
-                      "p3-p7", "p7-p3", "retract"]  # fmt: skip
+    assert inside == ["approach", "align", "insert", "p3-p4", "p4-p3", "p3-p5", "p5-p3", "p3-p6",
+                      "p6-p3", "p3-p7", "p7-p3", "retract", "withdraw"]  # fmt: skip
 
 
 class SteppedPlant(KinematicPlant):
@@ -183,11 +194,36 @@ def test_the_arm_loop_runs_the_qp_on_a_plant_stepping_in_python(arm: SerialArm) 
         logs.append(ctl.run(plan))
         ctls.append(ctl)
     assert len(logs[0]) > 300
+    assert_same_log(logs[0], logs[1], RUN_TOL, joint_atol=joint_tolerance(arm))
+    assert set(ctls[0].phase_paths.values()) == {"reference"}
+    assert set(ctls[1].phase_paths.values()) == {"compiled"}
+    assert arm_phase.arm_code(ctls[1], ctls[1].solver) == QP
+
+
+def test_the_qp_with_a_servo_on_the_dynamic_mujoco_arm_runs_in_the_arm_loop(
+    arm: SerialArm,
+) -> None:
+    """On the dynamic MuJoCo plant the QP plans from the servo's last command
+    (`arm_qp_kernels.solve_servo_step`), one compiled call per period."""
+    from rcmplan.control.methods import make_solver
+    from rcmplan.sim.registry import make_plant
+
+    eye = default_eye(arm)
+    plan = injection(arm, eye, default_points(eye))[:3]  # approach, align, insert
+    logs, ctls = [], []
+    for mode in ("off", "on"):
+        use_path(mode)
+        plant = make_plant("mujoco", arm)
+        plant.reset(arm.home_actuators)
+        solver = make_solver("qp", robot=arm, plant=plant, eye=eye)
+        assert isinstance(solver, QpSolver) and solver.servo is plant
+        ctl = Controller(plant, solver)
+        logs.append(ctl.run(plan))
+        ctls.append(ctl)
+    assert len(logs[0]) > 200
     assert_same_log(logs[0], logs[1], RUN_TOL)
     assert set(ctls[0].phase_paths.values()) == {"reference"}
-    assert [k for k, v in ctls[1].phase_paths.items() if v == "compiled"] == [
-        "align", "insert", "p3-p4"]  # fmt: skip
-    assert arm_phase.arm_code(ctls[1], ctls[1].solver) == QP
+    assert set(ctls[1].phase_paths.values()) == {"compiled"}
 
 
 class SubclassQp(QpSolver):
@@ -220,8 +256,8 @@ def test_the_compiled_arm_step_declines_what_it_does_not_reproduce(
     assert not arm_qp_applies(solver)
     with pytest.raises(InvalidInputError, match="solver"):
         ArmQpStep(solver)
-    ctl = Controller(KinematicPlant(arm), solver)
-    assert arm_phase.arm_code(ctl, solver) is None
+    ctl = Controller(KinematicPlant(arm), solver)  # the arm loop plans from a servo's command
+    assert arm_phase.arm_code(ctl, solver) == (QP if case == "servo" else None)
 
 
 class ServoPlant(KinematicPlant):

@@ -11,6 +11,7 @@ import pytest
 
 from rcmplan.compiled import arm_phase
 from rcmplan.control import DlsSolver, LoopSettings, Phase, PinvSolver, TipSolver
+from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.log import RunLog
 from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import rcm_target, solve_pose
@@ -135,6 +136,28 @@ def test_the_free_approach_with_the_damped_tip_solver_gives_the_reference_log(
         logs.append((ctl, ctl.run([phase])))
     assert_same_log(logs[1][1], logs[0][1])
     assert_same_plant(logs[1][0], logs[0][0])
+
+
+@pytest.mark.parametrize("plant_type", [KinematicPlant, SteppedPlant], ids=["exact", "stepped"])
+def test_the_qps_limited_free_step_holds_joint_speed_with_the_reference_log(
+    ur5: SerialArm, plant_type: type[KinematicPlant]
+) -> None:
+    """`LimitedTipSolver` on an arm runs in the arm loop (TIP_LIMITED): the approach from home
+    with a 4 us period, where the joints' speed bounds the steps."""
+    phase, _ = injection_phase(ur5, "approach")
+    limited = LimitedTipSolver(dt=4e-6)
+    logs = []
+    for mode in ("off", "on"):
+        use_path(mode)
+        ctl = Controller(plant_type(ur5), PinvSolver(), free_solver=limited)
+        logs.append((ctl, ctl.run([phase])))
+    assert_same_log(logs[1][1], logs[0][1])
+    assert_same_plant(logs[1][0], logs[0][0])
+    assert logs[1][0].phase_paths == {"approach": "compiled"}
+    moves = np.abs(np.diff(logs[1][1].joints, axis=0))[:, list(ur5.active)]
+    bound = ur5.speed[list(ur5.active)] * limited.dt
+    assert np.all(moves <= bound * (1 + 1e-9))
+    assert np.sum(np.isclose(moves, bound, rtol=1e-9)) > 10  # the speed bound holds the steps
 
 
 def stops(robot: SerialArm, solver: Solver, phase: Phase, q0: np.ndarray, error: type[Exception],

@@ -16,8 +16,9 @@ NaN-padded. Stops return the status codes of `rcmplan.compiled.records`.
 
 The QP controller (method QP, a `QpSolver` that `arm_qp.arm_qp_applies` accepts) takes the same
 loop: its error (J x* / K) and step come from one solve (`arm_qp_kernels.solve_arm_step`) in place
-of the error and step kernels; `qpa` carries what the solve reads (`QpArgs`), and a solve DAQP
-does not finish optimally stops the loop with QP_FAILED (DAQP's exit flag in qpa's last array).
+of the error and step kernels (with a servo, planned from the plant's last command:
+`solve_servo_step`); `qpa` carries what the solve reads (`arm_phase.qp_arrays`), and a solve
+DAQP does not finish optimally stops the loop with QP_FAILED (DAQP's exit flag in qpa[5]).
 A curved needle (method codes from CURVED on, the arrays of `rcmplan.compiled.curved`) takes the
 same loop: its error, step and tip come from `curved_arm`, the roll joint moves with the others
 (the curved needle's active joints), its rows have the roll error column
@@ -33,7 +34,7 @@ from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import curved_arm
-from rcmplan.compiled.arm_qp_kernels import solve_arm_step
+from rcmplan.compiled.arm_qp_kernels import solve_arm_step, solve_servo_step
 from rcmplan.compiled.chain_kernels import (
     ROWS,
     IntArray,
@@ -46,7 +47,7 @@ from rcmplan.compiled.chain_kernels import (
     needle_point,
     pinv_solve,
 )
-from rcmplan.compiled.loop import converged, holds_rcm, target_frame
+from rcmplan.compiled.loop import converged, holds_rcm, target_frame, tip_only
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
@@ -61,7 +62,7 @@ from rcmplan.compiled.records import (
     SINGULAR,
     SLIDER_LIMIT,
     STEPPED,
-    TIP,
+    TIP_LIMITED,
 )
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.robot.needle import axis_angles, axis_into, closest_point
@@ -71,10 +72,11 @@ from rcmplan.robot.needle import axis_angles, axis_into, closest_point
 def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: float,
                target: FloatArray, tip_t: FloatArray, pivot: bool,
                e: FloatArray) -> int:  # fmt: skip
-    """The solver's error at the frames in W into e; returns its length (6, or 3 for TIP)."""
+    """The solver's error at the frames in W into e; returns its length (6, or 3 for the tip
+    steps)."""
     n = ix[0]
     p_tip = needle_point(A, n, W, 1.0)
-    if method == TIP:
+    if tip_only(method):
         for i in range(3):
             e[i] = target[i] - p_tip[i]
         return 3
@@ -136,7 +138,7 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
     d p(1) / d theta_ext in W's J rows 0..2."""
     n, m = ix[0], ix[1]
     o = 4 * (n + 1)
-    if method == TIP:
+    if tip_only(method):
         gram_solve(W, o, 3, m, damping, e, d)
         d[m] = 0.0
     elif method == DLS:
@@ -172,10 +174,14 @@ def arm_iterate(
         lam, now = closest_on_needle(A, n, W, trocar)
         if drift:
             state[0] = lam
-    if method == QP:  # error and step from one solve (`ArmQpStep`)
-        travel, Q, contacts, qp, act, flag = qpa
-        flag[0] = solve_arm_step(A, ix, W, travel, Q, contacts, K, s, state[0], target, act, e,
-                                 d, qp)  # fmt: skip
+    if method == QP:  # error and step from one solve (`ArmQpStep`), with a servo's plan
+        travel, Q, contacts, qp, act, flag, servo = qpa
+        if servo.shape[0] > 0:
+            flag[0] = solve_servo_step(A, ix, W, travel, Q, contacts, K, s, state[0], target,
+                                       act, e, d, qp, servo)  # fmt: skip
+        else:
+            flag[0] = solve_arm_step(A, ix, W, travel, Q, contacts, K, s, state[0], target, act,
+                                     e, d, qp)  # fmt: skip
         if flag[0] != 1:
             return QP_FAILED
         ne = 6
@@ -197,6 +203,8 @@ def arm_iterate(
         curved_arm.step(A, ix, W, method, K, gain, damping, s, state[0], e, d)
     elif method != QP:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
+    if method == TIP_LIMITED:
+        limit_step(K, ix, s, d)
     for _ in range(STEP_TRIES if holds_rcm(method) and bounds[1] > 0.0 else 0):
         stepped(n, ix, first, m, s, d, fail)
         frames(A, ix, fail[n : 2 * n], W)  # W then holds the stepped frames
@@ -208,6 +216,30 @@ def arm_iterate(
     stepped(n, ix, first, m, s, d, fail)
     state[0] += d[m]
     return STEPPED
+
+
+@njit(cache=True)
+def limit_step(K: FloatArray, ix: IntArray, s: FloatArray, d: FloatArray) -> None:
+    """`LimitedTipSolver.step` on an arm (its actuators are its joints s): the tip step d of
+    the m active joints scaled by the largest f in [0, 1] that keeps each one's move within
+    K[j] (speed x dt) and inside its travel [K[m + j], K[2m + j]] less the margin K[3m] (a
+    joint outside that band may only move back); d becomes (s + f ds) - s, ds = (s + d) - s."""
+    n, m = ix[0], ix[1]
+    f, margin = 1.0, K[3 * m]
+    for j in range(m):
+        k = ix[2 + n + j]
+        d[j] = (s[k] + d[j]) - s[k]
+        if abs(d[j]) > 0.0:
+            f = min(f, K[j] / abs(d[j]))
+    for j in range(m):
+        k, lo, hi = ix[2 + n + j], K[m + j] + margin, K[2 * m + j] - margin
+        if d[j] > 0.0 and s[k] + f * d[j] > hi:
+            f = min(f, max(0.0, (hi - s[k]) / d[j]))
+        elif d[j] < 0.0 and s[k] + f * d[j] < lo:
+            f = min(f, max(0.0, (lo - s[k]) / d[j]))
+    for j in range(m):
+        k = ix[2 + n + j]
+        d[j] = (s[k] + f * d[j]) - s[k]
 
 
 @njit(cache=True)

@@ -4,7 +4,8 @@ one compiled call per iteration with the plant stepping in Python (`arm_loop.arm
 
 Applies to a `SerialArm` itself (exact type: a subclass may change its actuator map) whose
 kinematics the chain kernels reproduce (`arm.arm_arrays`), with a solver the kernels implement
-(exact types, `records.method_code`) or the QP controller where the arm's compiled QP step
+(exact types, `records.method_code`), the QP's free-space step without a tip speed bound
+(`LimitedTipSolver`, as TIP_LIMITED), or the QP controller where the arm's compiled QP step
 reproduces it (`arm_qp.arm_qp_applies`: one solve gives the iteration's error and step, in the
 same loop); `curved_phase` runs a curved needle on an arm through
 `run_arm_phase_exact` with the curved needle's arrays. The side effects are the reference
@@ -37,7 +38,7 @@ from rcmplan.compiled.records import (
     QP,
     QP_FAILED,
     STEPPED,
-    TIP,
+    TIP_LIMITED,
     append_rows,
     loop_bounds,
     method_code,
@@ -45,6 +46,7 @@ from rcmplan.compiled.records import (
     record_width,
     solver_arrays,
 )
+from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 from rcmplan.robot.model import SerialArm
@@ -60,8 +62,18 @@ def arm_code(controller: Controller, solver: Solver) -> int | None:
     on the controller's robot that the compiled arm QP reproduces), else None."""
     code = method_code(solver)
     if code is None and isinstance(solver, QpSolver) and solver.robot is controller.robot:
-        return QP if arm_qp_applies(solver) else None
+        return QP if arm_qp_applies(solver, servo=True) else None
+    if type(solver) is LimitedTipSolver and solver.tip_speed is None:
+        return TIP_LIMITED
     return code
+
+
+def limited_K(robot: SerialArm, solver: LimitedTipSolver) -> FloatArray:
+    """What the arm loop's TIP_LIMITED step holds (`arm_loop.limit_step`): each active joint's
+    largest move per period (speed x dt), its travel (lower, upper) and the margin."""
+    active = list(robot.active)
+    return np.concatenate([robot.speed[active] * solver.dt, robot.lower[active],
+                           robot.upper[active], [solver.travel_margin]])  # fmt: skip
 
 
 def applies(controller: Controller, solver: Solver) -> bool:
@@ -70,18 +82,33 @@ def applies(controller: Controller, solver: Solver) -> bool:
     return type(controller.robot) is SerialArm and arm_code(controller, solver) is not None
 
 
-def qp_arrays(solver: Solver, m: int) -> tuple:
-    """What the arm loop's QP solve reads (`arm_loop.arm_iterate`'s qpa) for m active joints:
-    travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are now), the
-    solve's buffers (`qp_rows.buffers`), the active joints (m,) and DAQP's exit flag (1,). For
-    another solver, arrays of the same types that the loop does not read."""
-    if isinstance(solver, QpSolver) and arm_qp_applies(solver):
+def qp_arrays(solver: Solver, n: int, m: int) -> tuple:
+    """What the arm loop's QP solve reads (`arm_loop.arm_iterate`'s qpa) for n joints, m
+    active: travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are
+    now), the solve's buffers (`qp_rows.buffers`), the active joints (m,), DAQP's exit flag
+    (1,) and with a servo its array (`arm_qp_kernels.solve_servo_step`: the command, filled
+    before each iteration by `servo_command`, the resolution, scratch), else (0,). For another
+    solver, arrays of the same types that the loop does not read."""
+    servo = np.zeros(0)
+    if isinstance(solver, QpSolver) and arm_qp_applies(solver, servo=True):
         robot, active = solver.robot, list(solver.robot.active)
         travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
         Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
+        if solver.servo is not None:
+            servo = np.zeros(3 * n + 12)
+            res = getattr(solver.servo, "actuator_resolution", None)
+            servo[n : 2 * n] = 0.0 if res is None else res
     else:
         travel, Q, contacts = np.zeros((2, m)), np.zeros(1), np.zeros((0, 3))
-    return travel, Q, contacts, buffers(m + 1), np.empty(m), np.zeros(1, dtype=np.int64)
+    return travel, Q, contacts, buffers(m + 1), np.empty(m), np.zeros(1, dtype=np.int64), servo
+
+
+def servo_command(solver: Solver, qpa: tuple) -> None:
+    """Copy the servo's last command into the arm loop's servo array (a QP with a servo)."""
+    servo = qpa[-1]
+    if servo.shape[0] > 0:
+        command = np.asarray(solver.servo.command, dtype=np.float64)  # type: ignore[attr-defined]
+        servo[: command.shape[0]] = command
 
 
 def run_if_fast(
@@ -91,7 +118,8 @@ def run_if_fast(
     plant with `exact_commands`); False (nothing done) otherwise."""
     if arm_arrays(controller.robot) is None:
         return False
-    if getattr(controller.plant, "exact_commands", False):
+    servo = isinstance(solver, QpSolver) and solver.servo is not None  # its command, each step
+    if getattr(controller.plant, "exact_commands", False) and not servo:
         run_arm_phase_exact(controller, solver, targets, pid, sid)
     else:
         run_arm_phase(controller, solver, targets, pid, sid)
@@ -110,8 +138,10 @@ class _Setup:
         self.n, m = int(ix[0]), int(ix[1])
         code, (K, damping, tol) = arm_code(controller, solver), solver_arrays(solver)
         self.code, self.tol = int(code), tol  # type: ignore[arg-type]
+        if code == TIP_LIMITED:
+            K = limited_K(controller.robot, solver)  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
-        self.qpa = qp_arrays(solver, int(ix[1]))
+        self.qpa = qp_arrays(solver, self.n, m)
         self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
                      bool(cfg.drift_correction), loop_bounds(controller), self.qpa)  # fmt: skip
         if curved is None:
@@ -201,7 +231,8 @@ def run_arm_phase(
     """Algorithm 1 on each target in turn on any plant: the plant steps in Python, each
     iteration's control work is one compiled call."""
     robot, plant, cfg = controller.robot, controller.plant, controller.settings
-    iterate, frame = fast_cache.arm_loop().arm_iterate, fast_cache.loop_kernels().target_frame
+    iterate, loop = fast_cache.arm_loop().arm_iterate, fast_cache.loop_kernels()
+    frame, holds_rcm = loop.target_frame, loop.holds_rcm
     setup = _Setup(controller, solver)
     n, fail = setup.n, setup.fail
     state = np.array([controller.lam, plant.time, plant.dt], dtype=np.float64)
@@ -211,13 +242,14 @@ def run_arm_phase(
     try:
         for k in range(targets.shape[0]):
             where = _where(controller, pid, k)
-            kind = frame(targets[k], setup.code != TIP, w, tip_t, trocar)
+            kind = frame(targets[k], holds_rcm(setup.code), w, tip_t, trocar)
             if kind < 0:
                 setup.stop(controller, solver, NO_TIP, targets[k], where)
             pivot = bool(kind == 1)
             for it in range(cfg.max_iterations + 1):
                 state[1] = plant.time
                 s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
+                servo_command(solver, setup.qpa)
                 status = iterate(*setup.args, targets[k], pivot, tip_t, trocar, s, state, it,
                                  buf.rec[buf.count], fail, setup.W, setup.d)  # fmt: skip
                 if it > 0 and status != QP_FAILED:

@@ -30,11 +30,12 @@ from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel, SerialArm
 
 
-def arm_qp_applies(solver: object) -> bool:
-    """True if `ArmQpStep` reproduces this solver (see the module docstring)."""
+def arm_qp_applies(solver: object, servo: bool = False) -> bool:
+    """True if `ArmQpStep` reproduces this solver (see the module docstring); with `servo`
+    also a solver with a servo (the arm loop plans from its command, `solve_servo_step`)."""
     if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
         return False
-    if solver.servo is not None or type(solver.robot) is not SerialArm:
+    if (solver.servo is not None and not servo) or type(solver.robot) is not SerialArm:
         return False
     if arm_arrays(solver.robot) is None or not fast_cache.daqp_callable():
         return False

@@ -17,10 +17,13 @@ work_shape`), its active joints' travel as travel (2, m) [rad or m], the setting
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.qp_rows import X, assemble, buffers, solve_assembled
+from rcmplan.compiled.qp_params import DT, SPEED
+from rcmplan.compiled.qp_rows import X, assemble, buffers, full_speed, solve_assembled
+from rcmplan.control.cost import synchronise
 from rcmplan.control.limits.base import SCALE
 from rcmplan.robot.chain_kinematics import (
     IntArray,
@@ -33,7 +36,7 @@ from rcmplan.robot.chain_kinematics import (
 )
 from rcmplan.robot.chain_singular import singular_terms
 
-__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step"]
+__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step", "solve_servo_step"]
 
 
 @njit(cache=True)
@@ -100,5 +103,43 @@ def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
     for j in range(m):  # `qp.joints_step`: the actuators moved by x, as joints
         k = ix[2 + n + j]
         d[j] = (q[k] + x[j] * SCALE) - q[k]
+    d[m] = x[m] * SCALE / A[5 * n + 12, 0]
+    return flag
+
+
+@njit(cache=True)
+def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
+                     Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
+                     lam: float, target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray,
+                     qp: tuple, servo: FloatArray) -> int:  # fmt: skip
+    """One QP step at the measured joints q with a servo (`QpSolver`'s `servo`, `control/qp.py`'s
+    module docstring): the QP built at the plant's last command rounded to its resolution
+    (servo = (command (n,), resolution (n,), 0: none), then scratch (n + 12,)), its cost
+    synchronised to the speed window (`cost.synchronise`); returns DAQP's exit flag. Then e
+    holds `QpSolver.error` (J x* / K plus the command's lead X(q) - X(plan), or the plain X_ext
+    error at q when a joint moves at full speed), d the active joints' increments from q to
+    the planned joints moved by the solution, and d lambda; W the frames of q."""
+    n, m = ix[0], ix[1]
+    plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 6], servo[3 * n + 6 :]
+    for i in range(n):  # `QpSolver.planned_joints`
+        res = servo[n + i]
+        plan[i] = servo[i] if res == 0.0 else np.rint(servo[i] / res) * res
+    rows = build_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e, qp)
+    for i in range(6):
+        e_plan[i] = e[i]
+    nb = qp[0].shape[0]
+    synchronise(qp[0], qp[1], Q[SPEED : SPEED + nb - 1] * Q[DT] / SCALE)
+    flag = solve_assembled(Q, K, rows, e, qp)
+    if flag != 1:
+        return flag
+    frames(A, ix, q, W)
+    task_at(A, n, W, lam, now)  # X_ext at the measured joints
+    x = qp[X]
+    limited = full_speed(Q, x)
+    for i in range(6):
+        e[i] = target[i] - now[i] if limited else e[i] + ((target[i] - now[i]) - e_plan[i])
+    for j in range(m):  # `qp.joints_step` from q
+        k = ix[2 + n + j]
+        d[j] = (plan[k] + x[j] * SCALE) - q[k]
     d[m] = x[m] * SCALE / A[5 * n + 12, 0]
     return flag
