@@ -122,7 +122,8 @@ class Episode:
         self.plant.reset(robot.actuators_from_joints(pose.q))
         self.depth_limit = TissueDepthLimit(eye.center, float(self.limit_radius(np.zeros(()))))
         extra = (self.depth_limit,) if cfg.depth_limit else ()
-        self.solver = QpSolver(robot, None, cfg.dt, limits=QpLimits(), extra_limits=extra)
+        self.solver = QpSolver(robot, None, cfg.dt, limits=QpLimits(), servo=self.plant,
+                               extra_limits=extra)  # a servo only on a plant that lags (MuJoCo)
         self.fast_step = fast_period_step(self.solver)  # the compiled step where it applies
         self.tissue = TissueContact()
         self.log = LogBuilder()
