@@ -32,8 +32,16 @@ from rcmplan.robot.iramis_kernels import (
     point_jacobian,
 )
 
-__all__ = ["EQUALITY", "N_BOUNDS", "X", "buffers", "build_step", "solve_servo_step", "solve_step",
-           "step_joints"]
+__all__ = [
+    "EQUALITY",
+    "N_BOUNDS",
+    "X",
+    "buffers",
+    "build_step",
+    "solve_servo_step",
+    "solve_step",
+    "step_joints",
+]
 
 N_VAR = 6  # L1..L5 and l dlambda
 N_BOUNDS = N_VAR
