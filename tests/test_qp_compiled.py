@@ -355,3 +355,47 @@ def test_a_moving_depth_limit_is_read_at_each_step(robot: Iramis, rng) -> None: 
         assert relative_gap(ref.problem.h, step.problem.h) <= 1e-12
         bounds.append(step.problem.h[-1])
     assert bounds[0] != bounds[1]  # the depth row moved with the floor
+
+
+class LaggingServo:
+    """A plant whose servos follow the command (`QpSolver`'s `servo`): the last command and
+    its resolution, nothing simulated."""
+
+    exact_commands = False
+
+    def __init__(self, command: np.ndarray) -> None:
+        self.command = command
+        self.actuator_resolution = np.array([1e-9] * 5 + [1e-6])
+
+
+def test_the_period_step_with_a_servo_equals_the_reference_step(robot: Iramis, rng) -> None:  # type: ignore[no-untyped-def]
+    """Planned from the servo's command (rounded), the cost synchronised: the compiled step
+    equals `QpSolver.step` from the measured joints, synchronised steps among them (targets
+    whose tip and angles lie up to 0.2 mm and mrad away, their RCM point the needle's own)."""
+    from rcmplan.compiled.qp_period import period_step
+    from rcmplan.control.cost import synchronise
+    from rcmplan.control.limits.base import SCALE as LIMIT_SCALE
+
+    eye = default_eye(robot)
+    servo = LaggingServo(robot.home_actuators.copy())
+    depth = TissueDepthLimit(eye.center, eye.retina_radius - 1e-3)
+    solver = QpSolver(robot, None, servo=servo, extra_limits=(depth,))
+    step = period_step(solver)
+    assert step is not None
+    window = robot.speed[list(robot.active)] * solver.dt / LIMIT_SCALE
+    checked = synchronised = 0
+    for q, lam, target in states(robot, rng, 60, spread=2e-4):
+        target[3:] = robot.needle_point(q, lam)  # the RCM box holds at the start
+        servo.command = robot.actuators_from_joints(q) + np.r_[rng.normal(0.0, 2e-6, 5), 0.0]
+        plan = solver.planned_joints(robot, q)
+        try:
+            dq_ref, _ = solver.step(robot, q, lam, target, solver.task_error(robot, q, lam, target))
+        except QPError:
+            continue
+        np.testing.assert_allclose(step(q, lam, target), dq_ref, rtol=0, atol=1e-11)
+        e = solver.task_error(robot, plan, lam, target)
+        inp = StepInput(plan, lam, target, e, solver.K, solver.damping, solver.dt, solver.weights)
+        free = build_step(robot, inp, solver.rows, solver.bounds).problem  # not synchronised
+        synchronised += synchronise(np.array(free.P), np.array(free.q), window) > 1.0
+        checked += 1
+    assert checked > 30 and synchronised > 10, (checked, synchronised)

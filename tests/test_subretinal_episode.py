@@ -142,9 +142,13 @@ def test_cli_refuses_a_bad_option(
     assert doc["status"] == "invalid_input" and value in doc["message"]
 
 
-def test_cli_offers_only_the_kinematic_plant(capsys: pytest.CaptureFixture[str]) -> None:
-    """The episode runs on the kinematic plant only: the option's choices refuse another."""
+def test_a_bad_plant_is_refused_naming_the_valid_ones(capsys: pytest.CaptureFixture[str]) -> None:
+    """The option's choices refuse another plant (exit 2), the settings a typed error."""
     with pytest.raises(SystemExit) as exc:
-        main(["subretinal", "--plant", "mujoco", "--no-plots"])
+        main(["subretinal", "--plant", "mujoco-kinematic", "--no-plots"])
     assert exc.value.code == 2
-    assert "invalid choice: 'mujoco' (choose from 'kinematic')" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "invalid choice: 'mujoco-kinematic' (choose from 'kinematic', 'mujoco')" in err
+    with pytest.raises(InvalidInputError, match=r"plant.*'kinematic', 'mujoco'") as info:
+        EpisodeSettings(plant="rigid")
+    assert info.value.name == "plant"

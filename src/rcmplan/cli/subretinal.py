@@ -23,6 +23,7 @@ from rcmplan.exceptions import RcmplanError
 from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 
 COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predictors.PREDICTORS
+PLANTS = ("kinematic", "mujoco")  # rcmplan.subretinal.episode_settings.PLANTS_SUPPORTED
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -46,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the motion and noise; --episodes: of the draws (0)")  # fmt: skip
     add_robot(p, "iramis")
-    add_plant(p, ("kinematic",), "kinematic")
+    add_plant(p, PLANTS, "kinematic")
     p.add_argument("--hold-s", type=float, default=5.0, help="injection time, 0-60 s (5)")
     p.add_argument("--hover-s", type=float, default=1.0,
                    help="hover at the stand-off before the advance, 0-60 s (1)")  # fmt: skip

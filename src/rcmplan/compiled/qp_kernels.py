@@ -20,7 +20,9 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import qp_rows
 from rcmplan.compiled.daqp_c import EQUALITY
 from rcmplan.compiled.kernels import task
+from rcmplan.compiled.qp_params import DT, SPEED
 from rcmplan.compiled.qp_rows import X, assemble, solve_assembled
+from rcmplan.control.cost import synchronise
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.limits.rows import times
 from rcmplan.robot.iramis_kernels import (
@@ -30,7 +32,16 @@ from rcmplan.robot.iramis_kernels import (
     point_jacobian,
 )
 
-__all__ = ["EQUALITY", "N_BOUNDS", "X", "buffers", "build_step", "solve_step", "step_joints"]
+__all__ = [
+    "EQUALITY",
+    "N_BOUNDS",
+    "X",
+    "buffers",
+    "build_step",
+    "solve_servo_step",
+    "solve_step",
+    "step_joints",
+]
 
 N_VAR = 6  # L1..L5 and l dlambda
 N_BOUNDS = N_VAR
@@ -104,6 +115,22 @@ def solve_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray
     in qp[X]; e (6,) holds the error a feasible step removes, J x* / K, or the plain X_ext
     error when an actuator moves at full speed (`QpSolver.error`)."""
     rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
+    return solve_assembled(Q, K, rows, e, qp)
+
+
+@njit(cache=True)
+def solve_servo_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
+                     q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
+                     e: FloatArray, e_plan: FloatArray, qp: tuple) -> int:  # fmt: skip
+    """`solve_step` on a plant whose servos follow the command (`QpSolver`'s `servo`): the QP
+    built at q, the joints of the plant's last command, its X_ext error there kept in e_plan
+    (6,), its cost synchronised to the actuators' speed window (`qp.synchronised_step`), then
+    solved; returns DAQP's exit flag (1: optimal)."""
+    rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
+    for i in range(6):
+        e_plan[i] = e[i]
+    nb = qp[0].shape[0]
+    synchronise(qp[0], qp[1], Q[SPEED : SPEED + nb - 1] * Q[DT] / SCALE)
     return solve_assembled(Q, K, rows, e, qp)
 
 

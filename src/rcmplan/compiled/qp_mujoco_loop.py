@@ -3,9 +3,9 @@
 Each control period the compiled loop reads the simulated sliders and runs one iteration of
 what `Controller.converge` does with a `QpSolver` whose `servo` is the plant (`control/qp.py`'s
 module docstring), in the same order: joints through the PCJMs, drift correction, the QP built
-at the joints of the plant's last command rounded to the slider resolution
-(`qp_kernels.build_step`), its cost synchronised to the speed window (`cost.synchronise`) and
-solved by DAQP's C function (`qp_rows.solve_assembled`); the error J x* / K plus the command's
+at the joints of the plant's last command rounded to the slider resolution, its cost
+synchronised to the speed window and solved by DAQP's C function (`qp_kernels.solve_servo_step`,
+which the compiled per-period step `qp_period` calls too); the error J x* / K plus the command's
 lead X(measured) - X(planned), or the plain X_ext error at the measured joints when an actuator
 moves at full speed (`qp_rows.full_speed`); record (from the second iteration on), tolerance
 check, iteration cap, singularity check, the step from the planned actuators to the measured
@@ -26,10 +26,9 @@ from numpy.typing import NDArray
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import task
 from rcmplan.compiled.loop import closest_lambda, put, target_frame
-from rcmplan.compiled.qp_kernels import X, build_step
+from rcmplan.compiled.qp_kernels import X, solve_servo_step
 from rcmplan.compiled.qp_loop import record_and_step
-from rcmplan.compiled.qp_params import DT, SPEED
-from rcmplan.compiled.qp_rows import full_speed, solve_assembled
+from rcmplan.compiled.qp_rows import full_speed
 from rcmplan.compiled.records import (
     DONE,
     NO_TIP,
@@ -37,8 +36,6 @@ from rcmplan.compiled.records import (
     QP_FAILED,
     STEPPED,
 )
-from rcmplan.control.cost import synchronise
-from rcmplan.control.limits.base import SCALE
 from rcmplan.robot.iramis_kernels import joints_from_actuators, trig
 from rcmplan.sim.mujoco.compiled import OK, advance
 
@@ -65,11 +62,8 @@ def iterate_qp_servo(
     for i in range(6):  # the command as the plant rounds it (`QpSolver.planned_joints`)
         x_now[i] = np.rint(cmd[i] / res[i]) * res[i]
     joints_from_actuators(P, x_now, q_plan)
-    rows = build_step(P, Q, contacts, K, q_plan, trig(q_plan), state[0], target, s_qp, e, qp)
-    put(e_plan, 0, e, 0, 6)
-    nb = qp[0].shape[0]
-    synchronise(qp[0], qp[1], Q[SPEED : SPEED + nb - 1] * Q[DT] / SCALE)
-    flag = solve_assembled(Q, K, rows, e, qp)
+    flag = solve_servo_step(P, Q, contacts, K, q_plan, trig(q_plan), state[0], target, s_qp, e,
+                            e_plan, qp)  # fmt: skip
     if flag != 1:
         info[2] = flag
         return QP_FAILED

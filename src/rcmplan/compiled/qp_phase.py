@@ -146,7 +146,9 @@ def assembled_step(qp: tuple, rows: int, s: FloatArray) -> StepQP:
 
 class FastQpStep:
     """One QP step of a QpSolver assembled and solved in compiled code, from Python (tests and
-    benchmarks; the loop calls the kernels directly).
+    benchmarks; the loop calls the kernels directly). With a servo (`QpSolver.servo`) `solve`
+    takes the joints the step is planned from (`QpSolver.planned_joints`) and synchronises the
+    cost as the reference does (`qp_kernels.solve_servo_step`).
 
     Args:
         solver: The QP solver whose step is reproduced; its robot must be an Iramis and its eye
@@ -165,7 +167,7 @@ class FastQpStep:
         self._k = fast_cache.qp_kernels()
         self._trig = iramis_kernels.trig
         self.qp = self._k.buffers()
-        self.s, self.e = np.empty(6), np.empty(6)
+        self.s, self.e, self.e_plan = np.empty(6), np.empty(6), np.empty(6)
 
     def problem(self, q: FloatArray, lam: float, target: FloatArray) -> StepQP:
         """The step's QP as `qp_problem.build_step` returns it (contact left False)."""
@@ -183,8 +185,13 @@ class FastQpStep:
         tr = self._trig(q)
         if self.solver.extra_limits:  # a moving limit's parameters as they are now
             pack_extras(self.solver, self.Q)
-        flag = self._k.solve_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam),
-                                  target, self.s, self.e, self.qp)  # fmt: skip
+        if self.solver.servo is None:
+            flag = self._k.solve_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam),
+                                      target, self.s, self.e, self.qp)  # fmt: skip
+        else:  # q: the joints of the servo's command (`QpSolver.planned_joints`)
+            flag = self._k.solve_servo_step(self.P, self.Q, self.contacts, self.K, q, tr,
+                                            float(lam), target, self.s, self.e, self.e_plan,
+                                            self.qp)  # fmt: skip
         if flag != 1:
             from rcmplan.compiled.daqp_c import exit_name
 

@@ -6,7 +6,9 @@ read the plant, lambda by `closest_lambda`, the target X_ext (`rcm_targets(tip, 
 the periods up to the next iOCT estimate at once: `Episode.plan`), one `QpSolver.step`, command
 the plant. Where the compiled QP applies on the kinematic plant the planned periods run as one
 compiled call (`episode_blocks`); elsewhere one period at a time (`Episode.period`, its step
-compiled by `compiled.qp_period.period_step` where that applies). The QP holds the RCM,
+compiled by `compiled.qp_period.period_step` where that applies). On a plant whose servos lag
+their commands (the dynamic MuJoCo plant) the QP plans each step from the plant's last command
+(`QpSolver`'s `servo`, as `rcmplan inject --plant mujoco --method qp` does). The QP holds the RCM,
 actuator travel and speed and, as an extra limit, `TissueDepthLimit`: the tip above the
 ESTIMATED RPE less `rpe_margin_m`. The QP's retina barrier is off (no eye is given to it): the
 needle has to pass the ILM.
@@ -122,7 +124,9 @@ class Episode:
         self.plant.reset(robot.actuators_from_joints(pose.q))
         self.depth_limit = TissueDepthLimit(eye.center, float(self.limit_radius(np.zeros(()))))
         extra = (self.depth_limit,) if cfg.depth_limit else ()
-        self.solver = QpSolver(robot, None, cfg.dt, limits=QpLimits(), extra_limits=extra)
+        self.solver = QpSolver(
+            robot, None, cfg.dt, limits=QpLimits(), servo=self.plant, extra_limits=extra
+        )  # a servo only on a plant that lags (MuJoCo)
         self.fast_step = fast_period_step(self.solver)  # the compiled step where it applies
         self.tissue = TissueContact()
         self.log = LogBuilder()

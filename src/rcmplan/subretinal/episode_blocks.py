@@ -6,7 +6,8 @@ next. One compiled call runs them all; its records then go to the log and the se
 feed back into the control). The block loop applies where the per-period path's step is the
 compiled iRAM!S step (`qp_period.period_step`: a plain QpSolver with DAQP, a straight needle,
 no servo plan, a robot the iRAM!S kernels reproduce, DAQP's C function callable) on a plant
-that reaches its commands exactly and does not round them (the kinematic plant).
+that reaches its commands exactly and does not round them (the kinematic plant); on the
+dynamic MuJoCo plant the episode runs one period at a time.
 
 Where the kernel stops before a period's move (a failed QP solve, joints no sliders realise, a
 slider beyond travel), that period runs on the per-period path (`Episode.period`), which

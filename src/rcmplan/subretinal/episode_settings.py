@@ -16,7 +16,7 @@ SEGMENTATION_BIAS_M = -1.26e-6
 SEGMENTATION_STD_M = 0.23e-6
 # Cardiac amplitude per unit of breathing amplitude: the MotionModel defaults (10 um / 50 um).
 CARDIAC_PER_BREATHING = 0.2
-PLANTS_SUPPORTED = ("kinematic",)
+PLANTS_SUPPORTED = ("kinematic", "mujoco")
 
 
 @dataclass(frozen=True)
@@ -25,7 +25,8 @@ class EpisodeSettings:
 
     Attributes:
         robot: A robot name or robot file (`rcmplan.robot.registry`).
-        plant: The plant; only "kinematic".
+        plant: The plant: "kinematic" or "mujoco" (the dynamic MuJoCo plant, whose servos
+            follow the commands: the QP plans from its last command, `QpSolver`'s `servo`).
         compensation: Predictor of the ILM displacement: none, hold, fft or kalman.
         ioct_rate_hz: iOCT volume rate [Hz].
         latency_s: iOCT latency, acquisition to delivery [s].
