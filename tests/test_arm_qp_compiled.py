@@ -25,7 +25,7 @@ from rcmplan.control.qp_problem import SCALE, StepInput, build_step
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.control.tasks import Posture
 from rcmplan.controller import Controller
-from rcmplan.exceptions import InvalidInputError, QPError
+from rcmplan.exceptions import InvalidInputError, QPError, UnreachableTargetError
 from rcmplan.robot.model import SerialArm
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
@@ -231,7 +231,7 @@ class SubclassQp(QpSolver):
 
 
 @pytest.mark.parametrize("case", ["other back end", "subclass", "daqp binding unusable",
-                                  "servo", "three extra limits", "posture objective"])  # fmt: skip
+                                  "three extra limits", "posture objective"])  # fmt: skip
 def test_the_compiled_arm_step_declines_what_it_does_not_reproduce(
     arm: SerialArm, case: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -246,8 +246,6 @@ def test_the_compiled_arm_step_declines_what_it_does_not_reproduce(
     elif case == "daqp binding unusable":
         monkeypatch.setitem(fast_cache._state, "daqp_abi", False)
         solver = QpSolver(arm, eye)
-    elif case == "servo":
-        solver = QpSolver(arm, eye, servo=ServoPlant(arm))
     elif case == "three extra limits":
         solver = QpSolver(arm, eye, extra_limits=(box, box, box))
     else:  # a cost term the compiled assembly does not hold
@@ -256,18 +254,62 @@ def test_the_compiled_arm_step_declines_what_it_does_not_reproduce(
     assert not arm_qp_applies(solver)
     with pytest.raises(InvalidInputError, match="solver"):
         ArmQpStep(solver)
-    ctl = Controller(KinematicPlant(arm), solver)  # the arm loop plans from a servo's command
-    assert arm_phase.arm_code(ctl, solver) == (QP if case == "servo" else None)
+    ctl = Controller(KinematicPlant(arm), solver)
+    assert arm_phase.arm_code(ctl, solver) is None
 
 
 class ServoPlant(KinematicPlant):
-    """A plant whose servos follow commands over several periods (the QP plans from them)."""
+    """A plant whose servos follow commands over several periods (the QP plans from them): its
+    last command is `lead`, its resolution 1 urad."""
 
     exact_commands = False
 
+    def __init__(self, arm: SerialArm) -> None:
+        super().__init__(arm)
+        self.lead = arm.home.copy()
+        self.actuator_resolution = np.full(len(arm.home), 1e-6)
+
     @property
     def command(self) -> np.ndarray:
-        return self.read_actuators()
+        return self.lead.copy()
+
+
+def test_the_compiled_arm_step_plans_from_a_servos_command_as_the_solver_does(
+    arm: SerialArm,
+) -> None:
+    """With a servo the QP is built at its last command rounded to its resolution, the cost
+    synchronised to the speed window, the error J x* / K plus the command's lead, the step from
+    the measured joints (`QpSolver`'s servo plan; `arm_qp_kernels.solve_servo_step`)."""
+    from rcmplan.compiled.qp_period import period_step
+
+    plant = ServoPlant(arm)
+    rng = np.random.default_rng(11)
+    solved = 0
+    for eye, n in ((None, 30), (default_eye(arm), 0)):  # random poses; near the injection's
+        solver = QpSolver(arm, eye, servo=plant)
+        assert solver.servo is plant and arm_qp_applies(solver)
+        fast, step = ArmQpStep(solver), period_step(solver)
+        assert step is not None
+        for q, lam, target in states(arm, rng, n, spread=1e-6):
+            plant.lead = q + rng.normal(0.0, 2e-4, q.shape)  # the servo not yet at its command
+            try:
+                e_ref = solver.error(arm, q, lam, target)
+            except UnreachableTargetError:  # the solver's own target check, on both paths
+                with pytest.raises(UnreachableTargetError):
+                    fast.error(arm, q, lam, target)
+                continue
+            except QPError:
+                assert fast.solve(q, lam, target) != 1
+                continue
+            d_ref, dlam_ref = solver.step(arm, q, lam, target, e_ref)
+            e = fast.error(arm, q, lam, target)
+            np.testing.assert_allclose(e, e_ref, rtol=0, atol=X_TOL * SCALE)
+            d, dlam = fast.step(arm, q, lam, target, e_ref)
+            np.testing.assert_allclose(d, d_ref, rtol=0, atol=X_TOL * SCALE)
+            assert dlam == pytest.approx(dlam_ref, abs=X_TOL * SCALE)
+            np.testing.assert_allclose(step(q, lam, target), d_ref, rtol=0, atol=X_TOL * SCALE)
+            solved += 1
+    assert solved >= 10, solved
 
 
 def test_the_period_step_runs_an_arms_qp_compiled(arm: SerialArm) -> None:

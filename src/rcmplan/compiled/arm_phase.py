@@ -25,11 +25,9 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
-from rcmplan.compiled.arm_qp import arm_qp_applies
+from rcmplan.compiled.arm_qp import arm_qp_applies, qp_arrays, servo_command
 from rcmplan.compiled.curved import CurvedArrays, arm_work_shape
-from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import raise_qp_failure
-from rcmplan.compiled.qp_rows import buffers
 from rcmplan.compiled.records import (
     BLOCK,
     DONE,
@@ -62,7 +60,7 @@ def arm_code(controller: Controller, solver: Solver) -> int | None:
     on the controller's robot that the compiled arm QP reproduces), else None."""
     code = method_code(solver)
     if code is None and isinstance(solver, QpSolver) and solver.robot is controller.robot:
-        return QP if arm_qp_applies(solver, servo=True) else None
+        return QP if arm_qp_applies(solver) else None
     if type(solver) is LimitedTipSolver and solver.tip_speed is None:
         return TIP_LIMITED
     return code
@@ -80,35 +78,6 @@ def applies(controller: Controller, solver: Solver) -> bool:
     """True for a SerialArm itself and a solver the arm loop implements (whether the kernels
     reproduce the arm is probed in `run_if_fast`)."""
     return type(controller.robot) is SerialArm and arm_code(controller, solver) is not None
-
-
-def qp_arrays(solver: Solver, n: int, m: int) -> tuple:
-    """What the arm loop's QP solve reads (`arm_loop.arm_iterate`'s qpa) for n joints, m
-    active: travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are
-    now), the solve's buffers (`qp_rows.buffers`), the active joints (m,), DAQP's exit flag
-    (1,) and with a servo its array (`arm_qp_kernels.solve_servo_step`: the command, filled
-    before each iteration by `servo_command`, the resolution, scratch), else (0,). For another
-    solver, arrays of the same types that the loop does not read."""
-    servo = np.zeros(0)
-    if isinstance(solver, QpSolver) and arm_qp_applies(solver, servo=True):
-        robot, active = solver.robot, list(solver.robot.active)
-        travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
-        Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
-        if solver.servo is not None:
-            servo = np.zeros(3 * n + 12)
-            res = getattr(solver.servo, "actuator_resolution", None)
-            servo[n : 2 * n] = 0.0 if res is None else res
-    else:
-        travel, Q, contacts = np.zeros((2, m)), np.zeros(1), np.zeros((0, 3))
-    return travel, Q, contacts, buffers(m + 1), np.empty(m), np.zeros(1, dtype=np.int64), servo
-
-
-def servo_command(solver: Solver, qpa: tuple) -> None:
-    """Copy the servo's last command into the arm loop's servo array (a QP with a servo)."""
-    servo = qpa[-1]
-    if servo.shape[0] > 0:
-        command = np.asarray(solver.servo.command, dtype=np.float64)  # type: ignore[attr-defined]
-        servo[: command.shape[0]] = command
 
 
 def run_if_fast(

@@ -4,10 +4,10 @@ period (`qp_period.period_step`: teleoperation, the subretinal episode). A `Cont
 same solve inside the arm loop (`arm_loop.arm_iterate`, method QP).
 
 Applies to a `QpSolver` itself (exact type: a subclass may change its step) with the DAQP back
-end and a straight needle, planning from the measured state (no servo plan), on a `SerialArm`
-itself whose kinematics the chain kernels reproduce (`arm.arm_arrays`), with an eye whose
-retina is the kernels' sphere, extra limits the kernels hold and no extra cost terms
-(`qp_params`), where DAQP's C function can be called from compiled code
+end and a straight needle (with a servo planned from its last command, as the solver plans),
+on a `SerialArm` itself whose kinematics the chain kernels reproduce (`arm.arm_arrays`), with
+an eye whose retina is the kernels' sphere, extra limits the kernels hold and no extra cost
+terms (`qp_params`), where DAQP's C function can be called from compiled code
 (`cache.daqp_callable`). `ArmQpStep` then gives the solver's task error, tolerance and step to
 rounding, the QP assembled with the same row kernels. A solve that
 DAQP does not finish optimally is repeated by the solver itself, which raises its QPError (or
@@ -23,6 +23,7 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
 from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.qp_phase import assembled_step
+from rcmplan.compiled.qp_rows import buffers
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_problem import StepQP
 from rcmplan.control.solvers import SolverKind
@@ -30,16 +31,44 @@ from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel, SerialArm
 
 
-def arm_qp_applies(solver: object, servo: bool = False) -> bool:
-    """True if `ArmQpStep` reproduces this solver (see the module docstring); with `servo`
-    also a solver with a servo (the arm loop plans from its command, `solve_servo_step`)."""
+def arm_qp_applies(solver: object) -> bool:
+    """True if `ArmQpStep` reproduces this solver (see the module docstring)."""
     if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
         return False
-    if (solver.servo is not None and not servo) or type(solver.robot) is not SerialArm:
+    if type(solver.robot) is not SerialArm:
         return False
     if arm_arrays(solver.robot) is None or not fast_cache.daqp_callable():
         return False
     return qp_params(solver.robot, solver) is not None
+
+
+def qp_arrays(solver: object, n: int, m: int) -> tuple:
+    """What the arm QP's solve reads (`arm_loop.arm_iterate`'s qpa) for n joints, m active:
+    travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are now), the
+    solve's buffers (`qp_rows.buffers`), the active joints (m,), DAQP's exit flag (1,) and with
+    a servo its array (`arm_qp_kernels.solve_servo_step`: the command, filled before each
+    solve by `servo_command`, the resolution, scratch), else (0,). For another solver, arrays
+    of the same types that the arm loop does not read."""
+    servo = np.zeros(0)
+    if isinstance(solver, QpSolver) and arm_qp_applies(solver):
+        robot, active = solver.robot, list(solver.robot.active)
+        travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
+        Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
+        if solver.servo is not None:
+            servo = np.zeros(3 * n + 12)
+            res = getattr(solver.servo, "actuator_resolution", None)
+            servo[n : 2 * n] = 0.0 if res is None else res
+    else:
+        travel, Q, contacts = np.zeros((2, m)), np.zeros(1), np.zeros((0, 3))
+    return travel, Q, contacts, buffers(m + 1), np.empty(m), np.zeros(1, dtype=np.int64), servo
+
+
+def servo_command(solver: object, qpa: tuple) -> None:
+    """Copy the servo's last command into qpa's servo array (a QP with a servo)."""
+    servo = qpa[-1]
+    if servo.shape[0] > 0:
+        command = np.asarray(solver.servo.command, dtype=np.float64)  # type: ignore[attr-defined]
+        servo[: command.shape[0]] = command
 
 
 class ArmQpStep:
@@ -59,14 +88,12 @@ class ArmQpStep:
         self.kind: SolverKind = solver.kind
         self.A, self.ix = arm_arrays(robot)  # type: ignore[misc]
         self.n, self.m = int(self.ix[0]), int(self.ix[1])
-        active = list(robot.active)
-        self.travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
-        self.Q, self.contacts = qp_params(robot, solver)  # type: ignore[misc]
+        self.qpa = qp_arrays(solver, self.n, self.m)
+        self.travel, self.Q, self.contacts, self.qp, self.s, _, self.servo = self.qpa
         self.K = np.ascontiguousarray(solver.K, dtype=np.float64)
         self._k = fast_cache.arm_qp_kernels()
         self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, self.m))
-        self.qp = self._k.buffers(self.m + 1)
-        self.s, self.e, self.d = np.empty(self.m), np.empty(6), np.empty(self.m + 1)
+        self.e, self.d = np.empty(6), np.empty(self.m + 1)
         self._key, self._flag = b"", 0
 
     def tolerance(self) -> FloatArray:
@@ -81,13 +108,17 @@ class ArmQpStep:
         """Assemble and solve the QP at (q, lambda) for the X_ext target (float64 arrays (n,)
         and (6,)), once per state; DAQP's exit flag (1: optimal, then `e` and `d` hold the
         error and the step)."""
-        key = q.tobytes() + np.float64(lam).tobytes() + target.tobytes()
+        servo_command(self.solver, self.qpa)  # with a servo: the plan is its last command
+        key = q.tobytes() + np.float64(lam).tobytes() + target.tobytes() + self.servo.tobytes()
         if key != self._key:
             if self.solver.extra_limits:  # a moving limit's parameters as they are now
                 pack_extras(self.solver, self.Q)
-            self._flag = self._k.solve_arm_step(self.A, self.ix, self.W, self.travel, self.Q,
-                                                self.contacts, self.K, q, float(lam), target,
-                                                self.s, self.e, self.d, self.qp)  # fmt: skip
+            args = (self.A, self.ix, self.W, self.travel, self.Q, self.contacts, self.K, q,
+                    float(lam), target, self.s, self.e, self.d, self.qp)  # fmt: skip
+            if self.servo.shape[0] > 0:
+                self._flag = self._k.solve_servo_step(*args, self.servo)
+            else:
+                self._flag = self._k.solve_arm_step(*args)
             self._key = key
         return int(self._flag)
 

@@ -30,15 +30,15 @@ StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 
 def period_step(solver: QpSolver) -> StepFunction | None:
     """A compiled `solver.step`, or None: not a plain QpSolver with DAQP and a straight needle,
-    a servo plan on a serial arm, a robot or eye or limit the kernels do not reproduce
+    a robot or eye or limit the kernels do not reproduce
     (`qp_params`: up to `MAX_EXTRA` workspace boxes and tissue-depth limits as extra limits),
-    DAQP's C binding unusable. With a servo (iRAM!S on the dynamic MuJoCo plant) the step is
+    DAQP's C binding unusable. With a servo (the dynamic MuJoCo plants) the step is
     planned from the plant's last command as the reference plans it (`QpSolver.planned_joints`,
     the cost synchronised: `FastQpStep`)."""
     if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
         return None
     robot = solver.robot
-    if arm_qp_applies(solver):  # not with a servo
+    if arm_qp_applies(solver):  # with a servo too (`arm_qp_kernels.solve_servo_step`)
         return _arm_period_step(solver)
     if kernel_params(robot) is None or fast_cache.qp_loop() is None:
         return None
