@@ -11,14 +11,19 @@ import pytest
 
 from rcmplan.cli import sweep as sweep_cli
 from rcmplan.exceptions import InvalidInputError, RcmplanError
+from rcmplan.sweep.checkpoint import Checkpoint
 from rcmplan.sweep.errors import CheckpointError, EmptyRegionError, SchedulerError
 from rcmplan.sweep.settings import MotionSettings, SweepSettings
 
 
-def run(argv: list[str]) -> int:
+def parse(argv: list[str]) -> argparse.Namespace:
     parser = argparse.ArgumentParser()
     sweep_cli.register(parser.add_subparsers(dest="command"))
-    args = parser.parse_args(["sweep", *argv])
+    return parser.parse_args(["sweep", *argv])
+
+
+def run(argv: list[str]) -> int:
+    args = parse(argv)
     return int(args.run(args))
 
 
@@ -42,6 +47,15 @@ def test_sweep_writes_summary_targets_checkpoint_and_maps(tmp_path: Path, capsys
     for name in ("reachability", "rcm_deviation", "iterations"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 0
     assert (tmp_path / "checkpoint" / "header.json").exists()
+    listed = summary["figures"]  # the figures under the key every command lists them in
+    assert set(listed) == {"reachability", "rcm_deviation", "iterations"}
+    assert all(Path(listed[k]) == tmp_path / "figures" / f"{k}.png" for k in listed)
+
+
+def test_no_plots_lists_no_figures_in_the_summary(tmp_path: Path) -> None:
+    assert run([*SMALL, "--out", str(tmp_path), "--no-plots"]) == 0
+    assert json.loads((tmp_path / "summary.json").read_text())["figures"] == {}
+    assert not (tmp_path / "figures").exists()
 
 
 def test_a_rerun_into_the_same_folder_starts_afresh_as_every_command_does(
@@ -65,6 +79,45 @@ def test_resume_continues_the_checkpoint_and_runs_nothing_again(tmp_path: Path, 
     summary = json.loads(capsys.readouterr().out)
     assert summary["targets"]["resumed_from_checkpoint"] == summary["targets"]["run"] == 8
     assert summary["targets_run_now"] == 0
+    assert summary["resumed"] == {"requested": True, "resumed_from_checkpoint": 8, "started_afresh": False,
+                                  "message": ""}  # fmt: skip
+    assert "nothing to resume" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("left", ["nothing", "a header alone"])
+def test_resume_with_nothing_to_resume_says_so_and_starts_afresh(
+    tmp_path: Path, capsys, left: str
+) -> None:
+    cp = tmp_path / "checkpoint"
+    if left == "a header alone":  # a sweep stopped before its first chunk finished
+        settings = sweep_cli.settings_from_args(parse(SMALL))
+        Checkpoint.open(cp, settings, resume=False)
+    assert run([*SMALL, "--out", str(tmp_path), "--no-plots", "--json", "--resume"]) == 0
+    captured = capsys.readouterr()
+    err = captured.err.strip().splitlines()
+    assert err[-1].startswith(f"rcmplan sweep: nothing to resume: {cp}")
+    assert err[-1].endswith("the sweep starts afresh")
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary == json.loads(captured.out)
+    resumed = summary["resumed"]
+    assert resumed["requested"] is True and resumed["started_afresh"] is True
+    assert resumed["resumed_from_checkpoint"] == summary["targets"]["resumed_from_checkpoint"] == 0
+    assert resumed["message"] == err[-1].removeprefix("rcmplan sweep: ")
+    why = "holds no finished results" if left == "a header alone" else "is no checkpoint"
+    assert why in resumed["message"]
+    assert summary["targets_run_now"] == summary["targets"]["run"] == 8
+
+
+def test_a_sweep_without_resume_records_that_it_started_afresh(tmp_path: Path, capsys) -> None:
+    assert run([*SMALL, "--out", str(tmp_path), "--no-plots"]) == 0
+    assert "nothing to resume" not in capsys.readouterr().err
+    resumed = json.loads((tmp_path / "summary.json").read_text())["resumed"]
+    assert resumed == {
+        "requested": False,
+        "resumed_from_checkpoint": 0,
+        "started_afresh": True,
+        "message": "",
+    }
 
 
 def test_gain_search_reports_the_best_settings(tmp_path: Path, capsys) -> None:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
@@ -25,7 +26,12 @@ from rcmplan.cli.common import (
     add_scenario,
 )
 from rcmplan.cli.output import one_line, print_json, progress_bar
-from rcmplan.cli.sweep_outputs import print_tables, write_interrupted, write_outputs
+from rcmplan.cli.sweep_outputs import (
+    print_tables,
+    resume_record,
+    write_interrupted,
+    write_outputs,
+)
 from rcmplan.exceptions import RcmplanError
 from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 from rcmplan.sweep.settings import (
@@ -241,19 +247,24 @@ def check_options(args: argparse.Namespace) -> None:
 
 def run_straight(args: argparse.Namespace, out: Path) -> int:
     """The sweep of a straight needle: targets on the executor, checkpointed, then the maps."""
-    from rcmplan.sweep.checkpoint import Checkpoint
+    from rcmplan.sweep.checkpoint import HEADER, Checkpoint
     from rcmplan.sweep.executors import make_executor
 
     settings = settings_from_args(args)
     path = Path(args.checkpoint or out / "checkpoint")
+    header_found = (path / HEADER).is_file()
     checkpoint = open_checkpoint(path, settings, args.resume, Checkpoint)
+    if args.resume and not checkpoint.chunk_files():
+        note = resume_record(path, True, header_found, 0)["message"]
+        print(f"rcmplan sweep: {note}", file=sys.stderr)
     try:
         with interrupts.surfaced():
             with make_executor(args.workers, args.scheduler, args.timeout) as executor:
                 result = run_main(args, settings, checkpoint, executor)
                 gains = None if args.gain_search == "none" else run_gains(
                     args, result, checkpoint, executor)  # fmt: skip
-            s = write_outputs(args, out, result, gains)
+            resumed = resume_record(path, args.resume, header_found, result.resumed)
+            s = write_outputs(args, out, result, gains, resumed)
     except KeyboardInterrupt as exc:
         write_interrupted(out, checkpoint, exc)
         raise

@@ -18,26 +18,41 @@ if TYPE_CHECKING:
     from rcmplan.sweep.runner import SweepResult
 
 
+def resume_record(path: Path, resume: bool, header_found: bool, results: int) -> dict[str, Any]:
+    """summary.json's `resumed`: whether --resume was given, how many results the checkpoint at
+    `path` gave, and, when --resume found nothing to continue, why and that the sweep started
+    afresh (the same sentence the command prints on stderr)."""
+    message = ""
+    if resume and results == 0:
+        why = "holds no finished results" if header_found else "is no checkpoint (none there)"
+        message = f"nothing to resume: {path} {why}; the sweep starts afresh"
+    return {"requested": resume, "resumed_from_checkpoint": results, "started_afresh": results == 0,
+            "message": message}  # fmt: skip
+
+
 def write_outputs(
-    args: argparse.Namespace, out: Path, result: SweepResult, gains: GainSearchResult | None
-) -> dict[str, Any]:
-    """summary.json, targets.csv, gains.json and the figures; returns the summary."""
+    args: argparse.Namespace, out: Path, result: SweepResult, gains: GainSearchResult | None,
+    resumed: dict[str, Any],
+) -> dict[str, Any]:  # fmt: skip
+    """targets.csv, the figures, then summary.json naming them under `figures` ({} with
+    --no-plots) and the resume record under `resumed`; returns the summary."""
     from rcmplan._atomic import write_text
     from rcmplan.analysis.report import jsonable
     from rcmplan.sweep import report
 
-    s = {"status": "ok", "message": "", **report.summary(result)}
+    s = {"status": "ok", "message": "", **report.summary(result), "resumed": resumed}
     if gains is not None:
         s["gain_search"] = report.gain_summary(gains)
-    write_text(out / "summary.json", json.dumps(jsonable(s), indent=2))
     report.write_targets_csv(result, out / "targets.csv")
+    figs: dict[str, Path] = {}
     if not args.no_plots:
         from rcmplan.sweep import maps
 
         figs = maps.sweep_maps(result, out / "figures")
         if gains is not None:
             figs["gains"] = maps.gain_tradeoff(gains, out / "figures" / "gains.png")
-        s["figures"] = {k: str(v) for k, v in figs.items()}
+    s["figures"] = {k: str(v) for k, v in figs.items()}
+    write_text(out / "summary.json", json.dumps(jsonable(s), indent=2))
     return s
 
 
