@@ -246,3 +246,37 @@ def test_the_jump_check_can_be_switched_off(robot: Iramis) -> None:
     assert settings.max_target_step is None
     with pytest.raises(InvalidInputError, match="max_target_step"):
         LoopSettings(max_target_step=-1.0)
+
+
+def test_target_tips_are_target_tip_of_each_row() -> None:
+    from rcmplan.control.targets import rcm_targets, target_tip, target_tips
+
+    rng = np.random.default_rng(3)
+    trocar = np.array([0.02, 0.001, -0.002])
+    tips = trocar + rng.uniform(-5e-3, 5e-3, (40, 3)) + [0.01, 0.0, 0.0]
+    targets = rcm_targets(tips, trocar)
+    got = target_tips(targets)
+    assert np.array_equal(got, np.array([target_tip(t) for t in targets]))
+    assert np.allclose(got, tips, rtol=0.0, atol=1e-12)
+    curved = np.hstack([tips, rng.uniform(-1.0, 1.0, (40, 4))])
+    assert np.array_equal(target_tips(curved), tips)
+
+
+def test_target_tips_name_the_first_target_whose_axis_fixes_no_tip() -> None:
+    from rcmplan.control.targets import target_tips
+
+    targets = np.tile([0.03, 0.1, 0.05, 0.02, 0.0, 0.0], (4, 1))
+    targets[2, 1:3] = [np.pi / 2, 0.0]  # axis along z: x_tip does not fix the tip
+    with pytest.raises(UnreachableTargetError, match="target 2: needle axis perpendicular"):
+        target_tips(targets)
+
+
+def test_a_jump_between_two_targets_is_refused_naming_them(robot: Iramis) -> None:
+    eye = default_eye(robot)
+    pts = default_points(eye)
+    path = line_targets(pts.p3, pts.p4, eye.port, Steps())
+    jumped = np.vstack([path[:3], path[-1:]])  # target 2 to 3: the rest of the way at once
+    ctl = Controller(KinematicPlant(robot), PinvSolver())
+    ctl.plant.reset(robot.actuators_from_joints(solve_pose(robot, path[0]).q))
+    with pytest.raises(InvalidInputError, match=r"mm jump from target 2 to 3"):
+        ctl.run_phase(Phase("jumped", jumped))

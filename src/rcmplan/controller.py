@@ -31,7 +31,7 @@ from rcmplan.control.plant import Plant
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.control.runner import Runner, registered_default
 from rcmplan.control.solvers import Solver, TipSolver
-from rcmplan.control.targets import solve_pose, target_tip
+from rcmplan.control.targets import solve_pose, target_tip, target_tips
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmBoundError, RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import closest_lambda, closest_point
@@ -198,7 +198,7 @@ class Controller:
         bound = self.settings.max_target_step
         if bound is None:
             return
-        tips = np.array([target_tip(t) for t in targets])
+        tips = target_tips(targets)
         jumps = np.linalg.norm(np.diff(np.vstack([self.robot.tip(q), tips]), axis=0), axis=1)
         k = int(np.argmax(jumps))
         if jumps[k] > bound:

@@ -25,7 +25,7 @@ from rcmplan.exceptions import (
 )
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import axis_from_angles, x_ext_tip
+from rcmplan.robot.needle import axis_from_angles, x_ext_tip, x_ext_tips
 
 
 def checked_target(
@@ -135,6 +135,22 @@ def target_tip(target: FloatArray, kind: str = "rcm") -> FloatArray:
     if kind == "free" or target.shape[0] == 7:
         return np.asarray(target[:3], dtype=float)
     return tip_of_target(target)
+
+
+def target_tips(targets: FloatArray) -> FloatArray:
+    """`target_tip` of each row of an RCM phase's targets (N, 6) or a curved needle's (N, 7),
+    in one compiled call: the tip points (N, 3) [m]. Raises UnreachableTargetError as
+    tip_of_target does, naming the first such target."""
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    if targets.shape[1] == 7:
+        return targets[:, :3].copy()
+    tips = np.empty((targets.shape[0], 3))
+    k = x_ext_tips(targets, tips)
+    if k >= 0:
+        raise UnreachableTargetError(
+            f"target {k}: needle axis perpendicular to x: tip x does not fix the tip", targets[k]
+        )
+    return tips
 
 
 def solve_pose(robot: RobotModel, x_ext: FloatArray, seed: FloatArray | None = None) -> Pose:

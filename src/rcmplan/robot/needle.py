@@ -127,6 +127,17 @@ def x_ext_tip(x: FloatArray, a: FloatArray, tip: FloatArray) -> bool:
     return True
 
 
+@njit(cache=True)
+def x_ext_tips(X: FloatArray, tips: FloatArray) -> int:
+    """x_ext_tip of each row of X (N, 6) into the rows of tips (N, 3); returns the first row
+    whose axis is perpendicular to x (its tip left unset), or -1 when every row has a tip."""
+    a = np.empty(3)
+    for k in range(X.shape[0]):
+        if not x_ext_tip(X[k], a, tips[k]):
+            return k
+    return -1
+
+
 def angles_jacobian(axis: FloatArray, J_omega: FloatArray) -> FloatArray:
     """d(phi, psi)/d theta (2, k) from the unit axis a and its angular Jacobian (3, k).
 
