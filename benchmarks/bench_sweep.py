@@ -2,6 +2,7 @@
 
     python benchmarks/bench_sweep.py                 # the full figures (minutes on 2 cores)
     python benchmarks/bench_sweep.py --targets 1000  # a shorter local sweep
+    python benchmarks/bench_sweep.py --per-worker 0  # the local sweep alone, no Dask scaling
     python benchmarks/run.py --quick --only bench_sweep   # quick: 1,000 targets, 40 per worker
 
 Figures:
@@ -121,7 +122,8 @@ def rows(n_reachable: int | None = None, per_worker: int | None = None) -> list[
         row("load average (1 min) before the local sweep", load0, ""),
         row("load average (1 min) after the local sweep", load, ""),
     ]
-    return out + scaling_rows(per_worker or (150 if quick() else 2500))
+    per = (150 if quick() else 2500) if per_worker is None else per_worker
+    return out + (scaling_rows(per) if per > 0 else [])
 
 
 if __name__ == "__main__":
@@ -129,6 +131,8 @@ if __name__ == "__main__":
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--targets", type=int, help="reachable targets of the local sweep (10000)")
-    ap.add_argument("--per-worker", type=int, help="targets per worker of the scaling (2500)")
+    ap.add_argument(
+        "--per-worker", type=int, help="targets per worker of the scaling (2500; 0: no scaling)"
+    )
     a = ap.parse_args()
     print_table(rows(a.targets, a.per_worker))
