@@ -39,8 +39,11 @@ class UnboundedSteps(MotionSettings):
         return replace(super().loop(), rcm_tolerance=None)
 
 
-def main(n: int, bounded: bool) -> None:
-    """Print the figures for n targets."""
+def main(n: int | None = None, bounded: bool = True) -> None:
+    """Print the figures for n targets (400; 100 under `run.py --quick`, whose environment
+    variable is read here rather than through _common, which a 2026-11-22 checkout lacks)."""
+    if n is None:
+        n = 100 if os.environ.get("RCMPLAN_BENCH_QUICK") == "1" else 400
     motion = MotionSettings() if bounded else UnboundedSteps()
     settings = SweepSettings(Region(n_targets=math.ceil(n / 0.62)), motion)
     sample = sample_region(settings.region, settings.motion)
@@ -68,7 +71,7 @@ def main(n: int, bounded: bool) -> None:
 
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--targets", type=int, default=400, help="targets run (400)")
+    ap.add_argument("--targets", type=int, help="targets run (400)")
     ap.add_argument("--no-step-bound", action="store_true", help="rcm_tolerance=None")
     a = ap.parse_args()
     main(a.targets, not a.no_step_bound)
