@@ -67,8 +67,7 @@ def compile_kernels() -> None:
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
     compile_arm_kernels()
     compile_curved_kernels()
-    if importlib.util.find_spec("daqp") is not None:
-        _compile_qp_loop(robot, trocar)
+    _compile_qp_loop(robot, trocar)
     if importlib.util.find_spec("mujoco") is not None:
         _compile_mujoco_loop(robot, jobs)
 
@@ -99,8 +98,7 @@ def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -
         ctl = Controller(plant, solver, settings=LoopSettings(max_iterations=1000))
         ctl.lam = 1.0 - 8e-3 / robot.params.l6
         loop.run_phase_on_mujoco(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0)
-    if importlib.util.find_spec("daqp") is not None:
-        _compile_qp_mujoco_loop(robot, jobs[0][1])
+    _compile_qp_mujoco_loop(robot, jobs[0][1])
 
 
 def _compile_qp_mujoco_loop(robot: Iramis, targets: FloatArray) -> None:
@@ -148,8 +146,7 @@ def compile_arm_kernels() -> None:
             ctl = Controller(KinematicPlant(arm), solver)
             ctl.lam = 0.5
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
-    if importlib.util.find_spec("daqp") is not None:
-        _compile_arm_qp(arm, rcm[0])
+    _compile_arm_qp(arm, rcm[0])
 
 
 def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:

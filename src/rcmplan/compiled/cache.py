@@ -59,9 +59,7 @@ def arm_loop() -> ModuleType:
 
 
 def arm_qp_kernels() -> ModuleType:
-    """The QP step's kernels for a serial arm (`arm_qp_kernels`); MissingExtraError without
-    DAQP."""
-    require_extra("daqp", "qp")
+    """The QP step's kernels for a serial arm (`arm_qp_kernels`)."""
     return _load("arm_qp_kernels")
 
 
@@ -71,18 +69,13 @@ def loop_kernels() -> ModuleType:
 
 
 def qp_kernels() -> ModuleType:
-    """The QP step's kernels (`qp_kernels`: assembly and DAQP's C solve); MissingExtraError
-    without DAQP."""
-    require_extra("daqp", "qp")
+    """The QP step's kernels (`qp_kernels`: assembly and DAQP's C solve)."""
     return _load("qp_kernels")
 
 
 def daqp_callable() -> bool:
     """True if DAQP's C solver can be called from compiled code here (`daqp_c.abi_ok`: False
-    for a DAQP version whose structures are not the ones copied, or no DAQP at all: the QP then
-    raises MissingExtraError at its first solve); checked once per process."""
-    if importlib.util.find_spec("daqp") is None:
-        return False
+    for a DAQP version whose structures are not the ones copied); checked once per process."""
     if _state["daqp_abi"] is None:
         _state["daqp_abi"] = _load("daqp_c").abi_ok()
     return bool(_state["daqp_abi"])
@@ -109,9 +102,8 @@ def closed_loop() -> ModuleType:
 
 def qp_mujoco_loop() -> ModuleType:
     """The compiled QP loop around the dynamic MuJoCo plant (`qp_mujoco_loop`); needs MuJoCo
-    and DAQP (MissingExtraError naming the extra otherwise)."""
+    (MissingExtraError naming the `sim` extra otherwise)."""
     require_extra("mujoco", "sim")
-    require_extra("daqp", "qp")
     return _load("qp_mujoco_loop")
 
 

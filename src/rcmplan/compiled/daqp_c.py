@@ -30,7 +30,7 @@ import numpy as np
 from numba import njit, types
 
 from rcmplan._validate import FloatArray
-from rcmplan.exceptions import QPError, require_extra
+from rcmplan.exceptions import QPError
 
 ABI_VERSIONS = ("0.11.0",)  # DAQP versions whose headers the structures below copy
 SYMBOL = "rcmplan_daqp_quadprog"
@@ -118,7 +118,8 @@ R_FVAL = _index(DAQPResult, "fval", 8)
 
 def _library() -> ctypes.CDLL:
     """The DAQP extension module as a C library (already loaded by `import daqp`)."""
-    daqp = require_extra("daqp", "qp")
+    import daqp  # a core dependency
+
     return ctypes.CDLL(daqp.__file__)
 
 

@@ -73,7 +73,8 @@ def daqp_arrays(p: QPProblem) -> tuple[FloatArray, FloatArray, FloatArray, Any]:
 
 def solve_daqp(problem: QPProblem) -> QpResult:
     """DAQP (dual active set) through its own API."""
-    daqp = require_extra("daqp", "qp")
+    import daqp  # a core dependency
+
     A, upper, lower, sense = daqp_arrays(problem)
     x, fval, flag, info = daqp.solve(problem.P, problem.q, A, upper, lower, sense)
     if flag != 1:
