@@ -43,11 +43,13 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.subretinal.aliasing import EPS_HZ, band_rates, folded_band
 from rcmplan.subretinal.motion import BREATHING_BAND_HZ, CARDIAC_BAND_HZ
 from rcmplan.subretinal.predict import Predictor, sinusoid_fit
 
 H = np.array([1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0])
 GRID = 64  # candidate rates per band in the acquisition periodogram
+SEPARATION = 0.5  # a folded harmonic is modelled when `separable` by this much
 
 
 def band_search(t: FloatArray, y: FloatArray, band_hz: tuple[float, float]) -> float:
@@ -105,6 +107,10 @@ class KalmanPredictor(Predictor):
         self.P = np.zeros((7, 7))
         self._q = np.zeros(7)
         self._r2 = self.r2
+        self._fs_hz = 0.0
+        self._folded = [False, False]
+        self._active = [True, True]
+        self._rate_bands = list(bands_hz)
         self._nis = 1.0
         self.acquisitions = 0
 
@@ -124,18 +130,31 @@ class KalmanPredictor(Predictor):
         if self.x is not None:
             self._step(t - self.t_last_s)
             self._correct(value)
-        if (self.x is None or self._nis > self.reacquire_nis) and t - self._t[0] >= self.acquire_s:
+        lost = self.x is None or self._nis > self.reacquire_nis or self._confounded()
+        if lost and t - self._t[0] >= self.acquire_s:
             self._acquire(np.array(self._t) - t, np.array(self._y))
 
     def _acquire(self, t: FloatArray, y: FloatArray) -> None:
         """Start the filter at t = 0 (the newest sample) from a periodogram (docstring)."""
-        fs = 1.0 / float(np.median(np.diff(t)))
-        active = [_one_zone(band, fs) for band in self.bands_hz]
-        freqs = [0.5 * (lo + hi) for lo, hi in self.bands_hz]
-        for k in [0, 1, 0] if all(active) else [k for k in range(2) if active[k]]:
-            other = [f for i, f in enumerate(freqs) if i != k and active[i]]
-            rest = y - _harmonics(t, y, other) if other else y
-            freqs[k] = band_search(t, rest, self.bands_hz[k])
+        self._fs_hz = fs = 1.0 / float(np.median(np.diff(t)))
+        self._folded = [band[1] > 0.5 * fs + EPS_HZ for band in self.bands_hz]
+        self._rate_bands = [folded_band(b, fs) if f else b
+                            for b, f in zip(self.bands_hz, self._folded, strict=True)]  # fmt: skip
+        if any(self._folded):  # folded bands may overlap: search the pairs of rates
+            freqs = pair_search(t, y, self._rate_bands)
+        else:
+            freqs = [0.5 * (lo + hi) for lo, hi in self._rate_bands]
+            for k in [0, 1, 0]:
+                rest = y - _harmonics(t, y, [freqs[1 - k]])
+                freqs[k] = band_search(t, rest, self._rate_bands[k])
+        self._active = active = [
+            not self._folded[k]
+            or (separable(t, freqs[k], [freqs[1 - k]]) and not self._near(freqs[k], freqs[1 - k]))
+            for k in range(2)
+        ]
+        for k in range(2):  # a harmonic left out: search the other's rate alone
+            if not active[1 - k] and active[k]:
+                freqs[k] = band_search(t, y, self._rate_bands[k])
         fitted = [f for f, a in zip(freqs, active, strict=True) if a]
         coef, resid = sinusoid_fit(t, y, np.array(fitted))
         phasors, i = np.zeros(4), 1
@@ -148,10 +167,24 @@ class KalmanPredictor(Predictor):
         self._nis = 1.0
         self.acquisitions += 1
 
+    def _near(self, f_hz: float, other_hz: float) -> bool:
+        """Whether the folded rate f_hz [Hz] lies within 1 / acquire_s of the other harmonic's
+        rate, of 0 or of fs / 2, where the samples cannot tell it apart over an acquisition."""
+        gap = 1.0 / self.acquire_s
+        return min(abs(f_hz - other_hz), f_hz, 0.5 * self._fs_hz - f_hz) < gap
+
+    def _confounded(self) -> bool:
+        """Whether a folded, modelled harmonic's tracked rate drifted `_near` the other's."""
+        if self.x is None:
+            return False
+        f_hz = self.x[5:7] / (2 * np.pi)
+        return any(self._folded[k] and self._active[k] and self._near(f_hz[k], f_hz[1 - k])
+                   for k in range(2))  # fmt: skip
+
     def _initial_covariance(self, amps: FloatArray, active: list[bool], resid: FloatArray) -> None:
         """P, process noise and r^2 at acquisition; an inactive harmonic stays at 0."""
         mids = np.array([0.5 * (lo + hi) for lo, hi in self.bands_hz])
-        widths = np.array([hi - lo for lo, hi in self.bands_hz])
+        widths = np.array([hi - lo for lo, hi in self._rate_bands])
         on = np.array(active, dtype=float)
         q_a = self.amplitude_walk * amps * on
         q_w = self.frequency_walk * 2 * np.pi * mids * on
@@ -187,7 +220,7 @@ class KalmanPredictor(Predictor):
         self.x = self.x + gain * innovation
         self.P = self.P - np.outer(gain, ph)
         self.P = 0.5 * (self.P + self.P.T)
-        for k, (lo, hi) in enumerate(self.bands_hz):
+        for k, (lo, hi) in enumerate(self._rate_bands):
             self.x[5 + k] = min(max(self.x[5 + k], 2 * np.pi * lo), 2 * np.pi * hi)
 
     def _predict(self, t: FloatArray) -> FloatArray:
@@ -196,18 +229,49 @@ class KalmanPredictor(Predictor):
         dt = t - self.t_last_s
         out = np.full(t.shape, self.x[4])
         for k in range(2):
-            c, s, w = self.x[2 * k], self.x[2 * k + 1], self.x[5 + k]
-            out += c * np.cos(w * dt) - s * np.sin(w * dt)
+            c, s = self.x[2 * k], self.x[2 * k + 1]
+            rates = self._rates(k)
+            for f_hz, turn in rates:  # the mean over the rates the samples allow
+                w = 2 * np.pi * f_hz
+                out += (c * np.cos(w * dt) - turn * s * np.sin(w * dt)) / len(rates)
         return out
+
+    def _rates(self, k: int) -> list[tuple[float, int]]:
+        """Harmonic k's rates [Hz] with their turns (`aliasing.band_rates`): its tracked rate
+        (+1) unless its band is folded."""
+        assert self.x is not None
+        f_hz = float(self.x[5 + k] / (2 * np.pi))
+        if not self._folded[k]:
+            return [(f_hz, 1)]
+        return band_rates(f_hz, self.bands_hz[k], self._fs_hz) or [(f_hz, 1)]
+
+
+def pair_search(t: FloatArray, y: FloatArray, bands_hz: list[tuple[float, float]]) -> list[float]:
+    """The pair of rates [Hz], one per band, whose least-squares sinusoids (with offset) leave
+    the smallest residual on y(t): a `GRID` x `GRID` search."""
+    grids = [np.linspace(lo, hi, GRID) for lo, hi in bands_hz]
+    fa, fb = (g.reshape(-1) for g in np.meshgrid(*grids, indexing="ij"))
+    wa, wb = 2 * np.pi * fa[:, None] * t, 2 * np.pi * fb[:, None] * t
+    a = np.stack([np.ones_like(wa), np.cos(wa), np.sin(wa), np.cos(wb), np.sin(wb)], axis=-1)
+    coef = np.linalg.pinv(a) @ y
+    resid = np.sum((y - np.einsum("gnc,gc->gn", a, coef)) ** 2, axis=1)
+    best = int(np.argmin(resid))
+    return [float(fa[best]), float(fb[best])]
+
+
+def separable(t: FloatArray, f_hz: float, others_hz: list[float], floor: float = SEPARATION) -> bool:
+    """Whether a sinusoid at f_hz [Hz] sampled at t [s] can be told from an offset and
+    sinusoids at `others_hz`: the smallest singular value of its cosine and sine columns,
+    less their least-squares fit by the others' columns, is at least `floor` of sqrt(n / 2),
+    the norm of one sampled unit sinusoid (1: orthogonal; 0: collinear)."""
+    cols = [np.ones_like(t)] + [g(2 * np.pi * f * t) for f in others_hz for g in (np.cos, np.sin)]
+    a = np.column_stack(cols)
+    c = np.column_stack([np.cos(2 * np.pi * f_hz * t), np.sin(2 * np.pi * f_hz * t)])
+    rest = c - a @ np.linalg.lstsq(a, c, rcond=None)[0]
+    return bool(np.linalg.svd(rest, compute_uv=False)[-1] >= floor * math.sqrt(0.5 * t.size))
 
 
 def _harmonics(t: FloatArray, y: FloatArray, freqs: list[float]) -> FloatArray:
     """The least-squares sinusoids at `freqs` [Hz] in y(t), without their offset."""
     coef, resid = sinusoid_fit(t, y, np.array(freqs))
     return y - resid - coef[0]
-
-
-def _one_zone(band_hz: tuple[float, float], fs_hz: float) -> bool:
-    """True when the band lies inside one Nyquist zone of the sampling rate fs_hz."""
-    half = 0.5 * fs_hz
-    return band_hz[1] <= (math.floor(band_hz[0] / half) + 1) * half + 1e-12
