@@ -43,21 +43,12 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.subretinal.acquisition import band_search, harmonics, pair_search, separable
 from rcmplan.subretinal.aliasing import EPS_HZ, band_rates, folded_band
 from rcmplan.subretinal.motion import BREATHING_BAND_HZ, CARDIAC_BAND_HZ
 from rcmplan.subretinal.predict import Predictor, sinusoid_fit
 
 H = np.array([1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0])
-GRID = 64  # candidate rates per band in the acquisition periodogram
-SEPARATION = 0.5  # a folded harmonic is modelled when `separable` by this much
-
-
-def band_search(t: FloatArray, y: FloatArray, band_hz: tuple[float, float]) -> float:
-    """The rate [Hz] in `band_hz` whose least-squares sinusoid (with offset) leaves the
-    smallest residual on y(t)."""
-    freqs = np.linspace(band_hz[0], band_hz[1], GRID)
-    best = min(freqs, key=lambda f: float(np.sum(sinusoid_fit(t, y, np.array([f]))[1] ** 2)))
-    return float(best)
 
 
 class KalmanPredictor(Predictor):
@@ -145,7 +136,7 @@ class KalmanPredictor(Predictor):
         else:
             freqs = [0.5 * (lo + hi) for lo, hi in self._rate_bands]
             for k in [0, 1, 0]:
-                rest = y - _harmonics(t, y, [freqs[1 - k]])
+                rest = y - harmonics(t, y, [freqs[1 - k]])
                 freqs[k] = band_search(t, rest, self._rate_bands[k])
         self._active = active = [
             not self._folded[k]
@@ -244,34 +235,3 @@ class KalmanPredictor(Predictor):
         if not self._folded[k]:
             return [(f_hz, 1)]
         return band_rates(f_hz, self.bands_hz[k], self._fs_hz) or [(f_hz, 1)]
-
-
-def pair_search(t: FloatArray, y: FloatArray, bands_hz: list[tuple[float, float]]) -> list[float]:
-    """The pair of rates [Hz], one per band, whose least-squares sinusoids (with offset) leave
-    the smallest residual on y(t): a `GRID` x `GRID` search."""
-    grids = [np.linspace(lo, hi, GRID) for lo, hi in bands_hz]
-    fa, fb = (g.reshape(-1) for g in np.meshgrid(*grids, indexing="ij"))
-    wa, wb = 2 * np.pi * fa[:, None] * t, 2 * np.pi * fb[:, None] * t
-    a = np.stack([np.ones_like(wa), np.cos(wa), np.sin(wa), np.cos(wb), np.sin(wb)], axis=-1)
-    coef = np.linalg.pinv(a) @ y
-    resid = np.sum((y - np.einsum("gnc,gc->gn", a, coef)) ** 2, axis=1)
-    best = int(np.argmin(resid))
-    return [float(fa[best]), float(fb[best])]
-
-
-def separable(t: FloatArray, f_hz: float, others_hz: list[float], floor: float = SEPARATION) -> bool:
-    """Whether a sinusoid at f_hz [Hz] sampled at t [s] can be told from an offset and
-    sinusoids at `others_hz`: the smallest singular value of its cosine and sine columns,
-    less their least-squares fit by the others' columns, is at least `floor` of sqrt(n / 2),
-    the norm of one sampled unit sinusoid (1: orthogonal; 0: collinear)."""
-    cols = [np.ones_like(t)] + [g(2 * np.pi * f * t) for f in others_hz for g in (np.cos, np.sin)]
-    a = np.column_stack(cols)
-    c = np.column_stack([np.cos(2 * np.pi * f_hz * t), np.sin(2 * np.pi * f_hz * t)])
-    rest = c - a @ np.linalg.lstsq(a, c, rcond=None)[0]
-    return bool(np.linalg.svd(rest, compute_uv=False)[-1] >= floor * math.sqrt(0.5 * t.size))
-
-
-def _harmonics(t: FloatArray, y: FloatArray, freqs: list[float]) -> FloatArray:
-    """The least-squares sinusoids at `freqs` [Hz] in y(t), without their offset."""
-    coef, resid = sinusoid_fit(t, y, np.array(freqs))
-    return y - resid - coef[0]
