@@ -39,11 +39,13 @@ def folded_band(band_hz: BandHz, fs_hz: float) -> BandHz:
     return min(folded), max(folded)
 
 
-def band_rates(folded_hz: float, band_hz: BandHz, fs_hz: float) -> list[tuple[float, int]]:
-    """The rates [Hz] of the band that fold onto `folded_hz` at fs_hz, each with its turn: +1
-    when it is folded_hz + m fs (the phasor turns the same way), -1 when it is m fs - folded_hz
-    (the other way). Rates within 1e-9 Hz of the band count as inside it."""
-    lo, hi = band_hz
+def band_rates(
+    folded_hz: float, band_hz: BandHz, fs_hz: float, margin_hz: float = 0.0
+) -> list[tuple[float, int]]:
+    """The rates [Hz] of the band, widened by `margin_hz` [Hz] on each side, that fold onto
+    `folded_hz` at fs_hz, each with its turn: +1 when it is folded_hz + m fs (the phasor turns
+    the same way), -1 when it is m fs - folded_hz (the other way)."""
+    lo, hi = band_hz[0] - margin_hz, band_hz[1] + margin_hz
     out: list[tuple[float, int]] = []
     for m in range(math.floor((lo - folded_hz) / fs_hz), math.ceil((hi + folded_hz) / fs_hz) + 1):
         for turn in (1, -1):

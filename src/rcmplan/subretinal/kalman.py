@@ -49,6 +49,7 @@ from rcmplan.subretinal.motion import BREATHING_BAND_HZ, CARDIAC_BAND_HZ
 from rcmplan.subretinal.predict import Predictor, sinusoid_fit
 
 H = np.array([1.0, 0.0, 1.0, 0.0, 1.0, 0.0, 0.0])
+SQRT2 = math.sqrt(2.0)
 
 
 class KalmanPredictor(Predictor):
@@ -62,6 +63,10 @@ class KalmanPredictor(Predictor):
         offset_walk_m: Offset random walk [m per sqrt(s)].
         acquire_s: Span of estimates [s] the acquisition periodogram waits for.
         reacquire_nis: Mean normalised innovation squared that restarts the filter.
+        heart_rate_hz: A heart rate read elsewhere (the anaesthesia monitor) [Hz], or None;
+            it weighs the cardiac band's rates that fold alike (module docstring).
+        heart_rate_std_hz: The reading's error as a description of the current heart rate,
+            one standard deviation [Hz].
     """
 
     name = "kalman"
@@ -78,6 +83,8 @@ class KalmanPredictor(Predictor):
         offset_walk_m: float = 1e-6,
         acquire_s: float = 8.0,
         reacquire_nis: float = 4.0,
+        heart_rate_hz: float | None = None,
+        heart_rate_std_hz: float = 0.1,
     ) -> None:
         super().__init__()
         for k, (lo, hi) in enumerate(bands_hz):
@@ -92,6 +99,10 @@ class KalmanPredictor(Predictor):
         self.offset_walk_m = scalar("offset_walk_m", offset_walk_m, 0.0, 1e-3)
         self.acquire_s = scalar("acquire_s", acquire_s, 0.5, 600.0)
         self.reacquire_nis = scalar("reacquire_nis", reacquire_nis, 1.0, 1e6)
+        if heart_rate_hz is not None:
+            scalar("heart_rate_hz", heart_rate_hz, *bands_hz[1])
+        self.heart_rate_hz = heart_rate_hz
+        self.heart_rate_std_hz = scalar("heart_rate_std_hz", heart_rate_std_hz, 1e-3, 10.0)
         self._t: deque[float] = deque()
         self._y: deque[float] = deque()
         self.x: FloatArray | None = None
@@ -107,10 +118,19 @@ class KalmanPredictor(Predictor):
 
     @property
     def rates_hz(self) -> tuple[float, float] | None:
-        """The tracked (breathing, cardiac) rates [Hz], or None before acquisition."""
+        """The tracked (breathing, cardiac) rates [Hz], or None before acquisition; a folded
+        harmonic's is its folded rate (`aliasing`)."""
         if self.x is None:
             return None
         return float(self.x[5] / (2 * np.pi)), float(self.x[6] / (2 * np.pi))
+
+    @property
+    def rate_hypotheses_hz(self) -> list[list[float]]:
+        """Per harmonic, the rates of its band [Hz] its prediction weighs (one unless its band
+        is folded); none for a harmonic left out or before acquisition."""
+        if self.x is None:
+            return [[], []]
+        return [[f for f, _ in self._rates(k)] if self._active[k] else [] for k in range(2)]
 
     def _update(self, t: float, value: float) -> None:
         self._t.append(t)
@@ -222,10 +242,30 @@ class KalmanPredictor(Predictor):
         for k in range(2):
             c, s = self.x[2 * k], self.x[2 * k + 1]
             rates = self._rates(k)
-            for f_hz, turn in rates:  # the mean over the rates the samples allow
+            for (f_hz, turn), weight in zip(rates, self._weights(k, rates), strict=True):
                 w = 2 * np.pi * f_hz
-                out += (c * np.cos(w * dt) - turn * s * np.sin(w * dt)) / len(rates)
+                out += weight * (c * np.cos(w * dt) - turn * s * np.sin(w * dt))
         return out
+
+    def _weights(self, k: int, rates: list[tuple[float, int]]) -> FloatArray:
+        """Weights of harmonic k's rates (summing to 1): the probability that each lies in the
+        band given the tracked rate's standard deviation, times for the cardiac harmonic the
+        likelihood of a heart-rate reading if there is one (module docstring)."""
+        if len(rates) == 1:
+            return np.ones(1)
+        f_hz, sd = np.array([f for f, _ in rates]), self._rate_sd_hz(k)
+        lo, hi = self.bands_hz[k]
+        w = np.array([0.5 * (math.erf((f - lo) / sd / SQRT2) - math.erf((f - hi) / sd / SQRT2))
+                      for f in f_hz])  # fmt: skip
+        if k == 1 and self.heart_rate_hz is not None:
+            z = (f_hz - self.heart_rate_hz) / self.heart_rate_std_hz
+            w = w * np.exp(-0.5 * (z * z - np.min(z * z)))
+        total = float(w.sum())
+        return w / total if total > 0 else np.full(len(rates), 1.0 / len(rates))
+
+    def _rate_sd_hz(self, k: int) -> float:
+        """The standard deviation [Hz] of harmonic k's tracked rate (at least 1 mHz)."""
+        return max(math.sqrt(max(float(self.P[5 + k, 5 + k]), 0.0)) / (2 * np.pi), 1e-3)
 
     def _rates(self, k: int) -> list[tuple[float, int]]:
         """Harmonic k's rates [Hz] with their turns (`aliasing.band_rates`): its tracked rate
@@ -234,4 +274,5 @@ class KalmanPredictor(Predictor):
         f_hz = float(self.x[5 + k] / (2 * np.pi))
         if not self._folded[k]:
             return [(f_hz, 1)]
-        return band_rates(f_hz, self.bands_hz[k], self._fs_hz) or [(f_hz, 1)]
+        margin = 3.0 * self._rate_sd_hz(k)
+        return band_rates(f_hz, self.bands_hz[k], self._fs_hz, margin) or [(f_hz, 1)]
