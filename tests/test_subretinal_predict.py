@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.subretinal.aliasing import band_rates, fold_hz, folded_band
+from rcmplan.subretinal.episode_settings import EpisodeSettings
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.kalman import KalmanPredictor
+from rcmplan.subretinal.monitor import heart_rate_input
 from rcmplan.subretinal.motion import MotionModel, sample_motion
 from rcmplan.subretinal.predictors import PREDICTORS, make_predictor
 from rcmplan.subretinal.trace import noisy_trace, prediction_errors, rms
@@ -143,3 +147,28 @@ def test_two_rates_that_fold_alike_are_weighed_equally_without_a_heart_rate() ->
     assert sorted(model.rate_hypotheses_hz[1]) == [pytest.approx(1.2, abs=2e-3),
                                                    pytest.approx(1.8, abs=2e-3)]  # fmt: skip
     assert 4e-6 < rms(errors) < 6e-6
+
+
+def test_a_heart_rate_reading_picks_the_rate_among_those_that_fold_alike() -> None:
+    # The same 3 Hz samples as above: a reading of 1.2 Hz, 3 bpm off, leaves the 1.8 Hz rate a
+    # negligible weight and the 10 um harmonic is predicted between volumes.
+    _, errors = clean_errors(3.0, 1.2, heart_rate_hz=1.25, heart_rate_std_hz=0.05)
+    assert rms(errors) < 0.5e-6
+    with pytest.raises(InvalidInputError, match="heart_rate_hz"):
+        KalmanPredictor(heart_rate_hz=2.5)  # outside the cardiac band
+
+
+def test_the_monitor_reading_is_given_to_kalman_only_when_asked_and_is_seeded() -> None:
+    motion = MotionModel()
+    base = EpisodeSettings(cardiac_rate_hz=1.4, seed=3)
+    assert heart_rate_input(base, motion) == {}
+    cfg = replace(base, heart_rate_sd_hz=0.05)
+    assert heart_rate_input(replace(cfg, compensation="fft"), motion) == {}
+    got = heart_rate_input(cfg, motion)
+    assert got == heart_rate_input(cfg, motion)  # the episode's seed fixes it
+    assert got["heart_rate_hz"] != 1.4 and abs(got["heart_rate_hz"] - 1.4) < 0.25
+    assert got["heart_rate_std_hz"] == pytest.approx(np.hypot(0.05, 0.05 * got["heart_rate_hz"]))
+    exact = heart_rate_input(replace(base, heart_rate_sd_hz=0.0), motion)
+    assert exact["heart_rate_hz"] == 1.4
+    with pytest.raises(InvalidInputError, match="heart_rate_sd_hz"):
+        EpisodeSettings(heart_rate_sd_hz=-0.01)

@@ -17,11 +17,25 @@ Acquisition. The filter needs each harmonic's rate, amplitude and phase to start
 the estimates span `acquire_s`, a least-squares periodogram over each band (breathing first,
 then cardiac on the residual, then breathing again on what the cardiac fit leaves) gives them;
 the filter starts at the newest sample. Before that, the predictor holds the newest estimate.
-Because the rates are searched inside their physiological bands, a rate above the Nyquist
-frequency is still found if its band lies inside one Nyquist zone [m fs/2, (m + 1) fs/2] of
-the sampling rate fs. A harmonic whose band straddles a zone edge cannot be told from its
-aliases (at fs = 1.6 Hz the cardiac band 1-2 Hz holds fs itself, which aliases to a constant):
-it is left out of the model, and what it leaves in the acquisition residual is added to r^2.
+
+Folded bands (`aliasing.py`). A band above half the sampling rate fs (the cardiac band 1-2 Hz
+below 4 volumes/s) is searched and tracked at its folded rate, the one in [0, fs/2] that the
+samples show; both rates are then searched at once (`acquisition.pair_search`), since a folded
+band may overlap the other. The samples fit the folded phasor exactly; between them the
+prediction turns it at each rate of the band that folds onto the tracked rate (one, or two when
+the band straddles a zone edge: at 3 Hz, 1.2 and 1.8 Hz give the same samples), the turn
+reversed for a mirrored rate, weighted by the probability that the rate lies in the band (the
+tracked rate's standard deviation widening the band by 3 of them), times, for the cardiac
+harmonic, the likelihood of a heart-rate reading when one is given (`heart_rate_hz`, e.g. from
+the anaesthesia monitor, `monitor.py`). Two equally likely rates give the mean of their
+predictions: half their difference in error, A / 2 RMS for an amplitude A, against A / sqrt(2)
+for leaving the harmonic out. A folded harmonic that the samples cannot tell from the offset or
+the other harmonic is left out, and what it leaves in the acquisition residual is added to r^2:
+when its cosine and sine columns, less their fit by the others', keep less than half a unit
+sinusoid's norm (`acquisition.separable`), or its folded rate lies within 1 / `acquire_s`
+(the periodogram's resolution) of the other's, of 0 (at fs = 1.6 Hz a heart rate of 1.6 Hz
+shows as a constant) or of fs/2 (where the samples alternate and show one component of the
+phasor). A tracked folded rate that drifts that close restarts the filter.
 
 Divergence. The normalised innovation squared, exponentially averaged over about 10 updates
 (weight 0.1), is about 1 for a filter that fits (a mean of 10 chi-square variables with one
