@@ -251,14 +251,24 @@ class KalmanPredictor(Predictor):
     def _predict(self, t: FloatArray) -> FloatArray:
         if self.x is None:
             return super()._predict(t)
+        parts = self.components(t)
+        return np.asarray(parts[..., 2] + parts[..., 0] + parts[..., 1])
+
+    def components(self, t_s: float | FloatArray) -> FloatArray:
+        """The prediction's parts at times t_s [s], (..., 3): breathing, cardiac and offset [m]
+        (their sum is `predict`); before acquisition 0, 0 and the newest estimate."""
+        t = np.asarray(t_s, dtype=np.float64)
+        out = np.zeros((*t.shape, 3))
+        out[..., 2] = self.last_m if self.x is None else self.x[4]
+        if self.x is None:
+            return out
         dt = t - self.t_last_s
-        out = np.full(t.shape, self.x[4])
         for k in range(2):
             c, s = self.x[2 * k], self.x[2 * k + 1]
             rates = self._rates(k)
             for (f_hz, turn), weight in zip(rates, self._weights(k, rates), strict=True):
                 w = 2 * np.pi * f_hz
-                out += weight * (c * np.cos(w * dt) - turn * s * np.sin(w * dt))
+                out[..., k] += weight * (c * np.cos(w * dt) - turn * s * np.sin(w * dt))
         return out
 
     def _weights(self, k: int, rates: list[tuple[float, int]]) -> FloatArray:
