@@ -172,3 +172,14 @@ def test_the_monitor_reading_is_given_to_kalman_only_when_asked_and_is_seeded() 
     assert exact["heart_rate_hz"] == 1.4
     with pytest.raises(InvalidInputError, match="heart_rate_sd_hz"):
         EpisodeSettings(heart_rate_sd_hz=-0.01)
+
+
+def test_the_kalman_parts_add_up_to_its_prediction() -> None:
+    model = KalmanPredictor()
+    model.update(0.0, 4e-6)
+    np.testing.assert_array_equal(model.components([0.1, 0.2]), [[0, 0, 4e-6], [0, 0, 4e-6]])
+    model, _ = clean_errors(3.0, 1.2)
+    t = model.t_last_s + np.linspace(0.0, 0.5, 11)
+    parts = model.components(t)
+    assert parts.shape == (11, 3) and np.abs(parts[:, 1]).max() > 1e-6
+    np.testing.assert_allclose(parts.sum(axis=1), model.predict(t), rtol=0.0, atol=1e-18)
