@@ -130,7 +130,8 @@ def test_cli_writes_the_summary(tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("option", "value", "named"),
     [("--ioct-rate-hz", "0", "--ioct-rate-hz"), ("--latency-ms", "-5", "--latency-ms"),
-     ("--motion-um", "500", "--motion-um"), ("--hold-s", "0", "--hold-s")],
+     ("--motion-um", "500", "--motion-um"), ("--hold-s", "0", "--hold-s"),
+     ("--heart-rate-sd-bpm", "-3", "--heart-rate-sd-bpm")],
 )  # fmt: skip
 def test_cli_refuses_a_bad_option(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str, value: str, named: str

@@ -44,6 +44,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help=f"iOCT latency, 0-1000 (150{drawn})")  # fmt: skip
     p.add_argument("--motion-um", type=float, default=None,
                    help=f"breathing amplitude 0-200 um, cardiac 0.2 of it (50{drawn})")  # fmt: skip
+    p.add_argument("--heart-rate-sd-bpm", type=float, default=None,
+                   help="give kalman the anaesthesia monitor's heart rate, read with this "
+                   "error (1 sigma), 0-60 bpm (off)")  # fmt: skip
     p.add_argument("--seed", type=int, default=0,
                    help="seed of the motion and noise; --episodes: of the draws (0)")  # fmt: skip
     add_robot(p, "iramis")

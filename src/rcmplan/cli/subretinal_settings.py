@@ -30,6 +30,8 @@ def settings_of(args: argparse.Namespace) -> Any:
     if compensation == "all" and args.episodes is None:
         raise InvalidInputError("--compensation", "all", "one method for one episode; all "
                                 "with --episodes N")  # fmt: skip
+    bpm = args.heart_rate_sd_bpm
+    heart_rate_sd_hz = None if bpm is None else scalar("--heart-rate-sd-bpm", bpm, 0.0, 60.0) / 60
     return EpisodeSettings(
         robot=args.robot,
         plant=args.plant,
@@ -37,6 +39,7 @@ def settings_of(args: argparse.Namespace) -> Any:
         ioct_rate_hz=scalar("--ioct-rate-hz", option(args, "ioct_rate_hz"), 0.5, 200.0),
         latency_s=1e-3 * scalar("--latency-ms", option(args, "latency_ms"), 0.0, 1000.0),
         breathing_m=1e-6 * scalar("--motion-um", option(args, "motion_um"), 0.0, 200.0),
+        heart_rate_sd_hz=heart_rate_sd_hz,
         seed=args.seed,
         hold_s=scalar("--hold-s", args.hold_s, 0.0, 60.0, low_open=True),
         hover_s=scalar("--hover-s", args.hover_s, 0.0, 60.0),

@@ -49,6 +49,7 @@ from rcmplan.subretinal.episode_phases import PHASES, phase_durations, phases_at
 from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, EpisodeSettings
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.layers import RetinaLayers, unit_direction
+from rcmplan.subretinal.monitor import heart_rate_input
 from rcmplan.subretinal.motion import MotionModel, sample_motion
 from rcmplan.subretinal.predictors import make_predictor
 from rcmplan.subretinal.tissue import TissueContact
@@ -103,7 +104,7 @@ class Episode:
         ioct = IoctModel(volume_rate_hz=cfg.ioct_rate_hz, latency_s=cfg.latency_s)
         self.trace = noisy_trace(self.motion, ioct, cfg.noise_std_m, rng, SEGMENTATION_BIAS_M)
         self.arrival_s = self.trace.t_acq_s + cfg.latency_s
-        self.predictor = make_predictor(cfg.compensation)
+        self.predictor = make_predictor(cfg.compensation, **heart_rate_input(cfg, motion))
         bounded = "hold" if cfg.compensation == "none" else cfg.compensation
         self.guard = self.predictor if bounded == cfg.compensation else make_predictor(bounded)
         self._next = 0

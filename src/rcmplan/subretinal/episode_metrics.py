@@ -66,6 +66,7 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
         "latency_s": cfg.latency_s,
         "ioct_estimates": ioct_source(cfg.noise_std_m),
         "noise_std_m": cfg.noise_std_m,
+        "heart_rate_sd_hz": cfg.heart_rate_sd_hz,
         "breathing_amplitude_m": cfg.breathing_m,
         "cardiac_amplitude_m": cfg.cardiac_m,
         "breathing_rate_hz": cfg.breathing_rate_hz,

@@ -37,6 +37,8 @@ class EpisodeSettings:
         cardiac_rate_hz: Nominal heart rate [Hz], in the motion model's band (1-2).
         noise_std_m: Standard deviation of the iOCT estimates' error [m] (its bias is the
             measured `SEGMENTATION_BIAS_M`).
+        heart_rate_sd_hz: Error (1 sigma) [Hz] of the anaesthesia monitor's heart rate given
+            to `kalman` (`monitor.py`); None: no heart rate given.
         seed: Seed of the motion and of the iOCT noise.
         hold_s: Injection time at the target depth [s].
         standoff_m: Hover height above the ILM along the normal [m].
@@ -67,6 +69,7 @@ class EpisodeSettings:
     breathing_rate_hz: float = 0.25
     cardiac_rate_hz: float = 1.5
     noise_std_m: float = SEGMENTATION_STD_M
+    heart_rate_sd_hz: float | None = None
     seed: int = 0
     hold_s: float = 5.0
     standoff_m: float = 100e-6
@@ -100,6 +103,8 @@ class EpisodeSettings:
         scalar("breathing_rate_hz", self.breathing_rate_hz, *BREATHING_BAND_HZ)
         scalar("cardiac_rate_hz", self.cardiac_rate_hz, *CARDIAC_BAND_HZ)
         scalar("noise_std_m", self.noise_std_m, 0.0, 50e-6)
+        if self.heart_rate_sd_hz is not None:
+            scalar("heart_rate_sd_hz", self.heart_rate_sd_hz, 0.0, 1.0)
         if not isinstance(self.seed, int) or not 0 <= self.seed < 2**32:
             raise InvalidInputError("seed", self.seed, "an integer in [0, 2**32)")
         scalar("hold_s", self.hold_s, 0.0, 60.0, low_open=True)
