@@ -108,8 +108,10 @@ class ArmQpStep:
         """Assemble and solve the QP at (q, lambda) for the X_ext target (float64 arrays (n,)
         and (6,)), once per state; DAQP's exit flag (1: optimal, then `e` and `d` hold the
         error and the step)."""
-        servo_command(self.solver, self.qpa)  # with a servo: the plan is its last command
-        key = q.tobytes() + np.float64(lam).tobytes() + target.tobytes() + self.servo.tobytes()
+        key = q.tobytes() + np.float64(lam).tobytes() + target.tobytes()
+        if self.servo.shape[0] > 0:  # with a servo the plan is its last command
+            servo_command(self.solver, self.qpa)
+            key += self.servo.tobytes()
         if key != self._key:
             if self.solver.extra_limits:  # a moving limit's parameters as they are now
                 pack_extras(self.solver, self.Q)
