@@ -160,6 +160,26 @@ def test_the_qps_limited_free_step_holds_joint_speed_with_the_reference_log(
     assert np.sum(np.isclose(moves, bound, rtol=1e-9)) > 10  # the speed bound holds the steps
 
 
+def test_the_qps_limited_free_step_holds_a_tip_speed_with_the_reference_log(
+    ur5: SerialArm,
+) -> None:
+    """With a tip speed bound (`LimitedTipSolver(tip_speed=...)`) the arm loop also scales each
+    step to hold the tip's first-order move per axis within tip speed x dt."""
+    phase, _ = injection_phase(ur5, "approach")
+    limited = LimitedTipSolver(tip_speed=2e-3)
+    logs = []
+    for mode in ("off", "on"):
+        use_path(mode)
+        ctl = Controller(KinematicPlant(ur5), PinvSolver(), free_solver=limited)
+        logs.append((ctl, ctl.run([phase])))
+    assert_same_log(logs[1][1], logs[0][1])
+    assert logs[1][0].phase_paths == {"approach": "compiled"}
+    bound = limited.tip_speed * limited.dt  # type: ignore[operator]
+    moves = np.max(np.abs(np.diff(logs[1][1].tip, axis=0)), axis=1)
+    assert np.all(moves <= bound * 1.01)  # to first order
+    assert np.sum(moves >= 0.99 * bound) > 10  # the tip speed holds the steps
+
+
 def stops(robot: SerialArm, solver: Solver, phase: Phase, q0: np.ndarray, error: type[Exception],
           settings: LoopSettings | None = None,
           plant_type: type[KinematicPlant] = KinematicPlant) -> None:  # fmt: skip

@@ -59,7 +59,10 @@ def test_free_phases_without_a_kernel_make_the_run_mixed() -> None:
     use_path("on")
     robot = Iramis()
     eye = default_eye(robot)
-    free = LimitedTipSolver(tip_speed=0.01)  # a tip speed bound: no compiled kernel
+    class OwnTip(LimitedTipSolver):
+        """A user's own free-space solver: no compiled kernel (solvers are matched by type)."""
+
+    free = OwnTip(tip_speed=0.01)
     ctl = Controller(KinematicPlant(robot), PinvSolver(), free)
     ctl.run(injection(robot, eye, default_points(eye)))
     assert ctl.phase_paths["approach"] == "reference" and ctl.phase_paths["p3-p4"] == "compiled"

@@ -279,6 +279,20 @@ def test_the_limited_free_step_runs_compiled_and_equals_the_reference(robot: Ira
     assert np.any(moves >= bound * (1 - 1e-9))  # the speed bound was active
 
 
+def test_the_limited_free_step_with_a_tip_speed_runs_compiled_and_equals_the_reference(
+    robot: Iramis,
+) -> None:
+    free = LimitedTipSolver(tip_speed=2e-3)  # each tip axis moves at most 2 um per period
+    (ref, _), (fast, cb) = approach_with(robot, free)
+    assert isinstance(ref, RunLog) and isinstance(fast, RunLog)
+    assert cb.phase_paths == {"approach": "compiled"}
+    assert_same_log(ref, fast)
+    moves = np.max(np.abs(np.diff(fast.tip, axis=0)), axis=1)
+    bound = 2e-3 * free.dt
+    assert np.all(moves <= bound * 1.01)  # to first order
+    assert np.sum(moves >= 0.99 * bound) > 10  # the tip speed bound was active
+
+
 def test_the_compiled_limited_step_stops_at_the_travel_margin_as_the_reference_does(
     robot: Iramis,
 ) -> None:

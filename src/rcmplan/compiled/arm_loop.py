@@ -204,7 +204,7 @@ def arm_iterate(
     elif method != QP:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
     if method == TIP_LIMITED:
-        limit_step(K, ix, s, d)
+        limit_step(K, ix, W, s, d)
     for _ in range(STEP_TRIES if holds_rcm(method) and bounds[1] > 0.0 else 0):
         stepped(n, ix, first, m, s, d, fail)
         frames(A, ix, fail[n : 2 * n], W)  # W then holds the stepped frames
@@ -219,13 +219,24 @@ def arm_iterate(
 
 
 @njit(cache=True)
-def limit_step(K: FloatArray, ix: IntArray, s: FloatArray, d: FloatArray) -> None:
+def limit_step(K: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: FloatArray) -> None:
     """`LimitedTipSolver.step` on an arm (its actuators are its joints s): the tip step d of
     the m active joints scaled by the largest f in [0, 1] that keeps each one's move within
     K[j] (speed x dt) and inside its travel [K[m + j], K[2m + j]] less the margin K[3m] (a
-    joint outside that band may only move back); d becomes (s + f ds) - s, ds = (s + d) - s."""
+    joint outside that band may only move back), and with a tip speed bound K[3m + 1] > 0
+    (tip speed x dt) each component of the tip's first-order step J_tip d (W's J rows, left
+    by the step) within it; d becomes (s + f ds) - s, ds = (s + d) - s."""
     n, m = ix[0], ix[1]
     f, margin = 1.0, K[3 * m]
+    if K[3 * m + 1] > 0.0:
+        o, tip = 4 * (n + 1), 0.0
+        for i in range(3):
+            acc = 0.0
+            for j in range(m):
+                acc += W[o + i, j] * d[j]
+            tip = max(tip, abs(acc))
+        if tip > 0.0:
+            f = min(f, K[3 * m + 1] / tip)
     for j in range(m):
         k = ix[2 + n + j]
         d[j] = (s[k] + d[j]) - s[k]

@@ -4,8 +4,8 @@ one compiled call per iteration with the plant stepping in Python (`arm_loop.arm
 
 Applies to a `SerialArm` itself (exact type: a subclass may change its actuator map) whose
 kinematics the chain kernels reproduce (`arm.arm_arrays`), with a solver the kernels implement
-(exact types, `records.method_code`), the QP's free-space step without a tip speed bound
-(`LimitedTipSolver`, as TIP_LIMITED), or the QP controller where the arm's compiled QP step
+(exact types, `records.method_code`), the QP's free-space step (`LimitedTipSolver`, as
+TIP_LIMITED), or the QP controller where the arm's compiled QP step
 reproduces it (`arm_qp.arm_qp_applies`: one solve gives the iteration's error and step, in the
 same loop); `curved_phase` runs a curved needle on an arm through
 `run_arm_phase_exact` with the curved needle's arrays. The side effects are the reference
@@ -61,17 +61,19 @@ def arm_code(controller: Controller, solver: Solver) -> int | None:
     code = method_code(solver)
     if code is None and isinstance(solver, QpSolver) and solver.robot is controller.robot:
         return QP if arm_qp_applies(solver) else None
-    if type(solver) is LimitedTipSolver and solver.tip_speed is None:
+    if type(solver) is LimitedTipSolver:
         return TIP_LIMITED
     return code
 
 
 def limited_K(robot: SerialArm, solver: LimitedTipSolver) -> FloatArray:
     """What the arm loop's TIP_LIMITED step holds (`arm_loop.limit_step`): each active joint's
-    largest move per period (speed x dt), its travel (lower, upper) and the margin."""
+    largest move per period (speed x dt), its travel (lower, upper), the margin and the tip's
+    largest move per axis and period (tip speed x dt; 0: no tip speed bound)."""
     active = list(robot.active)
+    tip = 0.0 if solver.tip_speed is None else solver.tip_speed * solver.dt
     return np.concatenate([robot.speed[active] * solver.dt, robot.lower[active],
-                           robot.upper[active], [solver.travel_margin]])  # fmt: skip
+                           robot.upper[active], [solver.travel_margin, tip]])  # fmt: skip
 
 
 def applies(controller: Controller, solver: Solver) -> bool:

@@ -268,7 +268,7 @@ def iterate(
         solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
     moved = 6 if curved else 5  # a curved needle's roll q5 is active
     if method == TIP_LIMITED:
-        limit_step(P, K, q, d, sn, qn, w)
+        limit_step(P, K, q, d, sn, qn, w, J)
     elif holds_rcm(method):
         bound_rcm_step(P, q, d, moved, trocar, bounds[1], w, qn)
     for i in range(6):
@@ -286,17 +286,29 @@ def limit_step(
     s: FloatArray,
     x: FloatArray,
     ds: FloatArray,
+    J: FloatArray,
 ) -> None:
     """`LimitedTipSolver.step` on the tip step d (dq0..dq4): the actuator increment ds of the
     step, from s = actuators(q), scaled by the largest f in [0, 1] keeping every actuator
     within its move per period K[i] and inside its travel less the margin K[6] (one outside
-    that band may only move back); d becomes joints(s + f ds) - q. s, x, ds (6,) are scratch.
-    A step no sliders realise is left as it is (the travel check then stops the loop)."""
+    that band may only move back), and with a tip speed bound K[7] > 0 (tip speed x dt) each
+    component of the tip's first-order step J[:3, :5] d within it (J: the tip Jacobian the
+    step left); d becomes joints(s + f ds) - q. s, x, ds (6,) are scratch. A step no sliders
+    realise is left as it is (the travel check then stops the loop)."""
+    f = 1.0
+    if K[7] > 0.0:
+        tip = 0.0
+        for i in range(3):
+            acc = 0.0
+            for j in range(5):
+                acc += J[i, j] * d[j]
+            tip = max(tip, abs(acc))
+        if tip > 0.0:
+            f = K[7] / tip
     for i in range(6):
         x[i] = q[i] + d[i] if i < 5 else q[i]
     if not actuators_from_joints(P, q, s) or not actuators_from_joints(P, x, ds):
         return
-    f = 1.0
     for i in range(6):
         ds[i] -= s[i]
         if abs(ds[i]) > 0.0:

@@ -28,8 +28,8 @@ if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
 
 PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3  # method codes of the kernels
-# The QP's free-space step on iRAM!S (`LimitedTipSolver`): the TIP step scaled to hold the
-# actuators' speed and travel. Only the iRAM!S loop runs it (`iramis_method`).
+# The QP's free-space step (`LimitedTipSolver`): the TIP step scaled to hold the actuators'
+# speed and travel (and a tip speed). The iRAM!S loop (`iramis_method`) and the arm loop run it.
 TIP_LIMITED = 4
 # The QP controller on a serial arm, in the arm loop (`arm_phase.arm_code`); on iRAM!S it has its
 # own loops (`qp_loop`, `qp_mujoco_loop`)
@@ -97,12 +97,14 @@ def method_code(solver: Solver) -> int | None:
 def iramis_method(solver: Solver, robot: RobotModel) -> tuple[int, FloatArray] | None:
     """(method code, K) of a solver the iRAM!S loop (`loop.iterate`) reproduces, else None.
 
-    `method_code`'s solvers keep their K. The QP's limited free-space step without a tip speed
-    bound (`LimitedTipSolver`) runs as TIP_LIMITED; its K (7,) carries what the step holds:
-    each actuator's largest move per period (speed x dt, 6) and the travel margin."""
-    if type(solver) is LimitedTipSolver and solver.tip_speed is None:
+    `method_code`'s solvers keep their K. The QP's limited free-space step (`LimitedTipSolver`)
+    runs as TIP_LIMITED; its K (8,) carries what the step holds: each actuator's largest move
+    per period (speed x dt, 6), the travel margin and the tip's largest move per axis and
+    period (tip speed x dt; 0: no tip speed bound)."""
+    if type(solver) is LimitedTipSolver:
+        tip = 0.0 if solver.tip_speed is None else solver.tip_speed * solver.dt
         K = np.append(np.asarray(robot.speed, dtype=np.float64) * solver.dt,
-                      solver.travel_margin)  # fmt: skip
+                      (solver.travel_margin, tip))  # fmt: skip
         return TIP_LIMITED, K
     code = method_code(solver)
     return None if code is None else (code, solver_arrays(solver)[0])
