@@ -24,7 +24,7 @@ import zipfile
 import zlib
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -33,12 +33,14 @@ from rcmplan._validate import FloatArray
 from rcmplan.exceptions import RunFolderError
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import Eye, default_eye, eye_frame
-from rcmplan.subretinal.episode import EpisodeResult
 from rcmplan.subretinal.ioct import BScanScene, IoctModel, render_bscan
 from rcmplan.subretinal.layers import unit_direction
 from rcmplan.subretinal.segment import segment_bscan
 from rcmplan.subretinal.tissue import TissueState
 from rcmplan.subretinal.trace import NeedleHold
+
+if TYPE_CHECKING:
+    from rcmplan.subretinal.episode import EpisodeResult
 
 MIN_TILT_RAD, MAX_TILT_RAD = 0.1, 1.4  # what BScanScene draws
 PER_FRAME = ("t_acq_s", "arrival_s", "estimate_m", "truth_m", "segmented_m", "tip_m", "tent_m",

@@ -1,8 +1,8 @@
 """The iOCT B-scan beside a replayed subretinal episode: at the replayed time, the B-scan of the
-volume whose estimate the controller last received (`subretinal.episode_bscans`, read from the
-episode's bscans.npz), with that image's segmented ILM (green) and RPE (orange) and the
-segmented needle tip (cyan cross), and under it the times, the ILM displacement (received,
-segmented from the image, true) and the tip's depth against the layers.
+volume whose estimate the controller last received (`subretinal.episode_bscans`; the episode's
+bscans.npz, read by `run_folder.load_run`), with that image's segmented ILM (green) and RPE
+(orange) and the segmented needle tip (cyan cross), and under it the times, the ILM
+displacement (received, segmented from the image, true) and the tip's depth against the layers.
 
 The image is widened 4 times across (12 um A-lines, 3.3 um rows) so that it reads at about its
 true aspect. It is sent only when the frame changes.
@@ -10,15 +10,13 @@ true aspect. It is sent only when the frame changes.
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.exceptions import RunFolderError
-from rcmplan.subretinal.episode_bscans import EpisodeBScans, read_bscans
+from rcmplan.subretinal.episode_bscans import EpisodeBScans
 from rcmplan.view import colors
 from rcmplan.view.panels import StatePanel, length
 from rcmplan.view.run_folder import RunData
@@ -100,22 +98,8 @@ class BScanPanel:
 
 
 def bscan_panel(gui: Any, run: RunData) -> BScanPanel | None:
-    """The B-scan panel of a subretinal episode's run folder (one with bscans.npz), else None."""
-    path = run.folder / "bscans.npz"
-    if not path.is_file():
+    """The B-scan panel of a subretinal episode's run (one with B-scans), else None."""
+    if run.bscans is None:
         return None
-    frames = read_bscans(path)
-    return BScanPanel(gui, frames, _depth(run.folder / "episode.npz", len(run.log)),
-                      float(run.summary.get("thickness_m", float("nan"))))  # fmt: skip
-
-
-def _depth(path: Path, n: int) -> FloatArray | None:
-    """episode.npz's true tip depth in tissue per record, if it holds one per record."""
-    if not path.is_file():
-        return None
-    try:
-        with np.load(path, allow_pickle=False) as z:
-            depth = np.asarray(z["depth_m"], dtype=float) if "depth_m" in z else None
-    except (OSError, ValueError) as exc:
-        raise RunFolderError(path, f"truncated or damaged ({type(exc).__name__}: {exc})") from exc
-    return depth if depth is not None and depth.shape == (n,) else None
+    thickness = float(run.summary.get("thickness_m", float("nan")))
+    return BScanPanel(gui, run.bscans, run.tissue_depth_m, thickness)
