@@ -14,7 +14,8 @@ SHORT = EpisodeSettings(compensation="hold", warmup_s=1.0, start_height_m=200e-6
 
 
 def write_episode(out: Path) -> Path:
-    """Run the short episode and write its folder in `out`."""
+    """Run the short episode and write its folder in `out` (made if missing)."""
+    out.mkdir(parents=True, exist_ok=True)
     doc = write_outputs(SHORT, out, figures=False)
     assert doc["status"] == "ok", doc["message"]
     return out
