@@ -125,6 +125,7 @@ def test_cli_writes_the_summary(tmp_path: Path) -> None:
         assert key in doc
     assert doc["compensation"] == "hold" and doc["latency_s"] == pytest.approx(0.15)
     assert (out / "log.npz").exists() and (out / "episode.npz").exists()
+    assert doc["bscans"] == "bscans.npz" and (out / "bscans.npz").exists()  # for rcmplan view
 
 
 @pytest.mark.parametrize(

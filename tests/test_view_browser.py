@@ -1,16 +1,18 @@
 """The 3D view in a real browser (headless Chromium driven by playwright): the scene is drawn,
-scrubbing the timeline moves the needle on screen, and in live mode dragging the target moves
-the tip with the RCM held. scripts/check.sh installs Chromium and playwright and sets
+scrubbing the timeline moves the needle on screen, a subretinal episode's B-scan changes with
+the timeline, and in live mode dragging the target moves the tip with the RCM held. scripts/check.sh installs Chromium and playwright and sets
 RCMPLAN_REQUIRE_BROWSER, so in CI these tests run; elsewhere they are skipped without them."""
 
 from __future__ import annotations
 
+import io
 import os
 from pathlib import Path
 
 import numpy as np
 import pytest
 
+from episode_folder import write_episode
 from rcmplan.analysis.report import write_outputs
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import load_scenario
@@ -104,6 +106,40 @@ def test_playing_runs_the_timeline_to_the_end_and_pauses(browser, replay):
     assert state["index"] == len(view.current.log) - 1
     assert state["shows"] > 10  # it played through records, not one jump
     page.close()
+
+
+def bscan_image(page):
+    """The B-scan image element of an episode's replay (under its label in the panel)."""
+    return page.locator("p:text-is('B-scan') + div img").first
+
+
+def test_an_episode_replay_shows_its_bscan_and_the_timeline_changes_it(browser, tmp_path):
+    from PIL import Image
+
+    from rcmplan.view.colors import SEG_ILM
+
+    server = start_server("127.0.0.1", 0)
+    view = ReplayView(server, load_runs(write_episode(tmp_path / "episode")))
+    try:
+        page = open_page(browser, server)
+        image = bscan_image(page)
+        image.wait_for(timeout=30_000)
+        first_src, first = image.get_attribute("src"), view.state()["bscan_frame"]
+        before = np.asarray(Image.open(io.BytesIO(image.screenshot())).convert("RGB"))
+        assert first == 0
+        green = np.abs(before.astype(int) - SEG_ILM).max(axis=2) < 40
+        assert green.sum() > 50  # the segmented ILM is drawn over the image
+
+        probe.click_track(page, "time [s]", 0.8)
+        probe.wait_for(lambda: (view.state()["bscan_frame"] or 0) > first, 20.0)
+        probe.wait_for(lambda: image.get_attribute("src") != first_src, 20.0, 0.2)
+        after = np.asarray(Image.open(io.BytesIO(image.screenshot())).convert("RGB"))
+        assert after.shape == before.shape
+        assert (np.abs(after.astype(int) - before).max(axis=2) > 30).mean() > 0.05
+        page.close()
+    finally:
+        view.close()
+        stop_server(server)
 
 
 def test_dragging_the_live_target_moves_the_tip_with_the_rcm_held(browser):

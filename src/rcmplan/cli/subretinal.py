@@ -118,12 +118,33 @@ def write_outputs(settings: Any, out: Path, figures: bool) -> dict[str, Any]:
         series: dict[str, Any] = dict(result.series)
         np.savez_compressed(fh, **series, phase_names=np.array(PHASES, dtype=str))
     doc: dict[str, Any] = jsonable(summarise(result))
+    doc.update(replay_fields(result, out))
     write_text(out / "summary.json", json.dumps(doc, indent=2))
     if figures:
         from rcmplan.subretinal.episode_plot import depth_figure
 
         doc["figure"] = str(depth_figure(result, out / "figures" / "depth.png"))
     return doc
+
+
+def replay_fields(result: Any, out: Path) -> dict[str, Any]:
+    """Write bscans.npz (the B-scans of the volumes the controller received) and return what
+    `rcmplan view` reads from summary.json: the periods logged, the eye with the target, the
+    version, the B-scan frames."""
+    from rcmplan._version import __version__
+    from rcmplan.robot.registry import make_robot
+    from rcmplan.scene.eye import default_eye
+    from rcmplan.scene.record import eye_record
+    from rcmplan.subretinal.episode_bscans import bscan_axes, episode_bscans
+
+    cfg, layers = result.settings, result.layers
+    frames = episode_bscans(result).save(out / "bscans.npz")
+    eye = default_eye(make_robot(cfg.robot))
+    normal, _ = bscan_axes(eye, cfg.direction)
+    target = eye.center + (layers.ilm_radius_m + layers.target_depth_m) * normal
+    scene = eye_record(eye, {"target": target}, ["target"])
+    return {"periods": len(result.log), "rcmplan_version": __version__, "scene": scene,
+            "bscans": frames.name}  # fmt: skip
 
 
 def print_table(doc: dict[str, Any]) -> None:

@@ -50,7 +50,7 @@ def write_failed(out: Path, status: str, message: str) -> None:
     """summary.json of an episode refused before motion (no log of an earlier run kept)."""
     from rcmplan._atomic import write_text
 
-    for name in ("log.npz", "episode.npz"):
+    for name in ("log.npz", "episode.npz", "bscans.npz"):
         (out / name).unlink(missing_ok=True)
     doc = {"command": "subretinal", "status": status, "message": one_line(message)}
     write_text(out / "summary.json", json.dumps(doc, indent=2))

@@ -12,6 +12,8 @@ controller.
 - `episode`, `episode_settings`, `episode_metrics`, `episode_plot`: one injection on the QP
   controller (approach, hover, advance, hold, retract) with motion compensation and a depth
   limit; `rcmplan subretinal`.
+- `episode_bscans`: the B-scans of the volumes an episode's controller received, for
+  `rcmplan view`.
 - `episode_draws`, `episode_batch`, `episode_report`, `episode_curves`: many episodes with
   drawn conditions, every method on each, on the sweep's executors and checkpoints, their
   success rates and curves; `rcmplan subretinal --episodes N`.

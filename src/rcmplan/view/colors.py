@@ -16,6 +16,10 @@ RETINA = (200, 80, 70)
 TROCAR = (30, 160, 60)
 TARGET = (40, 90, 220)
 RCM_POINT = (250, 140, 0)
+# the segmentation drawn over an iOCT B-scan
+SEG_ILM = (60, 220, 90)
+SEG_RPE = (255, 170, 0)
+SEG_TIP = (0, 200, 255)
 
 
 def deviation_colors(deviation_m: FloatArray, scale_m: float) -> NDArray[np.uint8]:

@@ -2,7 +2,8 @@
 panels with the phase, time, RCM deviation, tip error and actuators against their travel.
 
 A comparison folder shows each method's run in turn (a `run` menu); the robot and the eye are
-the same for all of them.
+the same for all of them. A subretinal episode's folder (with bscans.npz) adds the iOCT B-scan
+the controller last received at the replayed time (`bscan_panel`).
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ import numpy as np
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError, MissingExtraError, RunFolderError
 from rcmplan.robot.model import RobotModel
+from rcmplan.view.bscan_panel import bscan_panel
 from rcmplan.view.camera import CameraViews
 from rcmplan.view.links import robot_links
 from rcmplan.view.needle import needle_polyline
@@ -88,6 +90,7 @@ class ReplayView:
         self._run_menu(gui)
         self.timeline = Timeline(gui, self.current.log.time, self.show)
         self.state_panel = StatePanel(gui, "Now")
+        self.bscan = bscan_panel(gui, runs[0]) if len(runs) == 1 else None  # an episode's
         with gui.add_folder("Actuators"):
             self.actuators = self._actuator_panel(gui)
         self.info = StatePanel(gui, "Run")
@@ -159,6 +162,8 @@ class ReplayView:
             self.drawing.show(needle, log.rcm[i] if inside else log.trocar[i], log.target_tip[i])
             self.state_panel.show(self._figures(a, i))
             self.actuators.show(log.sliders[i])
+            if self.bscan is not None:
+                self.bscan.show(float(log.time[i]), i)
             self.index = i
             self.shows += 1
         self.show_time_s = time.perf_counter() - start
@@ -177,7 +182,8 @@ class ReplayView:
 
     def state(self) -> dict[str, Any]:
         """The shown record, for tests and benchmarks: index, time [s], tip, needle base and
-        RCM deviation [m], the number of records shown and the last show's wall time [s]."""
+        RCM deviation [m], the number of records shown, the last show's wall time [s] and the
+        B-scan frame shown (an episode's; -1 before the first, None without B-scans)."""
         with self.lock:
             log, i = self.current.log, self.index
             return {
@@ -185,6 +191,7 @@ class ReplayView:
                 "tip_m": log.tip[i].tolist(), "base_m": log.base[i].tolist(),
                 "rcm_deviation_m": float(self.current.deviation[i]), "shows": self.shows,
                 "show_time_s": self.show_time_s, "playing": self.timeline.playing,
+                "bscan_frame": None if self.bscan is None else self.bscan.frame,
             }  # fmt: skip
 
     def close(self) -> None:

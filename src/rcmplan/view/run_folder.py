@@ -5,7 +5,8 @@ A run folder is what `rcmplan inject`, `spiral` and `teleop` write (`summary.jso
 folder per method (an older version wrote `compare.json` instead of that summary). Any
 other folder, a log written by another version of rcmplan (fields missing, another layout, no
 `scene` block), or a truncated file raises RunFolderError naming the file and what is wrong,
-before a server starts.
+before a server starts. A subretinal episode's folder (`rcmplan subretinal`) also holds
+bscans.npz, the B-scans of the iOCT volumes its controller received, and episode.npz.
 """
 
 from __future__ import annotations
@@ -15,14 +16,18 @@ import zipfile
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from rcmplan._validate import FloatArray
 from rcmplan._version import __version__
 from rcmplan.control.log import ARRAY_FIELDS, INT_FIELDS, SHAPES, WIDE, RunLog
 from rcmplan.exceptions import InvalidInputError, RunFolderError
 from rcmplan.scene.record import SceneRecord, read_scene_record
+
+if TYPE_CHECKING:
+    from rcmplan.subretinal.episode_bscans import EpisodeBScans
 
 WHAT_A_RUN_IS = (
     "a run folder holds summary.json and log.npz (written by rcmplan inject, spiral or "
@@ -38,6 +43,9 @@ class RunData:
     Attributes:
         folder: The run folder. label: Its name in the view (the method of a comparison).
         summary: summary.json as read. log: The run log. scene: The eye, trocar and points.
+        bscans: A subretinal episode's B-scans (bscans.npz), else None.
+        tissue_depth_m: A subretinal episode's true tip depth in tissue per record [m]
+            (episode.npz `depth_m`), else None.
     """
 
     folder: Path
@@ -45,6 +53,8 @@ class RunData:
     summary: dict[str, Any]
     log: RunLog
     scene: SceneRecord
+    bscans: EpisodeBScans | None = None
+    tissue_depth_m: FloatArray | None = None
 
     @property
     def robot_name(self) -> str:
@@ -88,7 +98,26 @@ def load_run(folder: Path, label: str | None = None) -> RunData:
             folder / "log.npz", f"holds {len(log)} records but summary.json says {n}: a "
             "truncated log, or a log and a summary of different runs",
         )  # fmt: skip
-    return RunData(folder, label or folder.name, summary, log, scene)
+    if not (folder / "bscans.npz").is_file():
+        return RunData(folder, label or folder.name, summary, log, scene)
+    from rcmplan.subretinal.episode_bscans import read_bscans  # a subretinal episode's
+
+    bscans = read_bscans(folder / "bscans.npz")
+    depth = _tissue_depth(folder / "episode.npz", len(log))
+    return RunData(folder, label or folder.name, summary, log, scene, bscans, depth)
+
+
+def _tissue_depth(path: Path, n: int) -> FloatArray | None:
+    """An episode.npz's true tip depth in tissue, one per record of the log (n), if it has
+    it; RunFolderError if the file is unreadable."""
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            depth = np.asarray(z["depth_m"], dtype=float) if "depth_m" in z else None
+    except (zipfile.BadZipFile, zlib.error, EOFError, ValueError, OSError) as exc:
+        raise RunFolderError(path, f"truncated or damaged ({type(exc).__name__}: {exc})") from exc
+    return depth if depth is not None and depth.shape == (n,) else None
 
 
 def _comparison(path: Path) -> list[RunData]:
