@@ -59,6 +59,7 @@ def test_free_phases_without_a_kernel_make_the_run_mixed() -> None:
     use_path("on")
     robot = Iramis()
     eye = default_eye(robot)
+
     class OwnTip(LimitedTipSolver):
         """A user's own free-space solver: no compiled kernel (solvers are matched by type)."""
 
