@@ -1,0 +1,108 @@
+"""Whole-eye motion in a subretinal episode: the trocar moves with the eye and the RCM follows it."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rcmplan.cli import main
+from rcmplan.exceptions import InvalidInputError
+from rcmplan.subretinal.episode import Episode, EpisodeResult, run_episode
+from rcmplan.subretinal.episode_draws import DrawRanges, draw_episode
+from rcmplan.subretinal.episode_metrics import summarise
+from rcmplan.subretinal.episode_settings import EpisodeSettings
+
+# A short episode (the hold predictor needs no warm-up) with 500 um of eye drift per axis.
+DRIFT = EpisodeSettings(compensation="hold", warmup_s=0.5, hold_s=0.5, hover_s=0.3,
+                        start_height_m=200e-6, advance_speed_m_s=0.4e-3, eye_drift_m=500e-6,
+                        seed=2)  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def moving() -> EpisodeResult:
+    return run_episode(DRIFT)
+
+
+def _line_distance(log: object, trocar: np.ndarray) -> np.ndarray:
+    """Distance [m] from each record's needle line (base to tip) to trocar (N, 3)."""
+    base, tip = log.base, log.tip  # type: ignore[attr-defined]
+    u = (tip - base) / np.linalg.norm(tip - base, axis=1, keepdims=True)
+    w = trocar - base
+    return np.linalg.norm(w - np.sum(w * u, axis=1, keepdims=True) * u, axis=1)
+
+
+def test_the_rcm_follows_the_moving_trocar(moving: EpisodeResult) -> None:
+    log, doc = moving.log, summarise(moving)
+    assert doc["status"] == "ok" and doc["punctured"] and doc["eye_drift_m"] == 500e-6
+    away = np.linalg.norm(log.trocar - log.trocar[0], axis=1)
+    assert away.max() > 50e-6 and doc["max_trocar_displacement_m"] == pytest.approx(away.max())
+    # Against the trocar where it is: within the bound, and no more than the trocar's own move
+    # in one period (the step was planned to where the trocar was when it was read).
+    deviation = moving.series["rcm_deviation_m"]
+    assert deviation.max() <= min(DRIFT.rcm_bound_m, doc["max_trocar_step_m"] + 1e-9)
+    assert doc["max_rcm_deviation_m"] == pytest.approx(deviation.max())
+    # Each step puts the needle line through the trocar it was planned for.
+    assert _line_distance(log[1:], log.trocar[:-1]).max() < 1e-9
+    # Against the trocar where it was at the start, the needle is far off: it did follow.
+    assert _line_distance(log, np.broadcast_to(log.trocar[0], log.trocar.shape)).max() > 50e-6
+
+
+def test_the_retina_moves_with_the_eye(moving: EpisodeResult) -> None:
+    # The depth below the ILM is about the moved centre: the hold stays in the target band and
+    # the RPE is never reached although the eye moved further than the retina is thick.
+    doc = summarise(moving)
+    assert doc["in_band_fraction"] == 1.0 and not doc["rpe_breach"]
+    assert doc["max_trocar_displacement_m"] > moving.layers.thickness_m
+
+
+def test_per_period_path_equals_the_block_loop(moving: EpisodeResult) -> None:
+    ep = Episode(DRIFT)
+    if ep.blocks is None:
+        pytest.skip("the compiled block loop does not apply here (no numba or DAQP C binding)")
+    ep.blocks = None  # one period at a time: the moving depth limit set on the limit object
+    single = ep.run()
+    np.testing.assert_allclose(single.log.trocar, moving.log.trocar, atol=0.0)
+    np.testing.assert_allclose(single.log.tip, moving.log.tip, atol=1e-10)
+    np.testing.assert_allclose(single.series["rcm_deviation_m"],
+                               moving.series["rcm_deviation_m"], atol=1e-10)  # fmt: skip
+
+
+def test_eye_drift_leaves_the_wall_motion_and_noise_of_a_seed() -> None:
+    still, moved = Episode(replace(DRIFT, eye_drift_m=0.0)), Episode(DRIFT)
+    np.testing.assert_array_equal(still.trace.estimate_m, moved.trace.estimate_m)
+    np.testing.assert_array_equal(still.wall_m, moved.wall_m)
+    assert np.all(still.trocar_m == still.trocar_m[0])
+    assert np.ptp(moved.trocar_m, axis=0).max() > 50e-6
+
+
+@pytest.mark.parametrize("value", [-1e-6, 5.1e-3, float("nan")])
+def test_bad_eye_drift_is_refused(value: float) -> None:
+    with pytest.raises(InvalidInputError, match="eye_drift_m"):
+        EpisodeSettings(eye_drift_m=value)
+
+
+def test_eye_drift_on_the_mujoco_plant_is_refused() -> None:
+    with pytest.raises(InvalidInputError, match="mujoco"):
+        EpisodeSettings(plant="mujoco", eye_drift_m=100e-6)
+
+
+def test_drawn_eye_drift_keeps_the_other_conditions() -> None:
+    still = draw_episode(DrawRanges(), 4, 7)
+    drawn = draw_episode(DrawRanges(eye_drift_m=(0.0, 300e-6)), 4, 7)
+    assert 0.0 < drawn.eye_drift_m <= 300e-6 and still.eye_drift_m == 0.0
+    assert drawn.target_fraction == still.target_fraction
+    assert drawn.ioct_rate_hz == still.ioct_rate_hz
+    with pytest.raises(InvalidInputError, match=r"eye_drift_m\[1\]"):
+        DrawRanges(eye_drift_m=(0.0, 6e-3))
+
+
+@pytest.mark.parametrize("value", ["-5", "6000"])
+def test_cli_refuses_a_bad_eye_drift(tmp_path: Path, value: str) -> None:
+    out = tmp_path / "bad"
+    assert main(["subretinal", "--eye-drift-um", value, "--out", str(out), "--no-plots"]) == 2
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["status"] == "invalid_input" and "--eye-drift-um" in doc["message"]
