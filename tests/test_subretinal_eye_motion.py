@@ -16,8 +16,8 @@ from rcmplan.subretinal.episode_draws import DrawRanges, draw_episode
 from rcmplan.subretinal.episode_metrics import summarise
 from rcmplan.subretinal.episode_settings import EpisodeSettings
 
-# A short episode (the hold predictor needs no warm-up) with 500 um of eye drift per axis.
-DRIFT = EpisodeSettings(compensation="hold", warmup_s=0.5, hold_s=0.5, hover_s=0.3,
+# A short episode with 500 um of eye drift per axis.
+DRIFT = EpisodeSettings(hold_s=0.5, hover_s=0.3,
                         start_height_m=200e-6, advance_speed_m_s=0.4e-3, eye_drift_m=500e-6,
                         seed=2)  # fmt: skip
 
@@ -27,9 +27,8 @@ def moving() -> EpisodeResult:
     return run_episode(DRIFT)
 
 
-def _line_distance(log: object, trocar: np.ndarray) -> np.ndarray:
-    """Distance [m] from each record's needle line (base to tip) to trocar (N, 3)."""
-    base, tip = log.base, log.tip  # type: ignore[attr-defined]
+def _line_distance(base: np.ndarray, tip: np.ndarray, trocar: np.ndarray) -> np.ndarray:
+    """Distance [m] from each needle line (base to tip, (N, 3) each) to trocar (N, 3)."""
     u = (tip - base) / np.linalg.norm(tip - base, axis=1, keepdims=True)
     w = trocar - base
     return np.linalg.norm(w - np.sum(w * u, axis=1, keepdims=True) * u, axis=1)
@@ -46,9 +45,10 @@ def test_the_rcm_follows_the_moving_trocar(moving: EpisodeResult) -> None:
     assert deviation.max() <= min(DRIFT.rcm_bound_m, doc["max_trocar_step_m"] + 1e-9)
     assert doc["max_rcm_deviation_m"] == pytest.approx(deviation.max())
     # Each step puts the needle line through the trocar it was planned for.
-    assert _line_distance(log[1:], log.trocar[:-1]).max() < 1e-9
+    assert _line_distance(log.base[1:], log.tip[1:], log.trocar[:-1]).max() < 1e-9
     # Against the trocar where it was at the start, the needle is far off: it did follow.
-    assert _line_distance(log, np.broadcast_to(log.trocar[0], log.trocar.shape)).max() > 50e-6
+    start = np.broadcast_to(log.trocar[0], log.trocar.shape)
+    assert _line_distance(log.base, log.tip, start).max() > 50e-6
 
 
 def test_the_retina_moves_with_the_eye(moving: EpisodeResult) -> None:
@@ -106,3 +106,24 @@ def test_cli_refuses_a_bad_eye_drift(tmp_path: Path, value: str) -> None:
     assert main(["subretinal", "--eye-drift-um", value, "--out", str(out), "--no-plots"]) == 2
     doc = json.loads((out / "summary.json").read_text())
     assert doc["status"] == "invalid_input" and "--eye-drift-um" in doc["message"]
+
+
+def test_the_depth_limit_moves_with_the_eye() -> None:
+    # Target 225 um deep (0.9 of 250 um) and an operator pushing 50 um further: 25 um past the
+    # RPE of the moving eye. Without the limit the tip breaches; the limit about the moved
+    # centre holds it at its sphere (the estimated RPE less 25 um), past it only by what the
+    # eye moves towards the tip faster than the limit's recovery (1 um a period): never by the
+    # 25 um margin. A limit about the eye's first centre would be off by the eye's motion along
+    # the normal (here over 50 um).
+    deep = replace(DRIFT, target_fraction=0.9, band_fraction=0.05, overshoot_m=50e-6)
+    free = summarise(run_episode(replace(deep, depth_limit=False)))
+    assert free["rpe_breach"]
+    ep = Episode(deep)
+    along = (ep.center_m - ep.center_m[0]) @ ep.normal_base
+    assert np.abs(along).max() > 50e-6
+    result = ep.run()
+    doc, s = summarise(result), result.series
+    assert doc["status"] == "ok" and not doc["rpe_breach"]
+    tip = s["depth_vs_undeformed_m"] + s["wall_m"]  # below the ILM of the moved eye
+    past = tip - (s["limit_m"] + result.layers.thickness_m - deep.rpe_margin_m)
+    assert -5e-6 < past.max() < deep.rpe_margin_m
