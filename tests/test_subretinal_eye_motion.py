@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from rcmplan.cli import main
+from rcmplan.control.targets import rcm_target, rcm_targets
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.subretinal.episode import Episode, EpisodeResult, run_episode
 from rcmplan.subretinal.episode_draws import DrawRanges, draw_episode
@@ -57,18 +58,6 @@ def test_the_retina_moves_with_the_eye(moving: EpisodeResult) -> None:
     doc = summarise(moving)
     assert doc["in_band_fraction"] == 1.0 and not doc["rpe_breach"]
     assert doc["max_trocar_displacement_m"] > moving.layers.thickness_m
-
-
-def test_per_period_path_equals_the_block_loop(moving: EpisodeResult) -> None:
-    ep = Episode(DRIFT)
-    if ep.blocks is None:
-        pytest.skip("the compiled block loop does not apply here (no numba or DAQP C binding)")
-    ep.blocks = None  # one period at a time: the moving depth limit set on the limit object
-    single = ep.run()
-    np.testing.assert_allclose(single.log.trocar, moving.log.trocar, atol=0.0)
-    np.testing.assert_allclose(single.log.tip, moving.log.tip, atol=1e-10)
-    np.testing.assert_allclose(single.series["rcm_deviation_m"],
-                               moving.series["rcm_deviation_m"], atol=1e-10)  # fmt: skip
 
 
 def test_eye_drift_leaves_the_wall_motion_and_noise_of_a_seed() -> None:
@@ -127,3 +116,13 @@ def test_the_depth_limit_moves_with_the_eye() -> None:
     tip = s["depth_vs_undeformed_m"] + s["wall_m"]  # below the ILM of the moved eye
     past = tip - (s["limit_m"] + result.layers.thickness_m - deep.rpe_margin_m)
     assert -5e-6 < past.max() < deep.rpe_margin_m
+
+
+def test_rcm_targets_take_a_trocar_per_row() -> None:
+    rng = np.random.default_rng(5)
+    trocars = np.array([0.02, 0.001, -0.002]) + rng.uniform(-1e-3, 1e-3, (20, 3))
+    tips = trocars + rng.uniform(-5e-3, 5e-3, (20, 3)) + [0.01, 0.0, 0.0]
+    rows = np.array([rcm_target(tip, trocar) for tip, trocar in zip(tips, trocars, strict=True)])
+    np.testing.assert_allclose(rcm_targets(tips, trocars), rows, rtol=0.0, atol=1e-12)
+    with pytest.raises(InvalidInputError, match="trocar"):
+        rcm_targets(tips, trocars[:5])

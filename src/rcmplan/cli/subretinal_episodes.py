@@ -1,8 +1,8 @@
 """`rcmplan subretinal --episodes N`: N episodes with drawn conditions, every compensation method
 on each, on local processes or a Dask cluster, checkpointed (--resume continues).
 
-An option among --ioct-rate-hz, --latency-ms, --motion-um and --eye-drift-um fixes that
-condition instead of drawing it. Interrupted (SIGINT, SIGTERM) or failed, the run writes summary.json and the
+An option among --ioct-rate-hz, --latency-ms, --motion-um and --eye-drift-um fixes that condition
+instead of drawing it. Interrupted (SIGINT, SIGTERM) or failed, the run writes summary.json and the
 per-episode log of what finished, with status "interrupted" or "failed" and why; the finished
 episodes stay in the checkpoint.
 """

@@ -32,6 +32,7 @@ def settings_of(args: argparse.Namespace) -> Any:
                                 "with --episodes N")  # fmt: skip
     bpm = args.heart_rate_sd_bpm
     heart_rate_sd_hz = None if bpm is None else scalar("--heart-rate-sd-bpm", bpm, 0.0, 60.0) / 60
+    drift_um = scalar("--eye-drift-um", option(args, "eye_drift_um"), 0.0, EYE_DRIFT_MAX_M * 1e6)
     return EpisodeSettings(
         robot=args.robot,
         plant=args.plant,
@@ -42,8 +43,7 @@ def settings_of(args: argparse.Namespace) -> Any:
         heart_rate_sd_hz=heart_rate_sd_hz,
         seed=args.seed,
         hold_s=scalar("--hold-s", args.hold_s, 0.0, 60.0, low_open=True),
-        eye_drift_m=1e-6 * scalar("--eye-drift-um", option(args, "eye_drift_um"), 0.0,
-                                  EYE_DRIFT_MAX_M * 1e6),
+        eye_drift_m=1e-6 * drift_um,
         hover_s=scalar("--hover-s", args.hover_s, 0.0, 60.0),
     )
 

@@ -2,16 +2,16 @@
 runs every period from one planned target to the last one planned (a subretinal episode: from
 one iOCT estimate's arrival to the next, `subretinal.episode_blocks`).
 
-Each period does what `Episode.period` does, in the same order: joints from the sliders
-(the PCJMs), lambda of the needle point closest to the period's trocar (drift correction; the
-distance is the RCM deviation; the trocar moves with the eye when the eye moves), the depth
-limit's floor and centre written into the QP's parameters Q (the floor at `floor_at`, the
-centre `FLOOR_AT` before it; -1: no depth limit), the X_ext error at this state, the QP built and solved
-(`qp_kernels.solve_step`), the step read from its solution (`qp_kernels.step_joints`), the
-sliders of the stepped joints with the plant's travel rule (`loop.command_status`, the kernel
-`Iramis.check_actuators` calls), the record (`records.REC_COLUMNS`, `loop.record`) and the
-plant's move (the kinematic plant reaches the command). The RCM bound is checked last, after
-the period's record and move, as `Episode.period` raises after them.
+Each period does what `Episode.period` does, in the same order: joints from the sliders (the PCJMs),
+lambda of the needle point closest to the period's trocar (drift correction; the distance is the RCM
+deviation; the trocar moves with the eye when the eye moves), the depth limit's floor and centre
+written into the QP's parameters Q (the floor at `floor_at`, the centre `FLOOR_AT` before it; -1: no
+depth limit), the X_ext error at this state, the QP built and solved (`qp_kernels.solve_step`), the
+step read from its solution (`qp_kernels.step_joints`), the sliders of the stepped joints with the
+plant's travel rule (`loop.command_status`, the kernel `Iramis.check_actuators` calls), the record
+(`records.REC_COLUMNS`, `loop.record`) and the plant's move (the kinematic plant reaches the
+command). The RCM bound is checked last, after the period's record and move, as `Episode.period`
+raises after them.
 
 The kernel stops instead of raising: QP_FAILED (DAQP's exit flag in info[1]), BAD_JOINTS or
 SLIDER_LIMIT (the slider in info[2]) before the period's record and move, RCM_BOUND after

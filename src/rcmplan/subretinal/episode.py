@@ -141,7 +141,8 @@ class Episode:
         scene = {"eye": eye, "points": default_points(eye)}
         self.plant = make_plant(cfg.plant, robot, scene=scene, dt=cfg.dt)
         self.plant.reset(robot.actuators_from_joints(pose.q))
-        self.depth_limit = TissueDepthLimit(self.center_m[0], float(self.limit_radius(np.zeros(()))))
+        floor_m = float(self.limit_radius(np.zeros(())))
+        self.depth_limit = TissueDepthLimit(self.center_m[0], floor_m)
         extra = (self.depth_limit,) if cfg.depth_limit else ()
         self.solver = QpSolver(
             robot, None, cfg.dt, limits=QpLimits(), servo=self.plant, extra_limits=extra
