@@ -1,10 +1,11 @@
 """The figures of a batch of subretinal episodes, per method, from its per-episode records.
 
 Per method: episodes run, successes and the success rate (`EpisodeRecord.success`), RPE
-breaches, the median and 95th percentile of the hover tracking RMS, the median of the mean
-depth error and of the depth RMS error during the hold, the mean in-band fraction, the
-largest RCM deviation and the largest trocar displacement (whole-eye motion). Curves: the same success rate and median tracking RMS in bins of the
-drawn iOCT volume rate (log-spaced) and latency. SI units throughout.
+breaches, the median and 95th percentile of the hover tracking RMS, the median of the mean depth
+error and of the depth RMS error during the hold, the mean in-band fraction, the largest RCM
+deviation and the largest trocar displacement (whole-eye motion). Curves: the same success rate
+and median tracking RMS in bins of the drawn iOCT volume rate (log-spaced) and latency. SI units
+throughout.
 """
 
 from __future__ import annotations
