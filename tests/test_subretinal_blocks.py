@@ -44,13 +44,18 @@ def assert_same_result(a: EpisodeResult, b: EpisodeResult) -> None:
     assert_same_log(a.log, b.log, 1e-12, nonempty=True)
 
 
-@pytest.mark.parametrize("cfg", [SHORT, DEEP], ids=["kalman", "deep-hold"])
+# The same with the eye moving (500 um per axis): the trocar and the depth limit's centre move.
+MOVING, DEEP_MOVING = (replace(c, eye_drift_m=500e-6) for c in (SHORT, DEEP))
+
+
+@pytest.mark.parametrize("cfg", [SHORT, DEEP, MOVING, DEEP_MOVING],
+                         ids=["kalman", "deep-hold", "kalman-eye-drift", "deep-hold-eye-drift"])  # fmt: skip
 def test_blocks_give_the_per_period_records(cfg: EpisodeSettings) -> None:
     blocked = episode(cfg, blocks=True).run()
     single = episode(cfg, blocks=False).run()
     assert blocked.status == "ok" and len(blocked.log) == blocked.series["t_s"].size > 3000
     assert_same_result(blocked, single)
-    if cfg is DEEP:  # the moving floor was active: the tip went as deep as the limit let it
+    if cfg.overshoot_m > 0:  # the moving floor was active: the tip went as deep as the limit let it
         s = blocked.series
         floor_depth = s["limit_m"] + blocked.layers.thickness_m - cfg.rpe_margin_m
         tip = s["depth_vs_undeformed_m"] + s["wall_m"]
@@ -83,9 +88,10 @@ class StopAt:
         if not k <= self.at < k + n:
             return int(self.kernels.run_periods(*args))
         cut = self.at - k
-        head = [a[:cut] if i in (7, 8, 9, 10, 12, 13) else a for i, a in enumerate(args)]
+        per_period = (6, 7, 8, 9, 10, 11, 13, 14)  # trocars .. centers, rec, deviation
+        head = [a[:cut] if i in per_period else a for i, a in enumerate(args)]
         self.kernels.run_periods(*head)
-        args[14][1] = -1  # the exit flag
+        args[15][1] = -1  # the exit flag
         return QP_FAILED
 
 

@@ -27,7 +27,7 @@ SHORT = EpisodeSettings(hold_s=0.2, hover_s=0.1, start_height_m=200e-6,
 
 
 def test_draws_lie_in_their_ranges_and_repeat_with_the_seed() -> None:
-    ranges = DrawRanges()
+    ranges = DrawRanges(eye_drift_m=(0.0, 300e-6))  # every condition drawn (by default not)
     draws = draw_episodes(ranges, seed=7, n=200)
     for name in CONDITIONS:
         lo, hi = getattr(ranges, name)

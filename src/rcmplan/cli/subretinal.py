@@ -44,6 +44,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help=f"iOCT latency, 0-1000 (150{drawn})")  # fmt: skip
     p.add_argument("--motion-um", type=float, default=None,
                    help=f"breathing amplitude 0-200 um, cardiac 0.2 of it (50{drawn})")  # fmt: skip
+    p.add_argument("--eye-drift-um", type=float, default=None,
+                   help="whole-eye translation carrying the trocar: standard deviation per "
+                   "axis, 0-5000 um (0: off; with --episodes: fixed, else 0)")  # fmt: skip
     p.add_argument("--heart-rate-sd-bpm", type=float, default=None,
                    help="give kalman the anaesthesia monitor's heart rate, read with this "
                    "error (1 sigma), 0-60 bpm (off)")  # fmt: skip
@@ -163,6 +166,7 @@ def print_table(doc: dict[str, Any]) -> None:
         ["in-band fraction of the hold", fmt(doc["in_band_fraction"])],
         ["deepest point past the RPE (negative: short of it)", um("max_depth_past_rpe_m")],
         ["RPE breach", str(doc["rpe_breach"])],
+        ["largest trocar displacement (whole-eye motion)", um("max_trocar_displacement_m")],
         ["prediction RMS", um("prediction_rms_m")],
         ["segmentation RMS", um("segmentation_rms_m")],
     ]

@@ -1,8 +1,8 @@
 """`rcmplan subretinal --episodes N`: N episodes with drawn conditions, every compensation method
 on each, on local processes or a Dask cluster, checkpointed (--resume continues).
 
-An option among --ioct-rate-hz, --latency-ms and --motion-um fixes that condition instead of
-drawing it. Interrupted (SIGINT, SIGTERM) or failed, the run writes summary.json and the
+An option among --ioct-rate-hz, --latency-ms, --motion-um and --eye-drift-um fixes that condition
+instead of drawing it. Interrupted (SIGINT, SIGTERM) or failed, the run writes summary.json and the
 per-episode log of what finished, with status "interrupted" or "failed" and why; the finished
 episodes stay in the checkpoint.
 """
@@ -42,6 +42,8 @@ def batch_of(args: argparse.Namespace) -> BatchSettings:
     if args.motion_um is not None:
         fixed["breathing_amplitude_m"] = (base.breathing_m, base.breathing_m)
         fixed["cardiac_amplitude_m"] = (base.cardiac_m, base.cardiac_m)
+    if args.eye_drift_um is not None:
+        fixed["eye_drift_m"] = (base.eye_drift_m, base.eye_drift_m)
     episodes = integer("--episodes", args.episodes, 1, MAX_EPISODES)
     seed = integer("--seed", args.seed, 0, SEED_MAX)
     return BatchSettings(episodes=episodes, seed=seed, methods=methods,

@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import F64, WORKSPACE_M, FloatArray, scalar, vector
+from rcmplan._validate import F64, WORKSPACE_M, FloatArray, matrix, scalar, vector
 from rcmplan.exceptions import (
     InvalidInputError,
     PcjmAngleError,
@@ -92,12 +92,18 @@ def _in_workspace(name: str, point: Any) -> FloatArray:
 
 
 def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:
-    """X_ext (N, 6) for many tip points (N, 3) with the RCM at one trocar; rcm_target per row.
+    """X_ext (N, 6) for many tip points (N, 3) with the RCM at one trocar (3,), or at each
+    row's trocar (N, 3) (a trocar that moves); rcm_target per row.
 
     Rows whose tip lies on the trocar get NaN angles: callers choose the needle direction there.
     """
     tips = np.asarray(tips, dtype=float)
-    axis = tips - vector("trocar", trocar, 3)
+    shape = np.shape(trocar)
+    if len(shape) == 2:
+        trocar = matrix("trocar", trocar, (tips.shape[0], 3))
+    else:
+        trocar = vector("trocar", trocar, 3)
+    axis = tips - trocar
     with np.errstate(invalid="ignore", divide="ignore"):
         u = axis / np.linalg.norm(axis, axis=1, keepdims=True)
     out = np.empty((tips.shape[0], 6))

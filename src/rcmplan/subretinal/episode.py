@@ -23,11 +23,20 @@ in tissue comes from the tissue model (tenting until puncture). The iOCT estimat
 `trace.noisy_trace`, fed to the predictor as they arrive; the `warmup_s` of estimates before
 the approach start the predictor (the kalman filter needs 8 s). The depth limit uses the
 compensation's prediction, or with `none` the newest estimate (`hold`).
+
+With whole-eye motion on (`eye_drift_m` > 0) the eye translates by T(t) (`motion.eye_translation`,
+drawn from its own generator so the wall motion and the iOCT noise of a seed stay the same): its
+centre, the retina, the target point and the trocar (fixed in the sclera) all move by T(t).
+Each period's RCM target is the trocar where it is in that period (the controller is assumed
+to know it, e.g. by tracking the trocar), the tip targets and the depth limit's sphere are
+about the moved centre, and the RCM deviation is measured against the moving trocar. The iOCT
+estimates are of the wall's displacement relative to the eye (the tracked translation along
+the beam removed).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -50,7 +59,12 @@ from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, EpisodeSett
 from rcmplan.subretinal.ioct import IoctModel
 from rcmplan.subretinal.layers import RetinaLayers, unit_direction
 from rcmplan.subretinal.monitor import heart_rate_input
-from rcmplan.subretinal.motion import MotionModel, sample_motion
+from rcmplan.subretinal.motion import (
+    MotionModel,
+    MotionTrajectory,
+    eye_translation,
+    sample_motion,
+)
 from rcmplan.subretinal.predictors import make_predictor
 from rcmplan.subretinal.tissue import TissueContact
 from rcmplan.subretinal.trace import IlmTrace, noisy_trace
@@ -103,6 +117,7 @@ class Episode:
         self.motion = sample_motion(motion, cfg.warmup_s + self.length_s + 1.0, rng)
         ioct = IoctModel(volume_rate_hz=cfg.ioct_rate_hz, latency_s=cfg.latency_s)
         self.trace = noisy_trace(self.motion, ioct, cfg.noise_std_m, rng, SEGMENTATION_BIAS_M)
+        self.motion = self.with_eye_motion(self.motion)
         self.arrival_s = self.trace.t_acq_s + cfg.latency_s
         self.predictor = make_predictor(cfg.compensation, **heart_rate_input(cfg, motion))
         bounded = "hold" if cfg.compensation == "none" else cfg.compensation
@@ -111,6 +126,9 @@ class Episode:
         self.n_periods = round(self.length_s / cfg.dt)
         self.t_s: FloatArray = cfg.warmup_s + cfg.dt * np.arange(self.n_periods, dtype=float)
         self.wall_m = self.motion.displacement(self.t_s)
+        shift = self.motion.translation(self.t_s)  # the eye's translation per period [m]
+        self.center_m = np.ascontiguousarray(eye.center + shift)  # (n, 3) per period
+        self.trocar_m = np.ascontiguousarray(eye.port + shift)
         n = self.n_periods  # per period, planned a block at a time (`plan`):
         self.predicted_m, self.bound_m, self.command_m = np.empty(n), np.empty(n), np.empty(n)
         self.floor_m = np.empty(n)  # the depth limit's floor radius [m]
@@ -118,12 +136,13 @@ class Episode:
         self.desired, self.targets = np.empty((n, 3)), np.empty((n, 6))
         self._planned_to = 0  # periods [0, _planned_to) are planned
         self.start_radius = layers.ilm_radius_m - cfg.start_height_m
-        start_tip = self.to_base(self.start_radius)
-        pose = solve_pose(robot, rcm_target(start_tip, eye.port))
+        start_tip = self.to_base(self.start_radius, 0)
+        pose = solve_pose(robot, rcm_target(start_tip, self.trocar_m[0]))
         scene = {"eye": eye, "points": default_points(eye)}
         self.plant = make_plant(cfg.plant, robot, scene=scene, dt=cfg.dt)
         self.plant.reset(robot.actuators_from_joints(pose.q))
-        self.depth_limit = TissueDepthLimit(eye.center, float(self.limit_radius(np.zeros(()))))
+        floor_m = float(self.limit_radius(np.zeros(())))
+        self.depth_limit = TissueDepthLimit(self.center_m[0], floor_m)
         extra = (self.depth_limit,) if cfg.depth_limit else ()
         self.solver = QpSolver(
             robot, None, cfg.dt, limits=QpLimits(), servo=self.plant, extra_limits=extra
@@ -141,10 +160,19 @@ class Episode:
         self.done = 0  # periods run (their records logged and stored)
         self.blocks = PeriodBlocks.make(self)  # None: one period at a time
 
-    def to_base(self, radius_m: float | FloatArray) -> FloatArray:
-        """The point (3,) at `radius_m` [m] from the eye centre on the target's normal, base
-        frame; (N, 3) for N radii."""
-        return np.asarray(self.eye.center + np.multiply.outer(radius_m, self.normal_base))
+    def with_eye_motion(self, motion: MotionTrajectory) -> MotionTrajectory:
+        """`motion` with the whole-eye translation of the settings (`eye_drift_m`), drawn from
+        the generator of (seed, 1): the rest of the seed's draws do not change with it."""
+        cfg = self.cfg
+        model = MotionModel(eye_drift_m=cfg.eye_drift_m, eye_drift_time_s=cfg.eye_drift_time_s)
+        rng = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(1,)))
+        shift = eye_translation(model, motion.t_s.size, rng)
+        return replace(motion, translation_m=shift)
+
+    def to_base(self, radius_m: float | FloatArray, k: int | slice) -> FloatArray:
+        """The point (3,) at `radius_m` [m] from the eye centre of period k on the target's
+        normal, base frame; (N, 3) for N radii and a slice k of N periods."""
+        return np.asarray(self.center_m[k] + np.multiply.outer(radius_m, self.normal_base))
 
     def limit_radius(self, displacement_m: FloatArray) -> FloatArray:
         """Radii [m] the depth limit holds the tip within: the RPE displaced by
@@ -184,19 +212,20 @@ class Episode:
         radius, self.command_m[block] = tip_radius(
             self.phase[block], a, self.predicted_m[block], self.start_radius, self.cfg, self.layers
         )
-        self.desired[block] = self.to_base(radius)
-        self.targets[block] = rcm_targets(self.desired[block], self.eye.port)
+        self.desired[block] = self.to_base(radius, block)
+        self.targets[block] = rcm_targets(self.desired[block], self.trocar_m[block])
         if not np.isfinite(self.targets[block]).all():  # as rcm_target refuses it
             raise UnreachableTargetError("the tip target coincides with the trocar")
         self._planned_to = end
 
     def period(self) -> None:
         """Run the next control period on its own (module docstring)."""
-        robot, plant, trocar, cfg = self.robot, self.plant, self.eye.port, self.cfg
-        k = self.done
+        robot, plant, cfg, k = self.robot, self.plant, self.cfg, self.done
         if k >= self._planned_to:
             self.plan(k)
+        trocar = self.trocar_m[k]
         self.depth_limit.set_floor(float(self.floor_m[k]))
+        self.depth_limit.set_center(self.center_m[k])
         desired, target = self.desired[k], self.targets[k]
         s = plant.read_actuators()
         q = robot.joints_from_actuators(s)
@@ -227,7 +256,7 @@ class Episode:
         deviations (n,) [m]; the tissue model reads each tip in turn."""
         n = tips.shape[0]
         block, wall = slice(k, k + n), self.wall_m[k : k + n]
-        z = np.linalg.norm(tips - self.eye.center, axis=1) - (self.layers.ilm_radius_m + wall)
+        z = np.linalg.norm(tips - self.center_m[block], axis=1) - (self.layers.ilm_radius_m + wall)
         readings = [self.tissue.update(float(depth)) for depth in z]
         columns = (self.t_s[block], self._pid_of[self.phase[block]], wall, self.predicted_m[block],
                    self.bound_m[block], self.command_m[block], z,

@@ -29,7 +29,7 @@ MAX_EPISODES = 1_000_000
 # Settings of `base` that every episode replaces with its draw and method.
 DRAWN = ("compensation", "seed", "breathing_m", "cardiac_amplitude_m", "breathing_rate_hz",
          "cardiac_rate_hz", "ioct_rate_hz", "latency_s", "noise_std_m",
-         "target_fraction")  # fmt: skip
+         "target_fraction", "eye_drift_m")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -105,6 +105,7 @@ class EpisodeRecord:
     latency_s: float
     noise_std_m: float
     target_fraction: float
+    eye_drift_m: float
     tracking_rms_m: float | None
     depth_error_m: float | None
     depth_rms_error_m: float | None
@@ -113,6 +114,7 @@ class EpisodeRecord:
     max_depth_past_rpe_m: float | None
     max_rcm_deviation_m: float | None
     prediction_rms_m: float | None
+    max_trocar_displacement_m: float | None
     wall_time_s: float
     message: str = ""
 
@@ -135,7 +137,7 @@ class EpisodeRecord:
 
 FIGURES = ("tracking_rms_m", "depth_error_m", "depth_rms_error_m", "in_band_fraction",
            "rpe_breach", "max_depth_past_rpe_m", "max_rcm_deviation_m",
-           "prediction_rms_m")  # fmt: skip
+           "prediction_rms_m", "max_trocar_displacement_m")  # fmt: skip
 
 
 def _finite(value: Any) -> Any:

@@ -47,6 +47,8 @@ class Episode(Protocol):
     targets: np.ndarray
     desired: np.ndarray
     floor_m: np.ndarray
+    trocar_m: np.ndarray
+    center_m: np.ndarray
     phase: np.ndarray
     phase_names: Any
 
@@ -73,7 +75,6 @@ class PeriodBlocks:
         self.Q, self.contacts = params
         self.K = np.ascontiguousarray(solver.K, dtype=np.float64)
         self.floor_at = floor_index(solver.extra_limits)
-        self.trocar = np.ascontiguousarray(ep.eye.port, dtype=np.float64)
         self.qp = fast_cache.qp_kernels().buffers()
         self.info = np.zeros(3, dtype=np.int64)
         self.sid = ep.log.solver_id(solver.name)
@@ -85,9 +86,9 @@ class PeriodBlocks:
              deviation: np.ndarray) -> int:  # fmt: skip
         """The kernel on periods k..end-1 from sliders s; returns its status."""
         return int(self.kernels.run_periods(
-            self.P, self.Q, self.contacts, self.K, self.floor_at, ep.cfg.rcm_bound_m, self.trocar,
-            ep.t_s[k:end], ep.targets[k:end], ep.desired[k:end], ep.floor_m[k:end], s, rec,
-            deviation, self.info, self.qp,
+            self.P, self.Q, self.contacts, self.K, self.floor_at, ep.cfg.rcm_bound_m,
+            ep.trocar_m[k:end], ep.t_s[k:end], ep.targets[k:end], ep.desired[k:end],
+            ep.floor_m[k:end], ep.center_m[k:end], s, rec, deviation, self.info, self.qp,
         ))  # fmt: skip
 
     @classmethod

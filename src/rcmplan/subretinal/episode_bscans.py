@@ -7,7 +7,8 @@ during the logged periods (and the one it held at the first period), `episode_bs
 the B-scan of that acquisition with `ioct.render_bscan` and segments it with
 `segment.segment_bscan`: the true ILM displacement of the trace at the acquisition, the tip and
 the needle's tilt from the run log at the last period at or before it, and the ILM's tent from
-the tissue model at that period. The needle lies in the scan plane; B-scan x is the eye frame's
+the tissue model at that period (the tip relative to the eye, which moves with its trocar
+when the episode's eye moves). The needle lies in the scan plane; B-scan x is the eye frame's
 x across the target's normal, z the depth along it (`ioct` module docstring). The renderer
 draws tilts of 0.1-1.4 rad; a needle steeper than 0.1 rad from the normal is drawn at 0.1 rad.
 Speckle comes from a generator seeded by (episode seed, acquisition index).
@@ -135,7 +136,7 @@ def episode_bscans(result: EpisodeResult) -> EpisodeBScans:
     images = []
     for k in range(first, last):
         i = max(int(np.searchsorted(log.time, trace.t_acq_s[k], side="right")) - 1, 0)
-        tip = log.tip[i] - centre
+        tip = log.tip[i] - (centre + log.trocar[i] - eye.port)  # the eye moves with its trocar
         x, z = float(tip @ lateral), float(tip @ normal) - layers.ilm_radius_m
         axis = log.tip[i] - log.base[i]
         tilt = math.atan2(float(axis @ lateral), float(axis @ normal))

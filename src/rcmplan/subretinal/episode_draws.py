@@ -17,7 +17,7 @@ import numpy as np
 
 from rcmplan._validate import scalar
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.subretinal.episode_settings import EpisodeSettings
+from rcmplan.subretinal.episode_settings import EYE_DRIFT_MAX_M, EpisodeSettings
 from rcmplan.subretinal.layers import RetinaLayers
 from rcmplan.subretinal.motion import BREATHING_BAND_HZ, CARDIAC_BAND_HZ
 from rcmplan.subretinal.tissue import TissueModel
@@ -38,6 +38,9 @@ class DrawRanges:
         latency_s: iOCT latency [s].
         noise_std_m: Standard deviation of the iOCT estimates' error [m].
         target_fraction: Target depth between ILM (0) and RPE (1).
+        eye_drift_m: Standard deviation per axis of the whole-eye translation [m] (0, 0:
+            the eye stays put; drawn last, so a drawn range leaves the other conditions as
+            they are, the episode's seed not).
     """
 
     breathing_amplitude_m: Range = (20e-6, 75e-6)
@@ -48,6 +51,7 @@ class DrawRanges:
     latency_s: Range = (0.0, 0.3)
     noise_std_m: Range = (0.23e-6, 3.3e-6)
     target_fraction: Range = (0.45, 0.7)
+    eye_drift_m: Range = (0.0, 0.0)
 
     def __post_init__(self) -> None:
         envelopes: dict[str, tuple[float, float, bool]] = {
@@ -59,6 +63,7 @@ class DrawRanges:
             "latency_s": (0.0, 1.0, False),
             "noise_std_m": (0.0, 50e-6, False),
             "target_fraction": (0.0, 1.0, True),
+            "eye_drift_m": (0.0, EYE_DRIFT_MAX_M, False),
         }
         for name, (low, high, open_ends) in envelopes.items():
             value = getattr(self, name)
@@ -90,6 +95,9 @@ class DrawRanges:
             raise InvalidInputError(
                 "breathing_amplitude_m[1] + cardiac_amplitude_m[1]", reach, valid
             )
+        if self.eye_drift_m[1] > 0 and base.plant != "kinematic":
+            valid = "0 on the mujoco plant (its eye is fixed in the scene)"
+            raise InvalidInputError("eye_drift_m[1]", self.eye_drift_m[1], valid)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain JSON-ready dictionary (pairs as lists)."""
@@ -110,6 +118,7 @@ class EpisodeDraw:
     latency_s: float
     noise_std_m: float
     target_fraction: float
+    eye_drift_m: float = 0.0
 
     def settings(self, base: EpisodeSettings, compensation: str) -> EpisodeSettings:
         """`base` with this episode's conditions and the given compensation."""
@@ -125,6 +134,7 @@ class EpisodeDraw:
             latency_s=self.latency_s,
             noise_std_m=self.noise_std_m,
             target_fraction=self.target_fraction,
+            eye_drift_m=self.eye_drift_m,
         )
 
     def as_dict(self) -> dict[str, Any]:

@@ -29,6 +29,16 @@ def _mean(x: FloatArray) -> float | None:
     return float(np.mean(x)) if x.size else None
 
 
+def trocar_motion(result: EpisodeResult) -> tuple[float, float]:
+    """The trocar's largest distance [m] from where it was in the first period, and its
+    largest move in one period [m] (whole-eye motion; both 0 when the eye stays put)."""
+    trocar = result.log.trocar
+    if trocar.shape[0] < 2:
+        return 0.0, 0.0
+    away = np.linalg.norm(trocar - trocar[0], axis=1).max()
+    return float(away), float(np.linalg.norm(np.diff(trocar, axis=0), axis=1).max())
+
+
 def episode_status(result: EpisodeResult, breach: bool, punctured: bool) -> tuple[str, str]:
     """(status, message): the run's own status if it stopped, else "rpe_breach" if the tip
     passed the RPE, "not_punctured" if it never entered the retina, else "ok"."""
@@ -55,6 +65,7 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
     seen = result.trace.t_acq_s <= (s["t_s"][-1] if s["t_s"].size else 0.0)
     seg = result.trace.estimate_m[seen] - result.trace.truth_m[seen]
     band = np.asarray(in_target_band(layers, depth[hold]), dtype=bool)
+    trocar = trocar_motion(result)
     return {
         "command": "subretinal",
         "status": status,
@@ -82,6 +93,10 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
         "depth_limit": cfg.depth_limit,
         "duration_s": float(s["t_s"].size * cfg.dt),
         "max_rcm_deviation_m": float(s["rcm_deviation_m"].max()) if s["t_s"].size else 0.0,
+        "eye_drift_m": cfg.eye_drift_m,
+        "eye_drift_time_s": cfg.eye_drift_time_s,
+        "max_trocar_displacement_m": trocar[0],
+        "max_trocar_step_m": trocar[1],
         "tracking_rms_m": _rms(height_error),
         "depth_error_m": _mean(depth[hold] - layers.target_depth_m),
         "depth_rms_error_m": _rms(depth[hold] - layers.target_depth_m),

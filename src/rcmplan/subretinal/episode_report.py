@@ -1,10 +1,11 @@
 """The figures of a batch of subretinal episodes, per method, from its per-episode records.
 
 Per method: episodes run, successes and the success rate (`EpisodeRecord.success`), RPE
-breaches, the median and 95th percentile of the hover tracking RMS, the median of the mean
-depth error and of the depth RMS error during the hold, the mean in-band fraction and the
-largest RCM deviation. Curves: the same success rate and median tracking RMS in bins of the
-drawn iOCT volume rate (log-spaced) and latency. SI units throughout.
+breaches, the median and 95th percentile of the hover tracking RMS, the median of the mean depth
+error and of the depth RMS error during the hold, the mean in-band fraction, the largest RCM
+deviation and the largest trocar displacement (whole-eye motion). Curves: the same success rate
+and median tracking RMS in bins of the drawn iOCT volume rate (log-spaced) and latency. SI units
+throughout.
 """
 
 from __future__ import annotations
@@ -43,6 +44,7 @@ def method_summary(records: list[EpisodeRecord]) -> dict[str, Any]:
     successes = sum(r.success for r in records)
     tracking = _values(records, "tracking_rms_m")
     rcm = _values(records, "max_rcm_deviation_m")
+    trocar = _values(records, "max_trocar_displacement_m")
     in_band = _values(records, "in_band_fraction")
     return {
         "episodes": n,
@@ -55,6 +57,7 @@ def method_summary(records: list[EpisodeRecord]) -> dict[str, Any]:
         "depth_rms_error_m_median": _median(_values(records, "depth_rms_error_m")),
         "in_band_fraction_mean": float(np.mean(in_band)) if in_band else None,
         "max_rcm_deviation_m": max(rcm) if rcm else None,
+        "max_trocar_displacement_m": max(trocar) if trocar else None,
         "statuses": dict(Counter(r.status for r in records)),
         "wall_time_s_median": _median([r.wall_time_s for r in records]),
     }

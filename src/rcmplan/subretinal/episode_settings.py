@@ -17,6 +17,9 @@ SEGMENTATION_STD_M = 0.23e-6
 # Cardiac amplitude per unit of breathing amplitude: the MotionModel defaults (10 um / 50 um).
 CARDIAC_PER_BREATHING = 0.2
 PLANTS_SUPPORTED = ("kinematic", "mujoco")
+# Largest standard deviation per axis of the whole-eye translation [m] (a bound on absurd
+# values: a quarter of the eye's 24 mm diameter).
+EYE_DRIFT_MAX_M = 5e-3
 
 
 @dataclass(frozen=True)
@@ -57,6 +60,10 @@ class EpisodeSettings:
         settle_s: Time at the stand-off after the retraction [s].
         dt: Control period [s].
         rcm_bound_m: RCM deviation [m] that stops the episode.
+        eye_drift_m: Standard deviation per axis [m] of the whole-eye translation T(t) (the
+            motion model's OU process), which carries the retina, the target and the trocar;
+            0: the eye stays put. At most `EYE_DRIFT_MAX_M`; kinematic plant only.
+        eye_drift_time_s: Correlation time of the whole-eye translation [s].
     """
 
     robot: str = "iramis"
@@ -87,6 +94,8 @@ class EpisodeSettings:
     settle_s: float = 0.3
     dt: float = 1e-3
     rcm_bound_m: float = 45e-6
+    eye_drift_m: float = 0.0
+    eye_drift_time_s: float = 30.0
 
     def __post_init__(self) -> None:
         check_robot(self.robot)
@@ -120,6 +129,11 @@ class EpisodeSettings:
         scalar("settle_s", self.settle_s, 0.0, 10.0)
         scalar("dt", self.dt, 1e-4, 1e-2)
         scalar("rcm_bound_m", self.rcm_bound_m, 0.0, 1e-3, low_open=True)
+        scalar("eye_drift_m", self.eye_drift_m, 0.0, EYE_DRIFT_MAX_M)
+        scalar("eye_drift_time_s", self.eye_drift_time_s, 0.1, 1e4)
+        if self.eye_drift_m > 0 and self.plant != "kinematic":
+            valid = "0 on the mujoco plant (its eye is fixed in the scene)"
+            raise InvalidInputError("eye_drift_m", self.eye_drift_m, valid)
 
     @property
     def cardiac_m(self) -> float:

@@ -165,8 +165,15 @@ def sample_motion(
     rate = np.clip(nominal_f * (1.0 + model.rate_drift * drift[:, 2:]), bands[:, 0], bands[:, 1])
     steps = 0.5 * (rate[1:] + rate[:-1]) * model.grid_s
     phase = phase0 + 2 * np.pi * np.vstack([np.zeros((1, 2)), np.cumsum(steps, axis=0)])
-    translation = np.zeros((n, 3))
-    if model.eye_drift_m > 0:
-        ou = ornstein_uhlenbeck(rng, n, model.grid_s, model.eye_drift_time_s, size=3)
-        translation = model.eye_drift_m * ou
+    translation = eye_translation(model, n, rng)
     return MotionTrajectory(t, phase, amplitude, rate, translation)
+
+
+def eye_translation(model: MotionModel, n: int, rng: np.random.Generator) -> FloatArray:
+    """The whole-eye translation T (n, 3) [m] on the model's grid (`grid_s`): per axis an OU
+    process of standard deviation `eye_drift_m` and correlation time `eye_drift_time_s`; zeros
+    (nothing drawn) when `eye_drift_m` is 0."""
+    if model.eye_drift_m == 0:
+        return np.zeros((n, 3))
+    ou = ornstein_uhlenbeck(rng, n, model.grid_s, model.eye_drift_time_s, size=3)
+    return model.eye_drift_m * ou

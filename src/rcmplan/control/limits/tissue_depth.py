@@ -46,6 +46,10 @@ class TissueDepthLimit:
         """Move the bounding sphere to `radius_m` [m] (checked)."""
         self.floor_radius_m = scalar("floor_radius_m", radius_m, 0.0, 0.05, low_open=True)
 
+    def set_center(self, center: FloatArray) -> None:
+        """Move the sphere's centre to `center` (3,) [m] (checked): an eye that moves."""
+        self.center = vector("center", center, 3)
+
     def gap_m(self, tip: FloatArray) -> float:
         """floor_radius_m - |tip - centre| [m]: positive while the tip is within the bound."""
         return radial_gap(self.center, self.floor_radius_m, vector("tip", tip, 3))
