@@ -17,10 +17,11 @@ from rcmplan.subretinal.episode_draws import DrawRanges, draw_episode
 from rcmplan.subretinal.episode_metrics import summarise
 from rcmplan.subretinal.episode_settings import EpisodeSettings
 
-# A short episode with 500 um of eye drift per axis.
+# A short episode with 500 um of eye drift per axis, its correlation time shortened to 2 s so
+# that the smooth drift moves the eye by hundreds of um within the episode's 3 s.
 DRIFT = EpisodeSettings(hold_s=0.5, hover_s=0.3,
                         start_height_m=200e-6, advance_speed_m_s=0.4e-3, eye_drift_m=500e-6,
-                        seed=2)  # fmt: skip
+                        eye_drift_time_s=2.0, seed=2)  # fmt: skip
 
 
 @pytest.fixture(scope="module")

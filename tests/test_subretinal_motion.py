@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.subretinal.motion import MotionModel, ornstein_uhlenbeck, sample_motion
+from rcmplan.subretinal.motion import (
+    MotionModel,
+    eye_translation,
+    ornstein_uhlenbeck,
+    sample_motion,
+)
 
 
 def spectrum(signal: np.ndarray, fs: float) -> tuple[np.ndarray, np.ndarray]:
@@ -92,3 +97,15 @@ def test_times_outside_the_trajectory_and_bad_parameters_raise() -> None:
         MotionModel(drift_time_s=0.0)
     with pytest.raises(InvalidInputError):
         sample_motion(MotionModel(), -1.0, 1)
+
+
+def test_the_eye_translation_starts_stationary_with_its_standard_deviation_and_is_smooth() -> None:
+    """Each path's first sample is a stationary draw (sd `eye_drift_m` per axis); its moves
+    over 4 grid steps are 4 times those over one (a path with a velocity; an OU path: 2)."""
+    model = MotionModel(eye_drift_m=200e-6, eye_drift_time_s=30.0)
+    first = np.array([eye_translation(model, 1, np.random.default_rng(k))[0] for k in range(200)])
+    assert 0.9 * 200e-6 < float(np.std(first)) < 1.1 * 200e-6  # 600 draws: sd within 6 %
+    path = eye_translation(model, 20_000, np.random.default_rng(7))
+    one, four = np.diff(path, axis=0), path[4:] - path[:-4]
+    ratio = float(np.sqrt(np.mean(four**2) / np.mean(one**2)))
+    assert 3.9 < ratio < 4.01

@@ -9,7 +9,8 @@ breathing and a cardiac component, each a sinusoid whose amplitude and rate drif
 with x_a, x_f independent Ornstein-Uhlenbeck processes of unit variance and correlation time
 `drift_time_s` (exact discretisation on a grid of `grid_s`), phi_k0 uniform in [0, 2 pi). The
 optional whole-eye motion is a rigid translation T(t) (3,) [m] of the eye (and of the trocar it
-carries), one OU process per axis with standard deviation `eye_drift_m`. Everything is drawn
+carries), per axis a smooth second-order Gauss-Markov process with standard deviation
+`eye_drift_m` (`eye_translation`). Everything is drawn
 from one seeded `numpy.random.Generator`: a seed gives the same trajectory on every machine.
 Sources of the defaults: docs/subretinal.md.
 """
@@ -170,10 +171,19 @@ def sample_motion(
 
 
 def eye_translation(model: MotionModel, n: int, rng: np.random.Generator) -> FloatArray:
-    """The whole-eye translation T (n, 3) [m] on the model's grid (`grid_s`): per axis an OU
-    process of standard deviation `eye_drift_m` and correlation time `eye_drift_time_s`; zeros
-    (nothing drawn) when `eye_drift_m` is 0."""
+    """The whole-eye translation T (n, 3) [m] on the model's grid (`grid_s`): per axis a smooth
+    second-order Gauss-Markov process of standard deviation `eye_drift_m`, an OU process of
+    time constant tau = `eye_drift_time_s` / 2 low-passed once more with the same tau (its path
+    has a velocity, of standard deviation eye_drift_m / tau, as a drifting head has; an OU path
+    has none: its moves per period grow as the square root of the period). Started stationary
+    (10 tau drawn and dropped before the first sample); zeros (nothing drawn) when
+    `eye_drift_m` is 0."""
     if model.eye_drift_m == 0:
         return np.zeros((n, 3))
-    ou = ornstein_uhlenbeck(rng, n, model.grid_s, model.eye_drift_time_s, size=3)
-    return model.eye_drift_m * ou
+    tau = 0.5 * model.eye_drift_time_s
+    skip = int(np.ceil(10.0 * tau / model.grid_s))
+    x = ornstein_uhlenbeck(rng, skip + n, model.grid_s, tau, size=3)
+    a = np.exp(-model.grid_s / tau)
+    c = (1.0 - a * a) / np.sqrt(1.0 + a * a)  # unit variance for a unit AR(1) input
+    y: FloatArray = signal.lfilter([c], [1.0, -a], x, axis=0)
+    return model.eye_drift_m * y[skip:]
