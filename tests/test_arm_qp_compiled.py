@@ -274,6 +274,23 @@ class ServoPlant(KinematicPlant):
         return self.lead.copy()
 
 
+def test_error_and_step_at_one_state_share_one_servo_solve(
+    arm: SerialArm, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    plant = ServoPlant(arm)
+    fast = ArmQpStep(QpSolver(arm, None, servo=plant))
+    calls: list[int] = []
+    solve = fast._k.solve_servo_step
+    monkeypatch.setattr(fast._k, "solve_servo_step", lambda *a: calls.append(1) or solve(*a))
+    q, lam, target = next(states(arm, np.random.default_rng(1), 1, spread=1e-6))
+    plant.lead = q + 1e-4
+    fast.step(arm, q, lam, target, fast.error(arm, q, lam, target))
+    assert len(calls) == 1
+    plant.lead = q + 2e-4  # a new command: a new solve
+    fast.step(arm, q, lam, target, fast.error(arm, q, lam, target))
+    assert len(calls) == 2
+
+
 def test_the_compiled_arm_step_plans_from_a_servos_command_as_the_solver_does(
     arm: SerialArm,
 ) -> None:

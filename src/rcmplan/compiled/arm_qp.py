@@ -111,7 +111,7 @@ class ArmQpStep:
         key = q.tobytes() + np.float64(lam).tobytes() + target.tobytes()
         if self.servo.shape[0] > 0:  # with a servo the plan is its last command
             servo_command(self.solver, self.qpa)
-            key += self.servo.tobytes()
+            key += self.servo[: self.n].tobytes()  # the command (the rest is the solve's scratch)
         if key != self._key:
             if self.solver.extra_limits:  # a moving limit's parameters as they are now
                 pack_extras(self.solver, self.Q)
