@@ -21,9 +21,14 @@ import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.qp_params import DT, SPEED
-from rcmplan.compiled.qp_rows import X, assemble, buffers, full_speed, solve_assembled
-from rcmplan.control.cost import synchronise
+from rcmplan.compiled.qp_rows import (
+    X,
+    assemble,
+    buffers,
+    lead_error,
+    solve_assembled,
+    solve_planned,
+)
 from rcmplan.control.limits.base import SCALE
 from rcmplan.robot.chain_kinematics import (
     IntArray,
@@ -125,19 +130,13 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
         res = servo[n + i]
         plan[i] = servo[i] if res == 0.0 else np.rint(servo[i] / res) * res
     rows = build_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e, qp)
-    for i in range(6):
-        e_plan[i] = e[i]
-    nb = qp[0].shape[0]
-    synchronise(qp[0], qp[1], Q[SPEED : SPEED + nb - 1] * Q[DT] / SCALE)
-    flag = solve_assembled(Q, K, rows, e, qp)
+    flag = solve_planned(Q, K, rows, e, e_plan, qp)
     if flag != 1:
         return flag
     frames(A, ix, q, W)
     task_at(A, n, W, lam, now)  # X_ext at the measured joints
     x = qp[X]
-    limited = full_speed(Q, x)
-    for i in range(6):
-        e[i] = target[i] - now[i] if limited else e[i] + ((target[i] - now[i]) - e_plan[i])
+    lead_error(Q, x, target, now, e_plan, e)
     for j in range(m):  # `qp.joints_step` from q
         k = ix[2 + n + j]
         d[j] = (plan[k] + x[j] * SCALE) - q[k]

@@ -20,9 +20,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import qp_rows
 from rcmplan.compiled.daqp_c import EQUALITY
 from rcmplan.compiled.kernels import task
-from rcmplan.compiled.qp_params import DT, SPEED
-from rcmplan.compiled.qp_rows import X, assemble, solve_assembled
-from rcmplan.control.cost import synchronise
+from rcmplan.compiled.qp_rows import X, assemble, solve_assembled, solve_planned
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.limits.rows import times
 from rcmplan.robot.iramis_kernels import (
@@ -127,11 +125,7 @@ def solve_servo_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: Floa
     (6,), its cost synchronised to the actuators' speed window (`qp.synchronised_step`), then
     solved; returns DAQP's exit flag (1: optimal)."""
     rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
-    for i in range(6):
-        e_plan[i] = e[i]
-    nb = qp[0].shape[0]
-    synchronise(qp[0], qp[1], Q[SPEED : SPEED + nb - 1] * Q[DT] / SCALE)
-    return solve_assembled(Q, K, rows, e, qp)
+    return solve_planned(Q, K, rows, e, e_plan, qp)
 
 
 @njit(cache=True)

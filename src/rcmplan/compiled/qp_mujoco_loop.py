@@ -28,7 +28,7 @@ from rcmplan.compiled.kernels import task
 from rcmplan.compiled.loop import closest_lambda, put, target_frame
 from rcmplan.compiled.qp_kernels import X, solve_servo_step
 from rcmplan.compiled.qp_loop import record_and_step
-from rcmplan.compiled.qp_rows import full_speed
+from rcmplan.compiled.qp_rows import lead_error
 from rcmplan.compiled.records import (
     DONE,
     NO_TIP,
@@ -68,10 +68,7 @@ def iterate_qp_servo(
         info[2] = flag
         return QP_FAILED
     task(P, q, tr, state[0], x_now)  # X_ext at the measured joints
-    limited = full_speed(Q, qp[X])
-    for i in range(6):
-        now = target[i] - x_now[i]
-        e[i] = now if limited else e[i] + (now - e_plan[i])
+    lead_error(Q, qp[X], target, x_now, e_plan, e)
     return record_and_step(P, tol, max_it, bounds, tip_t, trocar, s, state, it, row, fail,
                            info, w, q, tr, e, s_qp, qp[X])  # fmt: skip
 
