@@ -56,7 +56,21 @@ case "${RCMPLAN_REQUIRE_BROWSER:-}" in
   *) echo "check.sh: RCMPLAN_REQUIRE_BROWSER=$RCMPLAN_REQUIRE_BROWSER: browser tests required" ;;
 esac
 
+# numba compiles each kernel on its first call and caches it (`rcmplan.compiled.cache`). On a
+# fresh clone that compile is most of the suite's CPU time, and two pytest workers would each
+# compile the same kernels: so the kernels compile first, in two processes at once (iRAM!S's;
+# the arms' and the curved needle's), while ruff and mypy run, and the test workers load them.
+trap 'kill $(jobs -p) 2>/dev/null || true' EXIT  # no compile left running if a check fails
+python -c "from rcmplan.warmup import compile_iramis_kernels as c; c()" &
+iramis_kernels=$!
+python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_curved_kernels as c; a(); c()" &
+arm_kernels=$!
 python -m ruff check src tests benchmarks
 python -m ruff format --check src tests benchmarks
 python -m mypy
-python -m pytest -q
+wait "$iramis_kernels"
+wait "$arm_kernels"
+
+# One pytest worker per core, at most 4 (pytest-xdist).
+workers="$(python -c 'import os; print(min(4, len(os.sched_getaffinity(0))))')"
+python -m pytest -q -n "$workers"

@@ -35,9 +35,18 @@ from rcmplan.sim.kinematic import KinematicPlant
 def compile_kernels() -> None:
     """Compile (or load from numba's cache) every kernel with the argument types used here:
     `python -c "from rcmplan.warmup import compile_kernels; compile_kernels()"` fills
-    the cache ahead of a first run (in a container build, say)."""
-    from rcmplan.control.targets import rcm_target
+    the cache ahead of a first run (in a container build, say). Its three parts may run in
+    separate processes at once (`scripts/check.sh` does): each kernel's cache entry is its own
+    file."""
+    compile_iramis_kernels()
+    compile_arm_kernels()
+    compile_curved_kernels()
 
+
+def compile_iramis_kernels() -> None:
+    """Compile (or load from numba's cache) iRAM!S's kernels: its kinematics, each loop and
+    screen on the kinematic plant and on a plant stepping in Python, the QP loop, and the loops
+    around the dynamic MuJoCo plant if MuJoCo is installed."""
     robot = Iramis()
     fast = FastIramis(robot)
     q, K = robot.home.copy(), np.ones(6)
@@ -65,8 +74,6 @@ def compile_kernels() -> None:
             ctl = Controller(plant, solver)
             ctl.lam = 1.0 - 8e-3 / robot.params.l6
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
-    compile_arm_kernels()
-    compile_curved_kernels()
     _compile_qp_loop(robot, trocar)
     if importlib.util.find_spec("mujoco") is not None:
         _compile_mujoco_loop(robot, jobs)
