@@ -134,7 +134,12 @@ def retina_excess(log: RunLog, eye: EyeModel, lim: QpLimits) -> NDArray[np.float
 
 
 def singular_values(log: RunLog, robot: RobotModel) -> NDArray[np.float64]:
-    """Per record, the smallest of the robot's singular terms (iRAM!S: cos q1, cos q3)."""
+    """Per record, the smallest of the robot's singular terms (iRAM!S: cos q1, cos q3): one
+    call for a model with `smallest_singular_values`, else one per record."""
+    batch = getattr(robot, "smallest_singular_values", None)
+    values = batch(log.joints) if batch is not None and len(log) else None
+    if values is not None:
+        return np.asarray(values, dtype=np.float64)
     out = np.full(len(log), math.inf)
     # The values alone where the model offers them (an arm's gradient costs an SVD's worth).
     only = getattr(robot, "singular_values", None)

@@ -22,6 +22,7 @@ from rcmplan.robot.chain_kinematics import (
     ROWS,
     SING,
     IntArray,
+    frames,
     joint_axis,
     needle_axis,
     point_jacobian,
@@ -142,6 +143,14 @@ def singularity_measure(A: FloatArray, ix: IntArray, W: FloatArray) -> float:
     square roots of G's extreme eigenvalues (to about 1e-12 relative where it is 0.01)."""
     lo, hi = gram_extremes(W, singular_gram(A, ix, W))
     return math.sqrt(max(lo, 0.0) / hi) if hi > 0.0 else 0.0
+
+
+@njit(cache=True)
+def measures(A: FloatArray, ix: IntArray, Q: FloatArray, W: FloatArray, out: FloatArray) -> None:
+    """`singularity_measure` at each row of Q (N, n) into out (N,); W the work array."""
+    for i in range(Q.shape[0]):
+        frames(A, ix, Q[i], W)
+        out[i] = singularity_measure(A, ix, W)
 
 
 @njit(cache=True)

@@ -90,6 +90,11 @@ class CurvedTipRobot:
         values = getattr(self.base, "singular_values", None)
         return values(q) if values is not None else self.base.singular_terms(q)[0]
 
+    def smallest_singular_values(self, Q: FloatArray) -> FloatArray | None:
+        """The base's smallest singular term per row of Q (N, n), None if it has no batch."""
+        values = getattr(self.base, "smallest_singular_values", None)
+        return values(Q) if values is not None else None
+
     def check_singularity(self, q: FloatArray, threshold: float | None = None) -> None:
         self.base.check_singularity(q, threshold)
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import F64, WORKSPACE_M, FloatArray, instance, scalar, vector
+from rcmplan._validate import F64, WORKSPACE_M, FloatArray, array, instance, scalar, vector
 from rcmplan.exceptions import (
     InvalidInputError,
     SingularPoseError,
@@ -347,6 +347,14 @@ class Iramis:
         grad = np.zeros((2, 6))
         grad[0, 1], grad[1, 3] = -math.sin(q1), -math.sin(q3)
         return np.array([math.cos(q1), math.cos(q3)]), grad
+
+    @staticmethod
+    def smallest_singular_values(Q: FloatArray) -> FloatArray:
+        """min(cos q1, cos q3) at each row of joints Q (N, 6) (`singular_terms`' values)."""
+        Q = array("Q", Q, 2)
+        if Q.shape[1] != 6:
+            raise InvalidInputError("Q", Q, f"shape (N, 6), got shape {Q.shape}")
+        return np.minimum(np.cos(Q[:, 1]), np.cos(Q[:, 3]))
 
     def check_singularity(
         self, q: Sequence[float] | FloatArray, threshold: float | None = None

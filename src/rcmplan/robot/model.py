@@ -15,7 +15,7 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, instance, integer, scalar, text, vector
+from rcmplan._validate import FloatArray, array, instance, integer, scalar, text, vector
 from rcmplan.exceptions import (
     InvalidInputError,
     SingularPoseError,
@@ -295,6 +295,16 @@ class SerialArm:
     def singular_values(self, q: FloatArray) -> FloatArray:
         """The singular terms' values (1,) without their gradient (the measure)."""
         return np.array([self.singularity_measure(q)])
+
+    def smallest_singular_values(self, Q: FloatArray) -> FloatArray:
+        """The smallest singular term (the measure) at each row of Q (N, n), one compiled call
+        (`chain_singular.measures`)."""
+        Q = np.ascontiguousarray(array("Q", Q, 2))
+        if Q.shape[1] != self.chain.n:
+            raise InvalidInputError("Q", Q, f"shape (N, {self.chain.n}), got shape {Q.shape}")
+        out = np.empty(len(Q))
+        sing.measures(self._A, self._ix, Q, np.empty_like(self._W), out)
+        return out
 
     def singular_terms(self, q: FloatArray) -> tuple[FloatArray, FloatArray]:
         """The measure kappa = s_min / s_max of M = [J_tip / l; N J_omega] (1,) and its exact
