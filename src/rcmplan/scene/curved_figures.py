@@ -46,23 +46,22 @@ def needle_polyline(robot: RobotModel, q: FloatArray, arc: FloatArray | None = N
     return points
 
 
-def port_offset(eye: Eye, polyline: FloatArray) -> float:
+def port_offset(eye: Eye, polyline: FloatArray) -> FloatArray:
     """Largest distance in [m] from the insertion axis of the needle's points within the wall
-    (0 if none is)."""
-    rel = polyline - eye.port
+    (0 if none is), of one polyline (N, 3) (a 0-d array) or of each of many (R, N, 3) (R,)."""
+    rel = np.asarray(polyline) - eye.port
     x = rel @ eye.axis
-    radial = rel - x[:, None] * eye.axis
-    x0, x1 = x[:-1], x[1:]
+    radial = rel - x[..., None] * eye.axis
+    x0, x1, r0, r1 = x[..., :-1], x[..., 1:], radial[..., :-1, :], radial[..., 1:, :]
     lo, hi = np.minimum(x0, x1), np.maximum(x0, x1)
     inside = (hi >= 0.0) & (lo <= eye.wall)
-    if not inside.any():
-        return 0.0
-    x0, x1, r0, r1 = x0[inside], x1[inside], radial[:-1][inside], radial[1:][inside]
-    span = np.where(x1 == x0, 1.0, x1 - x0)
-    worst = 0.0
-    for xc in (np.maximum(lo[inside], 0.0), np.minimum(hi[inside], eye.wall)):
-        t = np.where(x1 == x0, 0.0, (xc - x0) / span)
-        worst = max(worst, float(np.linalg.norm(r0 + t[:, None] * (r1 - r0), axis=1).max()))
+    flat = x1 == x0
+    span = np.where(flat, 1.0, x1 - x0)
+    worst = np.zeros(x.shape[:-1])
+    for xc in (np.maximum(lo, 0.0), np.minimum(hi, eye.wall)):
+        t = np.where(flat, 0.0, (xc - x0) / span)
+        d = np.linalg.norm(r0 + t[..., None] * (r1 - r0), axis=-1)
+        worst = np.maximum(worst, np.max(np.where(inside, d, 0.0), axis=-1))
     return worst
 
 
@@ -74,7 +73,8 @@ def port_offsets(robot: RobotModel, eye: Eye, log: RunLog) -> dict[str, float]:
         rows = np.flatnonzero(log.phase == pid)
         if name in OUTSIDE_PHASES or rows.size == 0:
             continue
-        out[name] = max(port_offset(eye, needle_polyline(robot, log.joints[r], arc)) for r in rows)
+        lines = np.array([needle_polyline(robot, log.joints[r], arc) for r in rows])
+        out[name] = float(port_offset(eye, lines).max())
     return out
 
 
