@@ -143,6 +143,17 @@ def test_shipped_chain_pose_and_jacobian_equal_pinocchio(name: str) -> None:
 
 
 @pytest.mark.parametrize("name", ROBOT_FILES)
+def test_an_arm_s_tool_pose_is_its_chain_s_end_frame_times_the_needle_mount(name: str) -> None:
+    from rcmplan.robot.registry import make_robot
+
+    # The chain's pose is pinocchio's (above); the tool pose comes from the compiled kernels.
+    arm = make_robot(name)
+    for q in in_limits(np.random.default_rng(8), arm.chain, 20):
+        expected = arm.chain.forward_kinematics(q) @ arm.needle.mount
+        np.testing.assert_allclose(arm.tool_pose(q), expected, rtol=0, atol=1e-12)
+
+
+@pytest.mark.parametrize("name", ROBOT_FILES)
 def test_shipped_chain_ends_in_a_frame_whose_z_is_the_last_joint_axis(name: str) -> None:
     chain = CHAINS[name]()
     frames = chain.frames(in_limits(np.random.default_rng(8), chain, 1)[0])

@@ -264,8 +264,12 @@ class SerialArm:
         return J
 
     def tool_pose(self, q: FloatArray) -> FloatArray:
-        """(4, 4) pose of the needle base frame (the mount) in the world."""
-        out: FloatArray = self._frames(q)[-1] @ self.needle.mount
+        """(4, 4) pose of the needle base frame (the mount) in the world: the end frame the
+        chain kernels computed (`chain_kinematics.frames`) times the mount."""
+        W, e = self._kernel_frames(q), 4 * self.chain.n
+        end = np.eye(4)
+        end[:3, :] = W[e : e + 3, :4]
+        out: FloatArray = end @ self.needle.mount
         return out
 
     def tool_jacobian(self, q: FloatArray) -> FloatArray:
