@@ -95,9 +95,6 @@ class DrawRanges:
             raise InvalidInputError(
                 "breathing_amplitude_m[1] + cardiac_amplitude_m[1]", reach, valid
             )
-        if self.eye_drift_m[1] > 0 and base.plant != "kinematic":
-            valid = "0 on the mujoco plant (its eye is fixed in the scene)"
-            raise InvalidInputError("eye_drift_m[1]", self.eye_drift_m[1], valid)
 
     def as_dict(self) -> dict[str, Any]:
         """Plain JSON-ready dictionary (pairs as lists)."""

@@ -131,9 +131,6 @@ class EpisodeSettings:
         scalar("rcm_bound_m", self.rcm_bound_m, 0.0, 1e-3, low_open=True)
         scalar("eye_drift_m", self.eye_drift_m, 0.0, EYE_DRIFT_MAX_M)
         scalar("eye_drift_time_s", self.eye_drift_time_s, 0.1, 1e4)
-        if self.eye_drift_m > 0 and self.plant != "kinematic":
-            valid = "0 on the mujoco plant (its eye is fixed in the scene)"
-            raise InvalidInputError("eye_drift_m", self.eye_drift_m, valid)
 
     @property
     def cardiac_m(self) -> float:
