@@ -91,3 +91,31 @@ def test_a_damaged_bscans_file_is_refused_naming_it(episode_dir, tmp_path) -> No
     (folder / "bscans.npz").write_bytes(data[: len(data) // 2])
     with pytest.raises(RunFolderError, match=r"bscans\.npz.*truncated or damaged"):
         load_runs(folder)
+
+
+def test_the_eye_moves_with_the_trocar_in_a_drifting_episode(tmp_path, replay) -> None:
+    from dataclasses import replace
+
+    from rcmplan.cli.subretinal import write_outputs
+    from rcmplan.view.replay import ReplayView
+    from rcmplan.view.server import start_server, stop_server
+
+    drift = replace(SHORT, eye_drift_m=500e-6, eye_drift_time_s=2.0, seed=2)
+    assert write_outputs(drift, tmp_path, figures=False)["status"] == "ok"
+    server = start_server("127.0.0.1", 0)
+    view = ReplayView(server, load_runs(tmp_path))
+    try:
+        log, start = view.current.log, view.current.run.scene.trocar
+        inside = np.flatnonzero(np.isfinite(log.trocar[:, 0]))
+        moved = np.linalg.norm(log.trocar[inside] - start, axis=1)
+        assert moved.max() > 50e-6  # the eye did move in this episode
+        for i in (inside[0], inside[np.argmax(moved)], inside[-1]):
+            view.show(int(i))
+            np.testing.assert_allclose(view.state()["eye_offset_m"], log.trocar[i] - start)
+            np.testing.assert_allclose(view.drawing.eye.position, log.trocar[i] - start)
+    finally:
+        view.close()
+        stop_server(server)
+    # The still eye of the short episode: no offset anywhere.
+    replay.show(len(replay.current.log) - 1)
+    assert replay.state()["eye_offset_m"] == [0.0, 0.0, 0.0]

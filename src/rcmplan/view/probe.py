@@ -111,10 +111,30 @@ def project(camera: Any, point: FloatArray) -> FloatArray:
                      0.5 * camera.image_height + f * x[1] / x[2]])  # fmt: skip
 
 
+SCENE_CANVAS_JS = """() => {
+  let best = null;
+  for (const c of document.querySelectorAll("canvas")) {
+    const r = c.getBoundingClientRect();
+    if (best === null || r.width * r.height > best.w * best.h)
+      best = {x: r.x, y: r.y, w: r.width, h: r.height};
+  }
+  return best;
+}"""
+
+
+def scene_canvas_origin(page: Any) -> tuple[float, float]:
+    """Page position (x, y) [px] of the 3D scene's canvas: the page's largest (viser also
+    adds a 0 x 0 canvas, which may come first in the document)."""
+    box = page.evaluate(SCENE_CANVAS_JS)
+    if box is None or box["w"] * box["h"] == 0:
+        raise RuntimeError(f"the page shows no 3D scene canvas (largest canvas: {box})")
+    return float(box["x"]), float(box["y"])
+
+
 def drag(page: Any, start: FloatArray, end: FloatArray, steps: int = 20) -> None:
-    """Press the mouse at canvas pixel `start`, move it to `end` in steps, release."""
-    box = page.locator("canvas").first.bounding_box()
-    ox, oy = box["x"], box["y"]
+    """Press the mouse at the scene canvas's pixel `start`, move it to `end` in steps,
+    release."""
+    ox, oy = scene_canvas_origin(page)
     page.mouse.move(ox + start[0], oy + start[1])
     page.mouse.down()
     for k in range(1, steps + 1):

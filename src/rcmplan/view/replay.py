@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from rcmplan._validate import FloatArray
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError, MissingExtraError, RunFolderError
 from rcmplan.robot.model import RobotModel
@@ -61,6 +62,20 @@ class RunArrays:
         self.max_deviation = float(np.nanmax(self.deviation)) if np.isfinite(
             self.deviation).any() else 0.0  # fmt: skip
         self.trace = trace_of(log.tip, self.deviation, run.scene.eye_radius)
+        self.eye_offset = eye_offsets(log.trocar, run.scene.trocar)
+
+
+def eye_offsets(trocar: FloatArray, at_start: FloatArray) -> FloatArray:
+    """Per record, how far [m] the eye has moved (N, 3): the logged trocar less the scene's,
+    where the needle is in the trocar; in free space (trocar NaN) the nearest record's before
+    it, else after it; zero if no record has a trocar (the eye does not move in the log)."""
+    out = np.zeros(trocar.shape)
+    known = np.flatnonzero(np.isfinite(trocar[:, 0]))
+    if known.size == 0:
+        return out
+    before = np.searchsorted(known, np.arange(len(trocar)), side="right") - 1
+    nearest = known[np.maximum(before, 0)]  # the last known record, or the first after
+    return np.asarray(trocar[nearest] - np.asarray(at_start), dtype=np.float64)
 
 
 class ReplayView:
@@ -159,7 +174,8 @@ class ReplayView:
             self.links.show(q, log.sliders[i])
             needle = needle_polyline(self.robot, q, log.base[i], log.tip[i])
             inside = bool(np.isfinite(log.trocar[i, 0]))
-            self.drawing.show(needle, log.rcm[i] if inside else log.trocar[i], log.target_tip[i])
+            self.drawing.show(needle, log.rcm[i] if inside else log.trocar[i], log.target_tip[i],
+                              a.eye_offset[i])  # fmt: skip
             self.state_panel.show(self._figures(a, i))
             self.actuators.show(log.sliders[i])
             if self.bscan is not None:
@@ -192,6 +208,7 @@ class ReplayView:
                 "rcm_deviation_m": float(self.current.deviation[i]), "shows": self.shows,
                 "show_time_s": self.show_time_s, "playing": self.timeline.playing,
                 "bscan_frame": None if self.bscan is None else self.bscan.frame,
+                "eye_offset_m": self.current.eye_offset[i].tolist(),
             }  # fmt: skip
 
     def close(self) -> None:

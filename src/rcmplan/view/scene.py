@@ -29,6 +29,10 @@ class SceneDrawing:
     def __init__(self, scene: Any, record: SceneRecord, marker_radius: float | None = None):
         self.scene, self.record = scene, record
         r = marker_radius or record.eye_radius / 50.0
+        # Everything fixed to the eye hangs from one frame, moved by `show`'s `eye_offset` (a
+        # subretinal episode's whole-eye motion carries the trocar with it).
+        self.eye = scene.add_frame("/eye", show_axes=False)
+        self._eye_offset = (0.0, 0.0, 0.0)
         # The eye wall as a wire globe and the retina as the far side of the inner sphere (what
         # one sees through the vitreous): neither hides the needle or the other.
         scene.add_icosphere("/eye/sclera", radius=record.eye_radius, color=colors.EYE,
@@ -39,8 +43,8 @@ class SceneDrawing:
         scene.add_line_segments("/eye/trocar", segments(trocar_ring(record)), colors.TROCAR,
                                 thickness=3.0, thickness_units="screen")  # fmt: skip
         for name, p in record.labelled_points().items():
-            scene.add_icosphere(f"/points/{name}", radius=r, color=colors.TARGET, position=p)
-            scene.add_label(f"/points/{name}/label", name, position=(0.0, 0.0, 0.0))
+            scene.add_icosphere(f"/eye/points/{name}", radius=r, color=colors.TARGET, position=p)
+            scene.add_label(f"/eye/points/{name}/label", name, position=(0.0, 0.0, 0.0))
         self.needle = scene.add_line_segments(
             "/needle", np.zeros((1, 2, 3)), colors.NEEDLE, thickness=4.0, thickness_units="screen"
         )
@@ -59,10 +63,21 @@ class SceneDrawing:
             thickness_units="screen",
         )  # fmt: skip
 
-    def show(self, needle: FloatArray, rcm: FloatArray, target: FloatArray) -> None:
+    def show(
+        self,
+        needle: FloatArray,
+        rcm: FloatArray,
+        target: FloatArray,
+        eye_offset: FloatArray | None = None,
+    ) -> None:
         """Place the needle (polyline (k, 3)), the RCM point and the commanded tip (hidden
-        when NaN: free space, or no target)."""
+        when NaN: free space, or no target), and the eye `eye_offset` [m] from where the record
+        has it (default: not moved)."""
         self.needle.points = segments(needle)
+        x, y, z = (0.0, 0.0, 0.0) if eye_offset is None else map(float, eye_offset)
+        offset = (x, y, z)
+        if offset != self._eye_offset:  # a message to every client only when it moves
+            self.eye.position = self._eye_offset = offset
         for handle, p in ((self.rcm, rcm), (self.target, target)):
             shown = bool(np.all(np.isfinite(p)))
             handle.visible = shown
