@@ -20,6 +20,7 @@ from types import ModuleType
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray, vector
 from rcmplan.compiled import arm_phase, curved_phase, qp_mujoco_phase, qp_phase
@@ -143,14 +144,25 @@ def fast_check_targets(robot: RobotModel, targets: FloatArray) -> bool:
         return False
     if isinstance(robot, SerialArm):
         return check_arm_targets(robot, targets)
-    if kernel_params(robot) is None:
+    flags = screen_flags(robot, targets)
+    if flags is None:
         return False
-    flags = np.zeros(targets.shape[0], dtype=np.bool_)
-    k = fast_cache.loop_kernels()
-    k.screen_targets(robot_params(robot), robot.singular_threshold, targets, flags)
     for i in np.flatnonzero(flags):
         solve_pose(robot, targets[i])
     return True
+
+
+def screen_flags(robot: RobotModel, targets: FloatArray) -> NDArray[np.bool_] | None:
+    """Per X_ext target (N, 6), each on its own: True where `solve_pose` might fail (the
+    closed forms in compiled code, margin 1e-12), False where it certainly succeeds; None for
+    a robot the iRAM!S kernels do not reproduce (`kernel_params`)."""
+    if kernel_params(robot) is None:
+        return None
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    flags = np.zeros(targets.shape[0], dtype=np.bool_)
+    k = fast_cache.loop_kernels()
+    k.screen_targets(robot_params(robot), robot.singular_threshold, targets, flags)
+    return flags
 
 
 def _variant(variant: JacobianVariant) -> bool:

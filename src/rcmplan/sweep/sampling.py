@@ -23,7 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.control.targets import rcm_target, rcm_targets, solve_pose
 from rcmplan.exceptions import UnreachableTargetError
 from rcmplan.robot.model import RobotModel
 from rcmplan.scene.eye import Eye
@@ -104,19 +104,35 @@ def start_point(eye: Eye, motion: MotionSettings) -> FloatArray:
     return np.asarray(eye.port + motion.start_depth * eye.axis)
 
 
-def classify(robot: RobotModel, eye: Eye, direction: FloatArray, standoff: float) -> tuple[
-    int, FloatArray, str
-]:  # fmt: skip
-    """(status, target point, reason) of one ray."""
-    try:
-        point = eye.retina_point(direction) - standoff * direction
-    except UnreachableTargetError as exc:
-        return MISSES_RETINA, np.full(3, np.nan), exc.reason
-    try:
-        solve_pose(robot, rcm_target(point, eye.port))
-    except UnreachableTargetError as exc:
-        return UNREACHABLE, point, exc.reason
-    return REACHABLE, point, ""
+def classify(
+    robot: RobotModel, eye: Eye, dirs: FloatArray, standoff: float
+) -> tuple[NDArray[np.int8], FloatArray, tuple[str, ...]]:
+    """(status (N,), target points (N, 3), reasons) of the rays `dirs` (N, 3). A target is
+    reachable if `solve_pose` finds its pose; on iRAM!S the compiled screen of its closed forms
+    (`compiled.runner.screen_flags`) clears in one call the targets it certainly finds, and only
+    the others go through `solve_pose`, whose error gives the reason."""
+    from rcmplan.compiled.runner import screen_flags
+
+    n = len(dirs)
+    status = np.full(n, REACHABLE, dtype=np.int8)
+    points = np.full((n, 3), np.nan)
+    reasons = [""] * n
+    for i, d in enumerate(dirs):
+        try:
+            points[i] = eye.retina_point(d) - standoff * d
+        except UnreachableTargetError as exc:
+            status[i], reasons[i] = MISSES_RETINA, exc.reason
+    hit = np.flatnonzero(status == REACHABLE)
+    targets = rcm_targets(points[hit], eye.port)
+    flags = screen_flags(robot, targets) if hit.size else None
+    for k, i in enumerate(hit):
+        if flags is not None and not flags[k]:
+            continue
+        try:
+            solve_pose(robot, targets[k])
+        except UnreachableTargetError as exc:
+            status[i], reasons[i] = UNREACHABLE, exc.reason
+    return status, points, tuple(reasons)
 
 
 def sample_region(
@@ -134,13 +150,13 @@ def sample_region(
     solve_pose(robot, rcm_target(start, eye.port))
     theta, az = cone_angles(region)
     dirs = ray_directions(eye, theta, az)
-    rows = [classify(robot, eye, d, region.standoff) for d in dirs]
+    status, points, reasons = classify(robot, eye, dirs, region.standoff)
     sample = Sample(
         tilt=np.column_stack([theta * np.cos(az), theta * np.sin(az)]),
         directions=dirs,
-        points=np.array([r[1] for r in rows]).reshape(len(rows), 3),
-        status=np.array([r[0] for r in rows], dtype=np.int8),
-        reasons=tuple(r[2] for r in rows),
+        points=points,
+        status=status,
+        reasons=reasons,
         start=start,
         trocar=np.asarray(eye.port),
     )
