@@ -125,13 +125,13 @@ def classify(
     hit = np.flatnonzero(status == REACHABLE)
     targets = rcm_targets(points[hit], eye.port)
     flags = screen_flags(robot, targets) if hit.size else None
-    for k, i in enumerate(hit):
+    for k, row in enumerate(hit.tolist()):
         if flags is not None and not flags[k]:
             continue
         try:
             solve_pose(robot, targets[k])
         except UnreachableTargetError as exc:
-            status[i], reasons[i] = UNREACHABLE, exc.reason
+            status[row], reasons[row] = UNREACHABLE, exc.reason
     return status, points, tuple(reasons)
 
 
