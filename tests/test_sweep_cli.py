@@ -259,3 +259,28 @@ def test_sweep_moves_the_scenarios_robot_or_the_one_named(tmp_path: Path) -> Non
     iramis = SweepSettings(motion=MotionSettings())
     ur5 = SweepSettings(motion=MotionSettings(robot="ur5"))
     assert iramis.digest() != ur5.digest()  # a checkpoint of one robot never resumes the other
+
+
+def test_a_sweep_runs_with_the_scenarios_rcm_bound_and_reports_it(tmp_path: Path) -> None:
+    # The same two targets under a 45 um bound (the default) and under 0.05 um, below what one
+    # of their motions deviates: only the second ends a run with RcmBoundError.
+    found = {}
+    for bound_um in (45.0, 0.05):
+        scenario = tmp_path / f"bound-{bound_um}.toml"
+        scenario.write_text(f'name = "bounded"\n[controller]\nrcm_bound_um = {bound_um}\n'
+                            "rcm_tolerance_um = 0.5\n")  # fmt: skip
+        out = tmp_path / f"out-{bound_um}"
+        argv = ["--targets", "2", "--max-angle", "5", "--workers", "1", "--no-plots",
+                "--scenario", str(scenario), "--out", str(out)]  # fmt: skip
+        assert run(argv) == 0
+        summary = json.loads((out / "summary.json").read_text())
+        motion = summary["settings"]["motion"]
+        assert motion["rcm_bound"] == pytest.approx(bound_um * 1e-6)
+        assert motion["rcm_tolerance"] == pytest.approx(0.5e-6)
+        assert summary["units"]["settings.motion.rcm_bound"] == "m"
+        chunks = sorted((out / "checkpoint").glob("chunk-*.json"))
+        messages = [r["message"] for c in chunks for r in json.loads(c.read_text())["results"]]
+        found[bound_um] = (summary["targets"]["by_status"],
+                           sum("RcmBoundError" in m for m in messages))  # fmt: skip
+    assert found[45.0] == ({**found[45.0][0], "ok": 2}, 0)
+    assert found[0.05][0]["error"] >= 1 and found[0.05][1] == found[0.05][0]["error"]

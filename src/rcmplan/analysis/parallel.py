@@ -15,6 +15,7 @@ import threading
 from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 
+from rcmplan._atomic import remove_unfinished
 from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import RcmplanError
 
@@ -80,4 +81,5 @@ def _child(job: Callable[[], object]) -> None:
         job()
         code = 0
     finally:
+        remove_unfinished()  # a temporary file an interrupt cut off from its block's cleanup
         os._exit(code)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -23,9 +24,9 @@ def prepare_folder(out: str | Path) -> Path:
     path = Path(out)
     try:
         path.mkdir(parents=True, exist_ok=True)
-        probe = path / ".write-test"
-        probe.write_text("")
-        probe.unlink()
+        # A nameless file where the system has them (Linux O_TMPFILE): an interrupt cannot
+        # leave the probe behind.
+        tempfile.TemporaryFile(dir=path).close()
     except OSError as exc:
         raise InvalidInputError("output folder", str(path), f"a writable folder ({exc})") from exc
     return path

@@ -73,8 +73,10 @@ def _run(args: argparse.Namespace) -> int:
         code: int = args.run(args)
         sys.stdout.flush()
     except KeyboardInterrupt as exc:
-        _stopped(args, exc)
-        return interrupts.leave(interrupts.exit_code(exc))
+        unanswered = not interrupts.answered()
+        with interrupts.shielded():  # a second signal cannot cut the partial outputs or cleanup
+            _stopped(args, exc, unanswered)
+            return interrupts.leave(interrupts.exit_code(exc))
     except RcmplanError as exc:
         print(f"rcmplan {args.command}: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
@@ -86,17 +88,15 @@ def _run(args: argparse.Namespace) -> int:
     return code
 
 
-def _stopped(args: argparse.Namespace, exc: KeyboardInterrupt) -> None:
+def _stopped(args: argparse.Namespace, exc: KeyboardInterrupt, unanswered: bool) -> None:
     """Say that the command was interrupted; write its stop file when the interrupt came
-    before the command's own handling began (while it started its run)."""
-    unanswered = not interrupts.answered()
-    with interrupts.shielded():
-        name = interrupts.signal_name(exc)
-        out = getattr(args, "out", None)
-        if unanswered and args.command in interrupts.STOP_FILES and out:
-            doc = {"status": "interrupted", "message": f"interrupted by {name} before the run"}
-            try:
-                interrupts.write_stop_file(Path(out), args.command, doc)
-            except OSError as err:
-                print(f"rcmplan {args.command}: could not write to {out}: {err}", file=sys.stderr)
-        print(f"rcmplan {args.command}: interrupted by {name}", file=sys.stderr)
+    before the command's own handling began (`unanswered`: while it started its run)."""
+    name = interrupts.signal_name(exc)
+    out = getattr(args, "out", None)
+    if unanswered and args.command in interrupts.STOP_FILES and out:
+        doc = {"status": "interrupted", "message": f"interrupted by {name} before the run"}
+        try:
+            interrupts.write_stop_file(Path(out), args.command, doc)
+        except OSError as err:
+            print(f"rcmplan {args.command}: could not write to {out}: {err}", file=sys.stderr)
+    print(f"rcmplan {args.command}: interrupted by {name}", file=sys.stderr)

@@ -35,7 +35,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Any, NoReturn
 
-from rcmplan._atomic import write_text
+from rcmplan._atomic import remove_unfinished, write_text
 
 CAUGHT = (signal.SIGINT, signal.SIGTERM)
 # The file each run command writes when it stops early, and the files of an earlier run that a
@@ -196,9 +196,11 @@ def exit_code(exc: BaseException) -> int:
 
 def leave(code: int) -> int:
     """End the interrupted command's process now with `code`, its outputs written and its
-    workers stopped: stdout and stderr are flushed and Python's teardown is skipped (the
-    collection of a process that loaded numba and LLVM took 0.5 s on a loaded machine). Called
-    in-process, it returns the code."""
+    workers stopped: the temporary files of writes the interrupt cut are removed
+    (`rcmplan._atomic.remove_unfinished`), stdout and stderr are flushed and Python's teardown
+    is skipped (the collection of a process that loaded numba and LLVM took 0.5 s on a loaded
+    machine). Called in-process, it returns the code. Call it inside `shielded()`."""
+    remove_unfinished()
     if _state.command is None:
         return code
     for stream in (sys.stdout, sys.stderr):
@@ -230,6 +232,7 @@ def handled() -> Iterator[None]:
         if ours:
             finished()
             if not _state.answered:  # swallowed on its way: the signal ends the process now
+                remove_unfinished()
                 os.kill(os.getpid(), _state.signum)
         for s, handler in old.items():
             signal.signal(s, handler)

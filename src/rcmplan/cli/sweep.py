@@ -56,7 +56,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "sweep", help="accuracy and convergence maps over the retina, and a gain search",
         description="Run the insert-and-visit motion to retina targets sampled over the region "
-        "reachable through the trocar; write maps, a summary and per-target results. A rerun "
+        "reachable through the trocar; write maps, a summary and per-target results. Each "
+        "target runs with the scenario's controller settings, as inject and compare do: gains, "
+        "tolerances, iteration cap, RCM bound (rcm_bound_um), RCM step tolerance "
+        "(rcm_tolerance_um) and [qp] options (summary.json's settings.motion lists them); "
+        "--robot, --method and --plant, when given, replace the scenario's. A rerun "
         "into the same folder starts afresh; --resume continues its checkpoint.",
     )  # fmt: skip
     add_scenario(p)
@@ -84,7 +88,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-evaluations", type=int, default=30,
                    help="candidates the optimiser may evaluate (30)")  # fmt: skip
     p.add_argument("--rcm-bound", type=float, default=10.0, metavar="UM",
-                   help="gain search: largest accepted RCM deviation, in um (10)")  # fmt: skip
+                   help="gain search: largest RCM deviation a candidate may reach to be "
+                   "accepted, in um (10); the runs' own RCM bound, which ends a target's run, is "
+                   "the scenario's rcm_bound_um")  # fmt: skip
     add_out(p, "sweep")
     add_json(p)
     add_no_plots(p)
@@ -92,9 +98,9 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def settings_from_args(args: argparse.Namespace) -> SweepSettings:
-    """Region and motion settings from the command line and the scenario (with --robot,
-    --method and --plant in place of its own), each option checked under its own name and
-    in the unit it is typed in."""
+    """Region and motion settings from the command line and the scenario (its controller
+    settings, RCM bound and tolerance included; --robot, --method and --plant, when given, in
+    place of its own), each option checked under its own name and in the unit it is typed in."""
     from rcmplan.scene.scenario import load_scenario
 
     sc = load_scenario(args.scenario)

@@ -24,7 +24,9 @@ SETTINGS_UNITS = {
         ("damping", "m"), ("tolerance_position", "m"), ("tolerance_angle", "rad"),
         ("step_position", "m"), ("step_angle", "rad"), ("dt", "s"), ("eye_radius", "m"),
         ("eye_wall", "m"), ("trocar_radius", "m"), ("trocar_offset", "m"),
-        ("insertion_angles", "rad"), ("start_depth", "m"), ("K", "dimensionless"))},
+        ("insertion_angles", "rad"), ("start_depth", "m"), ("K", "dimensionless"),
+        ("rcm_bound", "m"), ("rcm_tolerance", "m"),
+        ("method_options", "the unit each key names (a scenario's [qp] keys)"))},
     "iterations": "control iterations per target",
 }  # fmt: skip
 

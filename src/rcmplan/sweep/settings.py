@@ -72,6 +72,13 @@ class MotionSettings:
         step_position, step_angle: Algorithm 2 step sizes in [m] and [rad].
         max_iterations: Iteration cap of Algorithm 1 per step.
         drift_correction: Re-declare the RCM as the needle point closest to the trocar.
+        rcm_bound: Largest RCM distance from the trocar in [m]; beyond it a target's run
+            ends (`LoopSettings.rcm_bound`; None: unbounded).
+        rcm_tolerance: Largest needle-to-trocar distance in [m] one step may leave
+            (`LoopSettings.rcm_tolerance`; None: steps as the solver gives them).
+        method_options: Method-specific options (`MethodSettings.extra`: a scenario's [qp]
+            section, keys with their unit) as (key, value) pairs sorted by key; a dict is
+            accepted and stored so.
         dt: Control period in [s].
         eye_radius, eye_wall, trocar_radius: Eye geometry in [m].
         trocar_offset: Trocar relative to the needle tip at home in [m].
@@ -90,6 +97,9 @@ class MotionSettings:
     step_angle: float = 2e-3
     max_iterations: int = 100
     drift_correction: bool = True
+    rcm_bound: float | None = LoopSettings.rcm_bound
+    rcm_tolerance: float | None = LoopSettings.rcm_tolerance
+    method_options: tuple[tuple[str, Any], ...] = ()
     dt: float = 1e-3
     eye_radius: float = 12e-3
     eye_wall: float = 1e-3
@@ -107,6 +117,7 @@ class MotionSettings:
         if self.plant not in PLANTS:
             raise InvalidInputError("plant", self.plant, f"one of {sorted(PLANTS)}")
         object.__setattr__(self, "K", tuple(float(k) for k in check_gains(self.K)))
+        object.__setattr__(self, "method_options", checked_options(self.method_options))
         check_damping(self.damping)
         self.steps()
         self.loop()
@@ -138,16 +149,19 @@ class MotionSettings:
         return Tolerance(self.tolerance_position, self.tolerance_angle)
 
     def loop(self) -> LoopSettings:
-        """Loop settings."""
-        return LoopSettings(self.max_iterations, self.drift_correction)
+        """Loop settings: iteration cap, drift correction, RCM bound and step tolerance."""
+        return LoopSettings(self.max_iterations, self.drift_correction,
+                            rcm_bound=self.rcm_bound, rcm_tolerance=self.rcm_tolerance)  # fmt: skip
 
     def method_settings(self) -> MethodSettings:
-        """Gains, damping and tolerance for make_solver."""
-        return MethodSettings(K=self.K, damping=self.damping, tolerance=self.tolerance())
+        """Gains, damping, tolerance and the method's own options for make_solver."""
+        return MethodSettings(K=self.K, damping=self.damping, tolerance=self.tolerance(),
+                              extra=dict(self.method_options))  # fmt: skip
 
     @staticmethod
     def from_scenario(scenario: Scenario, **changes: Any) -> MotionSettings:
-        """The motion settings of a scenario (its eye, p3 depth, method and controller)."""
+        """The motion settings of a scenario (its eye, p3 depth, method and controller: gains,
+        tolerances, RCM bound and step tolerance, [qp] options); `changes` replace fields."""
         eye, ms = scenario.eye_options, scenario.method_settings
         base = MotionSettings(
             method=scenario.method,
@@ -159,6 +173,9 @@ class MotionSettings:
             step_angle=scenario.steps.angle,
             max_iterations=scenario.loop.max_iterations,
             drift_correction=scenario.loop.drift_correction,
+            rcm_bound=scenario.loop.rcm_bound,
+            rcm_tolerance=scenario.loop.rcm_tolerance,
+            method_options=tuple(ms.extra.items()),
             dt=scenario.dt,
             eye_radius=eye.get("radius", 12e-3),
             eye_wall=eye.get("wall", 1e-3),
@@ -170,6 +187,29 @@ class MotionSettings:
             robot=scenario.robot,
         )
         return replace(base, **changes)
+
+
+def checked_options(options: Any) -> tuple[tuple[str, Any], ...]:
+    """Method options (a dict or (key, value) pairs) as hashable pairs sorted by key, lists
+    as tuples; InvalidInputError naming an option the QP would refuse."""
+    from rcmplan.control.qp_backends import check_backend
+    from rcmplan.control.qp_limits import QpLimits
+
+    try:
+        pairs = dict(options.items() if isinstance(options, dict) else options)
+    except (TypeError, ValueError) as exc:
+        raise InvalidInputError("method_options", options, "(key, value) pairs or a dict") from exc
+    if not all(isinstance(k, str) for k in pairs):
+        raise InvalidInputError("method_options", options, "option names as strings")
+    if "solver" in pairs:
+        check_backend(pairs["solver"])
+    QpLimits.from_extra({k: v for k, v in pairs.items() if k != "solver"})
+    return tuple(sorted((k, _frozen(v)) for k, v in pairs.items()))
+
+
+def _frozen(value: Any) -> Any:
+    """value with every list (nested too) as a tuple."""
+    return tuple(_frozen(v) for v in value) if isinstance(value, list | tuple) else value
 
 
 @functools.lru_cache(maxsize=4)
