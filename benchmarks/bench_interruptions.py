@@ -5,8 +5,8 @@ Run alone: python benchmarks/bench_interruptions.py [--runs N] [--from-start M]
 Runs tests/test_interrupts.py's harness with RCMPLAN_INTERRUPTIONS=N (default 100; 10 with
 --quick through benchmarks/run.py): per command (inject, inject on the MuJoCo plant, spiral,
 compare, sweep, teleop), N real processes each get SIGINT or SIGTERM at a seeded random point
-of the run; each must leave a summary saying why it stopped, a loadable log or none, no
-temporary file and no process behind.
+of the run (within the shorter of two uninterrupted runs); each must leave a summary saying why
+it stopped, a loadable log or none, no temporary file and no process behind.
 One row per command: the interruptions that broke any of these (the lost logs), out of N.
 
 Then M processes of `rcmplan inject --no-plots` (default 100; 20 with --quick) each get SIGINT
