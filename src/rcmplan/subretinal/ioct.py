@@ -186,46 +186,62 @@ class BScanScene:
 
 def reflectivity(scene: BScanScene, x: FloatArray, z: FloatArray) -> FloatArray:
     """Noise-free reflectivity at A-lines x and depths z [m] (broadcast together): the tissue,
-    and over it the needle's surface and its shadow."""
+    and over it the needle's surface and its shadow. Each region's expression is evaluated on
+    its own pixels only."""
     ilm, rpe = scene.ilm_depth_m(x), scene.rpe_depth_m(x)
-    u, v = z - ilm, z - rpe
-    frac = np.clip(u / np.maximum(rpe - ilm, 1e-9), 0.0, 1.0)
-    retina = (
-        ILM_EDGE * np.exp(-np.maximum(u, 0) / ILM_DECAY_M)
+    u, v = np.broadcast_arrays(z - ilm, z - rpe)
+    image = np.zeros(u.shape)
+    retina = (u >= 0) & (v < 0)
+    ur = u[retina]  # >= 0: the decay starts at the ILM
+    span = np.broadcast_to(np.maximum(rpe - ilm, 1e-9), u.shape)[retina]
+    frac = np.clip(ur / span, 0.0, 1.0)
+    image[retina] = (
+        ILM_EDGE * np.exp(-ur / ILM_DECAY_M)
         + INNER_RETINA
         + frac * (OUTER_RETINA - INNER_RETINA)
     )
-    choroid = CHOROID * np.exp(-np.maximum(v - RPE_BAND_M, 0) / CHOROID_DECAY_M)
-    in_rpe = (v >= 0) & (v < RPE_BAND_M)
-    in_choroid = (v >= RPE_BAND_M) & (v < scene.choroid_m)
-    image = retina * ((u >= 0) & (v < 0)) + RPE * in_rpe + choroid * in_choroid
-    image += SCLERA * (v >= scene.choroid_m)
+    image[(v >= 0) & (v < RPE_BAND_M)] = RPE
+    choroid = (v >= RPE_BAND_M) & (v < scene.choroid_m)
+    image[choroid] = CHOROID * np.exp(-(v[choroid] - RPE_BAND_M) / CHOROID_DECAY_M)
+    image[v >= scene.choroid_m] = SCLERA
     top = scene.needle_top_m(x)
     if np.isinf(top).all():
         return image
-    surface = (z >= top) & (z < top + NEEDLE_BAND_M)
-    return image * (z < top) + NEEDLE * surface
+    below = np.broadcast_to(z >= top, image.shape)
+    image[below] = 0.0  # the shadow
+    image[below & np.broadcast_to(z < top + NEEDLE_BAND_M, image.shape)] = NEEDLE
+    return image
 
 
 def clean_bscan(model: IoctModel, scene: BScanScene) -> FloatArray:
     """Noise-free B-scan (depth_px, lateral_px): the reflectivity at each row's centre, and in
-    each row a step crosses the mean over the row of the two sides (a box-filtered edge)."""
+    each row a step crosses the mean over the row of the two sides (a box-filtered edge). The
+    two sides of every edge are evaluated in one `reflectivity` call; the edges are written
+    in `BScanScene.edges_m`'s order (a later one over an earlier one in the same pixel)."""
     z, x = model.depth_axis_m(), model.lateral_axis_m()
     image = reflectivity(scene, x[None, :], z[:, None])
     dz, z0 = model.axial_pixel_m, -model.top_m
     cols = np.arange(model.lateral_px)
     eps = 1e-3 * dz
+    rows, js, aboves, depths = [], [], [], []
     for edge in scene.edges_m(x):
         pos = (edge - z0) / dz
         inside = np.isfinite(pos) & (pos >= 0) & (pos < model.depth_px)
-        if not inside.any():
-            continue
-        j, e = cols[inside], edge[inside]
         row = np.floor(pos[inside]).astype(int)
-        above = pos[inside] - row  # fraction of the row above the edge
-        a = reflectivity(scene, x[j], e - eps)
-        b = reflectivity(scene, x[j], e + eps)
-        image[row, j] = above * a + (1.0 - above) * b
+        rows.append(row)
+        js.append(cols[inside])
+        aboves.append(pos[inside] - row)  # fraction of the row above the edge
+        depths.append(edge[inside])
+    j, e = np.concatenate(js), np.concatenate(depths)
+    if j.size == 0:
+        return image
+    sides = reflectivity(scene, np.concatenate([x[j], x[j]]), np.concatenate([e - eps, e + eps]))
+    a, b = sides[: j.size], sides[j.size :]
+    start = 0
+    for row, j_edge, above in zip(rows, js, aboves, strict=True):
+        part = slice(start, start + row.size)
+        image[row, j_edge] = above * a[part] + (1.0 - above) * b[part]
+        start += row.size
     return image
 
 

@@ -143,13 +143,11 @@ def _peaks(
     if first:
         cond = inside & (arr >= least)
         ok = cond.any(axis=0)
-        k = cond.argmax(axis=0)
-        for _ in range(rows):
-            nxt = np.minimum(k + 1, rows - 1)
-            up = ok & (nxt < hi) & (arr[nxt, j] > arr[k, j])
-            if not up.any():
-                break
-            k = np.where(up, nxt, k)
+        start = cond.argmax(axis=0)
+        # climb from the first row at or above `least` while the next row (inside) is higher
+        up = np.zeros_like(cond)
+        up[:-1] = (r[1:] < hi[None, :]) & (arr[1:] > arr[:-1])
+        k = (~up & (r >= start[None, :])).argmax(axis=0)
     else:
         masked = np.where(inside, arr, -np.inf)
         k = masked.argmax(axis=0)
@@ -194,9 +192,12 @@ def _needle_surface(
     """Sub-row of the needle's surface per A-line (nan where none is seen): step 3."""
     rows = img.shape[0]
     lo = shadow - cfg.surface_rows
+    seen = (shadow > 0) & (shadow < rows)
+    if not seen.any():
+        return np.full(img.shape[1], np.nan)
     near = (np.arange(rows)[:, None] >= lo) & (np.arange(rows)[:, None] <= shadow)
     smooth = ndimage.gaussian_filter1d(linear, 1.0, axis=0)
-    seen = (shadow > 0) & (shadow < rows) & (np.where(near, smooth, 0.0).max(axis=0) >= bright)
+    seen &= np.where(near, smooth, 0.0).max(axis=0) >= bright
     if not seen.any():
         return np.full(img.shape[1], np.nan)
     grad_z = np.gradient(ndimage.gaussian_filter1d(img, cfg.sigma_px[0], axis=0), axis=0)
@@ -210,8 +211,9 @@ def _step(img: FloatArray, rows: int) -> FloatArray:
     single row's gradient."""
     csum = np.vstack([np.zeros((1, img.shape[1])), np.cumsum(img, axis=0)])
     out = np.zeros_like(img)
-    k = np.arange(rows, img.shape[0] - rows + 1)
-    out[k] = (csum[k + rows] - 2 * csum[k] + csum[k - rows]) / rows
+    n = img.shape[0]  # rows k = rows .. n - rows, each from csum[k + rows], csum[k], csum[k - rows]
+    out[rows : n - rows + 1] = (csum[2 * rows :] - 2 * csum[rows : n + 1 - rows]
+                                + csum[: n + 1 - 2 * rows]) / rows  # fmt: skip
     return out
 
 
