@@ -196,9 +196,7 @@ def reflectivity(scene: BScanScene, x: FloatArray, z: FloatArray) -> FloatArray:
     span = np.broadcast_to(np.maximum(rpe - ilm, 1e-9), u.shape)[retina]
     frac = np.clip(ur / span, 0.0, 1.0)
     image[retina] = (
-        ILM_EDGE * np.exp(-ur / ILM_DECAY_M)
-        + INNER_RETINA
-        + frac * (OUTER_RETINA - INNER_RETINA)
+        ILM_EDGE * np.exp(-ur / ILM_DECAY_M) + INNER_RETINA + frac * (OUTER_RETINA - INNER_RETINA)
     )
     image[(v >= 0) & (v < RPE_BAND_M)] = RPE
     choroid = (v >= RPE_BAND_M) & (v < scene.choroid_m)
