@@ -62,8 +62,12 @@ def test_the_retina_moves_with_the_eye(moving: EpisodeResult) -> None:
 
 
 def test_eye_drift_leaves_the_wall_motion_and_noise_of_a_seed() -> None:
-    still, moved = Episode(replace(DRIFT, eye_drift_m=0.0)), Episode(DRIFT)
-    np.testing.assert_array_equal(still.trace.estimate_m, moved.trace.estimate_m)
+    # The stand-in's noise is drawn up front: the same with and without the eye's drift.
+    noise = replace(DRIFT, ioct_estimates="noise")
+    still, moved = Episode(replace(noise, eye_drift_m=0.0)), Episode(noise)
+    assert still.ioct.stand_in is not None and moved.ioct.stand_in is not None
+    assert still.ioct.stand_in.estimate_m.size > 100
+    np.testing.assert_array_equal(still.ioct.stand_in.estimate_m, moved.ioct.stand_in.estimate_m)
     np.testing.assert_array_equal(still.wall_m, moved.wall_m)
     assert np.all(still.trocar_m == still.trocar_m[0])
     assert np.ptp(moved.trocar_m, axis=0).max() > 50e-6

@@ -23,6 +23,7 @@ from rcmplan.exceptions import RcmplanError
 from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 
 COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predictors.PREDICTORS
+IOCT_ESTIMATES = ("image", "noise")  # rcmplan.subretinal.episode_settings.IOCT_ESTIMATES
 PLANTS = ("kinematic", "mujoco")  # rcmplan.subretinal.episode_settings.PLANTS_SUPPORTED
 
 
@@ -37,6 +38,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     )  # fmt: skip
     p.add_argument("--compensation", choices=(*COMPENSATIONS, "all"), default=None,
                    help="predictor of the ILM motion (kalman; with --episodes: all)")  # fmt: skip
+    p.add_argument("--ioct-estimates", choices=IOCT_ESTIMATES, default="image",
+                   help="where the controller's ILM estimates come from: image (each volume's "
+                   "B-scan rendered from the true state and segmented) or noise (a STAND-IN: "
+                   "the true displacement plus the segmentation's measured bias and noise, no "
+                   "image) (image)")  # fmt: skip
     drawn = "; with --episodes: drawn unless given"
     p.add_argument("--ioct-rate-hz", type=float, default=None,
                    help=f"iOCT volume rate, 0.5-200 (9{drawn})")  # fmt: skip
@@ -138,7 +144,8 @@ def replay_fields(result: Any, out: Path) -> dict[str, Any]:
     from rcmplan.robot.registry import make_robot
     from rcmplan.scene.eye import default_eye
     from rcmplan.scene.record import eye_record
-    from rcmplan.subretinal.episode_bscans import bscan_axes, episode_bscans
+    from rcmplan.subretinal.episode_bscans import episode_bscans
+    from rcmplan.subretinal.episode_ioct import bscan_axes
 
     cfg, layers = result.settings, result.layers
     frames = episode_bscans(result).save(out / "bscans.npz")
@@ -157,6 +164,7 @@ def print_table(doc: dict[str, Any]) -> None:
         return fmt(doc.get(key), "um", with_unit=True)
 
     rate, latency_ms = doc["ioct_rate_hz"], doc["latency_s"] * 1e3
+    source = "segmented B-scans" if doc["ioct_estimates"] == "image" else "noise stand-in"
     print(f"subretinal  robot {doc['robot']}  compensation {doc['compensation']}  "
           f"iOCT {rate:g} Hz, {latency_ms:g} ms  status {doc['status']}")  # fmt: skip
     rows = [
@@ -168,6 +176,10 @@ def print_table(doc: dict[str, Any]) -> None:
         ["RPE breach", str(doc["rpe_breach"])],
         ["largest trocar displacement (whole-eye motion)", um("max_trocar_displacement_m")],
         ["prediction RMS", um("prediction_rms_m")],
-        ["segmentation RMS", um("segmentation_rms_m")],
-    ]
+        [f"ILM estimate error RMS ({source})", um("segmentation_rms_m")],
+        ["segmented ILM per A-line, needle tip: RMS error",
+         f"{um('segmentation_ilm_rms_m')}, {um('segmentation_tip_rms_m')}"],
+        ["iOCT volumes delivered, dropped (no ILM segmented)",
+         f"{doc['acquisitions_delivered']}, {doc['acquisitions_dropped']}"],
+    ]  # fmt: skip
     print(table(["figure", "value"], rows))

@@ -37,6 +37,7 @@ def settings_of(args: argparse.Namespace) -> Any:
         robot=args.robot,
         plant=args.plant,
         compensation="kalman" if compensation == "all" else compensation,
+        ioct_estimates=args.ioct_estimates,
         ioct_rate_hz=scalar("--ioct-rate-hz", option(args, "ioct_rate_hz"), 0.5, 200.0),
         latency_s=1e-3 * scalar("--latency-ms", option(args, "latency_ms"), 0.0, 1000.0),
         breathing_m=1e-6 * scalar("--motion-um", option(args, "motion_um"), 0.0, 200.0),

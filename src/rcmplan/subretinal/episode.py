@@ -19,10 +19,14 @@ displacement and c(t) the commanded depth below it: a ramp from the start to -st
 (approach), -standoff (hover), a ramp to the target depth (advance), the target depth (hold),
 back to -standoff (retract, settle). The true wall moves with the motion model; the tip's depth
 in tissue comes from the tissue model (tenting until puncture). The iOCT estimates (every
-1 / rate, delivered `latency_s` after acquisition) are the measured-noise stand-in of
-`trace.noisy_trace`, fed to the predictor as they arrive; the `warmup_s` of estimates before
-the approach start the predictor (the kalman filter needs 8 s). The depth limit uses the
-compensation's prediction, or with `none` the newest estimate (`hold`).
+1 / rate, delivered `latency_s` after acquisition; `episode_ioct`) are by default segmented
+from the B-scan of the true state at the acquisition (`episode_ioct.true_state`: the tip where
+the robot held it, the ILM tented as the tissue model had it), rendered when the volume is
+delivered; a volume whose segmentation finds no ILM delivers nothing. With
+`ioct_estimates="noise"` they are the measured-noise stand-in of `trace.noisy_trace`. They are
+fed to the predictor as they arrive; the `warmup_s` of estimates before the approach (the
+needle still at its start point) start the predictor (the kalman filter needs 8 s). The depth
+limit uses the compensation's prediction, or with `none` the newest estimate (`hold`).
 
 With whole-eye motion on (`eye_drift_m` > 0) the eye translates by T(t) (`motion.eye_translation`,
 drawn from its own generator so the wall motion and the iOCT noise of a seed stay the same): its
@@ -54,9 +58,9 @@ from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.sim.registry import make_plant
 from rcmplan.subretinal.episode_blocks import PeriodBlocks
+from rcmplan.subretinal.episode_ioct import EpisodeIoct, Received, true_state
 from rcmplan.subretinal.episode_phases import PHASES, phase_durations, phases_at, tip_radius
-from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, EpisodeSettings
-from rcmplan.subretinal.ioct import IoctModel
+from rcmplan.subretinal.episode_settings import EpisodeSettings
 from rcmplan.subretinal.layers import RetinaLayers, unit_direction
 from rcmplan.subretinal.monitor import heart_rate_input
 from rcmplan.subretinal.motion import (
@@ -67,7 +71,7 @@ from rcmplan.subretinal.motion import (
 )
 from rcmplan.subretinal.predictors import make_predictor
 from rcmplan.subretinal.tissue import TissueContact
-from rcmplan.subretinal.trace import IlmTrace, noisy_trace
+from rcmplan.subretinal.trace import IlmTrace
 from rcmplan.teleop.session import fast_period_step
 
 SERIES = ("t_s", "phase", "wall_m", "predicted_m", "limit_m", "command_depth_m",
@@ -77,13 +81,16 @@ SERIES = ("t_s", "phase", "wall_m", "predicted_m", "limit_m", "command_depth_m",
 @dataclass
 class EpisodeResult:
     """One episode: settings, per-period series (`SERIES`, SI units), the run log, the iOCT
-    trace, the phase start times, and a status ("ok", or what stopped or broke it)."""
+    estimates the controller received (`trace`: dropped volumes left out, their count in it),
+    every volume delivered (`received`, `episode_ioct.Received`), the phase start times, and a
+    status ("ok", or what stopped or broke it)."""
 
     settings: EpisodeSettings
     layers: RetinaLayers
     series: dict[str, FloatArray]
     log: RunLog
     trace: IlmTrace
+    received: tuple[Received, ...]
     phase_starts_s: dict[str, float]
     status: str = "ok"
     message: str = ""
@@ -115,10 +122,9 @@ class Episode:
         )
         rng = np.random.default_rng(cfg.seed)
         self.motion = sample_motion(motion, cfg.warmup_s + self.length_s + 1.0, rng)
-        ioct = IoctModel(volume_rate_hz=cfg.ioct_rate_hz, latency_s=cfg.latency_s)
-        self.trace = noisy_trace(self.motion, ioct, cfg.noise_std_m, rng, SEGMENTATION_BIAS_M)
+        self.ioct = EpisodeIoct(cfg, layers, eye, self.motion, rng)
         self.motion = self.with_eye_motion(self.motion)
-        self.arrival_s = self.trace.t_acq_s + cfg.latency_s
+        self.arrival_s = self.ioct.arrival_s
         self.predictor = make_predictor(cfg.compensation, **heart_rate_input(cfg, motion))
         bounded = "hold" if cfg.compensation == "none" else cfg.compensation
         self.guard = self.predictor if bounded == cfg.compensation else make_predictor(bounded)
@@ -132,6 +138,8 @@ class Episode:
         n = self.n_periods  # per period, planned a block at a time (`plan`):
         self.predicted_m, self.bound_m, self.command_m = np.empty(n), np.empty(n), np.empty(n)
         self.floor_m = np.empty(n)  # the depth limit's floor radius [m]
+        self.tip_m, self.base_m = np.empty((n, 3)), np.empty((n, 3))  # per period run [m]
+        self.tent_m = np.empty(n)  # the ILM's tenting under the tip per period run [m]
         self.phase = np.zeros(n, dtype=int)  # index in PHASES
         self.desired, self.targets = np.empty((n, 3)), np.empty((n, 6))
         self._planned_to = 0  # periods [0, _planned_to) are planned
@@ -141,6 +149,7 @@ class Episode:
         scene = {"eye": eye, "points": default_points(eye)}
         self.plant = make_plant(cfg.plant, robot, scene=scene, dt=cfg.dt)
         self.plant.reset(robot.actuators_from_joints(pose.q))
+        self.start_tip, self.start_base = self.needle_now()  # held there during the warm-up
         floor_m = float(self.limit_radius(np.zeros(())))
         self.depth_limit = TissueDepthLimit(self.center_m[0], floor_m)
         extra = (self.depth_limit,) if cfg.depth_limit else ()
@@ -169,6 +178,24 @@ class Episode:
         shift = eye_translation(model, motion.t_s.size, rng)
         return replace(motion, translation_m=shift)
 
+    @property
+    def trace(self) -> IlmTrace:
+        """The iOCT estimates delivered so far (`EpisodeIoct.trace`)."""
+        return self.ioct.trace()
+
+    def needle_now(self) -> tuple[FloatArray, FloatArray]:
+        """The needle's tip and base (3,) each [m] where the plant holds them now."""
+        q = self.robot.joints_from_actuators(self.plant.read_actuators())
+        return self.robot.tip(q), self.robot.needle_point(q, 0.0)
+
+    def depth_of(self, tip_m: FloatArray, k: int | slice) -> FloatArray:
+        """Depth [m] of tips below the undeformed ILM of period k (the tissue model's input)."""
+        center = self.center_m[k]
+        wall = self.wall_m[k]
+        return np.asarray(
+            np.linalg.norm(tip_m - center, axis=-1) - (self.layers.ilm_radius_m + wall)
+        )
+
     def to_base(self, radius_m: float | FloatArray, k: int | slice) -> FloatArray:
         """The point (3,) at `radius_m` [m] from the eye centre of period k on the target's
         normal, base frame; (N, 3) for N radii and a slice k of N periods."""
@@ -180,16 +207,19 @@ class Episode:
         return np.asarray(self.layers.rpe_radius_m + displacement_m - self.cfg.rpe_margin_m)
 
     def deliver(self, t_s: float) -> None:
-        """Feed the predictors every estimate that has arrived by episode time t_s [s]."""
+        """Acquire every volume that has arrived by episode time t_s [s] (the time of the next
+        period to run) from the true state at its acquisition and feed its estimate to the
+        predictors; a dropped volume feeds nothing."""
         while self._next < self.arrival_s.size and self.arrival_s[self._next] <= t_s:
-            t_acq, value = (
-                float(self.trace.t_acq_s[self._next]),
-                float(self.trace.estimate_m[self._next]),
-            )
+            k = self._next
+            t_acq = float(self.ioct.t_acq_s[k])
+            value = self.ioct.acquire(k, true_state(self, t_acq))
+            self._next += 1
+            if value is None:
+                continue
             self.predictor.update(t_acq, value)
             if self.guard is not self.predictor:
                 self.guard.update(t_acq, value)
-            self._next += 1
 
     def plan(self, k: int) -> None:
         """Plan the periods from k to the next estimate's arrival: the compensation's
@@ -247,21 +277,24 @@ class Episode:
                         iteration=0, solver=self._sid,
                         phase=self._pids[PHASES[self.phase[k]]])  # fmt: skip
         deviation = float(np.linalg.norm(rcm - trocar))
-        self.store(k, tip[None, :], np.array([deviation]))
+        self.store(k, tip[None, :], base[None, :], np.array([deviation]))
         if deviation > cfg.rcm_bound_m:
             raise RcmBoundError(PHASES[self.phase[k]], deviation, cfg.rcm_bound_m)
 
-    def store(self, k: int, tips: FloatArray, deviation_m: FloatArray) -> None:
-        """The series of the periods k.. that ran, from their tips (n, 3) [m] and RCM
-        deviations (n,) [m]; the tissue model reads each tip in turn."""
+    def store(self, k: int, tips: FloatArray, bases: FloatArray, deviation_m: FloatArray) -> None:
+        """The series of the periods k.. that ran, from their needle tips and bases (n, 3) [m]
+        and RCM deviations (n,) [m]; the tissue model reads each tip in turn."""
         n = tips.shape[0]
         block, wall = slice(k, k + n), self.wall_m[k : k + n]
-        z = np.linalg.norm(tips - self.center_m[block], axis=1) - (self.layers.ilm_radius_m + wall)
+        z = self.depth_of(tips, block)
         readings = [self.tissue.update(float(depth)) for depth in z]
-        columns = (self.t_s[block], self._pid_of[self.phase[block]], wall, self.predicted_m[block],
-                   self.bound_m[block], self.command_m[block], z,
-                   [r.depth_in_tissue_m for r in readings], [int(r.state) for r in readings],
-                   deviation_m)  # fmt: skip
+        self.tip_m[block], self.base_m[block] = tips, bases
+        self.tent_m[block] = [r.tent_m for r in readings]
+        columns: tuple[Any, ...] = (
+            self.t_s[block], self._pid_of[self.phase[block]], wall, self.predicted_m[block],
+            self.bound_m[block], self.command_m[block], z,
+            [r.depth_in_tissue_m for r in readings], [int(r.state) for r in readings], deviation_m,
+        )  # fmt: skip
         for key, values in zip(SERIES, columns, strict=True):
             self.series[key][block] = values
         self.done = k + n
@@ -288,7 +321,7 @@ class Episode:
             starts[name] = t0
             t0 += length
         return EpisodeResult(self.cfg, self.layers, series, self.log.finish(), self.trace,
-                             starts, status, message)  # fmt: skip
+                             tuple(self.ioct.received), starts, status, message)  # fmt: skip
 
 
 def run_episode(cfg: EpisodeSettings) -> EpisodeResult:

@@ -3,8 +3,10 @@ run on the sweep's executors and checkpointed as they finish.
 
 Job i of a batch is episode i // M with method i % M (M methods, in `methods` order): the
 episode's conditions come from `episode_draws.draw_episode(ranges, seed, episode)`, the rest of
-its settings from `base`. A job is a pure function of (batch settings, i), so its record is the
-same on any executor and in any order; only `wall_time_s` differs.
+its settings from `base` (among them `ioct_estimates`: with "image" every volume is rendered and
+segmented, and the drawn `noise_std_m`, the stand-in's, is not used: its record holds None).
+A job is a pure function of (batch settings, i), so its record is the same on any executor and
+in any order; only `wall_time_s` differs.
 """
 
 from __future__ import annotations
@@ -89,11 +91,13 @@ class BatchSettings:
 class EpisodeRecord:
     """One job's result (SI units): its draw (`DrawRanges`' names), status and figures
     (`episode_metrics.summarise`). `success`: status "ok" (no RPE breach, RCM within its
-    bound, ILM punctured) and the tip in the target band for the whole hold."""
+    bound, ILM punctured) and the tip in the target band for the whole hold. `noise_std_m` is
+    None with "image" estimates (the drawn value is the stand-in's)."""
 
     id: int
     episode: int
     compensation: str
+    ioct_estimates: str
     status: str
     success: bool
     seed: int
@@ -103,7 +107,7 @@ class EpisodeRecord:
     cardiac_rate_hz: float
     ioct_rate_hz: float
     latency_s: float
-    noise_std_m: float
+    noise_std_m: float | None
     target_fraction: float
     eye_drift_m: float
     tracking_rms_m: float | None
@@ -115,6 +119,8 @@ class EpisodeRecord:
     max_rcm_deviation_m: float | None
     prediction_rms_m: float | None
     max_trocar_displacement_m: float | None
+    segmentation_rms_m: float | None
+    acquisitions_dropped: int | None
     wall_time_s: float
     message: str = ""
 
@@ -137,7 +143,8 @@ class EpisodeRecord:
 
 FIGURES = ("tracking_rms_m", "depth_error_m", "depth_rms_error_m", "in_band_fraction",
            "rpe_breach", "max_depth_past_rpe_m", "max_rcm_deviation_m",
-           "prediction_rms_m", "max_trocar_displacement_m")  # fmt: skip
+           "prediction_rms_m", "max_trocar_displacement_m", "segmentation_rms_m",
+           "acquisitions_dropped")  # fmt: skip
 
 
 def _finite(value: Any) -> Any:
@@ -164,7 +171,10 @@ def run_job(batch: BatchSettings, item: int) -> EpisodeRecord:
         figures = dict.fromkeys(FIGURES)
     success = status == "ok" and figures["in_band_fraction"] == 1.0
     conditions = {k: getattr(draw, k) for k in CONDITIONS}
-    return EpisodeRecord(id=item, episode=draw.episode, compensation=method, status=status,
+    if batch.base.ioct_estimates == "image":
+        conditions["noise_std_m"] = None  # the stand-in's, not used
+    return EpisodeRecord(id=item, episode=draw.episode, compensation=method,
+                         ioct_estimates=batch.base.ioct_estimates, status=status,
                          success=success, seed=draw.seed, **conditions, **figures,
                          wall_time_s=time.perf_counter() - t0, message=message)  # fmt: skip
 

@@ -53,7 +53,9 @@ class Episode(Protocol):
     phase_names: Any
 
     def period(self) -> None: ...
-    def store(self, k: int, tips: np.ndarray, deviation_m: np.ndarray) -> None: ...
+    def store(
+        self, k: int, tips: np.ndarray, bases: np.ndarray, deviation_m: np.ndarray
+    ) -> None: ...
 
 
 def floor_index(extra_limits: tuple[object, ...]) -> int:
@@ -120,7 +122,8 @@ class PeriodBlocks:
         n = int(self.info[0])
         if n > 0:
             self.log_records(ep, k, rec[:n])
-            ep.store(k, rec[:n, 14:17], deviation[:n])
+            (tip_a, tip_b), (base_a, base_b) = REC_COLUMNS["tip"], REC_COLUMNS["base"]
+            ep.store(k, rec[:n, tip_a:tip_b], rec[:n, base_a:base_b], deviation[:n])
             time_s = plant.time
             plant.command_actuators(s)
             plant.advance()

@@ -1,17 +1,13 @@
 """The B-scans of one episode's iOCT volumes, for replaying the episode beside its 3D scene.
 
 An episode's controller receives, every 1 / rate, the ILM displacement estimated from the
-volume acquired `latency_s` earlier (`Episode.deliver`; the estimates are the measured-noise
-stand-in of `trace.noisy_trace`). For each acquisition whose estimate the controller received
-during the logged periods (and the one it held at the first period), `episode_bscans` renders
-the B-scan of that acquisition with `ioct.render_bscan` and segments it with
-`segment.segment_bscan`: the true ILM displacement of the trace at the acquisition, the tip and
-the needle's tilt from the run log at the last period at or before it, and the ILM's tent from
-the tissue model at that period (the tip relative to the eye, which moves with its trocar
-when the episode's eye moves). The needle lies in the scan plane; B-scan x is the eye frame's
-x across the target's normal, z the depth along it (`ioct` module docstring). The renderer
-draws tilts of 0.1-1.4 rad; a needle steeper than 0.1 rad from the normal is drawn at 0.1 rad.
-Speckle comes from a generator seeded by (episode seed, acquisition index).
+volume acquired `latency_s` earlier (`Episode.deliver`, `episode_ioct`). For each volume that
+delivered an estimate during the logged periods (and the one it held at the first period),
+`episode_bscans` renders the B-scan of that acquisition's scene (`EpisodeResult.received`: the
+truth at the acquisition, the tip and needle where the robot held them, the ILM's tent) with
+the same speckle and segments it (`episode_ioct.segment_acquisition`): with "image" estimates
+the very image the controller's estimate came from, with the "noise" stand-in the image of
+that acquisition beside the stand-in's estimate.
 
 `bscans.npz` keeps the images as uint8 over [db_low, db_high] (the rendered dB, quantised for
 size) with their acquisition and arrival times, the estimate the controller received, the
@@ -20,7 +16,6 @@ truth, and the segmentation of the image as rendered (before quantisation).
 
 from __future__ import annotations
 
-import math
 import zipfile
 import zlib
 from dataclasses import asdict, dataclass
@@ -32,18 +27,12 @@ import numpy as np
 from rcmplan._atomic import atomic_path
 from rcmplan._validate import FloatArray
 from rcmplan.exceptions import RunFolderError
-from rcmplan.robot.registry import make_robot
-from rcmplan.scene.eye import Eye, default_eye, eye_frame
-from rcmplan.subretinal.ioct import BScanScene, IoctModel, render_bscan
-from rcmplan.subretinal.layers import unit_direction
-from rcmplan.subretinal.segment import segment_bscan
-from rcmplan.subretinal.tissue import TissueState
-from rcmplan.subretinal.trace import NeedleHold
+from rcmplan.subretinal.episode_ioct import segment_acquisition
+from rcmplan.subretinal.ioct import IoctModel
 
 if TYPE_CHECKING:
     from rcmplan.subretinal.episode import EpisodeResult
 
-MIN_TILT_RAD, MAX_TILT_RAD = 0.1, 1.4  # what BScanScene draws
 PER_FRAME = ("t_acq_s", "arrival_s", "estimate_m", "truth_m", "segmented_m", "tip_m", "tent_m",
              "ilm_at_tip_m", "rpe_at_tip_m", "seg_ilm_m", "seg_rpe_m", "seg_tip_m")  # fmt: skip
 GEOMETRY = ("axial_pixel_m", "lateral_pixel_m", "top_m", "db_low", "db_high")
@@ -112,49 +101,24 @@ class EpisodeBScans:
         return path
 
 
-def bscan_axes(eye: Eye, direction: object) -> tuple[FloatArray, FloatArray]:
-    """The target's normal and the B-scan's lateral axis (3,) each, robot base frame, of an
-    episode's eye and target direction (as `Episode` places them)."""
-    R = eye_frame(eye)
-    normal = R @ unit_direction(direction)
-    lateral = R[:, 0] - np.dot(R[:, 0], normal) * normal
-    return normal, lateral / np.linalg.norm(lateral)
-
-
 def episode_bscans(result: EpisodeResult) -> EpisodeBScans:
     """Render and segment the B-scan of every volume the controller received (module doc)."""
-    cfg, layers, log, trace, s = (result.settings, result.layers, result.log, result.trace,
-                                  result.series)  # fmt: skip
+    cfg, log = result.settings, result.log
     ioct = IoctModel(volume_rate_hz=cfg.ioct_rate_hz, latency_s=cfg.latency_s)
-    arrival = trace.t_acq_s + cfg.latency_s
+    got = [r for r in result.received if r.estimate_m is not None]
+    arrival = np.array([r.t_acq_s for r in got]) + cfg.latency_s
     first = max(int(np.searchsorted(arrival, log.time[0], side="right")) - 1, 0)
     last = int(np.searchsorted(arrival, log.time[-1], side="right"))
-    eye = default_eye(make_robot(cfg.robot))
-    centre, (normal, lateral) = eye.center, bscan_axes(eye, cfg.direction)
-    diameter = NeedleHold().diameter_m
     rows: dict[str, list[object]] = {k: [] for k in PER_FRAME}
     images = []
     for k in range(first, last):
-        i = max(int(np.searchsorted(log.time, trace.t_acq_s[k], side="right")) - 1, 0)
-        tip = log.tip[i] - (centre + log.trocar[i] - eye.port)  # the eye moves with its trocar
-        x, z = float(tip @ lateral), float(tip @ normal) - layers.ilm_radius_m
-        axis = log.tip[i] - log.base[i]
-        tilt = math.atan2(float(axis @ lateral), float(axis @ normal))
-        tilt = math.copysign(min(max(abs(tilt), MIN_TILT_RAD), MAX_TILT_RAD), tilt)
-        tenting = int(s["tissue_state"][i]) == int(TissueState.TENTING)
-        tent = float(s["depth_vs_undeformed_m"][i]) if tenting else 0.0
-        scene = BScanScene(
-            ilm_offset_m=float(trace.truth_m[k]), curvature_radius_m=layers.ilm_radius_m,
-            thickness_m=layers.thickness_m, choroid_m=layers.choroid_m, tent_m=tent,
-            tent_x_m=x, tip_m=(x, z), needle_tilt_rad=tilt, needle_diameter_m=diameter,
-        )  # fmt: skip
-        rng = np.random.default_rng(np.random.SeedSequence(cfg.seed, spawn_key=(k,)))
-        image = render_bscan(ioct, scene, rng)
-        seg = segment_bscan(image, ioct, layers.ilm_radius_m, diameter)
+        r = got[k]
+        scene, tip = r.scene, r.scene.tip_m or (np.nan, np.nan)
+        image, seg = segment_acquisition(ioct, scene, cfg.seed, r.number)
         images.append(image)
-        values = (trace.t_acq_s[k], arrival[k], trace.estimate_m[k], trace.truth_m[k],
-                  np.nan if seg.ilm_offset_m is None else seg.ilm_offset_m, (x, z), tent,
-                  scene.ilm_depth_m(x), scene.rpe_depth_m(x),
+        values = (r.t_acq_s, arrival[k], r.estimate_m, scene.ilm_offset_m,
+                  np.nan if seg.ilm_offset_m is None else seg.ilm_offset_m, tip, scene.tent_m,
+                  scene.ilm_depth_m(tip[0]), scene.rpe_depth_m(tip[0]),
                   np.where(seg.valid, seg.ilm_m, np.nan),
                   np.where(seg.rpe_valid, seg.rpe_m, np.nan),
                   (np.nan, np.nan) if seg.tip_m is None else seg.tip_m)  # fmt: skip

@@ -8,17 +8,48 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.subretinal.episode import PHASES, EpisodeResult
-from rcmplan.subretinal.episode_settings import SEGMENTATION_BIAS_M, SEGMENTATION_STD_M
+from rcmplan.subretinal.episode_settings import (
+    SEGMENTATION_BIAS_M,
+    SEGMENTATION_STD_M,
+    EpisodeSettings,
+)
 from rcmplan.subretinal.layers import in_target_band
+from rcmplan.subretinal.segment_error import rms_m
 from rcmplan.subretinal.tissue import TissueState
 
 
-def ioct_source(noise_std_m: float) -> str:
-    """What the controller's iOCT estimates were (the measured-noise stand-in)."""
-    measured = ", the measured sd" if noise_std_m == SEGMENTATION_STD_M else ""
-    bias, sd = SEGMENTATION_BIAS_M * 1e6, noise_std_m * 1e6
-    stand_in = "measured-noise stand-in for the segmented B-scans"
+def ioct_source(cfg: EpisodeSettings) -> str:
+    """What the controller's iOCT estimates were, in words."""
+    if cfg.ioct_estimates == "image":
+        return ("segmented from the B-scan rendered from the true state at each acquisition "
+                "(speckle, the needle and its shadow, the ILM tented under the tip)")  # fmt: skip
+    measured = ", the measured sd" if cfg.noise_std_m == SEGMENTATION_STD_M else ""
+    bias, sd = SEGMENTATION_BIAS_M * 1e6, cfg.noise_std_m * 1e6
+    stand_in = "measured-noise stand-in for the segmented B-scans, no image"
     return f"{stand_in} (bias {bias:.2f} um, sd {sd:.2f} um{measured})"
+
+
+def segmentation_figures(result: EpisodeResult) -> dict[str, Any]:
+    """The iOCT volumes delivered to the controller and the error of what it received [m]:
+    the ILM displacement delivered less the truth (RMS and mean, over the volumes that
+    delivered one) and, for "image" estimates, the segmentation against the rendered scene
+    (per A-line ILM and RPE depth, the needle tip where one was segmented; RMS over volumes)."""
+    trace, received = result.trace, result.received
+    error = trace.estimate_m - trace.truth_m
+    errors = trace.errors
+    image = result.settings.ioct_estimates == "image"
+    tips = [e.tip_m for e in errors]
+    return {
+        "acquisitions_delivered": len(received),
+        "acquisitions_dropped": trace.dropped,
+        "segmentation_rms_m": _rms(error),
+        "segmentation_bias_m": _mean(error),
+        "segmentation_ilm_rms_m": rms_m([e.ilm_rms_m for e in errors]) if image else None,
+        "segmentation_rpe_rms_m": rms_m([e.rpe_rms_m for e in errors]) if image else None,
+        "segmentation_tip_rms_m": rms_m(tips) if image else None,
+        "tip_segmented": sum(t is not None for t in tips) if image else None,
+        "tip_in_window": int(sum(r.tip_in_window for r in received)),
+    }
 
 
 def _rms(x: FloatArray) -> float | None:
@@ -62,8 +93,6 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
     punctured = bool(np.any(s["tissue_state"] == int(TissueState.PUNCTURED)))
     status, message = episode_status(result, breach, punctured)
     height_error = -depth[hover] - cfg.standoff_m
-    seen = result.trace.t_acq_s <= (s["t_s"][-1] if s["t_s"].size else 0.0)
-    seg = result.trace.estimate_m[seen] - result.trace.truth_m[seen]
     band = np.asarray(in_target_band(layers, depth[hold]), dtype=bool)
     trocar = trocar_motion(result)
     return {
@@ -75,8 +104,9 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
         "compensation": cfg.compensation,
         "ioct_rate_hz": cfg.ioct_rate_hz,
         "latency_s": cfg.latency_s,
-        "ioct_estimates": ioct_source(cfg.noise_std_m),
-        "noise_std_m": cfg.noise_std_m,
+        "ioct_estimates": cfg.ioct_estimates,
+        "ioct_source": ioct_source(cfg),
+        "noise_std_m": cfg.noise_std_m if cfg.ioct_estimates == "noise" else None,
         "heart_rate_sd_hz": cfg.heart_rate_sd_hz,
         "breathing_amplitude_m": cfg.breathing_m,
         "cardiac_amplitude_m": cfg.cardiac_m,
@@ -104,7 +134,7 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
         "punctured": punctured,
         "rpe_breach": breach,
         "max_depth_past_rpe_m": float(past.max()) if past.size else None,
-        "segmentation_rms_m": _rms(seg),
+        **segmentation_figures(result),
         "prediction_rms_m": _rms(s["predicted_m"] - s["wall_m"]),
         "phase_starts_s": result.phase_starts_s,
     }

@@ -3,9 +3,10 @@
 Per method: episodes run, successes and the success rate (`EpisodeRecord.success`), RPE
 breaches, the median and 95th percentile of the hover tracking RMS, the median of the mean depth
 error and of the depth RMS error during the hold, the mean in-band fraction, the largest RCM
-deviation and the largest trocar displacement (whole-eye motion). Curves: the same success rate
-and median tracking RMS in bins of the drawn iOCT volume rate (log-spaced) and latency. SI units
-throughout.
+deviation and the largest trocar displacement (whole-eye motion), the median of the episodes'
+iOCT estimate error RMS and the iOCT volumes dropped (no ILM segmented). Curves: the same
+success rate and median tracking RMS in bins of the drawn iOCT volume rate (log-spaced) and
+latency. SI units throughout.
 """
 
 from __future__ import annotations
@@ -58,6 +59,8 @@ def method_summary(records: list[EpisodeRecord]) -> dict[str, Any]:
         "in_band_fraction_mean": float(np.mean(in_band)) if in_band else None,
         "max_rcm_deviation_m": max(rcm) if rcm else None,
         "max_trocar_displacement_m": max(trocar) if trocar else None,
+        "segmentation_rms_m_median": _median(_values(records, "segmentation_rms_m")),
+        "acquisitions_dropped": int(sum(_values(records, "acquisitions_dropped"))),
         "statuses": dict(Counter(r.status for r in records)),
         "wall_time_s_median": _median([r.wall_time_s for r in records]),
     }
@@ -117,6 +120,7 @@ def batch_summary(batch: BatchSettings, records: list[EpisodeRecord]) -> dict[st
         "jobs_run": len(records),
         "method": chosen,
         "method_choice": CHOICE_ONE if len(methods) == 1 else CHOICE_BEST,
+        "ioct_estimates": batch.base.ioct_estimates,
         **{k: top[k] for k in TOP_FIELDS},
         "success": "status ok (no RPE breach, RCM within its bound, ILM punctured) and in the "
         "target band for the whole hold",

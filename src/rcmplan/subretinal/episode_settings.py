@@ -10,13 +10,16 @@ from rcmplan.robot.registry import check_robot
 from rcmplan.subretinal.motion import BREATHING_BAND_HZ, CARDIAC_BAND_HZ
 from rcmplan.subretinal.predictors import PREDICTORS
 
-# The measured error of the ILM offset segmented from the synthetic B-scans (docs/subretinal.md,
-# 54200 B-scans): the stand-in for the images in an episode.
+# The measured error of the ILM offset segmented from the synthetic B-scans with the needle held
+# above the retina (docs/subretinal.md, 54200 B-scans): the `ioct_estimates="noise"` stand-in.
 SEGMENTATION_BIAS_M = -1.26e-6
 SEGMENTATION_STD_M = 0.23e-6
 # Cardiac amplitude per unit of breathing amplitude: the MotionModel defaults (10 um / 50 um).
 CARDIAC_PER_BREATHING = 0.2
 PLANTS_SUPPORTED = ("kinematic", "mujoco")
+# Where the controller's iOCT estimates come from (`episode_ioct`): each volume's B-scan rendered
+# and segmented, or the measured-noise stand-in (the truth plus the measured bias and noise).
+IOCT_ESTIMATES = ("image", "noise")
 # Largest standard deviation per axis of the whole-eye translation [m] (a bound on absurd
 # values: a quarter of the eye's 24 mm diameter).
 EYE_DRIFT_MAX_M = 5e-3
@@ -31,6 +34,9 @@ class EpisodeSettings:
         plant: The plant: "kinematic" or "mujoco" (the dynamic MuJoCo plant, whose servos
             follow the commands: the QP plans from its last command, `QpSolver`'s `servo`).
         compensation: Predictor of the ILM displacement: none, hold, fft or kalman.
+        ioct_estimates: "image": each estimate segmented from the B-scan rendered from the
+            true state at its acquisition; "noise": the measured-noise stand-in (the true
+            displacement plus `SEGMENTATION_BIAS_M` and noise of `noise_std_m`, no image).
         ioct_rate_hz: iOCT volume rate [Hz].
         latency_s: iOCT latency, acquisition to delivery [s].
         breathing_m: Breathing amplitude along the normal [m].
@@ -38,11 +44,11 @@ class EpisodeSettings:
             of the breathing amplitude.
         breathing_rate_hz: Nominal breathing rate [Hz], in the motion model's band (0.2-0.33).
         cardiac_rate_hz: Nominal heart rate [Hz], in the motion model's band (1-2).
-        noise_std_m: Standard deviation of the iOCT estimates' error [m] (its bias is the
-            measured `SEGMENTATION_BIAS_M`).
+        noise_std_m: Standard deviation of the stand-in's error [m] (its bias is the
+            measured `SEGMENTATION_BIAS_M`); unused with "image" estimates.
         heart_rate_sd_hz: Error (1 sigma) [Hz] of the anaesthesia monitor's heart rate given
             to `kalman` (`monitor.py`); None: no heart rate given.
-        seed: Seed of the motion and of the iOCT noise.
+        seed: Seed of the motion and of the iOCT speckle (or the stand-in's noise).
         hold_s: Injection time at the target depth [s].
         standoff_m: Hover height above the ILM along the normal [m].
         target_fraction: Target depth between ILM (0) and RPE (1).
@@ -69,6 +75,7 @@ class EpisodeSettings:
     robot: str = "iramis"
     plant: str = "kinematic"
     compensation: str = "kalman"
+    ioct_estimates: str = "image"
     ioct_rate_hz: float = 9.0
     latency_s: float = 0.15
     breathing_m: float = 50e-6
@@ -104,6 +111,9 @@ class EpisodeSettings:
         if self.compensation not in PREDICTORS:
             valid = "one of " + ", ".join(PREDICTORS)
             raise InvalidInputError("compensation", self.compensation, valid)
+        if self.ioct_estimates not in IOCT_ESTIMATES:
+            valid = "one of " + ", ".join(IOCT_ESTIMATES)
+            raise InvalidInputError("ioct_estimates", self.ioct_estimates, valid)
         scalar("ioct_rate_hz", self.ioct_rate_hz, 0.5, 200.0)
         scalar("latency_s", self.latency_s, 0.0, 1.0)
         scalar("breathing_m", self.breathing_m, 0.0, 200e-6)
