@@ -11,7 +11,9 @@ over N runs (3) of the episode's loop (`Episode.run`, 9,350 periods of 1 ms, bui
 in [s], the real-time factor of the fastest run (simulated 9.35 s / loop wall time), for the
 per-period paths the time inside the QP step in [s] (timed around each call), and the fastest
 run's max RCM deviation and hover tracking RMS [m] (`summary.json`'s figures). The machine's
-load average is printed with them.
+load average is printed with them. The episodes take the iOCT stand-in (`--ioct-estimates
+noise`, the default here: no image rendered, so that the loop's own cost is measured);
+`--ioct-estimates image` times them with every volume rendered and segmented.
 """
 
 from __future__ import annotations
@@ -32,11 +34,13 @@ from rcmplan.subretinal.episode_settings import EpisodeSettings
 PATHS = ("blocks", "periods", "python", "mujoco")
 
 
-def timed_run(compensation: str, path: str) -> tuple[float, float, float, dict[str, Any]]:
+def timed_run(
+    compensation: str, path: str, estimates: str = "noise"
+) -> tuple[float, float, float, dict[str, Any]]:
     """(loop wall time [s], time in the QP step [s] (NaN for the block loop), simulated time
     [s], the episode's summary) of one default episode on a path (PATHS)."""
     plant = "mujoco" if path == "mujoco" else "kinematic"
-    ep = Episode(EpisodeSettings(compensation=compensation, plant=plant))
+    ep = Episode(EpisodeSettings(compensation=compensation, plant=plant, ioct_estimates=estimates))
     spent = [0.0]
     if path == "blocks" and ep.blocks is None:
         raise RuntimeError("the compiled block loop does not apply here")
@@ -66,13 +70,13 @@ def timed_run(compensation: str, path: str) -> tuple[float, float, float, dict[s
     return loop, spent[0] if path != "blocks" else math.nan, ep.length_s, summarise(result)
 
 
-def measure(repeats: int) -> dict[str, Any]:
+def measure(repeats: int, estimates: str = "noise") -> dict[str, Any]:
     """Per compensation and path: the loop's minimum and median [s], the real-time factor at
     the minimum, the QP step's share, the run's RCM and tracking figures."""
-    out: dict[str, Any] = {"load_average": os.getloadavg()}
+    out: dict[str, Any] = {"load_average": os.getloadavg(), "ioct_estimates": estimates}
     for compensation in ("none", "kalman"):
         for path in PATHS:
-            runs = [timed_run(compensation, path) for _ in range(repeats)]
+            runs = [timed_run(compensation, path, estimates) for _ in range(repeats)]
             loop = [r[0] for r in runs]
             best = runs[loop.index(min(loop))]
             out[f"{compensation}/{path}"] = {
@@ -102,8 +106,9 @@ def rows() -> list[dict[str, Any]]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--ioct-estimates", choices=("noise", "image"), default="noise")
     args = parser.parse_args()
-    out = measure(args.repeats)
+    out = measure(args.repeats, args.ioct_estimates)
     print(json.dumps(out, indent=1))
 
 

@@ -129,10 +129,12 @@ def budget(seed: int, episode: int, method: str, heart_rate_sd_hz: float | None)
         raise RuntimeError("the parts do not add up to the depth error")
     worst = int(np.argmax(np.abs(error)))
     um = 1e6
+    source = getattr(cfg, "ioct_estimates", "noise")  # the source before image estimates: noise
     return {
         "episode": episode, "ioct_rate_hz": cfg.ioct_rate_hz, "heart_rate_hz": cfg.cardiac_rate_hz,
         "cardiac_um": cfg.cardiac_m * um, "breathing_um": cfg.breathing_m * um,
-        "latency_s": cfg.latency_s, "noise_um": cfg.noise_std_m * um,
+        "latency_s": cfg.latency_s, "ioct_estimates": source,
+        "noise_um": cfg.noise_std_m * um if source == "noise" else None,
         "success": doc["status"] == "ok" and doc["in_band_fraction"] == 1.0,
         "in_band_fraction": doc["in_band_fraction"],
         "error_rms_um": float(np.sqrt(np.mean(error**2))) * um,

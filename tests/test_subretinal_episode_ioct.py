@@ -72,7 +72,12 @@ def test_each_estimate_is_the_segmentation_of_the_state_at_its_acquisition(
         image = render_bscan(model, scene, speckle_rng(SHORT.seed, r.number))
         seg = segment_bscan(image, model, ep.layers.ilm_radius_m, NeedleHold().diameter_m)
         assert seg.ilm_offset_m == pytest.approx(r.estimate_m, abs=1e-12)
-    # the scenes follow the robot: above the ILM at the hover, in the retina during the hold
+    # the scenes follow the robot: still at the start during the warm-up, above the ILM at the
+    # hover, in the retina during the hold
+    warmup = [r for r in result.received if r.t_acq_s < SHORT.warmup_s]
+    assert len(warmup) == 9
+    for r in warmup:
+        assert r.scene.tip_m[1] == pytest.approx(-SHORT.start_height_m, abs=1e-9)
     starts = result.phase_starts_s
     hover = [r for r in during if starts["hover"] <= r.t_acq_s < starts["advance"]]
     hold = [r for r in during if starts["hold"] <= r.t_acq_s < starts["retract"]]
@@ -146,6 +151,13 @@ def test_the_summary_reports_the_error_of_what_was_received(image_run) -> None:
     assert 0 < doc["segmentation_ilm_rms_m"] < 5e-6  # about the axial pixel
     assert doc["tip_segmented"] <= doc["tip_in_window"] <= doc["acquisitions_delivered"]
     assert doc["tip_segmented"] > 0 and doc["segmentation_tip_rms_m"] > 0
+    phases = doc["segmentation_by_phase"]
+    assert list(phases) == ["warmup", *result.phase_starts_s]
+    assert sum(p["volumes"] for p in phases.values()) == doc["acquisitions_delivered"]
+    assert sum(p["tip_segmented"] for p in phases.values()) == doc["tip_segmented"]
+    pooled = np.sqrt(sum(p["rms_m"] ** 2 * p["volumes"] for p in phases.values()) / offsets.size)
+    assert pooled == pytest.approx(doc["segmentation_rms_m"], rel=1e-9)
+    assert phases["hold"]["tip_in_window"] == phases["hold"]["volumes"]
 
 
 def test_the_noise_stand_in_is_an_option() -> None:

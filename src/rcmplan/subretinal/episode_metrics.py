@@ -49,7 +49,37 @@ def segmentation_figures(result: EpisodeResult) -> dict[str, Any]:
         "segmentation_tip_rms_m": rms_m(tips) if image else None,
         "tip_segmented": sum(t is not None for t in tips) if image else None,
         "tip_in_window": int(sum(r.tip_in_window for r in received)),
+        "segmentation_by_phase": segmentation_by_phase(result),
     }
+
+
+def segmentation_by_phase(result: EpisodeResult) -> dict[str, dict[str, Any]]:
+    """Per phase of its acquisition ("warmup" before the approach): the volumes delivered and
+    dropped, the ILM displacement delivered less the truth (RMS, mean, largest) [m], and with
+    "image" estimates the volumes whose true tip lay in the window, those with a segmented tip
+    and its error (RMS, median) [m]."""
+    starts = [("warmup", -np.inf), *result.phase_starts_s.items()]
+    out: dict[str, dict[str, Any]] = {}
+    for (name, t0), (_, t1) in zip(starts, [*starts[1:], ("", np.inf)], strict=True):
+        mine = [r for r in result.received if t0 <= r.t_acq_s < t1]
+        if not mine:
+            continue
+        got = np.array([r.estimate_m - r.scene.ilm_offset_m for r in mine
+                        if r.estimate_m is not None])  # fmt: skip
+        tips = np.array([r.error.tip_m for r in mine if r.error and r.error.tip_m is not None])
+        image = result.settings.ioct_estimates == "image"
+        out[name] = {
+            "volumes": len(mine),
+            "dropped": len(mine) - got.size,
+            "rms_m": _rms(got),
+            "mean_m": _mean(got),
+            "max_abs_m": float(np.abs(got).max()) if got.size else None,
+            "tip_in_window": int(sum(r.tip_in_window for r in mine)),
+            "tip_segmented": int(tips.size) if image else None,
+            "tip_rms_m": _rms(tips) if image else None,
+            "tip_median_m": float(np.median(tips)) if image and tips.size else None,
+        }
+    return out
 
 
 def _rms(x: FloatArray) -> float | None:
