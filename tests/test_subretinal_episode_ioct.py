@@ -207,3 +207,11 @@ def test_the_cli_option_and_the_batch_record(
                                        base=replace(base, ioct_estimates=mode)), 0)  # fmt: skip
         assert record.ioct_estimates == mode and record.segmentation_rms_m is not None
         assert (record.noise_std_m is None) == (mode == "image")
+
+
+def test_the_replay_frames_are_the_images_the_estimates_came_from(image_run) -> None:
+    _, result = image_run
+    frames = episode_bscans(result)
+    assert len(frames) > 20
+    np.testing.assert_array_equal(frames.segmented_m, frames.estimate_m)
+    assert frames.tent_m.max() > 10e-6  # the tented ILM is in the frames too
