@@ -15,7 +15,7 @@ from rcmplan.cli import interrupts
 from rcmplan.cli import subretinal as subretinal_cli
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.subretinal import episode_batch
-from rcmplan.subretinal.episode_batch import BatchSettings, run_batch
+from rcmplan.subretinal.episode_batch import BatchSettings, EpisodeRecord, run_batch
 from rcmplan.subretinal.episode_draws import CONDITIONS, DrawRanges, draw_episodes
 from rcmplan.subretinal.episode_settings import EpisodeSettings
 from rcmplan.sweep.errors import SchedulerError
@@ -90,6 +90,38 @@ def test_ranges_the_episodes_cannot_take_are_refused_before_any_motion() -> None
                 {"episodes": 2, "methods": ("lstm",)}, {"episodes": 2, "seed": -1}):  # fmt: skip
         with pytest.raises(InvalidInputError):
             BatchSettings(**bad)
+
+
+def test_a_record_is_written_flat_in_its_columns_and_reads_back_equal() -> None:
+    draw = draw_episodes(DrawRanges(), seed=5, n=3)[2]
+    figures = dict.fromkeys(episode_batch.FIGURES, 1e-6) | {
+        "rpe_breach": False,
+        "acquisitions_dropped": 0,
+    }
+    record = EpisodeRecord(id=9, draw=draw, compensation="kalman", ioct_estimates="noise",
+                           status="ok", success=True, **figures, wall_time_s=0.5)  # fmt: skip
+    row = record.as_dict()
+    assert list(row) == [
+        "id", "episode", "compensation", "ioct_estimates", "status", "success", "seed",
+        "breathing_amplitude_m", "cardiac_amplitude_m", "breathing_rate_hz", "cardiac_rate_hz",
+        "ioct_rate_hz", "latency_s", "noise_std_m", "target_fraction", "eye_drift_m",
+        "tracking_rms_m", "depth_error_m", "depth_rms_error_m", "in_band_fraction", "rpe_breach",
+        "max_depth_past_rpe_m", "max_rcm_deviation_m", "prediction_rms_m",
+        "max_trocar_displacement_m", "segmentation_rms_m", "acquisitions_dropped", "wall_time_s",
+        "message",
+    ]  # fmt: skip
+    assert (row["episode"], row["seed"], row["latency_s"]) == (2, draw.seed, draw.latency_s)
+    assert EpisodeRecord.from_dict(json.loads(json.dumps(row))) == record
+    with pytest.raises(KeyError):
+        EpisodeRecord.from_dict({k: v for k, v in row.items() if k != "seed"})
+
+
+def test_image_estimates_record_no_noise_and_run_with_the_bases() -> None:
+    batch = BatchSettings(episodes=1, methods=("none",), base=SHORT)
+    record = episode_batch.run_job(batch, 0)
+    assert batch.base.ioct_estimates == "image" and record.as_dict()["noise_std_m"] is None
+    assert EpisodeRecord.from_dict(json.loads(json.dumps(record.as_dict()))) == record
+    assert record.draw.settings(SHORT, "none").noise_std_m == SHORT.noise_std_m
 
 
 def run_cli(argv: list[str]) -> int:
@@ -194,5 +226,5 @@ def test_a_dask_cluster_gives_the_records_of_local_processes() -> None:
     assert {i: r.identity() for i, r in remote.records.items()} == {
         i: r.identity() for i, r in local.records.items()
     }
-    drawn = {tuple(getattr(r, c) for c in CONDITIONS) for r in local.records.values()}
+    drawn = {tuple(getattr(r.draw, c) for c in CONDITIONS) for r in local.records.values()}
     assert len(drawn) == 2  # two drawn episodes, each run by every method

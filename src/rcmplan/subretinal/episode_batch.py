@@ -14,11 +14,11 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
 from rcmplan.exceptions import InvalidInputError, RcmplanError
-from rcmplan.subretinal.episode_draws import CONDITIONS, DrawRanges, EpisodeDraw, draw_episode
+from rcmplan.subretinal.episode_draws import DrawRanges, EpisodeDraw, draw_episode
 from rcmplan.subretinal.episode_settings import EpisodeSettings
 from rcmplan.subretinal.predictors import PREDICTORS
 from rcmplan.sweep.checkpoint import RecordCheckpoint
@@ -87,29 +87,32 @@ class BatchSettings:
         return settings_digest({"subretinal_episodes": self.as_dict()})
 
 
+FIGURES = ("tracking_rms_m", "depth_error_m", "depth_rms_error_m", "in_band_fraction",
+           "rpe_breach", "max_depth_past_rpe_m", "max_rcm_deviation_m",
+           "prediction_rms_m", "max_trocar_displacement_m", "segmentation_rms_m",
+           "acquisitions_dropped")  # fmt: skip
+DRAW_FIELDS = tuple(f.name for f in fields(EpisodeDraw))
+# The columns of a record as written (episodes.csv, episodes.json, checkpoint rows): the record
+# flat, its draw's fields in place of `draw`, the episode beside the id and the seed before the
+# conditions.
+COLUMNS = ("id", "episode", "compensation", "ioct_estimates", "status", "success",
+           *(name for name in DRAW_FIELDS if name != "episode"), *FIGURES, "wall_time_s",
+           "message")  # fmt: skip
+
+
 @dataclass(frozen=True)
 class EpisodeRecord:
-    """One job's result (SI units): its draw (`DrawRanges`' names), status and figures
+    """One job's result (SI units): its draw, method, iOCT estimates, status and figures
     (`episode_metrics.summarise`). `success`: status "ok" (no RPE breach, RCM within its
-    bound, ILM punctured) and the tip in the target band for the whole hold. `noise_std_m` is
-    None with "image" estimates (the drawn value is the stand-in's)."""
+    bound, ILM punctured) and the tip in the target band for the whole hold. The draw's
+    `noise_std_m` is None with "image" estimates (the drawn value is the stand-in's)."""
 
     id: int
-    episode: int
+    draw: EpisodeDraw
     compensation: str
     ioct_estimates: str
     status: str
     success: bool
-    seed: int
-    breathing_amplitude_m: float
-    cardiac_amplitude_m: float
-    breathing_rate_hz: float
-    cardiac_rate_hz: float
-    ioct_rate_hz: float
-    latency_s: float
-    noise_std_m: float | None
-    target_fraction: float
-    eye_drift_m: float
     tracking_rms_m: float | None
     depth_error_m: float | None
     depth_rms_error_m: float | None
@@ -129,22 +132,19 @@ class EpisodeRecord:
         return tuple(getattr(self, f.name) for f in fields(self) if f.name != "wall_time_s")
 
     def as_dict(self) -> dict[str, Any]:
-        """Plain JSON-ready dictionary."""
-        return asdict(self)
+        """Plain JSON-ready dictionary, flat, keys in `COLUMNS` order."""
+        row = {f.name: getattr(self, f.name) for f in fields(self) if f.name != "draw"}
+        row.update(self.draw.as_dict())
+        return {name: row[name] for name in COLUMNS}
 
     @staticmethod
     def from_dict(data: dict[str, Any]) -> EpisodeRecord:
         """Inverse of as_dict; KeyError or TypeError on a malformed record."""
-        names = [f.name for f in fields(EpisodeRecord)]
-        if set(data) != set(names):
-            raise KeyError(f"fields {sorted(data)} differ from {names}")
-        return EpisodeRecord(**data)
-
-
-FIGURES = ("tracking_rms_m", "depth_error_m", "depth_rms_error_m", "in_band_fraction",
-           "rpe_breach", "max_depth_past_rpe_m", "max_rcm_deviation_m",
-           "prediction_rms_m", "max_trocar_displacement_m", "segmentation_rms_m",
-           "acquisitions_dropped")  # fmt: skip
+        if set(data) != set(COLUMNS):
+            raise KeyError(f"fields {sorted(data)} differ from {list(COLUMNS)}")
+        draw = EpisodeDraw(**{name: data[name] for name in DRAW_FIELDS})
+        own = {name: value for name, value in data.items() if name not in DRAW_FIELDS}
+        return EpisodeRecord(draw=draw, **own)
 
 
 def _finite(value: Any) -> Any:
@@ -170,13 +170,12 @@ def run_job(batch: BatchSettings, item: int) -> EpisodeRecord:
         status, message = exc.status, f"{type(exc).__name__}: {exc}"
         figures = dict.fromkeys(FIGURES)
     success = status == "ok" and figures["in_band_fraction"] == 1.0
-    conditions = {k: getattr(draw, k) for k in CONDITIONS}
     if batch.base.ioct_estimates == "image":
-        conditions["noise_std_m"] = None  # the stand-in's, not used
-    return EpisodeRecord(id=item, episode=draw.episode, compensation=method,
+        draw = replace(draw, noise_std_m=None)  # the stand-in's, not used
+    return EpisodeRecord(id=item, draw=draw, compensation=method,
                          ioct_estimates=batch.base.ioct_estimates, status=status,
-                         success=success, seed=draw.seed, **conditions, **figures,
-                         wall_time_s=time.perf_counter() - t0, message=message)  # fmt: skip
+                         success=success, **figures, wall_time_s=time.perf_counter() - t0,
+                         message=message)  # fmt: skip
 
 
 def run_jobs(batch: BatchSettings, items: Sequence[int]) -> list[EpisodeRecord]:

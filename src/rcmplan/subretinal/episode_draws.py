@@ -103,7 +103,9 @@ class DrawRanges:
 
 @dataclass(frozen=True)
 class EpisodeDraw:
-    """The conditions of one episode (SI units; fields as in `DrawRanges`) and its seed."""
+    """The conditions of one episode (SI units; fields as in `DrawRanges`) and its seed.
+    `noise_std_m` is None where the episode does not use it (a batch's record of "image"
+    estimates: `episode_batch.run_job`); `settings` then keeps the base's."""
 
     episode: int
     seed: int
@@ -113,7 +115,7 @@ class EpisodeDraw:
     cardiac_rate_hz: float
     ioct_rate_hz: float
     latency_s: float
-    noise_std_m: float
+    noise_std_m: float | None
     target_fraction: float
     eye_drift_m: float = 0.0
 
@@ -129,7 +131,7 @@ class EpisodeDraw:
             cardiac_rate_hz=self.cardiac_rate_hz,
             ioct_rate_hz=self.ioct_rate_hz,
             latency_s=self.latency_s,
-            noise_std_m=self.noise_std_m,
+            noise_std_m=base.noise_std_m if self.noise_std_m is None else self.noise_std_m,
             target_fraction=self.target_fraction,
             eye_drift_m=self.eye_drift_m,
         )

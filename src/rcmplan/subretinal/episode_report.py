@@ -14,14 +14,13 @@ from __future__ import annotations
 import csv
 import json
 from collections import Counter
-from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from rcmplan._atomic import atomic_path, write_text
-from rcmplan.subretinal.episode_batch import BatchSettings, EpisodeRecord
+from rcmplan.subretinal.episode_batch import COLUMNS, BatchSettings, EpisodeRecord
 
 CURVE_BINS = 6
 CURVE_AXES = {"ioct_rate_hz": True, "latency_s": False}  # name: log-spaced bins
@@ -75,8 +74,8 @@ def curve_edges(bounds: tuple[float, float], log: bool, bins: int = CURVE_BINS) 
 
 
 def curve(records: list[EpisodeRecord], name: str, edges: list[float]) -> dict[str, Any]:
-    """Per bin of the condition `name`: episodes, success rate, median tracking RMS."""
-    x = np.array([getattr(r, name) for r in records], dtype=float)
+    """Per bin of the drawn condition `name`: episodes, success rate, median tracking RMS."""
+    x = np.array([getattr(r.draw, name) for r in records], dtype=float)
     nb = len(edges) - 1
     idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, nb - 1)
     out: dict[str, list[Any]] = {"episodes": [], "success_rate": [], "tracking_rms_m_median": []}
@@ -130,15 +129,12 @@ def batch_summary(batch: BatchSettings, records: list[EpisodeRecord]) -> dict[st
     }
 
 
-RECORD_FIELDS = [f.name for f in fields(EpisodeRecord)]
-
-
 def write_records(records: list[EpisodeRecord], out: Path) -> dict[str, Path]:
     """episodes.csv and episodes.json (one row per job, sorted by id) in `out`."""
     rows = [r.as_dict() for r in sorted(records, key=lambda r: r.id)]
     csv_path = out / "episodes.csv"
     with atomic_path(csv_path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as fh:
-        writer = csv.DictWriter(fh, fieldnames=RECORD_FIELDS)
+        writer = csv.DictWriter(fh, fieldnames=COLUMNS)
         writer.writeheader()
         writer.writerows([{k: ("" if v is None else v) for k, v in row.items()} for row in rows])
     json_path = write_text(out / "episodes.json", json.dumps(rows, indent=1))
