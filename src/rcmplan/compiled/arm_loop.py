@@ -47,7 +47,7 @@ from rcmplan.compiled.chain_kernels import (
     needle_point,
     pinv_solve,
 )
-from rcmplan.compiled.loop import converged, holds_rcm, target_frame, tip_only
+from rcmplan.compiled.loop import converged, holds_rcm, keep_record, target_frame, tip_only
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
@@ -320,10 +320,7 @@ def run_arm_targets(
             status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa,
                                  target, kind == 1, tip_t, trocar, s, state, it, rec[count],
                                  fail, W, d, it == 0 and k > k0)  # fmt: skip
-            if it > 0 and status != QP_FAILED:
-                irec[count, 0], irec[count, 1] = k, it
-                count += 1
-                info[0] = count
+            count = keep_record(status, k, it, count, irec, info)
             if status == DONE:
                 break
             if status == STEPPED:

@@ -40,6 +40,7 @@ from rcmplan.compiled.records import (
     NO_TIP,
     PAUSED,
     PINV_THESIS,
+    QP_FAILED,
     SINGULAR,
     SLIDER_LIMIT,
     STEPPED,
@@ -350,11 +351,19 @@ def iterate_recorded(
     returns (status, records written), the count also in info[0]."""
     status = iterate(P, method, K, damping, tol, max_it, drift, bounds, target, pivot, tip_t,
                      trocar, s, state, it, rec[n], fail, info, w, d, f, J, A)  # fmt: skip
-    if it > 0:
+    return status, keep_record(status, k, it, n, irec, info)
+
+
+@njit(cache=True)
+def keep_record(status: int, k: int, it: int, n: int, irec: np.ndarray, info: np.ndarray) -> int:
+    """Keep the record of iteration it of target k, written in row n: from the second
+    iteration on and unless the solve failed (QP_FAILED, no record), its (target, iteration)
+    go to irec[n]. Returns the records written, also in info[0]."""
+    if it > 0 and status != QP_FAILED:
         irec[n, 0], irec[n, 1] = k, it
         n += 1
         info[0] = n
-    return status, n
+    return n
 
 
 @njit(cache=True)

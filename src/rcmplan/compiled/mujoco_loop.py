@@ -11,6 +11,7 @@ Needs numba (the `fast` extra) and MuJoCo (the `sim` extra).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
@@ -20,10 +21,13 @@ from numpy.typing import NDArray
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.curved_kernels import BLOCK_ROWS
 from rcmplan.compiled.loop import holds_rcm, iterate_recorded, target_frame
+from rcmplan.compiled.phase import IntArray
 from rcmplan.compiled.records import (
     DONE,
     NO_TIP,
     PAUSED,
+    PLANT_STOPPED,
+    REC_WIDTH,
     STEPPED,
     append_records,
     iramis_method,
@@ -40,8 +44,24 @@ if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
     from rcmplan.sim.mujoco.plant import MujocoPlant
 
-PLANT_STOPPED = 100  # status: the plant's period failed a check (code in info[2])
 CAPACITY = 1 << 15  # records per block
+# A compiled loop around the plant, run(k0, it0, state, rec, irec, info) -> status, with the
+# protocol of `run_targets_on_mujoco`
+BlockRunner = Callable[[int, int, FloatArray, FloatArray, IntArray, IntArray], int]
+
+
+@njit(cache=True)
+def read_sliders(n: int, k: int, it: int, rec: FloatArray, info: IntArray, s: FloatArray,
+                 qpos: FloatArray, slider_qpos: NDArray[np.intp]) -> bool:  # fmt: skip
+    """Before iteration it of target k with n records written: the measured sliders into s
+    and True, or False when the record block rec is full (info = (n, k, it): the loop pauses
+    and resumes there)."""
+    if n == rec.shape[0]:
+        info[0], info[1], info[2] = n, k, it
+        return False
+    for i in range(6):
+        s[i] = qpos[slider_qpos[i]]
+    return True
 
 
 @njit(cache=True)
@@ -66,18 +86,15 @@ def run_targets_on_mujoco(
     w, d, f, v = np.empty(6), np.empty(7), np.empty(7), np.empty(6)
     J, A = np.empty((BLOCK_ROWS, 7)), np.empty((6, 6))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
-    n, cap = 0, rec.shape[0]
+    n = 0
     for k in range(k0, targets.shape[0]):
         info[0], info[1] = n, k
         kind = target_frame(targets[k], holds_rcm(method), w, tip_t, trocar)
         if kind < 0:
             return NO_TIP
         for it in range(it0 if k == k0 else 0, max_it + 1):
-            if n == cap:
-                info[0], info[1], info[2] = n, k, it
+            if not read_sliders(n, k, it, rec, info, s, qpos, slider_qpos):
                 return PAUSED
-            for i in range(6):
-                s[i] = qpos[slider_qpos[i]]
             status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds,
                                          targets[k], kind == 1, tip_t, trocar, s, state, k,
                                          it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
@@ -120,16 +137,38 @@ def run_phase_on_mujoco(
         robot_params(controller.robot), code, K, damping, tol,
         cfg.max_iterations, cfg.drift_correction, loop_bounds(controller), targets,
     )  # fmt: skip
-    s, cmd = np.empty(6), plant.command
-    state = np.array([controller.lam, plant.time, plant.dt])
-    rec, irec = np.empty((CAPACITY, 35)), np.empty((CAPACITY, 2), dtype=np.int64)
-    info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
-    tail = (s, cmd, state, rec, irec, info, fail, arrays.slider_qpos, *arrays.args())
-    status, k0, it0 = PAUSED, 0, 0
+    s, cmd, fail = np.empty(6), plant.command, np.empty(24)
+    plant_args = (arrays.slider_qpos, *arrays.args())
     kernel: Any = run_targets_on_mujoco
+
+    def run(k0: int, it0: int, state: FloatArray, rec: FloatArray, irec: IntArray,
+            info: IntArray) -> int:  # fmt: skip
+        return int(kernel(*head, k0, it0, s, cmd, state, rec, irec, info, fail, *plant_args))
+
+    status, info = run_in_blocks_on_mujoco(controller, cmd, pid, sid, run)
+    if status != DONE:
+        where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
+        m = solver.tolerance().shape[0]
+        raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
+    return True
+
+
+def run_in_blocks_on_mujoco(
+    controller: Controller, cmd: FloatArray, pid: int, sid: int, run: BlockRunner
+) -> tuple[int, IntArray]:
+    """Call a compiled loop around the dynamic MuJoCo plant `run(k0, it0, state, rec, irec,
+    info)` until it stops pausing, each block of CAPACITY records appended to the log. The
+    plant ends at its last command cmd (6,) and time, controller.lam holds the last lambda,
+    and a failed period (PLANT_STOPPED) raises the plant's SimulationError. Returns (status,
+    info); state = (lambda, plant time [s], dt [s])."""
+    plant = cast("MujocoPlant", controller.plant)
+    state = np.array([controller.lam, plant.time, plant.dt])
+    rec, irec = np.empty((CAPACITY, REC_WIDTH)), np.empty((CAPACITY, 2), dtype=np.int64)
+    info = np.zeros(3, dtype=np.int64)
+    status, k0, it0 = PAUSED, 0, 0
     try:
         while status == PAUSED:
-            status = kernel(*head, k0, it0, *tail)
+            status = run(k0, it0, state, rec, irec, info)
             append_records(controller.log, rec, irec, int(info[0]), pid, sid)
             k0, it0 = int(info[1]), int(info[2])
     finally:
@@ -139,8 +178,4 @@ def run_phase_on_mujoco(
     if status == PLANT_STOPPED:
         plant.check()  # raises the plant's own SimulationError
         raise SimulationError(f"the plant stopped (check {int(info[2])}) at t = {plant.time} s")
-    if status != DONE:
-        where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
-        m = solver.tolerance().shape[0]
-        raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
-    return True
+    return status, info

@@ -22,6 +22,7 @@ from rcmplan.compiled.loop import (
     closest_lambda,
     command_status,
     converged,
+    keep_record,
     put,
     record,
     target_frame,
@@ -127,10 +128,7 @@ def run_targets_qp(
         for it in range(max_it + 1):
             status = iterate_qp(P, Q, contacts, K, tol, max_it, drift, bounds, targets[k], tip_t,
                                 trocar, s, state, it, rec[n], fail, info, w, qp)  # fmt: skip
-            if it > 0 and status != QP_FAILED:
-                irec[n, 0], irec[n, 1] = k, it
-                n += 1
-                info[0] = n
+            n = keep_record(status, k, it, n, irec, info)
             if status == DONE:
                 break
             if status != STEPPED:

@@ -25,21 +25,15 @@ from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import task
-from rcmplan.compiled.loop import closest_lambda, put, target_frame
+from rcmplan.compiled.loop import closest_lambda, keep_record, put, target_frame
+from rcmplan.compiled.mujoco_loop import read_sliders
 from rcmplan.compiled.qp_kernels import X, solve_servo_step
 from rcmplan.compiled.qp_loop import record_and_step
 from rcmplan.compiled.qp_rows import lead_error
-from rcmplan.compiled.records import (
-    DONE,
-    NO_TIP,
-    PAUSED,
-    QP_FAILED,
-    STEPPED,
-)
+from rcmplan.compiled.records import DONE, NO_TIP, PAUSED, PLANT_STOPPED, QP_FAILED, STEPPED
 from rcmplan.robot.iramis_kernels import joints_from_actuators, trig
 from rcmplan.sim.mujoco.compiled import OK, advance
 
-PLANT_STOPPED = 100  # status: the plant's period failed a check (code in info[2])
 FAIL_WIDTH = 48  # (q, q_new, s_new, error, s_qp, error at the plan, q at the plan, scratch)
 
 
@@ -90,24 +84,18 @@ def run_targets_qp_on_mujoco(
     protocol are `mujoco_loop.run_targets_on_mujoco`'s."""
     w, v = np.empty(6), np.empty(6)
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
-    n, cap = 0, rec.shape[0]
+    n = 0
     for k in range(k0, targets.shape[0]):
         info[0], info[1] = n, k
         if target_frame(targets[k], True, w, tip_t, trocar) < 0:
             return NO_TIP
         for it in range(it0 if k == k0 else 0, max_it + 1):
-            if n == cap:
-                info[0], info[1], info[2] = n, k, it
+            if not read_sliders(n, k, it, rec, info, s, qpos, slider_qpos):
                 return PAUSED
-            for i in range(6):
-                s[i] = qpos[slider_qpos[i]]
             status = iterate_qp_servo(P, Q, contacts, K, tol, max_it, drift, bounds,
                                       targets[k], tip_t, trocar, s, cmd, res, state, it, rec[n],
                                       fail, info, w, qp)  # fmt: skip
-            if it > 0 and status != QP_FAILED:
-                irec[n, 0], irec[n, 1] = k, it
-                n += 1
-                info[0] = n
+            n = keep_record(status, k, it, n, irec, info)
             if status == DONE:
                 break
             if status != STEPPED:

@@ -22,13 +22,12 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.phase import IntArray
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import raise_qp_failure
 from rcmplan.compiled.records import (
     DONE,
-    PAUSED,
     QP_FAILED,
-    append_records,
     loop_bounds,
     raise_stop,
     robot_params,
@@ -36,13 +35,10 @@ from rcmplan.compiled.records import (
 )
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
-from rcmplan.exceptions import SimulationError
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
     from rcmplan.sim.mujoco.plant import MujocoPlant
-
-CAPACITY = 1 << 15  # records per block
 
 
 def applies(controller: Controller, solver: Solver) -> bool:
@@ -93,37 +89,27 @@ def run_qp_phase_on_mujoco(
     head = (robot_params(robot), *params, K, tol, cfg.max_iterations, cfg.drift_correction,
             loop_bounds(controller), targets)  # fmt: skip
     s, cmd = np.empty(6), np.array(plant.command, dtype=np.float64)
-    state = np.array([controller.lam, plant.time, plant.dt])
-    rec, irec = np.empty((CAPACITY, 35)), np.empty((CAPACITY, 2), dtype=np.int64)
-    info, fail = np.zeros(3, dtype=np.int64), np.empty(loop.FAIL_WIDTH)
-    tail = (s, cmd, res, state, rec, irec, info, fail, fast_cache.qp_kernels().buffers(),
-            arrays.slider_qpos, *arrays.args())  # fmt: skip
-    status, k0, it0 = PAUSED, 0, 0
-    try:
-        while status == PAUSED:
-            status = int(loop.run_targets_qp_on_mujoco(*head, k0, it0, *tail))
-            append_records(controller.log, rec, irec, int(info[0]), pid, sid)
-            k0, it0 = int(info[1]), int(info[2])
-    finally:
-        plant.command_actuators(cmd)
-        plant.time = float(state[1])
-        controller.lam = float(state[0])
-    _raise_stop(controller, solver, status, info, targets, fail, tol, pid, loop.PLANT_STOPPED)
+    fail = np.empty(loop.FAIL_WIDTH)
+    tail = (fail, fast_cache.qp_kernels().buffers(), arrays.slider_qpos, *arrays.args())
+
+    def run(k0: int, it0: int, state: FloatArray, rec: FloatArray, irec: IntArray,
+            info: IntArray) -> int:  # fmt: skip
+        return int(loop.run_targets_qp_on_mujoco(*head, k0, it0, s, cmd, res, state, rec, irec,
+                                                 info, *tail))  # fmt: skip
+
+    blocks = fast_cache.closed_loop().run_in_blocks_on_mujoco
+    status, info = blocks(controller, cmd, pid, sid, run)
+    _raise_stop(controller, solver, status, info, targets, fail, tol, pid)
 
 
 def _raise_stop(
-    controller: Controller, solver: QpSolver, status: int, info: Any, targets: FloatArray,
-    fail: FloatArray, tol: FloatArray, pid: int, plant_stopped: int,
+    controller: Controller, solver: QpSolver, status: int, info: IntArray, targets: FloatArray,
+    fail: FloatArray, tol: FloatArray, pid: int,
 ) -> None:  # fmt: skip
     """Raise what the reference loop raises for the compiled loop's stop (nothing if DONE)."""
     if status == DONE:
         return
     k = int(info[1])
-    if status == plant_stopped:
-        cast("MujocoPlant", controller.plant).check()  # raises the plant's own SimulationError
-        raise SimulationError(
-            f"the plant stopped (check {int(info[2])}) at t = {controller.plant.time} s"
-        )
     if status == QP_FAILED:
         raise_qp_failure(controller, solver, targets[k], fail[0:6], int(info[2]))
     where = f"phase {controller.log.phase_names[pid]!r} step {k}"

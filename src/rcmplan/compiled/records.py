@@ -39,6 +39,7 @@ CURVED = 16
 CURVED_PINV, CURVED_DLS, CURVED_POSE = CURVED, CURVED + 1, CURVED + 2
 DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
 QP_FAILED = 8  # DAQP did not return an optimal solution (its exit flag in info[2])
+PLANT_STOPPED = 100  # the dynamic MuJoCo plant's period failed a check (code in info[2])
 BLOCK = 4096  # records buffered before they go to the log
 REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13, 14),
                "tip": (14, 17), "rcm": (17, 20), "trocar": (20, 23), "base": (23, 26),
