@@ -10,7 +10,7 @@ Everything else runs on the reference path.
 
 The side effects are the reference loop's: records go to the controller's log, the plant ends
 at its last command and time, controller.lam holds the last lambda, and a stop raises the
-reference exception (a failed solve: `qp_phase.raise_qp_failure`, the plant's failed check:
+reference exception (a failed solve: `qp_phase.raise_qp_stop`, the plant's failed check:
 its own SimulationError).
 """
 
@@ -24,15 +24,8 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.phase import IntArray
 from rcmplan.compiled.qp_params import qp_params
-from rcmplan.compiled.qp_phase import raise_qp_failure
-from rcmplan.compiled.records import (
-    DONE,
-    QP_FAILED,
-    loop_bounds,
-    raise_stop,
-    robot_params,
-    solver_arrays,
-)
+from rcmplan.compiled.qp_phase import raise_qp_stop
+from rcmplan.compiled.records import loop_bounds, robot_params, solver_arrays
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 
@@ -99,18 +92,4 @@ def run_qp_phase_on_mujoco(
 
     blocks = fast_cache.closed_loop().run_in_blocks_on_mujoco
     status, info = blocks(controller, cmd, pid, sid, run)
-    _raise_stop(controller, solver, status, info, targets, fail, tol, pid)
-
-
-def _raise_stop(
-    controller: Controller, solver: QpSolver, status: int, info: IntArray, targets: FloatArray,
-    fail: FloatArray, tol: FloatArray, pid: int,
-) -> None:  # fmt: skip
-    """Raise what the reference loop raises for the compiled loop's stop (nothing if DONE)."""
-    if status == DONE:
-        return
-    k = int(info[1])
-    if status == QP_FAILED:
-        raise_qp_failure(controller, solver, targets[k], fail[0:6], int(info[2]))
-    where = f"phase {controller.log.phase_names[pid]!r} step {k}"
-    raise_stop(controller, status, k, targets, fail, tol, where)
+    raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)

@@ -104,12 +104,21 @@ def run_qp_phase(
         return int(loop.run_targets_qp(*args, k0, s, state, rec, irec, info, fail, qp))
 
     status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET)
+    raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)
+
+
+def raise_qp_stop(
+    controller: Controller, solver: QpSolver, status: int, info: IntArray, targets: FloatArray,
+    fail: FloatArray, tol: FloatArray, pid: int,
+) -> None:  # fmt: skip
+    """Raise what the reference loop raises for a compiled QP loop's stop `status` at target
+    info[1] of phase pid (nothing if DONE); fail holds the loop's (q, ...) at the stop."""
     if status == DONE:
         return
     k = int(info[1])
-    where = f"phase {controller.log.phase_names[pid]!r} step {k}"
     if status == QP_FAILED:
         raise_qp_failure(controller, solver, targets[k], fail[0:6], int(info[2]))
+    where = f"phase {controller.log.phase_names[pid]!r} step {k}"
     raise_stop(controller, status, k, targets, fail, tol, where)
 
 
