@@ -11,7 +11,7 @@ from rcmplan import Iramis
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.tasks import NeedleAngles
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.robot.needle import angles_from_axis, axis_from_angles
+from rcmplan.robot.needle import angle_between, angles_from_axis, axes_angles, axis_from_angles
 
 from conftest import random_joints
 
@@ -35,6 +35,27 @@ def eq_6_1(q: np.ndarray, lam: float, l2=0.0335, l5=0.028, l6=0.097) -> np.ndarr
 def test_angles_and_axis_invert_each_other(rng) -> None:
     for phi, psi in rng.uniform(-1.4, 1.4, (200, 2)):
         assert angles_from_axis(axis_from_angles(phi, psi)) == pytest.approx((phi, psi), abs=1e-12)
+
+
+def test_the_angles_of_many_axes_are_those_of_each_axis(rng) -> None:
+    axes = rng.normal(size=(50, 3))
+    axes[7] = np.nan  # a tip on the trocar: no axis
+    out = np.empty((50, 2))
+    axes_angles(axes, out)
+    for axis, angles in zip(axes[:7], out[:7], strict=True):
+        assert tuple(angles) == angles_from_axis(axis)
+    assert np.isnan(out[7]).all()
+    assert out[8:].tolist() == [list(angles_from_axis(a)) for a in axes[8:]]
+
+
+def test_angle_between_matches_the_cross_and_dot_formula(rng) -> None:
+    for a, b in rng.normal(size=(200, 2, 3)):
+        expected = math.atan2(float(np.linalg.norm(np.cross(a, b))), float(a @ b))
+        assert angle_between(a, b) == pytest.approx(expected, abs=1e-12)
+    x, y = np.array([2.0, 0.0, 0.0]), np.array([0.0, 0.5, 0.0])
+    assert (angle_between(x, x), angle_between(x, -x)) == (0.0, pytest.approx(math.pi))
+    assert angle_between(x, y) == pytest.approx(math.pi / 2)
+    assert angle_between(x, np.zeros(3)) == 0.0  # no direction: no angle
 
 
 def test_needle_angles_are_q1_and_q3(robot: Iramis, rng) -> None:

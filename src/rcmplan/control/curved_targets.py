@@ -23,7 +23,7 @@ from rcmplan.control.targets import Pose
 from rcmplan.exceptions import PcjmAngleError, SliderLimitError, UnreachableTargetError
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import closest_lambda, roll_from_axes
+from rcmplan.robot.needle import angle_between, closest_lambda, roll_from_axes
 
 POSE_ITERATIONS = 60
 POSE_TOLERANCE = 1e-12  # [m] and [rad]
@@ -79,9 +79,9 @@ def lateral_target(
     a = math.cos(gamma) * v - math.sin(gamma) * w
     b = math.sin(gamma) * v + math.cos(gamma) * w
     d = math.cos(beta) * v + math.sin(beta) * w
-    deviation = math.acos(min(1.0, max(-1.0, float(d @ d_req))))
+    deviation = angle_between(d, d_req)
     if deviation > tolerance:
-        wanted = math.acos(min(1.0, max(-1.0, float(d_req @ v))))
+        wanted = angle_between(d_req, v)
         raise UnreachableTargetError(
             f"approach direction {np.round(d_req, 4).tolist()} is {wanted:.4f} rad from the "
             f"trocar-to-tip line; the needle takes {beta:.4f} rad there (valid: within "
@@ -132,4 +132,4 @@ def _checked(robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -
 def tip_direction_error(robot: RobotModel, q: FloatArray, direction: FloatArray) -> float:
     """Angle in [rad] between the tip tangent at joints q and `direction`."""
     d = curved(robot).tip_direction(q)
-    return math.acos(min(1.0, max(-1.0, float(d @ _unit(direction)))))
+    return angle_between(d, _unit(direction))

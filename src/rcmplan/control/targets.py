@@ -25,7 +25,7 @@ from rcmplan.exceptions import (
 )
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import axis_from_angles, x_ext_tip, x_ext_tips
+from rcmplan.robot.needle import axes_angles, axis_from_angles, x_ext_tip, x_ext_tips
 
 
 def checked_target(
@@ -108,8 +108,7 @@ def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:
         u = axis / np.linalg.norm(axis, axis=1, keepdims=True)
     out = np.empty((tips.shape[0], 6))
     out[:, 0] = tips[:, 0]
-    out[:, 1] = np.arctan2(u[:, 2], -u[:, 0])  # angles_from_axis, row by row
-    out[:, 2] = np.arctan2(-u[:, 1], np.hypot(u[:, 0], u[:, 2]))
+    axes_angles(u, out[:, 1:3])
     out[:, 3:] = trocar
     return out
 

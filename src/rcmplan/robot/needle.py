@@ -87,6 +87,15 @@ def closest_lambda(p_base: FloatArray, p_tip: FloatArray, point: FloatArray) -> 
     return float(closest_point(p_base, p_tip, point)[0])
 
 
+def angle_between(a: FloatArray, b: FloatArray) -> float:
+    """Angle in [rad], in [0, pi], between two vectors; 0 if either is (near) zero (norm below
+    1e-12)."""
+    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
+    if na < 1e-12 or nb < 1e-12:
+        return 0.0
+    return math.acos(min(1.0, max(-1.0, float(np.dot(a, b)) / (na * nb))))
+
+
 def angles_from_axis(axis: FloatArray) -> tuple[float, float]:
     """(phi, psi) in [rad] of a needle axis (see module docstring; `axis_angles`)."""
     return axis_angles(float(axis[0]), float(axis[1]), float(axis[2]))
@@ -97,6 +106,14 @@ def axis_angles(ax: float, ay: float, az: float) -> tuple[float, float]:
     """(phi, psi) in [rad] of the needle axis (ax, ay, az): the one definition, which Python
     and compiled code call alike (libm's hypot, not CPython's, which differs in the last bit)."""
     return math.atan2(az, -ax), math.atan2(-ay, math.hypot(ax, az))
+
+
+@njit(cache=True)
+def axes_angles(axes: FloatArray, out: FloatArray) -> None:
+    """`axis_angles` of each row of axes (N, 3) into the rows of out (N, 2) [rad] (NaN for a
+    NaN axis)."""
+    for k in range(axes.shape[0]):
+        out[k, 0], out[k, 1] = axis_angles(axes[k, 0], axes[k, 1], axes[k, 2])
 
 
 @njit(cache=True)

@@ -11,7 +11,6 @@ Distance from a line is convex along a segment, so the clipped ends give each se
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
@@ -21,6 +20,7 @@ from rcmplan.control.curved_targets import tip_direction_error
 from rcmplan.control.log import RunLog
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
+from rcmplan.robot.needle import angle_between
 from rcmplan.scene.curved_procedure import plan_lateral
 from rcmplan.scene.eye import Eye
 
@@ -97,8 +97,8 @@ def curved_figures(robot: RobotModel, scenario: Any, eye: Eye, log: RunLog) -> d
             "tip_error_m": float(np.linalg.norm(robot.tip(q) - target.x[:3])),
             "tip_direction_error_rad": tip_direction_error(robot, q, target.direction),
             "requested_direction_deviation_rad": target.deviation,
-            "approach_to_normal_rad": _angle(target.direction, normal),
-            "straight_approach_to_normal_rad": _angle(line, normal),
+            "approach_to_normal_rad": angle_between(target.direction, normal),
+            "straight_approach_to_normal_rad": angle_between(line, normal),
         })  # fmt: skip
     offsets = port_offsets(robot, eye, log)
     worst = max(offsets.values()) if offsets else 0.0
@@ -109,7 +109,3 @@ def curved_figures(robot: RobotModel, scenario: Any, eye: Eye, log: RunLog) -> d
         "port_offset_m": offsets,
         "worst_port_clearance_m": eye.trocar_radius - worst,
     }
-
-
-def _angle(a: FloatArray, b: FloatArray) -> float:
-    return math.acos(min(1.0, max(-1.0, float(a @ b))))

@@ -20,7 +20,7 @@ from rcmplan.control.targets import pivot_target, rcm_target, rcm_targets, solve
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import angles_from_axis
+from rcmplan.robot.needle import angle_between, angles_from_axis
 from rcmplan.scene.eye import Eye, EyePoints
 from rcmplan.scene.eye_text import eye_frame_reason, eye_point_text, to_eye_mm
 
@@ -45,19 +45,11 @@ class Steps:
         return step_count(ratio - 1e-9, "steps")  # rounding noise must not add a step
 
 
-def _angle_between(a: FloatArray, b: FloatArray) -> float:
-    """Angle in [rad] between two vectors; 0 if either is (near) zero."""
-    na, nb = float(np.linalg.norm(a)), float(np.linalg.norm(b))
-    if na < 1e-12 or nb < 1e-12:
-        return 0.0
-    return math.acos(min(1.0, max(-1.0, float(np.dot(a, b)) / (na * nb))))
-
-
 def densify(path: FloatArray, trocar: FloatArray, steps: Steps) -> FloatArray:
     """Resample a tip path (N, 3) so that each step moves the tip at most `steps.position` and
     turns the needle about the trocar at most `steps.angle`; the first point is left out."""
     counts = [
-        steps.count(float(np.linalg.norm(b - a)), _angle_between(a - trocar, b - trocar))
+        steps.count(float(np.linalg.norm(b - a)), angle_between(a - trocar, b - trocar))
         for a, b in itertools.pairwise(path)
     ]
     check_plan_size(sum(counts) + len(path), "targets of the path")

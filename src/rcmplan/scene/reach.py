@@ -24,6 +24,7 @@ from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.curved import CurvedTipRobot
+from rcmplan.robot.needle import angle_between
 from rcmplan.scene.eye import Eye
 
 
@@ -80,7 +81,7 @@ def _straight(robot: CurvedTipRobot, eye: Eye, p: FloatArray) -> _Pose:
         robot.base.check_singularity(pose.q)
     except RcmplanError:
         return _Pose(None, math.nan)
-    return _Pose(pose.q, _angle(robot.base.needle_axis(pose.q), p - eye.center))
+    return _Pose(pose.q, angle_between(robot.base.needle_axis(pose.q), p - eye.center))
 
 
 def _curved(robot: CurvedTipRobot, eye: Eye, p: FloatArray, roll: float,
@@ -90,7 +91,7 @@ def _curved(robot: CurvedTipRobot, eye: Eye, p: FloatArray, roll: float,
         robot.check_singularity(pose.q)
     except RcmplanError:
         return math.nan
-    return _angle(robot.tip_direction(pose.q), p - eye.center)
+    return angle_between(robot.tip_direction(pose.q), p - eye.center)
 
 
 def reach_map(robot: CurvedTipRobot, eye: Eye, n: int = 2000, rolls: int = 12) -> ReachMap:
@@ -105,8 +106,3 @@ def reach_map(robot: CurvedTipRobot, eye: Eye, n: int = 2000, rolls: int = 12) -
         for j, roll in enumerate(roll_values):
             angles[i, j] = _curved(robot, eye, p, float(roll), base.q)
     return ReachMap(pts, cell, straight, angles)
-
-
-def _angle(a: FloatArray, b: FloatArray) -> float:
-    c = float(a @ b) / float(np.linalg.norm(a) * np.linalg.norm(b))
-    return math.acos(min(1.0, max(-1.0, c)))

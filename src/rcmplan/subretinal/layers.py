@@ -20,7 +20,6 @@ docs/subretinal.md.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -28,6 +27,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.needle import angle_between
 from rcmplan.scene.eye import Eye
 
 # Retinal thickness published for human maculae (fovea 257 +- 19 um, i.e. from 238 um, to
@@ -187,4 +187,4 @@ def incidence_rad(layers: RetinaLayers, direction: object, trocar: object) -> fl
     length = float(np.linalg.norm(ray))
     if length < 1e-9:
         raise InvalidInputError("trocar", c.tolist(), "a point off the target's ILM point")
-    return math.acos(min(1.0, max(-1.0, float(np.dot(ray, n)) / length)))
+    return angle_between(ray, n)

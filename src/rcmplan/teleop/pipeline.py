@@ -14,6 +14,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.limits import WorkspaceBound
+from rcmplan.robot.needle import axis_angles
 from rcmplan.teleop.clutch import Clutch
 from rcmplan.teleop.filters import TremorFilter, Vec3
 from rcmplan.teleop.samples import MasterSample
@@ -58,10 +59,10 @@ class Pipeline:
 
 
 class TargetMaker:
-    """X_ext targets "tip at p, RCM at the trocar" (`rcmplan.control.targets.rcm_target`,
-    written out in floats for the per-period budget), with p first brought into the allowed
-    region: the workspace box and the ball `allowed_radius` about the eye centre (the retina
-    less its no-go margin).
+    """X_ext targets "tip at p, RCM at the trocar" (`rcmplan.control.targets.rcm_target`, in
+    floats for the per-period budget, its angles by `needle.axis_angles`), with p first brought
+    into the allowed region: the workspace box and the ball `allowed_radius` about the eye
+    centre (the retina less its no-go margin).
 
     The QP holds the fixtures whatever the target; bringing the target in makes the needle
     stop where the hand's path leaves the allowed region (the closest allowed point) instead
@@ -114,7 +115,5 @@ class TargetMaker:
         """X_ext (6,) for the tip at p (brought into the allowed region), RCM at the trocar."""
         x, y, z = self.allowed(p)
         cx, cy, cz = self.trocar
-        ux, uy, uz = x - cx, y - cy, z - cz
-        phi = math.atan2(uz, -ux)
-        psi = math.atan2(-uy, math.hypot(ux, uz))
+        phi, psi = axis_angles(x - cx, y - cy, z - cz)
         return np.array([x, phi, psi, cx, cy, cz])
