@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from rcmplan.analysis.units import fmt
+from rcmplan.cli.batch_options import add_batch_options
 from rcmplan.cli.common import (
     add_json,
     add_no_plots,
@@ -20,7 +21,6 @@ from rcmplan.cli.common import (
 from rcmplan.cli.output import finish, table
 from rcmplan.cli.subretinal_settings import settings_of, write_failed
 from rcmplan.exceptions import RcmplanError
-from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 
 COMPENSATIONS = ("none", "hold", "fft", "kalman")  # rcmplan.subretinal.predictors.PREDICTORS
 IOCT_ESTIMATES = ("image", "noise")  # rcmplan.subretinal.episode_settings.IOCT_ESTIMATES
@@ -78,16 +78,7 @@ def add_episode_options(p: argparse.ArgumentParser) -> None:
         default=None,
         help="run N drawn episodes, each with every method (docs/subretinal.md)",
     )
-    p.add_argument("--workers", type=int, help="--episodes: local processes (every core)")
-    p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="--episodes: Dask scheduler address (tcp://...)")  # fmt: skip
-    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S,
-                   help=f"--episodes, Dask: time [s] to connect, and to wait for a worker when "
-                   f"none is left ({DEFAULT_TIMEOUT_S:g})")  # fmt: skip
-    p.add_argument("--checkpoint", metavar="PATH", help="--episodes: checkpoint (OUT/checkpoint)")
-    p.add_argument("--resume", action="store_true",
-                   help="--episodes: continue the checkpoint of an interrupted run of the same "
-                   "settings (without it, a rerun discards the checkpoint)")  # fmt: skip
+    add_batch_options(p, "run", prefix="--episodes: ")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -53,19 +53,16 @@ def batch_of(args: argparse.Namespace) -> BatchSettings:
 def run_episodes(args: argparse.Namespace) -> int:
     """Run the batch, write summary.json, episodes.csv, episodes.json and the curves."""
     from rcmplan.analysis.report import prepare_folder
+    from rcmplan.cli.batch_options import check_batch_options, checkpoint_path, open_checkpoint
     from rcmplan.cli.subretinal_settings import write_failed
-    from rcmplan.cli.sweep import MAX_WORKERS, open_checkpoint
     from rcmplan.subretinal.episode_batch import EpisodeCheckpoint
-    from rcmplan.sweep.executors import check_timeout
 
     out = prepare_folder(args.out)
     try:
-        check_timeout(args.timeout, "--timeout")
-        if args.workers is not None:
-            integer("--workers", args.workers, 1, MAX_WORKERS)
+        check_batch_options(args)
         batch = batch_of(args)
-        path = Path(args.checkpoint or out / "checkpoint")
-        checkpoint = open_checkpoint(path, batch, args.resume, EpisodeCheckpoint)
+        checkpoint = open_checkpoint(checkpoint_path(args, out), batch, args.resume,
+                                     EpisodeCheckpoint)  # fmt: skip
     except RcmplanError as exc:
         write_failed(out, exc.status, f"{type(exc).__name__}: {exc}")
         raise

@@ -11,10 +11,16 @@ import json
 import math
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING
 
 from rcmplan._validate import integer, scalar
 from rcmplan.cli import interrupts
+from rcmplan.cli.batch_options import (
+    add_batch_options,
+    check_batch_options,
+    checkpoint_path,
+    open_checkpoint,
+)
 from rcmplan.cli.common import (
     SEED_MAX,
     add_json,
@@ -33,7 +39,6 @@ from rcmplan.cli.sweep_outputs import (
     write_outputs,
 )
 from rcmplan.exceptions import RcmplanError
-from rcmplan.sweep.executors import DEFAULT_TIMEOUT_S
 from rcmplan.sweep.settings import (
     MAX_TARGETS,
     SAMPLINGS,
@@ -43,7 +48,7 @@ from rcmplan.sweep.settings import (
 )
 
 if TYPE_CHECKING:
-    from rcmplan.sweep.checkpoint import Checkpoint, RecordCheckpoint
+    from rcmplan.sweep.checkpoint import Checkpoint
     from rcmplan.sweep.executors import Executor
     from rcmplan.sweep.gains import GainSearchResult
     from rcmplan.sweep.runner import SweepResult
@@ -73,15 +78,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(25)")  # fmt: skip
     p.add_argument("--sampling", choices=SAMPLINGS, default="grid", help="ray sampling (grid)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random sampling (0)")
-    p.add_argument("--workers", type=int, help="local processes (default: every core)")
-    p.add_argument("--scheduler", metavar="ADDRESS", help="Dask scheduler address (tcp://...)")
-    p.add_argument("--timeout", type=float, default=DEFAULT_TIMEOUT_S, metavar="S",
-                   help=f"Dask: time to connect, and to wait for a worker when none is left, "
-                   f"positive, in s ({DEFAULT_TIMEOUT_S:g})")  # fmt: skip
-    p.add_argument("--checkpoint", metavar="PATH", help="checkpoint folder (OUT/checkpoint)")
-    p.add_argument("--resume", action="store_true",
-                   help="continue the checkpoint of an interrupted sweep of the same settings "
-                   "(without it, a rerun discards the checkpoint and starts afresh)")  # fmt: skip
+    add_batch_options(p, "sweep")
     p.add_argument("--gain-search", choices=("none", "grid", "optimize"), default="none",
                    help="search K and the step size on a subsample (none)")  # fmt: skip
     p.add_argument("--subsample", type=int, default=16, help="targets per gain candidate (16)")
@@ -155,26 +152,6 @@ def run_gains(args: argparse.Namespace, result: SweepResult, checkpoint: Checkpo
         return optimize_search(search, args.max_evaluations)
 
 
-CP = TypeVar("CP", bound="RecordCheckpoint[Any, Any]")
-
-
-def open_checkpoint(path: Path, settings: Any, resume: bool, kind: type[CP]) -> CP:
-    """The run's checkpoint of type `kind` (the sweep's `Checkpoint`, or another run's): with
-    --resume the one at `path` continued (it must hold these settings), else a new one in place
-    of the checkpoint an earlier run left there, as every command writes over its earlier
-    outputs (a folder that is no checkpoint is never removed)."""
-    from rcmplan.sweep.checkpoint import discard
-    from rcmplan.sweep.errors import CheckpointError
-
-    if not resume:
-        discard(path)
-    try:
-        return kind.open(path, settings, resume)
-    except CheckpointError as exc:
-        hint = "; rerun without --resume to start afresh" if resume else ""
-        raise CheckpointError(exc.path, exc.problem + hint) from exc
-
-
 REACH_ROLLS = 12  # needle rolls tried per retina point by the curved needle's reach map
 
 
@@ -237,16 +214,9 @@ def run(args: argparse.Namespace) -> int:
         raise
 
 
-MAX_WORKERS = 1024  # local processes one sweep starts at most
-
-
 def check_options(args: argparse.Namespace) -> None:
     """The options a sweep's settings do not hold, each under its own name and unit."""
-    from rcmplan.sweep.executors import check_timeout
-
-    check_timeout(args.timeout, "--timeout")
-    if args.workers is not None:
-        integer("--workers", args.workers, 1, MAX_WORKERS)
+    check_batch_options(args)
     if args.gain_search != "none":
         check_search_options(args)
 
@@ -257,7 +227,7 @@ def run_straight(args: argparse.Namespace, out: Path) -> int:
     from rcmplan.sweep.executors import make_executor
 
     settings = settings_from_args(args)
-    path = Path(args.checkpoint or out / "checkpoint")
+    path = checkpoint_path(args, out)
     header_found = (path / HEADER).is_file()
     checkpoint = open_checkpoint(path, settings, args.resume, Checkpoint)
     if args.resume and not checkpoint.chunk_files():
