@@ -206,7 +206,7 @@ def test_the_cli_option_and_the_batch_record(
         record = run_job(BatchSettings(episodes=1, methods=("hold",),
                                        base=replace(base, ioct_estimates=mode)), 0)  # fmt: skip
         assert record.ioct_estimates == mode and record.segmentation_rms_m is not None
-        assert (record.noise_std_m is None) == (mode == "image")
+        assert (record.draw.noise_std_m is None) == (mode == "image")
 
 
 def test_the_replay_frames_are_the_images_the_estimates_came_from(image_run) -> None:
