@@ -163,7 +163,9 @@ def test_an_interrupted_run_resumes_and_its_summary_matches_its_log(
     capsys.readouterr()
     assert run_cli([*CLI, "--out", str(tmp_path), "--resume"]) == 0
     doc = json.loads(capsys.readouterr().out)
-    assert sorted(resumed) == [3, 4, 5, 6, 7] and doc["resumed"] == 3
+    assert sorted(resumed) == [3, 4, 5, 6, 7]
+    assert doc["resumed"] == {"requested": True, "resumed_from_checkpoint": 3,
+                              "started_afresh": False, "message": ""}  # fmt: skip
     assert doc["status"] == "ok" and doc["episodes_planned"] == 2 and doc["jobs_run"] == 8
     rows = read_log(tmp_path)
     assert sorted(int(r["id"]) for r in rows) == list(range(8))

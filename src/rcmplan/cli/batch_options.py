@@ -64,3 +64,17 @@ def open_checkpoint(path: Path, settings: Any, resume: bool, kind: type[CP]) -> 
     except CheckpointError as exc:
         hint = "; rerun without --resume to start afresh" if resume else ""
         raise CheckpointError(exc.path, exc.problem + hint) from exc
+
+
+def resume_record(
+    path: Path, resume: bool, header_found: bool, results: int, run: str = "sweep"
+) -> dict[str, Any]:
+    """summary.json's `resumed`: whether --resume was given, how many results the checkpoint at
+    `path` gave, and, when --resume found nothing to continue, why and that the run (`run`:
+    "sweep", "batch") started afresh (the same sentence the command prints on stderr)."""
+    message = ""
+    if resume and results == 0:
+        why = "holds no finished results" if header_found else "is no checkpoint (none there)"
+        message = f"nothing to resume: {path} {why}; the {run} starts afresh"
+    return {"requested": resume, "resumed_from_checkpoint": results, "started_afresh": results == 0,
+            "message": message}  # fmt: skip

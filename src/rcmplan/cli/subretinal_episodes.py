@@ -53,23 +53,34 @@ def batch_of(args: argparse.Namespace) -> BatchSettings:
 def run_episodes(args: argparse.Namespace) -> int:
     """Run the batch, write summary.json, episodes.csv, episodes.json and the curves."""
     from rcmplan.analysis.report import prepare_folder
-    from rcmplan.cli.batch_options import check_batch_options, checkpoint_path, open_checkpoint
+    from rcmplan.cli.batch_options import (
+        check_batch_options,
+        checkpoint_path,
+        open_checkpoint,
+        resume_record,
+    )
     from rcmplan.cli.subretinal_settings import write_failed
     from rcmplan.subretinal.episode_batch import EpisodeCheckpoint
+    from rcmplan.sweep.checkpoint import HEADER
 
     out = prepare_folder(args.out)
     try:
         check_batch_options(args)
         batch = batch_of(args)
-        checkpoint = open_checkpoint(checkpoint_path(args, out), batch, args.resume,
-                                     EpisodeCheckpoint)  # fmt: skip
+        path = checkpoint_path(args, out)
+        header_found = (path / HEADER).is_file()
+        checkpoint = open_checkpoint(path, batch, args.resume, EpisodeCheckpoint)
     except RcmplanError as exc:
         write_failed(out, exc.status, f"{type(exc).__name__}: {exc}")
         raise
+    if args.resume and not checkpoint.load():
+        note = resume_record(path, True, header_found, 0, "batch")["message"]
+        print(f"rcmplan subretinal: {note}", file=sys.stderr)
     try:
         with interrupts.surfaced():
             result = run_main(args, batch, checkpoint)
-            doc = write_outputs(args, out, result, checkpoint)
+            resumed = resume_record(path, args.resume, header_found, result.resumed, "batch")
+            doc = write_outputs(args, out, result, checkpoint, resumed)
     except KeyboardInterrupt as exc:
         why = f"interrupted by {interrupts.signal_name(exc)}"
         write_partial(out, batch, checkpoint, "interrupted", why)
@@ -95,9 +106,15 @@ def run_main(args: argparse.Namespace, batch: BatchSettings, checkpoint: Episode
         return run_batch(batch, executor, checkpoint, lambda rs: bar.update(len(rs)))
 
 
-def write_outputs(args: argparse.Namespace, out: Path, result: BatchResult,
-                  checkpoint: EpisodeCheckpoint) -> dict[str, Any]:  # fmt: skip
-    """summary.json, the per-episode log and, unless --no-plots, the curves; the summary."""
+def write_outputs(
+    args: argparse.Namespace,
+    out: Path,
+    result: BatchResult,
+    checkpoint: EpisodeCheckpoint,
+    resumed: dict[str, Any],
+) -> dict[str, Any]:
+    """summary.json (with the resume record `resumed`, `batch_options.resume_record`), the
+    per-episode log and, unless --no-plots, the curves; the summary."""
     from rcmplan._atomic import write_text
     from rcmplan.analysis.report import jsonable
     from rcmplan.subretinal.episode_report import batch_summary, write_records
@@ -106,7 +123,7 @@ def write_outputs(args: argparse.Namespace, out: Path, result: BatchResult,
     doc: dict[str, Any] = {"status": "ok", "message": "",
                            **batch_summary(result.settings, records)}  # fmt: skip
     per_run = [r.wall_time_s for r in records]
-    doc.update(executor=result.executor, wall_time_s=result.wall_time_s, resumed=result.resumed,
+    doc.update(executor=result.executor, wall_time_s=result.wall_time_s, resumed=resumed,
                checkpoint=str(checkpoint.path),
                run_wall_time_s_mean=sum(per_run) / len(per_run) if per_run else None)  # fmt: skip
     doc["files"] = {k: str(v) for k, v in write_records(records, out).items()}

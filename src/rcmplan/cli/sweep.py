@@ -20,6 +20,7 @@ from rcmplan.cli.batch_options import (
     check_batch_options,
     checkpoint_path,
     open_checkpoint,
+    resume_record,
 )
 from rcmplan.cli.common import (
     SEED_MAX,
@@ -34,7 +35,6 @@ from rcmplan.cli.common import (
 from rcmplan.cli.output import one_line, print_json, progress_bar
 from rcmplan.cli.sweep_outputs import (
     print_tables,
-    resume_record,
     write_interrupted,
     write_outputs,
 )

@@ -18,18 +18,6 @@ if TYPE_CHECKING:
     from rcmplan.sweep.runner import SweepResult
 
 
-def resume_record(path: Path, resume: bool, header_found: bool, results: int) -> dict[str, Any]:
-    """summary.json's `resumed`: whether --resume was given, how many results the checkpoint at
-    `path` gave, and, when --resume found nothing to continue, why and that the sweep started
-    afresh (the same sentence the command prints on stderr)."""
-    message = ""
-    if resume and results == 0:
-        why = "holds no finished results" if header_found else "is no checkpoint (none there)"
-        message = f"nothing to resume: {path} {why}; the sweep starts afresh"
-    return {"requested": resume, "resumed_from_checkpoint": results, "started_afresh": results == 0,
-            "message": message}  # fmt: skip
-
-
 def write_outputs(
     args: argparse.Namespace, out: Path, result: SweepResult, gains: GainSearchResult | None,
     resumed: dict[str, Any],
