@@ -47,3 +47,25 @@ def test_joints_of_the_wrong_shape_are_refused(name: str) -> None:
         robot.smallest_singular_values(np.zeros((3, len(robot.home) + 1)))
     with pytest.raises(InvalidInputError, match="2-D"):
         robot.smallest_singular_values(robot.home)
+
+
+def test_a_subclass_with_its_own_singular_terms_is_reported_by_them() -> None:
+    from rcmplan.analysis.limits import singular_values
+
+    class Halved(rp.Iramis):
+        def singular_terms(self, q):  # type: ignore[no-untyped-def]
+            values, grad = super().singular_terms(q)
+            return 0.5 * values, 0.5 * grad
+
+    plain = rp.Iramis()
+    Q = joints_near_home(plain, 5, 3)
+
+    class Log:  # the one field singular_values reads
+        joints = Q
+
+        def __len__(self) -> int:
+            return len(Q)
+
+    full = np.array([np.min(plain.singular_terms(q)[0]) for q in Q])
+    np.testing.assert_allclose(singular_values(Log(), plain), full, rtol=0, atol=1e-15)  # type: ignore[arg-type]
+    np.testing.assert_allclose(singular_values(Log(), Halved()), 0.5 * full, rtol=0, atol=1e-15)  # type: ignore[arg-type]

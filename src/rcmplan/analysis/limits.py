@@ -136,7 +136,7 @@ def retina_excess(log: RunLog, eye: EyeModel, lim: QpLimits) -> NDArray[np.float
 def singular_values(log: RunLog, robot: RobotModel) -> NDArray[np.float64]:
     """Per record, the smallest of the robot's singular terms (iRAM!S: cos q1, cos q3): one
     call for a model with `smallest_singular_values`, else one per record."""
-    batch = getattr(robot, "smallest_singular_values", None)
+    batch = _batch_of(robot)
     values = batch(log.joints) if batch is not None and len(log) else None
     if values is not None:
         return np.asarray(values, dtype=np.float64)
@@ -148,6 +148,19 @@ def singular_values(log: RunLog, robot: RobotModel) -> NDArray[np.float64]:
         if len(values):
             out[i] = float(np.min(values))
     return out
+
+
+def _batch_of(robot: RobotModel) -> Any:
+    """The robot's `smallest_singular_values`, or None: also when a subclass redefines the
+    per-record singular terms, which the batch of the class it inherits would not follow."""
+    cls = type(robot)
+    owner = next((c for c in cls.__mro__ if "smallest_singular_values" in vars(c)), None)
+    if owner is None:
+        return None
+    for name in ("singular_terms", "singular_values"):
+        if getattr(cls, name, None) is not getattr(owner, name, None):
+            return None
+    return robot.smallest_singular_values  # type: ignore[attr-defined]
 
 
 def reach_bound(tol: Tolerance, robot: RobotModel) -> float:
