@@ -30,3 +30,28 @@ def test_surfaced_raises_the_wrapped_interrupt_itself() -> None:
 def test_surfaced_leaves_other_errors_alone() -> None:
     with pytest.raises(ValueError, match="plain"), interrupts.surfaced():
         raise ValueError("plain")
+
+
+def test_an_interrupt_that_cut_an_extension_s_import_is_raised_as_the_interrupt(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import importlib
+
+    from rcmplan.exceptions import MissingExtraError, require_extra
+
+    def cut(name: str) -> None:  # pybind11's init turns a pending interrupt into ImportError
+        try:
+            raise interrupts.Interrupted()
+        except KeyboardInterrupt as exc:
+            raise ImportError("initialization failed") from exc
+
+    monkeypatch.setattr(importlib, "import_module", cut)
+    with pytest.raises(interrupts.Interrupted):
+        require_extra("mujoco", "sim")
+
+    def missing(name: str) -> None:
+        raise ImportError(f"No module named {name!r}")
+
+    monkeypatch.setattr(importlib, "import_module", missing)
+    with pytest.raises(MissingExtraError, match="mujoco"):
+        require_extra("mujoco", "sim")

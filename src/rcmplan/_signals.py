@@ -33,3 +33,18 @@ def signals_deferred() -> Iterator[None]:
                 handler(signum, None)
             elif handler == signal.SIG_DFL:
                 os.kill(os.getpid(), signum)
+
+
+def wrapped_interrupt(exc: BaseException) -> KeyboardInterrupt | None:
+    """The interrupt an exception carries as its cause or context, if any: Python wraps an
+    exception raised in some hooks (a signal landing in `__set_name__` while a module such as
+    matplotlib is imported becomes a RuntimeError; one landing while a pybind11 extension such
+    as mujoco initialises becomes an ImportError)."""
+    seen: set[int] = set()
+    cur: BaseException | None = exc
+    while cur is not None and id(cur) not in seen:
+        if isinstance(cur, KeyboardInterrupt):
+            return cur
+        seen.add(id(cur))
+        cur = cur.__cause__ or cur.__context__
+    return None

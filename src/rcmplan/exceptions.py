@@ -249,12 +249,19 @@ def _one_line(value: Any, digits: int = 6) -> str:
 
 
 def require_extra(module: str, extra: str) -> Any:
-    """Import an optional module, or raise MissingExtraError naming the extra."""
+    """Import an optional module, or raise MissingExtraError naming the extra. An interrupt
+    that cut the import (raised as an ImportError by the extension's initialisation) is raised
+    as the interrupt, not as a missing extra."""
     import importlib
+
+    from rcmplan._signals import wrapped_interrupt
 
     try:
         return importlib.import_module(module)
     except ImportError as exc:
+        interrupt = wrapped_interrupt(exc)
+        if interrupt is not None:
+            raise interrupt from None
         raise MissingExtraError(module.split(".")[0], extra) from exc
 
 

@@ -36,6 +36,7 @@ from types import FrameType
 from typing import Any, NoReturn
 
 from rcmplan._atomic import remove_unfinished, write_text
+from rcmplan._signals import wrapped_interrupt
 
 CAUGHT = (signal.SIGINT, signal.SIGTERM)
 # The file each run command writes when it stops early, and the files of an earlier run that a
@@ -264,20 +265,6 @@ def shielded() -> Iterator[None]:
     finally:
         for s, handler in old.items():
             signal.signal(s, handler)
-
-
-def wrapped_interrupt(exc: BaseException) -> KeyboardInterrupt | None:
-    """The interrupt an exception carries as its cause or context, if any: Python wraps an
-    exception raised in some hooks (a signal landing in `__set_name__` while a module such as
-    matplotlib is imported becomes a RuntimeError)."""
-    seen: set[int] = set()
-    cur: BaseException | None = exc
-    while cur is not None and id(cur) not in seen:
-        if isinstance(cur, KeyboardInterrupt):
-            return cur
-        seen.add(id(cur))
-        cur = cur.__cause__ or cur.__context__
-    return None
 
 
 @contextlib.contextmanager
