@@ -1,6 +1,7 @@
 """Numpy oracles of a serial arm's second-order kinematics, for the tests that hold the kernels
 (`robot/chain_singular.py`) to an independent formulation: the point Jacobian's derivatives
-over the joints, and the singularity measure's gradient through numpy's SVD."""
+over the joints, and the singularity measure's gradient through numpy's SVD, on the point
+Jacobian written in numpy (`point_jacobian`)."""
 
 from __future__ import annotations
 
@@ -11,9 +12,19 @@ from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import cross3
 
 
+def point_jacobian(chain: JointChain, T: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """Geometric Jacobian (6, n) of the world point p (3,) moving with the end frame, at the
+    frames T (n + 1, 4, 4) of `JointChain.frames` (eqs. 2.9-2.11), in numpy."""
+    n = chain.n
+    z = np.einsum("kij,kj->ki", T[:n, :3, :3], np.asarray(chain.axes))  # joint axes, world
+    prismatic = np.asarray(chain.prismatic, dtype=bool)
+    lin = np.where(prismatic[:, None], z, cross3(z, p - T[:n, :3, 3]))  # eqs. 2.10, 2.11
+    return np.vstack([lin.T, np.where(prismatic[:, None], 0.0, z).T])
+
+
 def jacobian_derivatives(chain: JointChain, T: np.ndarray, J: np.ndarray) -> np.ndarray:
     """d J / d q_j for every joint j, (n, 6, n), of the point Jacobian J (6, n)
-    (`JointChain.point_jacobian` at frames T).
+    (`point_jacobian` at frames T).
 
     Column k of a revolute joint is (z_k x (p - o_k), z_k); of a prismatic one (z_k, 0).
     A revolute joint j turns the joints after it and the point: for k > j the column turns
@@ -44,7 +55,7 @@ def singular_terms(arm: SerialArm, q: np.ndarray) -> tuple[np.ndarray, np.ndarra
     chain = arm.chain
     T = chain.frames(q)
     act = list(arm.active)
-    J = chain.point_jacobian(T, T[-1, :3, :3] @ arm.needle.point_local(1.0) + T[-1, :3, 3])
+    J = point_jacobian(chain, T, T[-1, :3, :3] @ arm.needle.point_local(1.0) + T[-1, :3, 3])
     a = arm.needle_axis(q)
     helper = np.zeros(3)
     helper[int(np.argmin(np.abs(a)))] = 1.0

@@ -40,7 +40,7 @@ _checked: weakref.WeakKeyDictionary[object, ArmArrays | None] = weakref.WeakKeyD
 
 def pack_arm(robot: Any) -> ArmArrays:
     """The kernels' arrays (A, ix) of a SerialArm-like model (`chain_kinematics.pack`)."""
-    return pack(robot.chain, robot.needle, robot.home, robot.active)
+    return pack(robot.chain, robot.needle.mount, robot.needle.length, robot.home, robot.active)
 
 
 def _arm_like(robot: object) -> bool:

@@ -16,6 +16,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, instance, pose, scalar, text, vector
 from rcmplan.exceptions import InvalidInputError, UnknownJointTypeError
+from rcmplan.robot import chain_kinematics as kin
 from rcmplan.robot.dh import JOINT_TYPES, DHChain, JointType, dh_transform
 
 
@@ -58,23 +59,6 @@ class ChainJoint:
             object.__setattr__(self, name, value)
 
 
-def _motion(axis: FloatArray, prismatic: bool, q: float) -> FloatArray:
-    """The (4, 4) motion of a joint by q along (prismatic) or about (revolute) a unit axis."""
-    M = np.eye(4)
-    if prismatic:
-        M[:3, 3] = q * axis
-        return M
-    x, y, z = axis
-    c, s = math.cos(q), math.sin(q)
-    C = 1.0 - c
-    M[:3, :3] = [
-        [c + x * x * C, x * y * C - z * s, x * z * C + y * s],
-        [y * x * C + z * s, c + y * y * C, y * z * C - x * s],
-        [z * x * C - y * s, z * y * C + x * s, c + z * z * C],
-    ]  # Rodrigues' formula
-    return M
-
-
 class JointChain:
     """A serial chain of revolute and prismatic joints.
 
@@ -106,6 +90,8 @@ class JointChain:
         self.lower = np.array([j.lower for j in self.joints])
         self.upper = np.array([j.upper for j in self.joints])
         self.velocity = np.array([j.velocity for j in self.joints])
+        # the chain kernels' arrays: every joint active, a needle of length 0 on the end frame
+        self._A, self._ix = kin.pack(self, np.eye(4), 0.0, np.zeros(self.n), range(self.n))
 
     @property
     def n(self) -> int:
@@ -122,50 +108,40 @@ class JointChain:
         return JointChain(self.joints, self.tip if tip is None else tip, base, self.name)
 
     def frames(self, q: Sequence[float] | FloatArray) -> FloatArray:
-        """Frames 0..n (joint frames after motion, then the end frame), (n + 1, 4, 4), world."""
+        """Frames 0..n (joint frames after motion, then the end frame), (n + 1, 4, 4), world:
+        the chain kernels' frames (`chain_kinematics.frames`)."""
         q = vector("q", q, self.n)
-        out = np.empty((self.n + 1, 4, 4))
-        T = self.base
-        for k in range(self.n):
-            T = T @ self.origins[k] @ _motion(self.axes[k], bool(self.prismatic[k]), q[k])
-            out[k] = T
-        out[self.n] = T @ self.tip
-        return out
+        W = np.empty(kin.work_shape(self.n, self.n))
+        kin.frames(self._A, self._ix, q, W)
+        return W[: 4 * (self.n + 1), :4].reshape(self.n + 1, 4, 4)
 
     def forward_kinematics(self, q: Sequence[float] | FloatArray) -> FloatArray:
         """The end frame (4, 4) in the world."""
         return self.frames(q)[-1]
 
     def jacobian(
-        self, q: Sequence[float] | FloatArray, point: Sequence[float] | None = None
+        self, q: Sequence[float] | FloatArray, point: Sequence[float] | FloatArray | None = None
     ) -> FloatArray:
         """Geometric Jacobian (6, n) of a point fixed to the end frame, world frame.
 
-        Rows are (linear velocity, angular velocity) of the point (eqs. 2.9-2.11).
+        Rows are (linear velocity, angular velocity) of the point (eqs. 2.9-2.11), from the
+        chain kernels (`chain_kinematics.point_jacobian`, `angular_jacobian`) with the point as
+        a needle's base on every joint.
 
         Args:
             point: The point in end-frame coordinates in [m] (default its origin).
         """
-        T = self.frames(q)
-        local = np.zeros(3) if point is None else vector("point", point, 3)
-        return self.point_jacobian(T, T[-1, :3, :3] @ local + T[-1, :3, 3])
-
-    def point_jacobian(self, T: FloatArray, p: FloatArray) -> FloatArray:
-        """Geometric Jacobian (6, n) of the world point p (3,) moving with the end frame, given
-        the frames T (n + 1, 4, 4) of `frames` (eqs. 2.9-2.11)."""
-        n = self.n
-        z = np.einsum("kij,kj->ki", T[:n, :3, :3], np.asarray(self.axes))  # joint axes, world
-        r = p - T[:n, :3, 3]
-        lin = np.empty((n, 3))  # z x r for a revolute joint (eq. 2.10), z for a prismatic one
-        lin[:, 0] = z[:, 1] * r[:, 2] - z[:, 2] * r[:, 1]
-        lin[:, 1] = z[:, 2] * r[:, 0] - z[:, 0] * r[:, 2]
-        lin[:, 2] = z[:, 0] * r[:, 1] - z[:, 1] * r[:, 0]
-        prismatic = np.asarray(self.prismatic, dtype=bool)
-        lin[prismatic] = z[prismatic]  # eq. 2.11
-        J = np.zeros((6, n))
-        J[:3] = lin.T
-        J[3:] = np.where(prismatic[:, None], 0.0, z).T
-        return J
+        q = vector("q", q, self.n)
+        A = self._A
+        if point is not None:
+            A = A.copy()
+            A[4 * (self.n + 2) : 4 * (self.n + 2) + 3, 3] = vector("point", point, 3)
+        W = np.empty(kin.work_shape(self.n, self.n))
+        kin.frames(A, self._ix, q, W)
+        J = np.empty((6, self.n + 1))
+        kin.point_jacobian(A, self._ix, W, 0.0, J, 0)
+        kin.angular_jacobian(A, self._ix, W, J, 3)
+        return J[:, : self.n].copy()
 
     @classmethod
     def from_dh(cls, chain: DHChain, name: str = "dh") -> JointChain:

@@ -69,8 +69,8 @@ def compose(P: FloatArray, p: int, Q: FloatArray, r: int, out: FloatArray, o: in
 @njit(cache=True)
 def move(T: FloatArray, o: int, A: FloatArray, a: int, prismatic: bool, q: float) -> None:
     """T = T @ motion for the transform at rows o of T: a slide by q [m] along, or a turn by
-    q [rad] about, the unit axis A[a, :3] of that frame (Rodrigues' formula,
-    `robot/chain.py::_motion`; about z or y, only the two columns it turns)."""
+    q [rad] about, the unit axis A[a, :3] of that frame (Rodrigues' formula; about z or y, only
+    the two columns it turns)."""
     x, y, z = A[a, 0], A[a, 1], A[a, 2]
     if prismatic:
         for i in range(o, o + 3):
@@ -228,13 +228,16 @@ def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam
     evaluate(A, ix, W, q, lam, thesis, x, J)
 
 
-def pack(chain: Any, needle: Any, home: Any, active: Any) -> tuple[FloatArray, IntArray]:
-    """The kernels' arrays (A, ix) of a JointChain holding a StraightNeedle (layout above)."""
+def pack(
+    chain: Any, mount: Any, length: float, home: Any, active: Any
+) -> tuple[FloatArray, IntArray]:
+    """The kernels' arrays (A, ix) of a JointChain holding a straight needle of `length` [m]
+    on the (4, 4) `mount` in its end frame (layout above); `home` (n,), `active` indices."""
     n = chain.n
     active = np.asarray(active, dtype=np.int64)
-    blocks = np.concatenate([chain.origins, [chain.base, chain.tip, needle.mount]])
+    blocks = np.concatenate([chain.origins, [chain.base, chain.tip, mount]])
     rows = np.column_stack([chain.axes, np.asarray(home, dtype=np.float64)])
-    A = np.concatenate([blocks.reshape(4 * (n + 3), 4), rows, [[needle.length, 0.0, 0.0, 0.0]]])
+    A = np.concatenate([blocks.reshape(4 * (n + 3), 4), rows, [[length, 0.0, 0.0, 0.0]]])
     head = np.array([n, active.size], dtype=np.int64)
     ix = np.concatenate([head, chain.prismatic.astype(np.int64), active])
     return np.ascontiguousarray(A, dtype=np.float64), ix

@@ -147,10 +147,8 @@ class SerialArm:
         self.active = tuple(i for i in range(n) if i != roll_joint)
         self.home = self.check_actuators(vector("home", home, n)).copy()
         self.home_actuators = self.home.copy()
-        self._key: bytes = b""
-        self._T = np.empty((n + 1, 4, 4))
         # the chain kernels' arrays and work array (`chain_kinematics`), frames of the last q
-        self._A, self._ix = kin.pack(chain, needle, self.home, self.active)
+        self._A, self._ix = kin.pack(chain, needle.mount, needle.length, self.home, self.active)
         self._W = np.empty(kin.work_shape(n, len(self.active)))
         self._wkey: bytes = b""
         self._check_dofs(roll_joint)
@@ -207,15 +205,6 @@ class SerialArm:
         return np.minimum(s - self.lower, self.upper - s)
 
     # --- needle ---------------------------------------------------------------------------
-    def _frames(self, q: FloatArray) -> FloatArray:
-        """The chain's frames at q (checked: shape (n,), finite), cached for the last q."""
-        q = vector("q", q, self.chain.n)
-        key = q.tobytes()
-        if key != self._key:
-            self._T = self.chain.frames(q)
-            self._key = key
-        return self._T
-
     def _kernel_frames(self, q: FloatArray) -> FloatArray:
         """The chain kernels' work array holding the frames at q (checked: shape (n,), finite),
         computed once for the last q."""
@@ -245,10 +234,7 @@ class SerialArm:
 
     def _point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """Geometric Jacobian (6, n) of p(lambda) over all joints (eqs. 2.9-2.11)."""
-        T = self._frames(q)
-        return self.chain.point_jacobian(
-            T, T[-1, :3, :3] @ self.needle.point_local(lam) + T[-1, :3, 3]
-        )
+        return self.chain.jacobian(q, self.needle.point_local(scalar("lam", lam)))
 
     def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d(q[active], lambda), (3, m + 1) (eq. 3.10)."""
