@@ -16,10 +16,11 @@ import statistics
 import sys
 import time
 from typing import Any
+from unittest import mock
 
 import numpy as np
 
-from _common import per_call, quick, row, use_path
+from _common import per_call, quick, row
 from rcmplan.teleop import SyntheticSurgeon, TeleopSettings, run_replay
 from rcmplan.teleop.run import TeleopResult
 from rcmplan.teleop.samples import MasterSample
@@ -56,15 +57,13 @@ def pipeline_cost(result: TeleopResult) -> tuple[float, float]:
 
 
 def reference_control(compiled: dict[str, Any]) -> float:
-    """The control step's median [s] of the same wflc session on the reference path
-    (the Python loop's runner registered for it), checked to give the same figures as the
-    compiled run."""
-
-    use_path("off")
-    try:
+    """The control step's median [s] of the same wflc session with the reference Python QP
+    step (`QpSolver.step`: the session's compiled period step withheld), checked to give the
+    same figures as the compiled run."""
+    with mock.patch("rcmplan.teleop.session.fast_period_step", lambda solver: None):
         result, s = session("wflc")
-    finally:
-        use_path(None)
+    if result.session.fast_step is not None:
+        raise RuntimeError("the reference session took the compiled QP step")
     for key in ("max_rcm_deviation_m", "tip_tremor_rms_m", "tracking_rms_m"):
         if not np.isclose(s[key], compiled[key], rtol=1e-9, atol=1e-15):
             raise RuntimeError(f"{key}: reference {s[key]} against compiled {compiled[key]}")
