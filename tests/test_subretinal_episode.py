@@ -19,7 +19,7 @@ from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.needle import closest_lambda
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, eye_frame
-from rcmplan.subretinal.episode import EpisodeResult, run_episode
+from rcmplan.subretinal.episode import PHASES, EpisodeResult, run_episode
 from rcmplan.subretinal.episode_metrics import summarise
 from rcmplan.subretinal.episode_settings import EpisodeSettings
 
@@ -53,11 +53,40 @@ def test_kalman_tracks_better_than_no_compensation(episodes: dict[str, EpisodeRe
 def test_episode_phases_follow_the_plan(episodes: dict[str, EpisodeResult]) -> None:
     s = episodes["kalman"].series
     phases = np.flatnonzero(np.diff(s["phase"])) + 1
-    assert list(s["phase"][np.r_[0, phases]].astype(int)) == [0, 1, 2, 3, 4, 5]
-    hold = s["phase"] == 3
+    names = [PHASES[int(p)] for p in s["phase"][np.r_[0, phases]]]
+    # the target (125 um) lies deeper than the puncture depth (120 um): no withdraw
+    assert names == ["approach", "hover", "advance", "hold", "retract", "settle"]
+    hold = s["phase"] == PHASES.index("hold")
     assert np.all(s["tissue_state"][hold] == 2)  # punctured for the whole hold
-    settle = s["phase"] == 5
+    settle = s["phase"] == PHASES.index("settle")
     assert np.all(s["depth_vs_undeformed_m"][settle] < 0.0)  # back out of the tissue
+
+
+def test_a_target_shallower_than_the_tent_is_reached_by_puncturing_deeper_then_withdrawing() -> (
+    None
+):
+    # 0.3 of 250 um: 75 um, shallower than the 100 um tent at which the ILM gives way.
+    shallow = replace(SHORT, compensation="kalman", seed=SEED, target_fraction=0.3)
+    result = run_episode(shallow)
+    s, summary = result.series, summarise(result)
+    assert summary["status"] == "ok" and summary["punctured"]
+    assert summary["in_band_fraction"] == 1.0 and not summary["rpe_breach"]
+    assert summary["puncture_depth_m"] == 120e-6
+    withdraw = s["phase"] == PHASES.index("withdraw")
+    assert withdraw.any() and np.all(np.diff(s["command_depth_m"][withdraw]) < 0)
+    advance = s["phase"] == PHASES.index("advance")
+    deepest = s["command_depth_m"][advance | withdraw].max()  # the withdraw starts there
+    assert deepest == pytest.approx(120e-6, abs=1e-9)
+    assert np.all(s["tissue_state"][withdraw | (s["phase"] == PHASES.index("hold"))] == 2)
+    # Advancing to the target only, the tip tents the ILM and never passes it.
+    direct = summarise(run_episode(replace(shallow, puncture_depth_m=0.0)))
+    assert not direct["punctured"] and direct["status"] != "ok"
+
+
+def test_a_puncture_depth_at_the_depth_limit_is_refused_before_motion() -> None:
+    with pytest.raises(InvalidInputError, match=r"puncture_depth_m = 0\.000225.*225 um") as info:
+        run_episode(replace(SHORT, puncture_depth_m=225e-6))
+    assert info.value.name == "puncture_depth_m"
 
 
 def test_depth_limit_prevents_an_rpe_breach() -> None:
@@ -132,7 +161,10 @@ def test_cli_writes_the_summary(tmp_path: Path) -> None:
     ("option", "value", "named"),
     [("--ioct-rate-hz", "0", "--ioct-rate-hz"), ("--latency-ms", "-5", "--latency-ms"),
      ("--motion-um", "500", "--motion-um"), ("--hold-s", "0", "--hold-s"),
-     ("--heart-rate-sd-bpm", "-3", "--heart-rate-sd-bpm")],
+     ("--heart-rate-sd-bpm", "-3", "--heart-rate-sd-bpm"),
+     ("--target-fraction", "1.2", "--target-fraction"),
+     ("--puncture-depth-um", "-1", "--puncture-depth-um"),
+     ("--puncture-depth-um", "300", "--puncture-depth-um")],
 )  # fmt: skip
 def test_cli_refuses_a_bad_option(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], option: str, value: str, named: str

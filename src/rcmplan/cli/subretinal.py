@@ -50,6 +50,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help=f"iOCT latency, 0-1000 (150{drawn})")  # fmt: skip
     p.add_argument("--motion-um", type=float, default=None,
                    help=f"breathing amplitude 0-200 um, cardiac 0.2 of it (50{drawn})")  # fmt: skip
+    p.add_argument("--target-fraction", type=float, default=None,
+                   help="target depth between ILM (0) and RPE (1), inside the target band's "
+                   f"reach (0.5{drawn})")  # fmt: skip
+    p.add_argument("--puncture-depth-um", type=float, default=120.0,
+                   help="the advance reaches at least this depth below the ILM (past its "
+                   "tent, so it gives way) and withdraws to a shallower target, from 0 to "
+                   "the depth limit, 225 um (120)")  # fmt: skip
     p.add_argument("--eye-drift-um", type=float, default=None,
                    help="whole-eye translation carrying the trocar: standard deviation per "
                    "axis, 0-5000 um (0: off; with --episodes: fixed, else 0)")  # fmt: skip

@@ -1,10 +1,10 @@
 """`rcmplan subretinal --episodes N`: N episodes with drawn conditions, every compensation method
 on each, on local processes or a Dask cluster, checkpointed (--resume continues).
 
-An option among --ioct-rate-hz, --latency-ms, --motion-um and --eye-drift-um fixes that condition
-instead of drawing it. Interrupted (SIGINT, SIGTERM) or failed, the run writes summary.json and the
-per-episode log of what finished, with status "interrupted" or "failed" and why; the finished
-episodes stay in the checkpoint.
+An option among --ioct-rate-hz, --latency-ms, --motion-um, --eye-drift-um and --target-fraction
+fixes that condition instead of drawing it. Interrupted (SIGINT, SIGTERM) or failed, the run
+writes summary.json and the per-episode log of what finished, with status "interrupted" or
+"failed" and why; the finished episodes stay in the checkpoint.
 """
 
 from __future__ import annotations
@@ -44,6 +44,8 @@ def batch_of(args: argparse.Namespace) -> BatchSettings:
         fixed["cardiac_amplitude_m"] = (base.cardiac_m, base.cardiac_m)
     if args.eye_drift_um is not None:
         fixed["eye_drift_m"] = (base.eye_drift_m, base.eye_drift_m)
+    if args.target_fraction is not None:
+        fixed["target_fraction"] = (base.target_fraction, base.target_fraction)
     episodes = integer("--episodes", args.episodes, 1, MAX_EPISODES)
     seed = integer("--seed", args.seed, 0, SEED_MAX)
     return BatchSettings(episodes=episodes, seed=seed, methods=methods,

@@ -12,7 +12,7 @@ from rcmplan.cli.output import one_line
 from rcmplan.exceptions import InvalidInputError
 
 SINGLE_DEFAULTS = {"compensation": "kalman", "ioct_rate_hz": 9.0, "latency_ms": 150.0,
-                   "motion_um": 50.0, "eye_drift_um": 0.0}  # fmt: skip
+                   "motion_um": 50.0, "eye_drift_um": 0.0, "target_fraction": 0.5}  # fmt: skip
 
 
 def option(args: argparse.Namespace, name: str) -> Any:
@@ -25,6 +25,7 @@ def settings_of(args: argparse.Namespace) -> Any:
     """EpisodeSettings from the options, each checked under its own name and unit."""
     from rcmplan._validate import scalar
     from rcmplan.subretinal.episode_settings import EYE_DRIFT_MAX_M, EpisodeSettings
+    from rcmplan.subretinal.layers import RetinaLayers
 
     compensation = option(args, "compensation")
     if compensation == "all" and args.episodes is None:
@@ -32,6 +33,12 @@ def settings_of(args: argparse.Namespace) -> Any:
                                 "with --episodes N")  # fmt: skip
     bpm = args.heart_rate_sd_bpm
     heart_rate_sd_hz = None if bpm is None else scalar("--heart-rate-sd-bpm", bpm, 0.0, 60.0) / 60
+    # the depth limit of the default retina (its thickness less the RPE margin) in um
+    floor_um = 1e6 * (RetinaLayers.thickness_m - EpisodeSettings.rpe_margin_m)
+    puncture_um = scalar("--puncture-depth-um", args.puncture_depth_um, 0.0, floor_um,
+                         high_open=True)  # fmt: skip
+    fraction = option(args, "target_fraction")
+    fraction = scalar("--target-fraction", fraction, 0.0, 1.0, low_open=True, high_open=True)
     drift_um = scalar("--eye-drift-um", option(args, "eye_drift_um"), 0.0, EYE_DRIFT_MAX_M * 1e6)
     return EpisodeSettings(
         robot=args.robot,
@@ -46,6 +53,8 @@ def settings_of(args: argparse.Namespace) -> Any:
         hold_s=scalar("--hold-s", args.hold_s, 0.0, 60.0, low_open=True),
         eye_drift_m=1e-6 * drift_um,
         hover_s=scalar("--hover-s", args.hover_s, 0.0, 60.0),
+        target_fraction=fraction,
+        puncture_depth_m=1e-6 * puncture_um,
     )
 
 

@@ -16,8 +16,9 @@ needle has to pass the ILM.
 The tip target lies on the target's normal n (the ray from the eye centre along `direction`):
 p = (R_ilm + d_pred(t) + c(t)) n, with d_pred the compensation's prediction of the ILM
 displacement and c(t) the commanded depth below it: a ramp from the start to -standoff
-(approach), -standoff (hover), a ramp to the target depth (advance), the target depth (hold),
-back to -standoff (retract, settle). The true wall moves with the motion model; the tip's depth
+(approach), -standoff (hover), a ramp to the target depth (advance; to `puncture_depth_m` for a
+shallower target, then back up to it: withdraw), the target depth (hold), back to -standoff
+(retract, settle). The true wall moves with the motion model; the tip's depth
 in tissue comes from the tissue model (tenting until puncture). The iOCT estimates (every
 1 / rate, delivered `latency_s` after acquisition; `episode_ioct`) are by default segmented
 from the B-scan of the true state at the acquisition (`episode_ioct.true_state`: the tip where

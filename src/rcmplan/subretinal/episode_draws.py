@@ -18,9 +18,7 @@ import numpy as np
 from rcmplan._validate import scalar
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.subretinal.episode_settings import EYE_DRIFT_MAX_M, EpisodeSettings
-from rcmplan.subretinal.layers import RetinaLayers
 from rcmplan.subretinal.motion import BREATHING_BAND_HZ, CARDIAC_BAND_HZ
-from rcmplan.subretinal.tissue import TissueModel
 
 Range = tuple[float, float]
 
@@ -50,7 +48,7 @@ class DrawRanges:
     ioct_rate_hz: Range = (1.6, 51.0)
     latency_s: Range = (0.0, 0.3)
     noise_std_m: Range = (0.23e-6, 3.3e-6)
-    target_fraction: Range = (0.45, 0.7)
+    target_fraction: Range = (0.3, 0.7)
     eye_drift_m: Range = (0.0, 0.0)
 
     def __post_init__(self) -> None:
@@ -77,18 +75,11 @@ class DrawRanges:
 
     def check_against(self, base: EpisodeSettings) -> None:
         """Refuse ranges that the episode settings `base` cannot take: a target band reaching
-        past the ILM or the RPE, a target no deeper than the ILM's tent at puncture (the
-        episode advances to the target depth only, so the ILM would never give way), or a
-        motion that could reach the needle hovering at rest."""
+        past the ILM or the RPE, or a motion that could reach the needle hovering at rest."""
         band = base.band_fraction
         lo, hi = self.target_fraction
         scalar("target_fraction[0]", lo, band, 1.0 - band)
         scalar("target_fraction[1]", hi, band, 1.0 - band)
-        thickness, tent = RetinaLayers().thickness_m, TissueModel().puncture_tent_m
-        if lo * thickness <= tent:
-            valid = (f"above {tent / thickness:g}: deeper than the ILM's tent at puncture, "
-                     f"{tent * 1e6:g} um of the {thickness * 1e6:g} um retina")  # fmt: skip
-            raise InvalidInputError("target_fraction[0]", lo, valid)
         reach = self.breathing_amplitude_m[1] + self.cardiac_amplitude_m[1]
         valid = f"below the stand-off, {base.standoff_m * 1e6:g} um (the needle's path at rest)"
         if reach >= base.standoff_m:

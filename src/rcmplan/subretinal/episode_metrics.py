@@ -150,6 +150,7 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
         "target_band_m": list(layers.band_m),
         "thickness_m": layers.thickness_m,
         "rpe_margin_m": cfg.rpe_margin_m,
+        "puncture_depth_m": cfg.puncture_depth_m,
         "depth_limit": cfg.depth_limit,
         "duration_s": float(s["t_s"].size * cfg.dt),
         "max_rcm_deviation_m": float(s["rcm_deviation_m"].max()) if s["t_s"].size else 0.0,

@@ -7,22 +7,40 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.exceptions import InvalidInputError
 from rcmplan.subretinal.episode_settings import EpisodeSettings
 from rcmplan.subretinal.layers import RetinaLayers
 
-PHASES = ("approach", "hover", "advance", "hold", "retract", "settle")
-APPROACH, HOVER, ADVANCE, HOLD, RETRACT, SETTLE = range(len(PHASES))
+PHASES = ("approach", "hover", "advance", "withdraw", "hold", "retract", "settle")
+APPROACH, HOVER, ADVANCE, WITHDRAW, HOLD, RETRACT, SETTLE = range(len(PHASES))
+
+
+def depths(cfg: EpisodeSettings, layers: RetinaLayers) -> tuple[float, float]:
+    """(deepest, hold) depths [m] below the predicted ILM: the hold at the target depth plus
+    the overshoot; the advance to that depth, or to `puncture_depth_m` when the hold is
+    shallower (the ILM gives way only past its tent; the withdraw phase then comes back)."""
+    hold = layers.target_depth_m + cfg.overshoot_m
+    return max(hold, cfg.puncture_depth_m), hold
 
 
 def phase_durations(cfg: EpisodeSettings, layers: RetinaLayers) -> dict[str, float]:
-    """Duration [s] of each phase, in order."""
-    travel = (cfg.standoff_m + layers.target_depth_m + cfg.overshoot_m) / cfg.advance_speed_m_s
+    """Duration [s] of each phase, in order (the withdraw phase 0 s unless the target is
+    shallower than the puncture depth). InvalidInputError if the puncture depth reaches the
+    depth limit (the RPE less its margin)."""
+    floor = layers.thickness_m - cfg.rpe_margin_m
+    if cfg.puncture_depth_m >= floor:
+        valid = (f"below the depth limit, {floor * 1e6:g} um (the {layers.thickness_m * 1e6:g} "
+                 f"um retina less the {cfg.rpe_margin_m * 1e6:g} um RPE margin)")  # fmt: skip
+        raise InvalidInputError("puncture_depth_m", cfg.puncture_depth_m, valid)
+    deepest, hold = depths(cfg, layers)
+    speed = cfg.advance_speed_m_s
     return {
         "approach": (cfg.start_height_m - cfg.standoff_m) / cfg.approach_speed_m_s,
         "hover": cfg.hover_s,
-        "advance": travel,
+        "advance": (cfg.standoff_m + deepest) / speed,
+        "withdraw": (deepest - hold) / speed,
         "hold": cfg.hold_s,
-        "retract": travel,
+        "retract": (cfg.standoff_m + hold) / speed,
         "settle": cfg.settle_s,
     }
 
@@ -48,8 +66,9 @@ def commanded_depth(
     """Commanded depth [m] below the predicted ILM per period, in its phase (index in PHASES)
     at the fraction a in [0, 1] of it; NaN during the approach (a blend from the start point,
     `tip_radius`)."""
-    top, target = -cfg.standoff_m, layers.target_depth_m + cfg.overshoot_m
-    choices = (np.nan, top, top + a * (target - top), target, target + a * (top - target), top)
+    top, (deep, target) = -cfg.standoff_m, depths(cfg, layers)
+    choices = (np.nan, top, top + a * (deep - top), deep + a * (target - deep), target,
+               target + a * (top - target), top)  # fmt: skip
     return np.select([phase == i for i in range(len(PHASES))], choices)
 
 
