@@ -42,6 +42,21 @@ def test_the_command_line_starts_without_the_heavy_optional_modules() -> None:
     assert out.stdout.strip() == "[]", out.stdout
 
 
+def test_the_viewer_loads_the_subretinal_models_only_for_an_episode() -> None:
+    """`rcmplan view RUN` imports the replay for every run: the B-scan panel's iOCT models (and
+    the motion model's scipy.signal, 2 s with scipy.stats) load only with an episode's
+    B-scans (`run_folder`)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, rcmplan.view.replay; "
+        "print([m for m in ('scipy.signal', 'rcmplan.subretinal.episode_ioct') if m in sys.modules])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]", out.stdout
+
+
 def test_every_name_the_package_exports_resolves() -> None:
     for name in rcmplan.__all__:
         assert getattr(rcmplan, name) is not None, name

@@ -20,7 +20,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import InvalidInputError
@@ -81,6 +80,8 @@ def ornstein_uhlenbeck(
 ) -> FloatArray:
     """n samples (n, size) of a unit-variance OU process with correlation time tau_s, started
     from its stationary distribution, by the exact discretisation."""
+    from scipy import signal  # imported when used: reading an episode (`rcmplan view`) does not
+
     a = np.exp(-dt_s / tau_s)
     noise = rng.standard_normal((n, size)) * np.sqrt(1.0 - a * a)
     noise[0] = rng.standard_normal(size)
@@ -180,6 +181,8 @@ def eye_translation(model: MotionModel, n: int, rng: np.random.Generator) -> Flo
     `eye_drift_m` is 0."""
     if model.eye_drift_m == 0:
         return np.zeros((n, 3))
+    from scipy import signal
+
     tau = 0.5 * model.eye_drift_time_s
     skip = int(np.ceil(10.0 * tau / model.grid_s))
     x = ornstein_uhlenbeck(rng, skip + n, model.grid_s, tau, size=3)

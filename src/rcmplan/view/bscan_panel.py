@@ -10,16 +10,18 @@ true aspect. It is sent only when the frame changes.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.subretinal.episode_bscans import EpisodeBScans
 from rcmplan.view import colors
 from rcmplan.view.panels import StatePanel, length
 from rcmplan.view.run_folder import RunData
+
+if TYPE_CHECKING:  # the B-scans' module imports the iOCT models: only an episode's replay does
+    from rcmplan.subretinal.episode_bscans import EpisodeBScans
 
 WIDEN = 4  # image columns per A-line
 JPEG_QUALITY = 90
