@@ -319,7 +319,8 @@ class Episode:
         series = {k: v[: self.done].copy() for k, v in self.series.items()}
         starts, t0 = {}, self.cfg.warmup_s
         for name, length in self.durations.items():
-            starts[name] = t0
+            if length > 0.0:  # a phase of zero length (no withdraw) never starts
+                starts[name] = t0
             t0 += length
         return EpisodeResult(self.cfg, self.layers, series, self.log.finish(), self.trace,
                              tuple(self.ioct.received), starts, status, message)  # fmt: skip
