@@ -28,6 +28,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import InvalidInputError
@@ -176,78 +177,99 @@ class BScanScene:
         high = np.minimum((dx * c + r) / s, -dx * s / c)
         return np.where(low <= high, self.tip_m[1] + low, np.inf)
 
-    def edges_m(self, x: FloatArray) -> list[FloatArray]:
-        """Depths [m] per A-line where the reflectivity steps: ILM, RPE top and bottom,
-        sclera, needle surface top and bottom."""
-        rpe, needle = self.rpe_depth_m(x), self.needle_top_m(x)
-        return [self.ilm_depth_m(x), rpe, rpe + RPE_BAND_M, rpe + self.choroid_m, needle,
-                needle + NEEDLE_BAND_M]  # fmt: skip
+
+@njit(cache=True)
+def reflectivity_at(z: float, ilm: float, rpe: float, choroid: float, top: float) -> float:
+    """Noise-free reflectivity at depth z [m] of an A-line whose ILM, RPE surface and needle
+    surface (inf: none) lie at depths ilm, rpe, top [m], the choroid `choroid` [m] thick: the
+    tissue, and over it the needle's surface and its shadow."""
+    if z >= top:
+        return NEEDLE if z < top + NEEDLE_BAND_M else 0.0  # the surface, then the shadow
+    u, v = z - ilm, z - rpe
+    if v >= choroid:
+        return SCLERA
+    if v >= RPE_BAND_M:
+        return CHOROID * math.exp(-(v - RPE_BAND_M) / CHOROID_DECAY_M)
+    if v >= 0.0:
+        return RPE
+    if u >= 0.0:  # the decay starts at the ILM
+        frac = min(max(u / max(rpe - ilm, 1e-9), 0.0), 1.0)
+        return (
+            ILM_EDGE * math.exp(-u / ILM_DECAY_M)
+            + INNER_RETINA
+            + frac * (OUTER_RETINA - INNER_RETINA)
+        )
+    return 0.0
+
+
+def _depths(scene: BScanScene, x: FloatArray) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The ILM, RPE-surface and needle-surface depths [m] at A-lines x (contiguous arrays)."""
+    return (np.ascontiguousarray(scene.ilm_depth_m(x)), np.ascontiguousarray(scene.rpe_depth_m(x)),
+            np.ascontiguousarray(scene.needle_top_m(x)))  # fmt: skip
+
+
+@njit(cache=True)
+def _reflectivities(
+    z: FloatArray, ilm: FloatArray, rpe: FloatArray, top: FloatArray, choroid: float
+) -> FloatArray:
+    out = np.empty(z.size)
+    for k in range(z.size):
+        out[k] = reflectivity_at(z[k], ilm[k], rpe[k], choroid, top[k])
+    return out
 
 
 def reflectivity(scene: BScanScene, x: FloatArray, z: FloatArray) -> FloatArray:
-    """Noise-free reflectivity at A-lines x and depths z [m] (broadcast together): the tissue,
-    and over it the needle's surface and its shadow. Each region's expression is evaluated on
-    its own pixels only."""
-    ilm, rpe = scene.ilm_depth_m(x), scene.rpe_depth_m(x)
-    u, v = np.broadcast_arrays(z - ilm, z - rpe)
-    image = np.zeros(u.shape)
-    retina = (u >= 0) & (v < 0)
-    ur = u[retina]  # >= 0: the decay starts at the ILM
-    span = np.broadcast_to(np.maximum(rpe - ilm, 1e-9), u.shape)[retina]
-    frac = np.clip(ur / span, 0.0, 1.0)
-    image[retina] = (
-        ILM_EDGE * np.exp(-ur / ILM_DECAY_M) + INNER_RETINA + frac * (OUTER_RETINA - INNER_RETINA)
-    )
-    image[(v >= 0) & (v < RPE_BAND_M)] = RPE
-    choroid = (v >= RPE_BAND_M) & (v < scene.choroid_m)
-    image[choroid] = CHOROID * np.exp(-(v[choroid] - RPE_BAND_M) / CHOROID_DECAY_M)
-    image[v >= scene.choroid_m] = SCLERA
-    top = scene.needle_top_m(x)
-    if np.isinf(top).all():
-        return image
-    below = np.broadcast_to(z >= top, image.shape)
-    image[below] = 0.0  # the shadow
-    image[below & np.broadcast_to(z < top + NEEDLE_BAND_M, image.shape)] = NEEDLE
+    """Noise-free reflectivity at A-lines x and depths z [m] (broadcast together):
+    `reflectivity_at` at each point."""
+    xb, zb = np.broadcast_arrays(np.asarray(x, dtype=np.float64), np.asarray(z, dtype=np.float64))
+    xf, zf = np.ascontiguousarray(xb).ravel(), np.ascontiguousarray(zb).ravel()
+    ilm, rpe, top = _depths(scene, xf)
+    out = _reflectivities(zf, ilm, rpe, top, scene.choroid_m)
+    return out.reshape(xb.shape)
+
+
+@njit(cache=True)
+def _clean_image(
+    z0: float, dz: float, rows: int, ilm: FloatArray, rpe: FloatArray, top: FloatArray,
+    choroid: float,
+) -> FloatArray:  # fmt: skip
+    """The noise-free B-scan (rows, A-lines) of `clean_bscan` from the depths per A-line."""
+    cols = ilm.size
+    image = np.empty((rows, cols))
+    eps = 1e-3 * dz
+    for j in range(cols):
+        a, b, c = ilm[j], rpe[j], top[j]
+        for i in range(rows):
+            image[i, j] = reflectivity_at(z0 + (i + 0.5) * dz, a, b, choroid, c)
+        # the steps: ILM, RPE top and bottom, sclera, needle surface top and bottom
+        for e in (a, b, b + RPE_BAND_M, b + choroid, c, c + NEEDLE_BAND_M):
+            pos = (e - z0) / dz
+            if math.isfinite(pos) and 0.0 <= pos < rows:
+                i = math.floor(pos)
+                above = pos - i  # the fraction of the row above the edge
+                image[i, j] = above * reflectivity_at(e - eps, a, b, choroid, c) + (
+                    1.0 - above
+                ) * reflectivity_at(e + eps, a, b, choroid, c)
     return image
 
 
 def clean_bscan(model: IoctModel, scene: BScanScene) -> FloatArray:
     """Noise-free B-scan (depth_px, lateral_px): the reflectivity at each row's centre, and in
     each row a step crosses the mean over the row of the two sides (a box-filtered edge). The
-    two sides of every edge are evaluated in one `reflectivity` call; the edges are written
-    in `BScanScene.edges_m`'s order (a later one over an earlier one in the same pixel)."""
-    z, x = model.depth_axis_m(), model.lateral_axis_m()
-    image = reflectivity(scene, x[None, :], z[:, None])
-    dz, z0 = model.axial_pixel_m, -model.top_m
-    cols = np.arange(model.lateral_px)
-    eps = 1e-3 * dz
-    rows, js, aboves, depths = [], [], [], []
-    for edge in scene.edges_m(x):
-        pos = (edge - z0) / dz
-        inside = np.isfinite(pos) & (pos >= 0) & (pos < model.depth_px)
-        row = np.floor(pos[inside]).astype(int)
-        rows.append(row)
-        js.append(cols[inside])
-        aboves.append(pos[inside] - row)  # fraction of the row above the edge
-        depths.append(edge[inside])
-    j, e = np.concatenate(js), np.concatenate(depths)
-    if j.size == 0:
-        return image
-    sides = reflectivity(scene, np.concatenate([x[j], x[j]]), np.concatenate([e - eps, e + eps]))
-    a, b = sides[: j.size], sides[j.size :]
-    start = 0
-    for row, j_edge, above in zip(rows, js, aboves, strict=True):
-        part = slice(start, start + row.size)
-        image[row, j_edge] = above * a[part] + (1.0 - above) * b[part]
-        start += row.size
-    return image
+    edges are written from the ILM down, then the needle's (a later one over an earlier one in
+    the same pixel)."""
+    ilm, rpe, top = _depths(scene, model.lateral_axis_m())
+    return _clean_image(-model.top_m, model.axial_pixel_m, model.depth_px, ilm, rpe, top,
+                        scene.choroid_m)  # fmt: skip
 
 
 def render_bscan(model: IoctModel, scene: BScanScene, rng: np.random.Generator) -> FloatArray:
     """A synthetic B-scan (depth_px, lateral_px) in dB of `scene` with speckle from `rng`."""
     clean = clean_bscan(model, scene)
     looks = model.speckle_looks
-    speckle = rng.gamma(looks, 1.0 / looks, size=clean.shape)
-    noise = model.noise_floor * rng.exponential(1.0, size=clean.shape)
+    speckle = rng.standard_gamma(looks, size=clean.shape)
+    speckle *= 1.0 / looks  # Gamma(L, 1 / L), as rng.gamma(L, 1 / L) draws it
+    noise = rng.standard_exponential(size=clean.shape)
+    noise *= model.noise_floor
     image: FloatArray = 10.0 * np.log10(clean * speckle + noise)
     return image

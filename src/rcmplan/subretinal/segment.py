@@ -39,6 +39,7 @@ from scipy import ndimage
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.subretinal import segment_kernels as kernels
 from rcmplan.subretinal.ioct import IoctModel
 
 
@@ -121,54 +122,6 @@ def sag_m(x: FloatArray, radius_m: float) -> FloatArray:
     return radius_m - np.sqrt(radius_m * radius_m - np.minimum(x * x, 0.98 * radius_m**2))
 
 
-def _shadow_start(linear: FloatArray, level: float, min_rows: int) -> FloatArray:
-    """Per A-line, the first row of the dark run that reaches the bottom: the rows whose mean
-    over 7 rows stays below `level`; depth_px where that run is shorter than `min_rows`."""
-    rows = linear.shape[0]
-    dark = ndimage.uniform_filter1d(linear, 7, axis=0, mode="nearest") < level
-    run = np.flip(np.cumprod(np.flip(dark, axis=0), axis=0), axis=0).sum(axis=0)
-    return np.where(run >= min_rows, rows - run, rows)
-
-
-def _peaks(
-    arr: FloatArray, lo: FloatArray, hi: FloatArray, least: float, first: bool = False
-) -> FloatArray:
-    """Per A-line, the row of a peak of `arr` in rows [lo, hi): the largest, or with `first`
-    the local maximum closing the first run at or above `least`; nan where none reaches it."""
-    rows, cols = arr.shape
-    j = np.arange(cols)
-    lo, hi = np.clip(lo, 1, rows - 2), np.clip(hi, 1, rows - 1)
-    r = np.arange(rows)[:, None]
-    inside = (r >= lo[None, :]) & (r < hi[None, :])
-    if first:
-        cond = inside & (arr >= least)
-        ok = cond.any(axis=0)
-        start = cond.argmax(axis=0)
-        # climb from the first row at or above `least` while the next row (inside) is higher
-        up = np.zeros_like(cond)
-        up[:-1] = (r[1:] < hi[None, :]) & (arr[1:] > arr[:-1])
-        k = (~up & (r >= start[None, :])).argmax(axis=0)
-    else:
-        masked = np.where(inside, arr, -np.inf)
-        k = masked.argmax(axis=0)
-        ok = masked[k, j] >= least
-    return np.where(ok, k, np.nan)
-
-
-def _refine(grad: FloatArray, k: FloatArray, before: int, after: int) -> FloatArray:
-    """Per A-line, the sub-row of the largest gradient in rows [k - before, k + after], placed
-    by a parabola through it and its neighbours (nan where k is nan)."""
-    rows, cols = grad.shape
-    j = np.arange(cols)
-    base = np.nan_to_num(k).astype(int)
-    idx = np.clip(base[None, :] + np.arange(-before, after + 1)[:, None], 1, rows - 2)
-    best = idx[grad[idx, j].argmax(axis=0), j]
-    a, b, c = grad[best - 1, j], grad[best, j], grad[best + 1, j]
-    den = a - 2 * b + c
-    frac = np.where(den < 0, 0.5 * (a - c) / np.where(den < 0, den, -1.0), 0.0)
-    return np.where(np.isnan(k), np.nan, best + frac)
-
-
 def _tip(x: FloatArray, top: FloatArray, dx: float, radius: float) -> tuple[float, float] | None:
     """Needle tip on the axis from its surface points (x, top) [m] (module docstring, step 4)."""
     seen = np.isfinite(top)
@@ -195,47 +148,30 @@ def _needle_surface(
     seen = (shadow > 0) & (shadow < rows)
     if not seen.any():
         return np.full(img.shape[1], np.nan)
-    near = (np.arange(rows)[:, None] >= lo) & (np.arange(rows)[:, None] <= shadow)
-    smooth = ndimage.gaussian_filter1d(linear, 1.0, axis=0)
-    seen &= np.where(near, smooth, 0.0).max(axis=0) >= bright
+    seen &= kernels.window_max(kernels.smooth_rows(linear, 1.0), lo, shadow) >= bright
     if not seen.any():
         return np.full(img.shape[1], np.nan)
-    grad_z = np.gradient(ndimage.gaussian_filter1d(img, cfg.sigma_px[0], axis=0), axis=0)
-    k = _peaks(grad_z, lo, shadow + 1, cfg.min_edge_db)
-    return _refine(grad_z, np.where(seen, k, np.nan), 0, 0)
-
-
-def _step(img: FloatArray, rows: int) -> FloatArray:
-    """Mean of the `rows` rows from each row down less the mean of the `rows` rows above it
-    (0 where either window leaves the image): a step detector whose noise is far below a
-    single row's gradient."""
-    csum = np.vstack([np.zeros((1, img.shape[1])), np.cumsum(img, axis=0)])
-    out = np.zeros_like(img)
-    n = img.shape[0]  # rows k = rows .. n - rows, each from csum[k + rows], csum[k], csum[k - rows]
-    out[rows : n - rows + 1] = (csum[2 * rows :] - 2 * csum[rows : n + 1 - rows]
-                                + csum[: n + 1 - 2 * rows]) / rows  # fmt: skip
-    return out
+    grad_z = kernels.gradient_rows(kernels.smooth_rows(img, cfg.sigma_px[0]))
+    k = kernels.peaks(grad_z, lo, shadow + 1, cfg.min_edge_db, False)
+    return kernels.refine(grad_z, np.where(seen, k, np.nan), 0, 0)
 
 
 def _layers(
     img: FloatArray, limit: FloatArray, sep: int, cfg: SegmentationSettings
 ) -> tuple[FloatArray, FloatArray]:
     """Sub-rows of the ILM and the RPE per A-line (nan where not found) above row `limit`:
-    step 3, on the image with the needle and its shadow replaced by the noise level so that
-    smoothing spreads no needle edge into the neighbouring A-lines."""
+    step 4, on the image with the needle and its shadow replaced by the median of their pixels
+    so that smoothing spreads no needle edge into the neighbouring A-lines."""
     rows, cols = img.shape
-    below = np.arange(rows)[:, None] >= limit[None, :]
-    masked = img.copy()
-    if below.any():
-        masked[below] = np.median(img[below])
-    across = ndimage.gaussian_filter1d(masked, cfg.sigma_px[1], axis=1, mode="nearest")
-    grad = np.gradient(ndimage.gaussian_filter1d(across, cfg.sigma_px[0], axis=0), axis=0)
-    step = _step(across, cfg.step_rows)
+    across = kernels.smooth_cols(kernels.mask_below(img, limit), cfg.sigma_px[1])
+    grad = kernels.gradient_rows(kernels.smooth_rows(across, cfg.sigma_px[0]))
+    step = kernels.step_detector(across, cfg.step_rows)
     end = limit - cfg.step_rows // 2
-    k_ilm = _peaks(step, np.full(cols, cfg.step_rows), end, cfg.min_step_db, first=True)
-    k_rpe = _peaks(step, np.nan_to_num(k_ilm, nan=rows) + sep, end, cfg.min_step_db)
+    first = np.full(cols, float(cfg.step_rows))
+    k_ilm = kernels.peaks(step, first, end, cfg.min_step_db, True)
+    k_rpe = kernels.peaks(step, np.nan_to_num(k_ilm, nan=rows) + sep, end, cfg.min_step_db, False)
     # the detector at row k spans the boundary k - 1/2, where the gradient peaks too
-    return _refine(grad, k_ilm, 3, 1), _refine(grad, k_rpe, 3, 1)
+    return kernels.refine(grad, k_ilm, 3, 1), kernels.refine(grad, k_rpe, 3, 1)
 
 
 def segment_bscan(
@@ -258,10 +194,10 @@ def segment_bscan(
     if img.shape != (model.depth_px, model.lateral_px) or not np.isfinite(img).all():
         want = (model.depth_px, model.lateral_px)
         raise InvalidInputError("image_db", img.shape, f"a finite array of shape {want}")
-    linear = 10.0 ** (img / 10.0)
+    linear = np.exp(img * (math.log(10.0) / 10.0))  # 10^(dB / 10)
     noise = float(np.median(linear[: model.depth_px // 4])) / math.log(2.0)
     min_rows = math.ceil(cfg.min_shadow_m / model.axial_pixel_m)
-    shadow = _shadow_start(linear, cfg.shadow_factor * noise, min_rows)
+    shadow = kernels.shadow_start(linear, cfg.shadow_factor * noise, min_rows)
     top_row = _needle_surface(img, linear, shadow, cfg.needle_factor * noise, cfg)
     limit = np.where(np.isnan(top_row), shadow, np.floor(np.nan_to_num(top_row)) - 2)
     sep = math.ceil(cfg.min_thickness_m / model.axial_pixel_m)
