@@ -284,17 +284,17 @@ class Episode:
 
     def store(self, k: int, tips: FloatArray, bases: FloatArray, deviation_m: FloatArray) -> None:
         """The series of the periods k.. that ran, from their needle tips and bases (n, 3) [m]
-        and RCM deviations (n,) [m]; the tissue model reads each tip in turn."""
+        and RCM deviations (n,) [m]; the tissue model reads the tips in turn
+        (`TissueContact.read`)."""
         n = tips.shape[0]
         block, wall = slice(k, k + n), self.wall_m[k : k + n]
         z = self.depth_of(tips, block)
-        readings = [self.tissue.update(float(depth)) for depth in z]
+        states, tent, _, depth, _ = self.tissue.read(z)
         self.tip_m[block], self.base_m[block] = tips, bases
-        self.tent_m[block] = [r.tent_m for r in readings]
+        self.tent_m[block] = tent
         columns: tuple[Any, ...] = (
             self.t_s[block], self._pid_of[self.phase[block]], wall, self.predicted_m[block],
-            self.bound_m[block], self.command_m[block], z,
-            [r.depth_in_tissue_m for r in readings], [int(r.state) for r in readings], deviation_m,
+            self.bound_m[block], self.command_m[block], z, depth, states, deviation_m,
         )  # fmt: skip
         for key, values in zip(SERIES, columns, strict=True):
             self.series[key][block] = values

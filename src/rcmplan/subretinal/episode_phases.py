@@ -67,9 +67,15 @@ def commanded_depth(
     at the fraction a in [0, 1] of it; NaN during the approach (a blend from the start point,
     `tip_radius`)."""
     top, (deep, target) = -cfg.standoff_m, depths(cfg, layers)
-    choices = (np.nan, top, top + a * (deep - top), deep + a * (target - deep), target,
-               target + a * (top - target), top)  # fmt: skip
-    return np.select([phase == i for i in range(len(PHASES))], choices)
+    # per phase: the depth at its start and at its end (a ramp between them; NaN: the approach)
+    ends = ((np.nan, np.nan), (top, top), (top, deep), (deep, target), (target, target),
+            (target, top), (top, top))  # fmt: skip
+    out = np.empty(np.shape(phase))
+    for i in np.unique(phase):  # a block of periods spans one or two phases
+        here = phase == i
+        start, end = ends[i]
+        out[here] = start + a[here] * (end - start) if start != end else start
+    return out
 
 
 def tip_radius(

@@ -23,9 +23,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
-from rcmplan._validate import scalar
+import numpy as np
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray, array, scalar
+from rcmplan.exceptions import InvalidInputError
 
 
 class TissueState(IntEnum):
@@ -63,13 +67,14 @@ class TissueModel:
         scalar("tent_width_m", self.tent_width_m, 1e-6, 5e-3)
         scalar("rpe_coupling", self.rpe_coupling, 0.0, 1.0)
 
-    def force_n(self, tent_m: float) -> float:
-        """Contact force F [N] at a tenting displacement delta >= 0 [m]."""
-        delta = max(0.0, tent_m)
+    def force_n(self, tent_m: Any) -> Any:
+        """Contact force F [N] at tenting displacements delta [m] (a float or an array; a
+        negative delta is no contact, F = 0)."""
+        delta = np.maximum(0.0, tent_m)
         k, length = self.stiffness_n_per_m, self.stiffening_length_m
         if length is None:
             return k * delta
-        return k * length * math.expm1(delta / length)
+        return k * length * np.expm1(delta / length)
 
     def tent_for_force_m(self, force_n: float) -> float:
         """Tenting displacement delta [m] at a force F >= 0 [N]: the inverse of `force_n`."""
@@ -116,14 +121,32 @@ class TissueContact:
     def update(self, depth_vs_undeformed_m: float) -> TissueReading:
         """Advance to a tip depth below the undeformed ILM [m] and read the tissue."""
         z = scalar("depth_vs_undeformed_m", depth_vs_undeformed_m, -0.05, 0.05)
-        if self.state == TissueState.PUNCTURED:
-            return TissueReading(self.state, 0.0, 0.0, z, z, False)
-        if z <= 0.0:
-            self.state = TissueState.APPROACH
-            return TissueReading(self.state, 0.0, 0.0, z, z, False)
+        states, tent, force, depth, first = self.read(np.array([z]))
+        return TissueReading(TissueState(states[0]), float(tent[0]), float(force[0]),
+                             float(depth[0]), z, first == 0)  # fmt: skip
+
+    def read(
+        self, depths_vs_undeformed_m: FloatArray
+    ) -> tuple[NDArray[np.int64], FloatArray, FloatArray, FloatArray, int]:
+        """Advance through tip depths below the undeformed ILM (n,) [m], in turn: per depth the
+        state after it, the tent [m], the force [N] and the depth in tissue [m] (as
+        `TissueReading`), and the index at which the ILM gave way (-1: not in these)."""
+        z = array("depths_vs_undeformed_m", depths_vs_undeformed_m, 1)
+        if z.size and (z.min() < -0.05 or z.max() > 0.05):
+            bad = z[np.argmax(np.abs(z))]
+            raise InvalidInputError("depths_vs_undeformed_m", float(bad), "[-0.05, 0.05] m")
         force = self.model.force_n(z)
-        if force >= self.model.puncture_force_n:
-            self.state = TissueState.PUNCTURED
-            return TissueReading(self.state, 0.0, 0.0, z, z, True)
-        self.state = TissueState.TENTING
-        return TissueReading(self.state, z, force, 0.0, z, False)
+        states = np.where(z <= 0.0, TissueState.APPROACH, TissueState.TENTING).astype(np.int64)
+        first = -1
+        if self.state == TissueState.PUNCTURED:
+            states[:] = TissueState.PUNCTURED
+        else:  # the ILM gives way at the first depth in contact whose force reaches F_p
+            gives = np.flatnonzero((z > 0.0) & (force >= self.model.puncture_force_n))
+            if gives.size:
+                first = int(gives[0])
+                states[first:] = TissueState.PUNCTURED
+        tenting = states == TissueState.TENTING
+        if z.size:
+            self.state = TissueState(states[-1])
+        return (states, np.where(tenting, z, 0.0), np.where(tenting, force, 0.0),
+                np.where(tenting, 0.0, z), first)  # fmt: skip
