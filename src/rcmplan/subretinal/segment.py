@@ -123,7 +123,7 @@ def sag_m(x: FloatArray, radius_m: float) -> FloatArray:
 
 
 def _tip(x: FloatArray, top: FloatArray, dx: float, radius: float) -> tuple[float, float] | None:
-    """Needle tip on the axis from its surface points (x, top) [m] (module docstring, step 4)."""
+    """Needle tip on the axis from its surface points (x, top) [m] (module docstring, step 5)."""
     seen = np.isfinite(top)
     if seen.sum() < 3:
         return None
