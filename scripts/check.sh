@@ -59,11 +59,12 @@ esac
 # numba compiles each kernel on its first call and caches it (`rcmplan.compiled.cache`). On a
 # fresh clone that compile is most of the suite's CPU time, and two pytest workers would each
 # compile the same kernels: so the kernels compile first, in two processes at once (iRAM!S's;
-# the arms' and the curved needle's), while ruff and mypy run, and the test workers load them.
+# the arms', the curved needle's and the iOCT B-scan's), while ruff and mypy run, and the test
+# workers load them.
 trap 'kill $(jobs -p) 2>/dev/null || true' EXIT  # no compile left running if a check fails
 python -c "from rcmplan.warmup import compile_iramis_kernels as c; c()" &
 iramis_kernels=$!
-python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_curved_kernels as c; a(); c()" &
+python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_bscan_kernels as b, compile_curved_kernels as c; a(); c(); b()" &
 arm_kernels=$!
 python -m ruff check src tests benchmarks
 python -m ruff format --check src tests benchmarks

@@ -35,12 +35,13 @@ from rcmplan.sim.kinematic import KinematicPlant
 def compile_kernels() -> None:
     """Compile (or load from numba's cache) every kernel with the argument types used here:
     `python -c "from rcmplan.warmup import compile_kernels; compile_kernels()"` fills
-    the cache ahead of a first run (in a container build, say). Its three parts may run in
-    separate processes at once (`scripts/check.sh` does): each kernel's cache entry is its own
-    file."""
+    the cache ahead of a first run (in a container build, say). Its four parts may run in
+    separate processes at once (`scripts/check.sh` runs them in two): each kernel's cache
+    entry is its own file."""
     compile_iramis_kernels()
     compile_arm_kernels()
     compile_curved_kernels()
+    compile_bscan_kernels()
 
 
 def compile_iramis_kernels() -> None:
@@ -207,3 +208,18 @@ def compile_curved_kernels() -> None:
                 curved_phase.run_iramis_phase(ctl, solver, target[None, :], pid, 0, arrays)
             else:
                 arm_phase.run_arm_phase_exact(ctl, solver, target[None, :], pid, 0, arrays)
+
+
+def compile_bscan_kernels() -> None:
+    """Compile (or load from numba's cache) the iOCT B-scan's kernels: the reflectivity at
+    points, one image rendered and segmented with the needle tenting the retina (its shadow,
+    surface and tip, the mask under it), and one segmented without a needle."""
+    from rcmplan.subretinal.ioct import BScanScene, IoctModel, reflectivity, render_bscan
+    from rcmplan.subretinal.segment import segment_bscan
+
+    model, rng = IoctModel(), np.random.default_rng(0)
+    for tip in ((60e-6, 20e-6), None):
+        scene = BScanScene(tent_m=0.0 if tip is None else 20e-6, tip_m=tip)
+        segment_bscan(render_bscan(model, scene, rng), model, scene.curvature_radius_m,
+                      scene.needle_diameter_m)  # fmt: skip
+    reflectivity(BScanScene(), np.zeros(1), np.zeros(1))

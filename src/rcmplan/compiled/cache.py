@@ -126,10 +126,10 @@ def clear_stale() -> None:
 
 def kernel_sources() -> list[Path]:
     """The files that hold rcmplan's numba kernels (a test keeps the list whole): this folder,
-    the robot kernels, the control kernels (the step bound, the cost, the limits' rows) and the
-    compiled MuJoCo plant."""
+    the robot kernels, the control kernels (the step bound, the cost, the limits' rows), the
+    compiled MuJoCo plant and the iOCT B-scan's rendering and segmentation."""
     package = Path(__file__).parent.parent
-    robot, control = package / "robot", package / "control"
+    robot, control, subretinal = package / "robot", package / "control", package / "subretinal"
     return [
         *sorted(Path(__file__).parent.glob("*.py")),
         *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics", "chain_singular",
@@ -138,6 +138,7 @@ def kernel_sources() -> list[Path]:
         control / "cost.py",
         *sorted((control / "limits").glob("*.py")),
         package / "sim" / "mujoco" / "compiled.py",
+        *(subretinal / f"{m}.py" for m in ("ioct", "segment_filters", "segment_kernels")),
     ]  # fmt: skip
 
 

@@ -14,19 +14,24 @@ are the only prior knowledge. No truth enters. Steps:
    smoothed along the A-line only: the steep shaft moves rows from one A-line to the next);
    an A-line shadowed from its first row sees no surface (the shaft passes above the window).
 4. Layers: the image is clipped from below `clip_db` under the noise's median, the needle and
-   its shadow are set to the noise level, the image is smoothed across A-lines, and in each
-   A-line, above any needle surface, a step detector (the mean of `step_rows` rows below less
-   the mean of those above) finds the ILM as its first local peak above `min_step_db` and the
-   RPE as its largest peak at least `min_thickness_m` below; each edge is then placed to a
-   fraction of a row by a parabola through the peak of the gradient of the image smoothed
-   along the A-line as well (`sigma_px`). A-lines whose ILM departs more than `outlier_m` from
-   the median of its neighbours are dropped.
-5. Tip: a line through the needle's surface points gives the needle's tilt; the surface ends at
-   the cannula's upper corner (between the last A-line that meets it and the next); the tip on
-   the axis lies one radius from that corner, perpendicular to the axis.
+   its shadow are set to the median of their pixels (about the noise level, so that smoothing
+   spreads no needle edge into the neighbouring A-lines), the image is smoothed across
+   A-lines, and in each A-line, above any needle surface, a step detector (the mean of
+   `step_rows` rows below less the mean of those above) finds the ILM as its first local peak
+   above `min_step_db` and the RPE as its largest peak at least `min_thickness_m` below; each
+   edge is then placed to a fraction of a row by a parabola through the peak of the gradient
+   of the image smoothed along the A-line as well (`sigma_px`). A-lines whose ILM departs more
+   than `outlier_m` from the median of its neighbours are dropped.
+5. Tip: a least-squares line through the needle's surface points gives the needle's tilt; the
+   surface ends at the cannula's upper corner (between the last A-line that meets it and the
+   next); the tip on the axis lies one radius from that corner, perpendicular to the axis.
 
 The ILM offset (the motion estimate) is the median over valid A-lines of the ILM depth less the
 retina's sag across the scan (its curvature); the RPE offset likewise.
+
+Steps 2-5 are numba kernels (`segment_kernels`, on the filters of `segment_filters`) that read
+the image A-line by A-line and smooth along an A-line only the rows a step reads; the medians
+are numpy's partition.
 """
 
 from __future__ import annotations
@@ -35,12 +40,23 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.subretinal import segment_kernels as kernels
 from rcmplan.subretinal.ioct import IoctModel
+from rcmplan.subretinal.segment_filters import smooth_across
+from rcmplan.subretinal.segment_kernels import (
+    clip_below,
+    fill_below,
+    inliers,
+    layer_limit,
+    layer_rows,
+    needle_rows,
+    needle_tip,
+    shadow_start,
+)
+
+DB_TO_LN = math.log(10.0) / 10.0  # ln of the linear intensity per dB
 
 
 @dataclass(frozen=True)
@@ -91,6 +107,9 @@ class SegmentationSettings:
         scalar("clip_db", self.clip_db, 0.0, 100.0)
 
 
+DEFAULT_SETTINGS = SegmentationSettings()
+
+
 @dataclass(frozen=True)
 class Segmentation:
     """What the segmentation found in one B-scan (depths z and positions x in the B-scan frame).
@@ -122,56 +141,20 @@ def sag_m(x: FloatArray, radius_m: float) -> FloatArray:
     return radius_m - np.sqrt(radius_m * radius_m - np.minimum(x * x, 0.98 * radius_m**2))
 
 
-def _tip(x: FloatArray, top: FloatArray, dx: float, radius: float) -> tuple[float, float] | None:
-    """Needle tip on the axis from its surface points (x, top) [m] (module docstring, step 5)."""
-    seen = np.isfinite(top)
-    if seen.sum() < 3:
-        return None
-    slope, intercept = np.polyfit(x[seen], top[seen], 1)
-    if abs(slope) < 1e-3:
-        return None
-    theta = math.atan(1.0 / slope)
-    end = x[seen].max() if slope > 0 else x[seen].min()
-    xc = end + math.copysign(0.5 * dx, slope)
-    zc = slope * xc + intercept
-    up = math.copysign(1.0, theta)
-    return xc - radius * up * math.cos(theta), zc + radius * up * math.sin(theta)
+def _middle(values: FloatArray) -> tuple[float, float]:
+    """The two middle values of `values` (1-D, n > 0; reordered in place) in order, one value
+    twice for an odd n: by one partition (`np.median` partitions about two, several times
+    slower)."""
+    k = values.size // 2
+    values.partition(k)
+    upper = float(values[k])
+    return (upper if values.size % 2 else float(values[:k].max())), upper
 
 
-def _needle_surface(
-    img: FloatArray, linear: FloatArray, shadow: FloatArray, bright: float,
-    cfg: SegmentationSettings,
-) -> FloatArray:  # fmt: skip
-    """Sub-row of the needle's surface per A-line (nan where none is seen): step 3."""
-    rows = img.shape[0]
-    lo = shadow - cfg.surface_rows
-    seen = (shadow > 0) & (shadow < rows)
-    if not seen.any():
-        return np.full(img.shape[1], np.nan)
-    seen &= kernels.window_max(kernels.smooth_rows(linear, 1.0), lo, shadow) >= bright
-    if not seen.any():
-        return np.full(img.shape[1], np.nan)
-    grad_z = kernels.gradient_rows(kernels.smooth_rows(img, cfg.sigma_px[0]))
-    k = kernels.peaks(grad_z, lo, shadow + 1, cfg.min_edge_db, False)
-    return kernels.refine(grad_z, np.where(seen, k, np.nan), 0, 0)
-
-
-def _layers(
-    img: FloatArray, limit: FloatArray, sep: int, cfg: SegmentationSettings
-) -> tuple[FloatArray, FloatArray]:
-    """Sub-rows of the ILM and the RPE per A-line (nan where not found) above row `limit`:
-    step 4, on the image with the needle and its shadow replaced by the median of their pixels
-    so that smoothing spreads no needle edge into the neighbouring A-lines."""
-    rows, cols = img.shape
-    across = kernels.smooth_cols(kernels.mask_below(img, limit), cfg.sigma_px[1])
-    grad = kernels.gradient_rows(kernels.smooth_rows(across, cfg.sigma_px[0]))
-    step = kernels.step_detector(across, cfg.step_rows)
-    end = limit - cfg.step_rows // 2
-    first = np.full(cols, float(cfg.step_rows))
-    k_ilm = kernels.peaks(step, first, end, cfg.min_step_db, True)
-    k_rpe = kernels.peaks(step, np.nan_to_num(k_ilm, nan=rows) + sep, end, cfg.min_step_db, False)
-    # the detector at row k spans the boundary k - 1/2, where the gradient peaks too
-    return kernels.refine(grad, k_ilm, 3, 1), kernels.refine(grad, k_rpe, 3, 1)
+def _median(values: FloatArray) -> float:
+    """Median of `values` (1-D, n > 0; reordered in place), as `np.median`."""
+    lower, upper = _middle(values)
+    return 0.5 * (lower + upper)
 
 
 def segment_bscan(
@@ -189,40 +172,53 @@ def segment_bscan(
         curvature_radius_m: ILM radius [m] (removes the sag from the offsets).
         needle_diameter_m: Outer diameter of the cannula [m].
     """
-    cfg = settings or SegmentationSettings()
+    cfg = settings or DEFAULT_SETTINGS
     img = np.asarray(image_db, dtype=np.float64)
     if img.shape != (model.depth_px, model.lateral_px) or not np.isfinite(img).all():
         want = (model.depth_px, model.lateral_px)
         raise InvalidInputError("image_db", img.shape, f"a finite array of shape {want}")
-    linear = np.exp(img * (math.log(10.0) / 10.0))  # 10^(dB / 10)
-    noise = float(np.median(linear[: model.depth_px // 4])) / math.log(2.0)
-    min_rows = math.ceil(cfg.min_shadow_m / model.axial_pixel_m)
-    shadow = kernels.shadow_start(linear, cfg.shadow_factor * noise, min_rows)
-    top_row = _needle_surface(img, linear, shadow, cfg.needle_factor * noise, cfg)
-    limit = np.where(np.isnan(top_row), shadow, np.floor(np.nan_to_num(top_row)) - 2)
-    sep = math.ceil(cfg.min_thickness_m / model.axial_pixel_m)
-    # the log of speckle has a long dark tail: clip it so that a few dark pixels make no edge
-    floor = 10.0 * math.log10(noise * math.log(2.0)) - cfg.clip_db
-    ilm_row, rpe_row = _layers(np.maximum(img, floor), limit, sep, cfg)
+    lines = np.ascontiguousarray(img.T)  # A-line by A-line (`segment_filters`)
+    lower, upper = _middle(lines[:, : model.depth_px // 4].flatten())  # dB sorts as linear
+    noise = 0.5 * (10.0 ** (lower / 10.0) + 10.0 ** (upper / 10.0)) / math.log(2.0)
+    rows = _rows(lines, noise, model, cfg)
     x, z0, dz = model.lateral_axis_m(), model.depth_axis_m()[0], model.axial_pixel_m
-    ilm, rpe, top = (z0 + dz * np.nan_to_num(r, nan=0.0) for r in (ilm_row, rpe_row, top_row))
-    top[np.isnan(top_row)] = np.inf
-    valid = _inliers(ilm, ~np.isnan(ilm_row), cfg.outlier_m)
-    rpe_valid = valid & _inliers(rpe, ~np.isnan(rpe_row), cfg.outlier_m)
-    tip = _tip(x, top, model.lateral_pixel_m, 0.5 * needle_diameter_m)
+    ilm, rpe = (np.where(np.isnan(r), z0, z0 + dz * r) for r in rows[:2])
+    top = np.where(np.isnan(rows[2]), np.inf, z0 + dz * rows[2])
+    valid = inliers(ilm, ~np.isnan(rows[0]), cfg.outlier_m)
+    rpe_valid = valid & inliers(rpe, ~np.isnan(rows[1]), cfg.outlier_m)
+    found, tip_x, tip_z = needle_tip(x, top, model.lateral_pixel_m, 0.5 * needle_diameter_m)
     sag = sag_m(x, curvature_radius_m)
-    ilm_off = float(np.median(ilm[valid] + sag[valid])) if valid.any() else None
-    rpe_off = float(np.median(rpe[rpe_valid] + sag[rpe_valid])) if rpe_valid.any() else None
+    ilm_off = _median(ilm[valid] + sag[valid]) if valid.any() else None
+    rpe_off = _median(rpe[rpe_valid] + sag[rpe_valid]) if rpe_valid.any() else None
+    tip = (tip_x, tip_z) if found else None
     return Segmentation(ilm, rpe, valid, rpe_valid, top, tip, ilm_off, rpe_off)
 
 
-def _inliers(profile: FloatArray, valid: np.ndarray, tolerance: float) -> np.ndarray:
-    """A-lines whose value lies within `tolerance` of the median over valid neighbours (5)."""
-    keep = np.zeros_like(valid)
-    idx = np.flatnonzero(valid)
-    if idx.size == 0:
-        return keep
-    values = profile[idx]
-    ref = ndimage.median_filter(values, size=min(5, idx.size), mode="mirror")
-    keep[idx] = np.abs(values - ref) <= tolerance
-    return keep
+def _rows(
+    lines: FloatArray, noise: float, model: IoctModel, cfg: SegmentationSettings
+) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """Sub-rows per A-line of the ILM, the RPE and the needle's surface (nan where not found)
+    in the image held A-line by A-line, whose noise has mean intensity `noise`: steps 2-4."""
+    cols, depth = lines.shape
+    work = np.empty((3, cols, depth))  # the intermediate images, in one block
+    linear = np.multiply(lines, DB_TO_LN, out=work[0])
+    np.exp(linear, out=linear)
+    shadow = np.empty(cols, dtype=np.int64)
+    shadow_start(linear, cfg.shadow_factor * noise,
+                 math.ceil(cfg.min_shadow_m / model.axial_pixel_m), shadow)  # fmt: skip
+    top_row = np.empty(cols)
+    needle_rows(lines, linear, shadow, cfg.needle_factor * noise, cfg.surface_rows,
+                cfg.min_edge_db, float(cfg.sigma_px[0]), top_row)  # fmt: skip
+    limit = layer_limit(shadow, top_row)
+    # the log of speckle has a long dark tail: clip it so that a few dark pixels make no edge
+    floor = 10.0 * math.log10(noise * math.log(2.0)) - cfg.clip_db
+    masked, below = work[1], work[2].reshape(-1)
+    count = clip_below(lines, floor, limit, masked, below)
+    if count:  # the needle and its shadow: no edge spreads from them across A-lines
+        fill_below(masked, limit, _median(below[:count]))
+    across = smooth_across(masked, float(cfg.sigma_px[1]), work[0])
+    ilm_row, rpe_row = np.empty(cols), np.empty(cols)
+    layer_rows(across, limit, math.ceil(cfg.min_thickness_m / model.axial_pixel_m),
+               cfg.step_rows, cfg.min_step_db, float(cfg.sigma_px[0]), work[2], ilm_row,
+               rpe_row)  # fmt: skip
+    return ilm_row, rpe_row, top_row

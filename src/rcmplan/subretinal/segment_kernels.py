@@ -1,12 +1,9 @@
-"""The image steps of the B-scan segmentation (`segment`) as numba kernels: smoothing, the
-gradient along the A-lines, the shadow's start, the step detector, the peak searches and their
-sub-row refinement. An image is (rows, A-lines), rows along the depth; a kernel loops over the
-rows outermost, so that it reads the image in memory order, and allocates only its outputs.
+"""The segmentation's steps compiled (`segment` module docstring): the shadow, the needle's
+surface, the mask under it, the layer edges and the outlier test, on the filters of
+`segment_filters`.
 
-The filters are scipy.ndimage's: a Gaussian of standard deviation sigma truncated at
-int(4 sigma + 0.5) pixels and normalised to sum 1, along the A-lines with the image mirrored
-about its edge pixels ("reflect"), across them with the edge pixels repeated ("nearest"); the
-gradient is numpy's (central differences inside, one-sided at the two ends).
+An image is held A-line by A-line (`segment_filters`): lines[j, k] is row k of A-line j, in dB
+unless said otherwise. Along an A-line only the rows a step reads are smoothed.
 """
 
 from __future__ import annotations
@@ -15,196 +12,187 @@ import math
 
 import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.subretinal.segment_filters import (
+    first_peak,
+    gaussian_taps,
+    gradients,
+    largest_peak,
+    refine,
+    smoothed,
+    step_detector,
+)
+
+IntArray = NDArray[np.int64]
+BoolArray = NDArray[np.bool_]
 
 
 @njit(cache=True)
-def gaussian_taps(sigma: float) -> FloatArray:
-    """The normalised Gaussian weights (2 r + 1,), r = int(4 sigma + 0.5)."""
-    r = int(4.0 * sigma + 0.5)
-    w = np.empty(2 * r + 1)
-    if r == 0:
-        w[0] = 1.0
-        return w
-    total, c = 0.0, -0.5 / (sigma * sigma)
-    for t in range(-r, r + 1):
-        w[t + r] = math.exp(c * (t * t))
-        total += w[t + r]
-    return w / total
-
-
-@njit(cache=True)
-def smooth_rows(src: FloatArray, sigma: float) -> FloatArray:
-    """src smoothed along the A-lines (axis 0), mirrored about the edge pixels."""
-    rows, cols = src.shape
-    w = gaussian_taps(sigma)
-    r = (w.size - 1) // 2
-    out = np.zeros((rows, cols))
-    for i in range(rows):
-        for t in range(-r, r + 1):
-            k = i + t
-            while k < 0 or k >= rows:  # reflect (d c b a | a b c d | d c b a)
-                k = -k - 1 if k < 0 else 2 * rows - k - 1
-            wt = w[t + r]
-            for j in range(cols):
-                out[i, j] += wt * src[k, j]
-    return out
-
-
-@njit(cache=True)
-def smooth_cols(src: FloatArray, sigma: float) -> FloatArray:
-    """src smoothed across the A-lines (axis 1), the edge A-lines repeated."""
-    rows, cols = src.shape
-    w = gaussian_taps(sigma)
-    r = (w.size - 1) // 2
-    out = np.zeros((rows, cols))
-    pad = np.empty(cols + 2 * r)
-    for i in range(rows):
-        for j in range(cols + 2 * r):  # the row with its edge A-lines repeated r times
-            pad[j] = src[i, min(max(j - r, 0), cols - 1)]
-        for t in range(2 * r + 1):
-            wt = w[t]
-            for j in range(cols):
-                out[i, j] += wt * pad[j + t]
-    return out
-
-
-@njit(cache=True)
-def gradient_rows(src: FloatArray) -> FloatArray:
-    """d src / d row: central differences inside, one-sided in the first and last rows."""
-    rows, cols = src.shape
-    out = np.empty((rows, cols))
+def shadow_start(linear: FloatArray, level: float, min_rows: int, out: IntArray) -> None:
+    """Per A-line j of an image in linear intensity, into out[j], the first row of the dark
+    run that reaches its end: the rows whose intensity averaged over 7 rows (scipy's uniform
+    filter, 'nearest': a running sum) stays below `level`; the number of rows where that run
+    is shorter than `min_rows`."""
+    cols, rows = linear.shape
     for j in range(cols):
-        out[0, j] = src[1, j] - src[0, j]
-        out[rows - 1, j] = src[rows - 1, j] - src[rows - 2, j]
-    for i in range(1, rows - 1):
-        for j in range(cols):
-            out[i, j] = 0.5 * (src[i + 1, j] - src[i - 1, j])
-    return out
-
-
-@njit(cache=True)
-def shadow_start(linear: FloatArray, level: float, min_rows: int) -> FloatArray:
-    """Per A-line, the first row of the dark run that reaches the bottom: the rows whose mean
-    over 7 rows (the edge rows repeated) stays below `level`; the row count where that run is
-    shorter than `min_rows`."""
-    rows, cols = linear.shape
-    out = np.empty(cols)
-    for j in range(cols):
-        run = 0
-        for i in range(rows - 1, -1, -1):
-            acc = 0.0
-            for k in range(i - 3, i + 4):
-                acc += linear[min(max(k, 0), rows - 1), j]
-            if acc / 7.0 >= level:
+        line, run = linear[j], 0
+        total = 0.0
+        for t in range(rows - 4, rows + 3):
+            total += line[min(max(t, 0), rows - 1)]
+        for k in range(rows - 1, -1, -1):  # total: the sum over rows k - 3 .. k + 3
+            if total / 7.0 >= level:
                 break
             run += 1
+            total += line[max(k - 4, 0)] - line[min(k + 3, rows - 1)]
         out[j] = rows - run if run >= min_rows else rows
-    return out
 
 
 @njit(cache=True)
-def window_max(arr: FloatArray, lo: FloatArray, hi: FloatArray) -> FloatArray:
-    """Per A-line j, the largest arr in rows [lo[j], hi[j]] (both ends in; -inf for none)."""
-    rows, cols = arr.shape
-    out = np.full(cols, -np.inf)
+def needle_rows(
+    lines: FloatArray, linear: FloatArray, shadow: IntArray, bright: float, surface_rows: int,
+    min_edge_db: float, sigma_z: float, out: FloatArray,
+) -> None:  # fmt: skip
+    """Per A-line j, into out[j], the sub-row of the needle's surface (step 3), nan where none
+    is seen: in an A-line shadowed from row s (0 < s < rows) whose linear intensity smoothed
+    along it (sigma 1 px) reaches `bright` in rows [s - surface_rows, s], the largest gradient
+    of the image smoothed along it (sigma_z px) in those rows if it reaches `min_edge_db`."""
+    cols, rows = lines.shape
+    taps_lin, taps_z = gaussian_taps(1.0), gaussian_taps(sigma_z)
+    grad = np.empty(rows)
     for j in range(cols):
-        for i in range(max(math.ceil(lo[j]), 0), min(math.floor(hi[j]), rows - 1) + 1):
-            out[j] = max(out[j], arr[i, j])
-    return out
-
-
-@njit(cache=True)
-def step_detector(img: FloatArray, n: int) -> FloatArray:
-    """Mean of the n rows from each row down less the mean of the n rows above it (0 where
-    either window leaves the image)."""
-    rows, cols = img.shape
-    csum = np.zeros((rows + 1, cols))
-    for i in range(rows):
-        for j in range(cols):
-            csum[i + 1, j] = csum[i, j] + img[i, j]
-    out = np.zeros((rows, cols))
-    for k in range(n, rows - n + 1):
-        for j in range(cols):
-            out[k, j] = (csum[k + n, j] - 2.0 * csum[k, j] + csum[k - n, j]) / n
-    return out
-
-
-@njit(cache=True)
-def peaks(arr: FloatArray, lo: FloatArray, hi: FloatArray, least: float, first: bool) -> FloatArray:
-    """Per A-line, the row of a peak of `arr` in rows [lo, hi) (clipped to [1, rows - 2] and
-    [1, rows - 1]): the largest, or with `first` the local maximum closing the first run at or
-    above `least` (climbing while the next row inside is higher); nan where none reaches it."""
-    rows, cols = arr.shape
-    out = np.full(cols, np.nan)
-    for j in range(cols):
-        a, b = min(max(lo[j], 1.0), rows - 2.0), min(max(hi[j], 1.0), rows - 1.0)
-        if first:
-            start = -1
-            for i in range(rows):
-                if a <= i < b and arr[i, j] >= least:
-                    start = i
-                    break
-            if start < 0:
-                continue
-            k = start
-            while k + 1 < rows and k + 1 < b and arr[k + 1, j] > arr[k, j]:
-                k += 1
-            out[j] = k
-        else:
-            best, k = -np.inf, -1
-            for i in range(rows):
-                if a <= i < b and arr[i, j] > best:
-                    best, k = arr[i, j], i
-            if k >= 0 and best >= least:
-                out[j] = k
-    return out
-
-
-@njit(cache=True)
-def refine(grad: FloatArray, k: FloatArray, before: int, after: int) -> FloatArray:
-    """Per A-line, the sub-row of the largest gradient in rows [k - before, k + after]
-    (clipped to [1, rows - 2]), placed by a parabola through it and its neighbours (nan where
-    k is nan)."""
-    rows, cols = grad.shape
-    out = np.full(cols, np.nan)
-    for j in range(cols):
-        if math.isnan(k[j]):
+        out[j] = np.nan
+        s = shadow[j]
+        if s <= 0 or s >= rows:
             continue
-        base = int(k[j])
-        best, top = -1, -np.inf
-        for t in range(-before, after + 1):
-            i = min(max(base + t, 1), rows - 2)
-            if grad[i, j] > top:
-                best, top = i, grad[i, j]
-        a, b, c = grad[best - 1, j], grad[best, j], grad[best + 1, j]
-        den = a - 2.0 * b + c
-        out[j] = best + (0.5 * (a - c) / den if den < 0.0 else 0.0)
-    return out
+        lo = s - surface_rows
+        peak = -np.inf
+        for r in range(max(lo, 0), s + 1):
+            peak = max(peak, smoothed(linear[j], r, taps_lin))
+        if peak < bright:
+            continue
+        first = max(lo, 1)  # the rows `largest_peak` reads
+        gradients(lines[j], first, min(s + 1, rows - 1), taps_z, grad[first:])
+        k = largest_peak(grad, lo, s + 1, min_edge_db)
+        if k >= 0:
+            out[j] = refine(lines[j], k, 0, 0, taps_z)
 
 
 @njit(cache=True)
-def mask_below(img: FloatArray, limit: FloatArray) -> FloatArray:
-    """img with every pixel at or below row limit[j] of its A-line set to the median of those
-    pixels (a copy; unchanged if there are none)."""
-    rows, cols = img.shape
-    out = img.copy()
+def layer_limit(shadow: IntArray, top_row: FloatArray) -> IntArray:
+    """Per A-line, the row above which the layers are searched: 2 rows above the row of the
+    needle's surface where one was found, else the first row of the shadow."""
+    limit = shadow.copy()
+    for j in range(limit.size):
+        if not np.isnan(top_row[j]):
+            limit[j] = int(np.floor(top_row[j])) - 2
+    return limit
+
+
+@njit(cache=True)
+def clip_below(
+    lines: FloatArray, floor: float, limit: IntArray, clipped: FloatArray, below: FloatArray
+) -> int:
+    """The image clipped from below at `floor` [dB] into `clipped`, and into the start of
+    `below` (1-D, at least as long as the image) its clipped values in the rows from limit[j]
+    on of each A-line j, in order; returns how many."""
+    cols, rows = lines.shape
     count = 0
     for j in range(cols):
-        count += max(rows - max(math.ceil(limit[j]), 0), 0)
-    if count == 0:
-        return out
-    values = np.empty(count)
+        line, out = lines[j], clipped[j]
+        start = min(max(limit[j], 0), rows)
+        for k in range(rows):
+            out[k] = max(line[k], floor)
+            if k >= start:
+                below[count] = out[k]
+                count += 1
+    return count
+
+
+@njit(cache=True)
+def fill_below(lines: FloatArray, limit: IntArray, value: float) -> None:
+    """Set the rows from limit[j] on of each A-line j to `value`."""
+    for j in range(lines.shape[0]):
+        lines[j, max(limit[j], 0) :] = value
+
+
+@njit(cache=True)
+def layer_rows(
+    lines: FloatArray, limit: IntArray, sep: int, step_rows: int, min_step_db: float,
+    sigma_z: float, step: FloatArray, ilm: FloatArray, rpe: FloatArray,
+) -> None:  # fmt: skip
+    """Per A-line j, into ilm[j] and rpe[j], the sub-rows of the ILM and the RPE above row
+    limit[j] (nan where not found; step 4) in `lines`, the image clipped, masked and smoothed
+    across A-lines: the step detector's (into `step`, of the image's shape) first peak
+    reaching `min_step_db` from row `step_rows`, and its largest at least `sep` rows below
+    that, each placed by the gradient of the A-line smoothed along itself (sigma_z px) in the
+    rows from 3 above to 1 below it."""
+    rows = lines.shape[1]
+    taps = gaussian_taps(sigma_z)
+    step_detector(lines, step_rows, step)
+    for j in range(lines.shape[0]):
+        end = limit[j] - step_rows // 2
+        k_ilm = first_peak(step[j], step_rows, end, min_step_db)
+        k_rpe = largest_peak(step[j], (k_ilm if k_ilm >= 0 else rows) + sep, end, min_step_db)
+        # the detector at row k spans the boundary k - 1/2, where the gradient peaks too
+        ilm[j] = refine(lines[j], k_ilm, 3, 1, taps) if k_ilm >= 0 else np.nan
+        rpe[j] = refine(lines[j], k_rpe, 3, 1, taps) if k_rpe >= 0 else np.nan
+
+
+@njit(cache=True)
+def inliers(profile: FloatArray, valid: BoolArray, tolerance: float) -> BoolArray:
+    """The valid A-lines whose value lies within `tolerance` of the median of the valid values
+    around it: of 5 consecutive valid values (all of them if fewer; the upper median of an even
+    count), mirrored at the ends (scipy's median filter, 'mirror')."""
+    idx = np.empty(valid.size, dtype=np.int64)
     n = 0
-    for i in range(rows):
-        for j in range(cols):
-            if i >= limit[j]:
-                values[n] = img[i, j]
-                n += 1
-    level = np.median(values)
-    for i in range(rows):
-        for j in range(cols):
-            if i >= limit[j]:
-                out[i, j] = level
-    return out
+    for j in range(valid.size):
+        if valid[j]:
+            idx[n] = j
+            n += 1
+    keep = np.zeros(valid.size, dtype=np.bool_)
+    size = min(5, n)
+    window = np.empty(size)
+    for i in range(n):
+        for t in range(size):  # insertion sort of the window
+            w = i + t - size // 2
+            value = profile[idx[-w if w < 0 else (2 * (n - 1) - w if w >= n else w)]]
+            s = t
+            while s > 0 and window[s - 1] > value:
+                window[s] = window[s - 1]
+                s -= 1
+            window[s] = value
+        keep[idx[i]] = abs(profile[idx[i]] - window[size // 2]) <= tolerance
+    return keep
+
+
+@njit(cache=True)
+def needle_tip(
+    x: FloatArray, top: FloatArray, dx: float, radius: float
+) -> tuple[bool, float, float]:
+    """Needle tip (found, x, z) [m] on the axis from its surface points (x, top) [m], top inf
+    where an A-line sees none (step 5): the least-squares line z = slope x + intercept through
+    at least 3 points, its end half an A-line beyond the last point towards the tip, the tip
+    one radius from it, perpendicular to the axis; not found where the line is flat."""
+    n, sx, sz, lo, hi = 0, 0.0, 0.0, np.inf, -np.inf
+    for j in range(x.size):
+        if np.isfinite(top[j]):
+            n, sx, sz = n + 1, sx + x[j], sz + top[j]
+            lo, hi = min(lo, x[j]), max(hi, x[j])
+    if n < 3:
+        return False, 0.0, 0.0
+    mx, mz = sx / n, sz / n
+    sxx = sxz = 0.0
+    for j in range(x.size):
+        if np.isfinite(top[j]):
+            sxx += (x[j] - mx) ** 2
+            sxz += (x[j] - mx) * (top[j] - mz)
+    slope = sxz / sxx
+    if abs(slope) < 1e-3:
+        return False, 0.0, 0.0
+    theta = math.atan(1.0 / slope)
+    xc = (hi if slope > 0 else lo) + math.copysign(0.5 * dx, slope)
+    zc = mz + slope * (xc - mx)
+    up = math.copysign(1.0, theta)
+    return True, xc - radius * up * math.cos(theta), zc + radius * up * math.sin(theta)
