@@ -6,6 +6,7 @@ import math
 
 import pytest
 
+from rcmplan.exceptions import RcmBoundError
 from rcmplan.sweep.sampling import sample_region
 from rcmplan.sweep.settings import MotionSettings, Region, SweepSettings
 from rcmplan.sweep.task import TargetResult, run_chunk, run_target
@@ -46,6 +47,19 @@ def test_an_iteration_cap_too_small_is_recorded_as_no_convergence(sample) -> Non
     r = run_target(tight, i, sample.points[i])
     assert r.status == "no-convergence" and not r.converged
     assert "ConvergenceError" in r.message
+
+
+def test_a_motion_stopped_by_the_rcm_bound_is_recorded_with_the_single_run_status(sample) -> None:
+    # 0.05 um: below what the motion to a target 15 deg off-axis deviates (its deviation under
+    # the default 45 um bound is checked to exceed it first)
+    i = int(sample.reachable_ids[0])
+    free = run_target(FAST, i, sample.points[i])
+    assert free.status == "ok" and free.max_rcm_deviation_m > 0.05e-6
+    tight = MotionSettings(step_position=1e-3, step_angle=1e-2, rcm_bound=0.05e-6)
+    r = run_target(tight, i, sample.points[i])
+    assert r.status == RcmBoundError.status == "rcm_bound_exceeded" and not r.converged
+    assert r.message.startswith("RcmBoundError: RCM bound exceeded in phase 'to-target'")
+    assert r.iterations > 0 and r.max_rcm_deviation_m > 0.05e-6
 
 
 def test_results_round_trip_through_a_dictionary(sample) -> None:

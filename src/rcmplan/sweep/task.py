@@ -26,6 +26,7 @@ from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.controller import Controller
 from rcmplan.exceptions import (
     ConvergenceError,
+    RcmBoundError,
     RcmplanError,
     SingularPoseError,
     SliderLimitError,
@@ -38,12 +39,15 @@ from rcmplan.sim.registry import make_plant
 from rcmplan.sweep.sampling import start_point
 from rcmplan.sweep.settings import MotionSettings
 
-STATUSES = ("ok", "no-convergence", "unreachable-path", "singular", "slider-limit", "error")
+# An RCM-bound stop is named as the single-run commands name it (RcmBoundError.status).
+STATUSES = ("ok", "no-convergence", "unreachable-path", "singular", "slider-limit",
+            RcmBoundError.status, "error")  # fmt: skip
 ERROR_STATUS: tuple[tuple[type[RcmplanError], str], ...] = (
     (ConvergenceError, "no-convergence"),
     (UnreachableTargetError, "unreachable-path"),
     (SingularPoseError, "singular"),
     (SliderLimitError, "slider-limit"),
+    (RcmBoundError, RcmBoundError.status),
 )
 TargetItem = tuple[int, Sequence[float]]
 
