@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 from heavy import cases, heavy
+from procstat import alive, children_of, exiting
 from rcmplan.control.log import RunLog
 
 pytestmark = pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
@@ -39,38 +40,14 @@ SIGNALS = (signal.SIGINT, signal.SIGTERM)
 RUNS = int(os.environ.get("RCMPLAN_INTERRUPTIONS", str(cases(3, 12))))
 
 
-def children_of(pid: int) -> set[int]:
-    """Every live descendant of pid (read from /proc)."""
-    parents: dict[int, int] = {}
-    for entry in Path("/proc").iterdir():
-        if entry.name.isdigit():
-            try:
-                stat = (entry / "stat").read_text()
-            except OSError:
-                continue
-            parents[int(entry.name)] = int(stat.rsplit(")", 1)[1].split()[1])
-    found, frontier = set(), {pid}
-    while frontier:
-        frontier = {c for c, p in parents.items() if p in frontier} - found
-        found |= frontier
-    return found
-
-
-def alive(pid: int) -> bool:
-    """True while pid runs (a zombie counts as gone)."""
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
-
-
 def interrupt(
     argv: list[str], out: Path, sig: int | None, delay: float
 ) -> tuple[int, set[int], float]:
     """Start `rcmplan argv --out out`, wait until it made its output folder, then `delay` s,
     send sig (none if None); returns the exit code, the processes it had started by then, and
-    the time [s] from its output folder to its end."""
+    the time [s] from its output folder to its end. Exit 0 after a signal is accepted only when
+    the process's exit had begun before the signal (the kernel then drops it), else the
+    signal was lost."""
     env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
     proc = subprocess.Popen(
         [sys.executable, "-m", "rcmplan", *argv, "--out", str(out)],
@@ -81,10 +58,12 @@ def interrupt(
     start = time.perf_counter()
     time.sleep(delay)
     kids = children_of(proc.pid)
+    late = exiting(proc.pid)
     if sig is not None:
         proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)
     assert not our_tracebacks(err.decode()), err.decode()
+    assert sig is None or proc.returncode != 0 or late, "a signal sent before the exit was lost"
     return proc.returncode, kids, time.perf_counter() - start
 
 
@@ -112,8 +91,9 @@ def check_log(out: Path) -> None:
 
 
 def check_left(out: Path, command: str, code: int, sig: int) -> None:
-    """What the command left in out, for its exit code: 128 + sig when interrupted; 0, or
-    killed by sig (-sig) when the signal came after the command had finished its work."""
+    """What the command left in out, for its exit code: 128 + sig when interrupted; killed by
+    sig (-sig) when the signal came after the command had finished its work, or 0 when it came
+    after the process's exit had begun (`interrupt` checks that)."""
     assert code in (0, -sig, 128 + sig)
     doc = json.loads((out / "summary.json").read_text())
     assert doc["status"] == ("interrupted" if code == 128 + sig else "ok")

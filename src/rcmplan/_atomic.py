@@ -21,6 +21,9 @@ from pathlib import Path
 
 # Temporary files of writes not yet ended -> (process id, thread id) of their writer.
 _unfinished: dict[Path, tuple[int, int]] = {}
+# Files this process has written whole (absolute paths, with the process id that wrote them:
+# a forked worker inherits the set, not the writes).
+_written: set[tuple[int, str]] = set()
 _serial = itertools.count()
 
 
@@ -38,7 +41,13 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     _unfinished[tmp] = _owner()  # before the file exists: no instant leaves it unrecorded
     try:
         yield tmp
-        os.replace(tmp, path)
+        done = (os.getpid(), os.path.abspath(path))
+        _written.add(done)  # before the rename: no instant leaves a renamed file unrecorded
+        try:
+            os.replace(tmp, path)
+        except BaseException:
+            _written.discard(done)
+            raise
     finally:
         _discard(tmp)
 
@@ -52,6 +61,11 @@ def _discard(tmp: Path) -> bool:
         removed = False
     _unfinished.pop(tmp, None)
     return removed
+
+
+def written_here(path: str | Path) -> bool:
+    """True when this process wrote `path` whole (an `atomic_path` write that ended)."""
+    return (os.getpid(), os.path.abspath(path)) in _written
 
 
 def remove_unfinished() -> list[Path]:

@@ -2,6 +2,12 @@
 
 from __future__ import annotations
 
+from rcmplan.cli import interrupts
+
+# First, before any other import: the command handles SIGINT and SIGTERM from here on
+# (docs/report.md, "Interrupted runs": what the interpreter's start-up leaves before it).
+interrupts.install_if_command()
+
 import argparse
 import importlib
 import os
@@ -11,10 +17,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from rcmplan.cli import interrupts
 from rcmplan.exceptions import RcmplanError
-
-interrupts.install_if_command()  # first: the command handles SIGINT and SIGTERM from here on
 
 COMMANDS = (
     "compare",
@@ -89,12 +92,15 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def _stopped(args: argparse.Namespace, exc: KeyboardInterrupt, unanswered: bool) -> None:
-    """Say that the command was interrupted; write its stop file when the interrupt came
-    before the command's own handling began (`unanswered`: while it started its run)."""
+    """Say that the command was interrupted; write its stop file when the interrupt reached
+    no handling of the command's own (`unanswered`: while it started its run, or in a command
+    without one), keeping the records this process wrote."""
     name = interrupts.signal_name(exc)
     out = getattr(args, "out", None)
     if unanswered and args.command in interrupts.STOP_FILES and out:
-        doc = {"status": "interrupted", "message": f"interrupted by {name} before the run"}
+        where = "during the run" if interrupts.wrote_outputs(Path(out), args.command) else (
+            "before the run")  # fmt: skip
+        doc = {"status": "interrupted", "message": f"interrupted by {name} {where}"}
         try:
             interrupts.write_stop_file(Path(out), args.command, doc)
         except OSError as err:

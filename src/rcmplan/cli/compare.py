@@ -128,13 +128,13 @@ def run(args: argparse.Namespace) -> int:
                 from rcmplan.analysis.plots_compare import method_comparison
 
                 method_comparison(rows, out / "figures" / "compare.png")
+            interrupts.finished()  # inside the handling below: no instant falls between
     except KeyboardInterrupt as exc:
         with interrupts.shielded():
             message = f"interrupted by {interrupts.signal_name(exc)} after {len(rows)} methods"
             write_json(out / "summary.json", {"command": "compare", "status": "interrupted",
                                               "message": message, "methods": rows})  # fmt: skip
         raise
-    interrupts.finished()
     if args.json:
         print_json(doc)
     else:

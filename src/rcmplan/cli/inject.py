@@ -82,6 +82,7 @@ def run(args: argparse.Namespace) -> int:
             write_outputs(
                 result, out, figures=not args.no_plots, scenario_text=scenario_text(args.scenario)
             )
+            interrupts.finished()  # inside the handling below: no instant falls between
     except RcmplanError as exc:
         if result is None:
             message = f"{type(exc).__name__}: {exc}"

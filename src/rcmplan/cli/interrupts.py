@@ -5,7 +5,8 @@ has got:
 
 - starting (importing, reading the command line): nothing is open or half-written, so the
   handler writes the command's stop file (`summary.json`) in its output folder
-  with status "interrupted" and ends the process at once;
+  with status "interrupted" and ends the process at once (a signal that comes while `install`
+  imports what that write needs waits for the imports: a module half imported cannot write);
 - running (inside `handled()`): it raises Interrupted or Terminated (a KeyboardInterrupt), so
   every `finally` runs, pool workers are stopped and the command writes its partial outputs
   (inside `shielded()`, which marks the interrupt as answered);
@@ -25,18 +26,22 @@ the handler for its block only and puts the previous handlers back after it.
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import signal
 import sys
 import threading
-from collections.abc import Iterator, Sequence
-from pathlib import Path
-from types import FrameType
-from typing import Any, NoReturn
 
-from rcmplan._atomic import remove_unfinished, write_text
 from rcmplan._signals import wrapped_interrupt
+
+# This module is the command's first import, before its handler exists: it imports what the
+# handler needs at once and the rest (json, pathlib, rcmplan._atomic) in `install`, after the
+# handler is in place; `typing` is not imported at all (typing.TYPE_CHECKING, spelled out).
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from collections.abc import Iterator, Sequence
+    from pathlib import Path
+    from types import FrameType
+    from typing import Any, NoReturn
 
 CAUGHT = (signal.SIGINT, signal.SIGTERM)
 # The file each run command writes when it stops early, and the files of an earlier run that a
@@ -76,6 +81,8 @@ class _State:
     command: str | None = None
     out: str | None = None
     stage = "running"  # "starting", "running" or "finished"
+    ready = False  # True once the modules that write the stop file are imported
+    pending = 0  # a signal that came while they were imported
     answered = True  # False from an interrupt raised until the code handling it answers
     signum = 0  # the last interrupt's signal
 
@@ -126,6 +133,20 @@ def install(argv: Sequence[str]) -> None:
             signal.setitimer(signal.ITIMER_REAL, 0.001)
 
     sys.unraisablehook = raise_again
+    _load_writers()
+
+
+def _load_writers() -> None:
+    """Import what the stop file's write needs, then act on a signal that came meanwhile (the
+    handler waits for these imports: it would find a module half imported)."""
+    import json  # noqa: F401
+    import pathlib  # noqa: F401
+
+    import rcmplan._atomic  # noqa: F401
+
+    _state.ready = True
+    if _state.pending and _state.stage == "starting":
+        _stop_now(_state.pending)
 
 
 def _on_alarm(signum: int, frame: FrameType | None) -> None:
@@ -148,6 +169,9 @@ def command_and_out(argv: Sequence[str]) -> tuple[str, str | None]:
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
     if _state.stage == "starting":
+        if not _state.ready:
+            _state.pending = _state.pending or signum  # `_load_writers` acts on it
+            return
         _stop_now(signum)
     if _state.stage == "finished" and _state.command is not None:
         signal.signal(signum, signal.SIG_DFL)  # the default action: the process ends
@@ -159,6 +183,8 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
 
 def _stop_now(signum: int) -> NoReturn:
     """Write the stop file, say why on stderr and end the process (start-up: nothing to undo)."""
+    from pathlib import Path
+
     for s in CAUGHT:
         signal.signal(s, signal.SIG_IGN)
     name = signal.Signals(signum).name
@@ -174,15 +200,29 @@ def _stop_now(signum: int) -> NoReturn:
 
 def write_stop_file(out: Path, command: str, doc: dict[str, Any]) -> Path:
     """The stop file of `command` in out (created if needed) holding doc with the command's
-    name, written atomically; the files of an earlier run's log are removed first."""
+    name, written atomically; the files of an earlier run's log are removed first (those this
+    process wrote, this run's records, stay)."""
+    import json
+
+    from rcmplan._atomic import write_text, written_here
+
     name, stale = STOP_FILES[command]
     out.mkdir(parents=True, exist_ok=True)
     for old in stale:
-        (out / old).unlink(missing_ok=True)
+        if not written_here(out / old):
+            (out / old).unlink(missing_ok=True)
     body = {"command": command, **doc}
     if command == "compare":
         body.setdefault("methods", [])
     return write_text(out / name, json.dumps(body, indent=2))
+
+
+def wrote_outputs(out: Path, command: str) -> bool:
+    """True when this process wrote the stop file or a log file of `command` in out."""
+    from rcmplan._atomic import written_here
+
+    name, logs = STOP_FILES[command]
+    return any(written_here(out / f) for f in (name, *logs))
 
 
 def signal_name(exc: BaseException) -> str:
@@ -201,6 +241,8 @@ def leave(code: int) -> int:
     (`rcmplan._atomic.remove_unfinished`), stdout and stderr are flushed and Python's teardown
     is skipped (the collection of a process that loaded numba and LLVM took 0.5 s on a loaded
     machine). Called in-process, it returns the code. Call it inside `shielded()`."""
+    from rcmplan._atomic import remove_unfinished
+
     remove_unfinished()
     if _state.command is None:
         return code
@@ -233,6 +275,8 @@ def handled() -> Iterator[None]:
         if ours:
             finished()
             if not _state.answered:  # swallowed on its way: the signal ends the process now
+                from rcmplan._atomic import remove_unfinished
+
                 remove_unfinished()
                 os.kill(os.getpid(), _state.signum)
         for s, handler in old.items():

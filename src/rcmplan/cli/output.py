@@ -122,9 +122,10 @@ def table(header: list[str], rows: list[list[Any]]) -> str:
 def finish(args: argparse.Namespace, out: Path, doc: Any, show: Callable[[], None],
            failure: str | None, code: int = 1) -> int:  # fmt: skip
     """The end of a run command whose outputs are written: they are final (a late signal
-    leaves them as they are), the JSON or the table and the folder on stdout, and exit `code`
-    (1: stopped early; 2: refused before motion) with `failure` on stderr if the run did not
-    end ok."""
+    leaves them as they are; a command with its own interrupt handling declares them final
+    inside it, `interrupts.finished()`, so that no signal falls between), the JSON or the table
+    and the folder on stdout, and exit `code` (1: stopped early; 2: refused before motion) with
+    `failure` on stderr if the run did not end ok."""
     interrupts.finished()
     if args.json:
         print_json(doc)

@@ -83,6 +83,7 @@ def run_episodes(args: argparse.Namespace) -> int:
             result = run_main(args, batch, checkpoint)
             resumed = resume_record(path, args.resume, header_found, result.resumed, "batch")
             doc = write_outputs(args, out, result, checkpoint, resumed)
+            interrupts.finished()  # inside the handling below: no instant falls between
     except KeyboardInterrupt as exc:
         why = f"interrupted by {interrupts.signal_name(exc)}"
         write_partial(out, batch, checkpoint, "interrupted", why)

@@ -241,10 +241,10 @@ def run_straight(args: argparse.Namespace, out: Path) -> int:
                     args, result, checkpoint, executor)  # fmt: skip
             resumed = resume_record(path, args.resume, header_found, result.resumed)
             s = write_outputs(args, out, result, gains, resumed)
+            interrupts.finished()  # inside the handling below: no instant falls between
     except KeyboardInterrupt as exc:
         write_interrupted(out, checkpoint, exc)
         raise
-    interrupts.finished()
     if args.json:
         print_json(s)
     else:

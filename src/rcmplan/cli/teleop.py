@@ -102,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
             track = track_of(args, settings)
             result = run_replay(settings, track)
             doc, _ = write_outputs(result, out, figures=not args.no_plots)
+            interrupts.finished()  # inside the handling below: no instant falls between
     except RcmplanError as exc:
         if result is None:
             write_failed(out, exc.status, f"{type(exc).__name__}: {exc}")
