@@ -1,4 +1,8 @@
-"""The `rcmplan` command line: one module per subcommand, each with `register(subparsers)`."""
+"""The `rcmplan` command line: one module per subcommand, each with `register(subparsers)`.
+
+`rcmplan COMMAND ...` imports and registers that command's module only (`modules_for`), so a
+command starts with what it needs; help, a missing or an unknown command register them all.
+"""
 
 from __future__ import annotations
 
@@ -31,6 +35,8 @@ COMMANDS = (
     "teleop",
     "view",
 )
+# Commands that another command's module registers beside its own (`inject` and `spiral`).
+MODULE_OF = {"spiral": "inject"}
 
 
 class Parser(argparse.ArgumentParser):
@@ -43,8 +49,28 @@ class Parser(argparse.ArgumentParser):
         self._negative_number_matcher = re.compile(r"-\.?\d")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The argument parser with every subcommand registered."""
+def modules_for(argv: Sequence[str]) -> tuple[str, ...]:
+    """The command modules (of COMMANDS) the parser of `argv` needs: the one of the command it
+    names; none for `--version` alone (argparse prints it and exits before a command is
+    needed); every one otherwise, so that help (`rcmplan`, `-h` before the command) and the
+    "invalid choice" error of a missing or misspelt command list every command."""
+    for word in argv:
+        module = word if word in COMMANDS else MODULE_OF.get(word)
+        if module is not None:
+            return (module,)
+        if not _is_version(word):
+            return COMMANDS
+    return () if argv else COMMANDS
+
+
+def _is_version(word: str) -> bool:
+    """True for `--version` or an abbreviation argparse reads as it (`--v` up)."""
+    return len(word) >= 3 and "--version".startswith(word)
+
+
+def build_parser(modules: Sequence[str] = COMMANDS) -> argparse.ArgumentParser:
+    """The argument parser with the commands of `modules` registered (each one of COMMANDS;
+    all by default)."""
     parser = Parser(
         prog="rcmplan",
         description="Plan, simulate and measure RCM-constrained needle motions (iRAM!S robot).",
@@ -53,7 +79,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser.add_argument("--version", action="version", version=f"rcmplan {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMANDS:
+    for name in modules:
         importlib.import_module(f"rcmplan.cli.{name}").register(sub)
     return parser
 
@@ -66,7 +92,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     SIGINT and SIGTERM stop a command after it writes its partial outputs with status
     "interrupted" (exit 130 and 143; `rcmplan.cli.interrupts`).
     """
-    args = build_parser().parse_args(argv)
+    words = sys.argv[1:] if argv is None else argv
+    args = build_parser(modules_for(words)).parse_args(words)
     with interrupts.handled():
         return _run(args)
 

@@ -10,17 +10,21 @@ import argparse
 import sys
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from rcmplan.control.methods import METHODS
+from rcmplan.choices import METHODS, PLANTS
 from rcmplan.exceptions import InvalidInputError
-from rcmplan.robot.registry import ROBOTS, check_robot, is_robot_file
-from rcmplan.scene.scenario import Scenario, load_scenario
-from rcmplan.sim.registry import PLANTS
+from rcmplan.robot.names import ROBOT_NAMES, check_robot, is_robot_file
+
+# What the options need as the command line is read imports nothing numerical (numba, scipy):
+# only that command's run loads the scenario loader, the robots and the plants.
+if TYPE_CHECKING:
+    from rcmplan.scene.scenario import Scenario
 
 OUT_ROOT = "rcmplan-out"  # --out defaults to OUT_ROOT/<command>
 SEED_MAX = 2**32 - 1  # the largest --seed accepted (32 bits)
 THE_SCENARIOS = "the scenario's"
-ROBOT_HELP = f"robot: a name ({', '.join(ROBOTS)}) or a robot file FILE.toml, docs/robots.md"
+ROBOT_HELP = f"robot: a name ({', '.join(ROBOT_NAMES)}) or a robot file FILE.toml, docs/robots.md"
 
 
 def add_run_options(
@@ -115,6 +119,8 @@ def scenario_from_args(args: argparse.Namespace, procedure: str | None = None) -
     scenario's eye, points, steps and controller; when the scenario names another procedure it
     says so on stderr, so the switch is never silent.
     """
+    from rcmplan.scene.scenario import load_scenario
+
     sc = load_scenario(args.scenario)
     if getattr(args, "robot", None):
         sc = sc.with_robot(args.robot)
@@ -137,7 +143,7 @@ COMMAND_OF = {"injection": "inject", "spiral": "spiral"}
 
 def scenario_text(source: str) -> str | None:
     """The text of the scenario file named on the command line (shipped or a path), or None."""
-    from rcmplan.scene.scenario import scenario_names, shipped_text
+    from rcmplan.scene.shipped import scenario_names, shipped_text
 
     if source in scenario_names():
         return shipped_text(source)

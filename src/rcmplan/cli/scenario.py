@@ -10,11 +10,13 @@ from a scenario parsed from an empty file, so it is the value the code uses) and
 from __future__ import annotations
 
 import argparse
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from rcmplan.analysis.units import fmt_setting
-from rcmplan.scene.scenario import Scenario, load_scenario, scenario_from_dict
-from rcmplan.scene.schema import SCHEMA
+from rcmplan.scene.shipped import scenario_names, shipped_text
+
+if TYPE_CHECKING:  # the scenario loader imports the numerical stack: only --list and --schema
+    from rcmplan.scene.scenario import Scenario
 
 MM = 1e3
 Key = tuple[str, str]
@@ -152,6 +154,8 @@ def _unit(key: str) -> str:
 
 def section_rows(section: str, defaults: dict[Key, Any]) -> list[str]:
     """Markdown table rows of one section."""
+    from rcmplan.scene.schema import SCHEMA
+
     rows = []
     for key, (kind, lo, hi) in SCHEMA[section].items():
         typ, allowed = _kind(kind, lo, hi)
@@ -185,6 +189,9 @@ HEAD = ["| key | type | allowed | unit | default | meaning |", "|---|---|---|---
 
 def schema_markdown() -> str:
     """The scenario file format as a Markdown page (docs/scenario-schema.md)."""
+    from rcmplan.scene.scenario import scenario_from_dict
+    from rcmplan.scene.schema import SCHEMA
+
     defaults = _defaults(scenario_from_dict({}))
     out = [
         "# Scenario files",
@@ -196,7 +203,7 @@ def schema_markdown() -> str:
         "names the key and the allowed values (`true` and `false` are not numbers). Defaults are",
         "those of a scenario parsed from an empty file. `rcmplan scenario --show NAME` prints a",
         "shipped scenario's file. Shipped scenarios: "
-        + ", ".join(f"`{n}`" for n in _names())
+        + ", ".join(f"`{n}`" for n in scenario_names())
         + ".",
     ]
     for section in SCHEMA:
@@ -208,12 +215,6 @@ def schema_markdown() -> str:
         out += HEAD
         out += qp_rows() if section == "qp" else section_rows(section, defaults)
     return "\n".join(out) + "\n"
-
-
-def _names() -> list[str]:
-    from rcmplan.scene.scenario import scenario_names
-
-    return scenario_names()
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -235,15 +236,15 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the schema, a shipped scenario's file, or the list of scenarios."""
     if args.show is not None:
-        from rcmplan.scene.scenario import shipped_text
-
         print(shipped_text(args.show), end="")
         return 0
     if args.schema:
         print(schema_markdown(), end="")
         return 0
+    from rcmplan.scene.scenario import load_scenario
+
     rows = []
-    for name in _names():
+    for name in scenario_names():
         sc = load_scenario(name)
         rows.append({"name": name, "procedure": sc.procedure, "method": sc.method,
                      "plant": sc.plant})  # fmt: skip

@@ -10,6 +10,7 @@ import importlib
 from dataclasses import replace
 from typing import Any
 
+from rcmplan.choices import DEFAULT_METHOD, METHODS
 from rcmplan.control.method_settings import MethodSettings
 from rcmplan.control.resolution import met_tolerance
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver
@@ -17,9 +18,6 @@ from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
-
-METHODS = ("pinv", "pinv-thesis", "dls", "qp")
-DEFAULT_METHOD = "pinv"
 
 __all__ = ["DEFAULT_METHOD", "METHODS", "MethodSettings", "make_solver"]
 

@@ -14,12 +14,9 @@ from pathlib import Path
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
+from rcmplan.robot.names import BUILT_IN, DEFAULT_ROBOT, VALID, check_robot, is_robot_file
 
-DEFAULT_ROBOT = "iramis"
-BUILT_IN = {
-    "iramis": "iRAM!S eye-surgery robot of the reference thesis (Table 2.1): 2 PCJMs, "
-    "a prismatic stage and a needle roll",
-}
+__all__ = ["BUILT_IN", "DEFAULT_ROBOT", "ROBOTS", "VALID", "check_robot", "is_robot_file", "make_robot"]
 
 
 def shipped_robots() -> dict[str, str]:
@@ -32,19 +29,6 @@ def shipped_robots() -> dict[str, str]:
 
 
 ROBOTS: dict[str, str] = shipped_robots()
-VALID = "one of " + ", ".join(ROBOTS) + ", or a robot file (an existing .toml file)"
-
-
-def is_robot_file(robot: str) -> bool:
-    """True when `robot` names a robot file rather than a robot by name."""
-    return robot not in ROBOTS and robot.endswith(".toml")
-
-
-def check_robot(robot: str) -> str:
-    """`robot` if it is a robot name or an existing .toml file, else InvalidInputError."""
-    if robot in ROBOTS or (is_robot_file(robot) and Path(robot).is_file()):
-        return robot
-    raise InvalidInputError("robot", robot, VALID)
 
 
 def make_robot(name_or_path: str | Path = DEFAULT_ROBOT) -> RobotModel:

@@ -10,14 +10,14 @@ from __future__ import annotations
 
 import tomllib
 from dataclasses import dataclass, field
-from importlib import resources
 from os import PathLike
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rcmplan.control.methods import METHODS, MethodSettings
+from rcmplan.choices import METHODS, PLANTS
+from rcmplan.control.methods import MethodSettings
 from rcmplan.control.phase import MAX_TARGETS, LoopSettings, Phase
 from rcmplan.control.solvers import Tolerance
 from rcmplan.exceptions import InvalidInputError, PlanTooLargeError, ScenarioError
@@ -28,13 +28,13 @@ from rcmplan.scene.curved_procedure import NeedleOptions, curved_injection
 from rcmplan.scene.eye import POINT_NAMES, Eye, EyePoints, default_eye, default_points
 from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
 from rcmplan.scene.schema import SCHEMA, check_step, sections
+from rcmplan.scene.shipped import scenario_names, shipped_text
 
-__all__ = ["SCHEMA", "Scenario", "load_scenario", "scenario_from_dict", "scenario_names"]
+__all__ = [
+    "SCHEMA", "Scenario", "load_scenario", "scenario_from_dict", "scenario_names", "shipped_text",
+]
 
 PROCEDURES = ("injection", "spiral")
-# The plants a scenario may name; `rcmplan.sim.registry.PLANTS` builds each (a test checks that
-# the two agree). Named here so that scenes do not import the simulators.
-PLANTS = ("kinematic", "mujoco", "mujoco-kinematic")
 MM = 1e-3
 
 
@@ -242,15 +242,6 @@ def load_scenario(source: str | Path) -> Scenario:
 MAX_FILE_BYTES = 1 << 20  # a scenario is a few hundred bytes; the shipped ones are under 2 KiB
 
 
-def shipped_text(name: str) -> str:
-    """The TOML text of the scenario shipped as `name`; ScenarioError naming the shipped ones
-    when there is none."""
-    names = scenario_names()
-    if name not in names:
-        raise ScenarioError("shipped scenario", name, "one of " + ", ".join(names))
-    return resources.files("rcmplan.scenarios").joinpath(f"{name}.toml").read_text()
-
-
 def _read(source: str | Path) -> str:
     name = str(source)
     if name in scenario_names():
@@ -271,9 +262,3 @@ def _read(source: str | Path) -> str:
         byte = data[exc.start : exc.start + 1].hex()
         valid = f"UTF-8 text (byte 0x{byte} at offset {exc.start} is not)"
         raise ScenarioError("scenario file", name, valid) from exc
-
-
-def scenario_names() -> list[str]:
-    """Names of the scenarios shipped with rcmplan."""
-    files = resources.files("rcmplan.scenarios").iterdir()
-    return sorted(f.name[:-5] for f in files if f.name.endswith(".toml"))
