@@ -16,7 +16,15 @@ from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.names import BUILT_IN, DEFAULT_ROBOT, VALID, check_robot, is_robot_file
 
-__all__ = ["BUILT_IN", "DEFAULT_ROBOT", "ROBOTS", "VALID", "check_robot", "is_robot_file", "make_robot"]
+__all__ = [
+    "BUILT_IN",
+    "DEFAULT_ROBOT",
+    "ROBOTS",
+    "VALID",
+    "check_robot",
+    "is_robot_file",
+    "make_robot",
+]
 
 
 def shipped_robots() -> dict[str, str]:

@@ -31,7 +31,12 @@ from rcmplan.scene.schema import SCHEMA, check_step, sections
 from rcmplan.scene.shipped import scenario_names, shipped_text
 
 __all__ = [
-    "SCHEMA", "Scenario", "load_scenario", "scenario_from_dict", "scenario_names", "shipped_text",
+    "SCHEMA",
+    "Scenario",
+    "load_scenario",
+    "scenario_from_dict",
+    "scenario_names",
+    "shipped_text",
 ]
 
 PROCEDURES = ("injection", "spiral")
