@@ -28,8 +28,9 @@ def test_every_module_imports(name: str) -> None:
 
 
 def test_the_command_line_starts_without_the_heavy_optional_modules() -> None:
-    """`rcmplan CMD` builds its parser from every command: none may import a heavy optional
-    module at start-up (each costs 0.1-1.2 s on every run); they load when a command needs them."""
+    """The full parser (`rcmplan --help`, an unknown command) registers every command: none may
+    import a heavy optional module at start-up (each costs 0.1-1.2 s on every run); they load
+    when a command needs them."""
     import subprocess
     import sys
 
