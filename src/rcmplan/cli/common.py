@@ -16,8 +16,8 @@ from rcmplan.choices import METHODS, PLANTS
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.names import ROBOT_NAMES, check_robot, is_robot_file
 
-# What the options need as the command line is read imports nothing numerical (numba, scipy):
-# only that command's run loads the scenario loader, the robots and the plants.
+# Reading the command line imports nothing numerical (numba, scipy): the scenario loader, the
+# robots and the plants load when a command runs.
 if TYPE_CHECKING:
     from rcmplan.scene.scenario import Scenario
 
