@@ -1,6 +1,6 @@
 """Process start of the commands that do little (`--version`, `scenario --show`), of a run
 (`inject`, warm caches) and of `view` to its address line: each process from start to end,
-median of 5 after one untimed run, the machine's load average in each figure's name.
+median of 5 (3 under --quick) after one untimed run, the load average in each figure's name.
 
 Run alone: python benchmarks/bench_startup.py
 """
@@ -19,13 +19,13 @@ from _common import quick, row
 from bench_speed import timed_process
 from bench_view import cold_start_s
 
-REPEATS = 5
+REPEATS = 5  # 3 under --quick
 
 
-def median_s(once: Callable[[], float]) -> float:
-    """Median in [s] of REPEATS calls of `once` (3 under --quick), after one untimed call."""
+def median_s(once: Callable[[], float], repeats: int) -> float:
+    """Median in [s] of `repeats` calls of `once`, after one untimed call."""
     once()
-    return statistics.median(once() for _ in range(3 if quick() else REPEATS))
+    return statistics.median(once() for _ in range(repeats))
 
 
 def rows() -> list[dict[str, Any]]:
@@ -34,10 +34,12 @@ def rows() -> list[dict[str, Any]]:
     env = {"PYTHONPATH": os.pathsep.join(sys.path)}
     out: list[dict[str, Any]] = []
 
+    repeats = 3 if quick() else REPEATS
+
     def add(what: str, once: Callable[[], float]) -> None:
-        value = median_s(once)
+        value = median_s(once, repeats)
         load = os.getloadavg()[0]
-        out.append(row(f"{what}, median of {REPEATS} (load {load:.1f})", value, "s"))
+        out.append(row(f"{what}, median of {repeats} (load {load:.1f})", value, "s"))
 
     with tempfile.TemporaryDirectory() as tmp:
         run = Path(tmp) / "run"
