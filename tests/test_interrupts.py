@@ -142,7 +142,8 @@ EARLY = {
     "0.05 s after the command line package loaded": ("rcmplan.cli", 0.05),
     "numpy loading for the parser's subcommands": ("numpy", 0.0),
     "the parser importing its first subcommand": ("rcmplan.cli.common", 0.0),
-    "the parser importing the sweep subcommand": ("rcmplan.sweep.executors", 0.0),
+    "the parser importing its subcommand's run code": ("rcmplan.job", 0.0),
+    "numba loading for the run": ("numba", 0.0),
 }
 
 
