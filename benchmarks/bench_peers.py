@@ -28,7 +28,7 @@ import numpy as np
 from _common import per_call, quick, row
 from rcmplan import Iramis
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.records import robot_params
+from rcmplan.compiled.records import FAIL_WIDTH, robot_params
 from rcmplan.compiled.runner import FastIramis
 from rcmplan.control import extended_task, rcm_target, solve_pose
 from rcmplan.control.phase import LoopSettings
@@ -111,11 +111,11 @@ class CompiledSolve:
         self.state0 = np.array([x0[5], 0.0, 1e-3])
         self.rec = np.empty((max_iterations + 1, 35))
         self.irec = np.empty((max_iterations + 1, 2), dtype=np.int64)
-        self.info, self.fail = np.zeros(3, dtype=np.int64), np.empty(24)
+        self.info, self.fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)
         tol = np.full(6, 1e-8)
         bounds = np.array([0.1, rcm_tolerance or 0.0])  # singular floor; step bound (0: none)
         self.args = (robot_params(robot), method, np.ones(6), 0.0, tol, max_iterations,
-                     method != 3, bounds)  # fmt: skip
+                     method != 3, bounds, fast_cache.qp_kernels().loop_qp())  # fmt: skip
 
     def __call__(self, target: np.ndarray) -> int:
         """Solve; returns the iterations (raises if the loop stopped early)."""

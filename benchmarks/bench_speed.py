@@ -19,7 +19,7 @@ import numpy as np
 from _common import THESIS_ITERATION_S, FastController, per_call, quick, row, use_path
 from rcmplan import Iramis
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.records import robot_params
+from rcmplan.compiled.records import FAIL_WIDTH, robot_params
 from rcmplan.compiled.runner import FastIramis
 from rcmplan.control import PinvSolver, extended_task, solve_pose
 from rcmplan.control.augmented import augmented_jacobian
@@ -67,7 +67,7 @@ def loop_rows() -> list[dict[str, Any]]:
     loop = fast_cache.loop_kernels()
     cap = 4 * len(targets) + 100
     rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
-    info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
+    info, fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)
     bounds = np.array([0.1, LoopSettings().rcm_tolerance])  # singular floor, RCM step bound
     args = (
         robot_params(robot),
@@ -78,6 +78,7 @@ def loop_rows() -> list[dict[str, Any]]:
         100,
         True,
         bounds,
+        fast_cache.qp_kernels().loop_qp(),
         targets,
         0,
     )

@@ -1,4 +1,4 @@
-"""The QP's compiled loop around the dynamic MuJoCo plant (`compiled/qp_mujoco_loop.py`) gives
+"""The compiled loop around the dynamic MuJoCo plant (`compiled/mujoco_loop.py`) with the QP gives
 the Python loop's log and plant state; a solver it does not reproduce runs the Python loop."""
 
 from __future__ import annotations

@@ -82,9 +82,9 @@ def daqp_callable() -> bool:
 
 
 def qp_loop() -> ModuleType | None:
-    """The compiled QP loop (`qp_loop`), or None if DAQP's C solver cannot be called from
-    compiled code here (`daqp_callable`)."""
-    return _load("qp_loop") if daqp_callable() else None
+    """The compiled control loop (`loop`) where it can run the QP, or None if DAQP's C solver
+    cannot be called from compiled code here (`daqp_callable`)."""
+    return _load("loop") if daqp_callable() else None
 
 
 def qp_periods() -> ModuleType | None:
@@ -98,13 +98,6 @@ def closed_loop() -> ModuleType:
     (MissingExtraError naming the `sim` extra otherwise)."""
     require_extra("mujoco", "sim")
     return _load("mujoco_loop")
-
-
-def qp_mujoco_loop() -> ModuleType:
-    """The compiled QP loop around the dynamic MuJoCo plant (`qp_mujoco_loop`); needs MuJoCo
-    (MissingExtraError naming the `sim` extra otherwise)."""
-    require_extra("mujoco", "sim")
-    return _load("qp_mujoco_loop")
 
 
 def clear_stale() -> None:

@@ -10,6 +10,11 @@ The kernel stops with a status code instead of raising; `rcmplan.compiled.runner
 into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
 `REC_COLUMNS` (`rcmplan.compiled.records`), `irec` (cap, 2) with (step, iteration).
 
+The QP controller (method QP) takes the same loop: its error (J x* / K) and step come from one
+solve (`qp_kernels.iteration_error`, planned from the plant's last command when the plant is
+the QP's servo) in place of the error and step kernels, the step then bounded from the RCM
+tolerance (`qp_step`); `qpa` carries what the solve reads (`qp_params.loop_qp`), and a solve
+DAQP does not finish optimally stops the loop with QP_FAILED (DAQP's exit flag in info[2]).
 The QP's free-space step (TIP_LIMITED, `LimitedTipSolver`) is the TIP step scaled in actuator
 space to hold each actuator's speed and travel less the margin (`limit_step`); K then carries
 those bounds (`records.iramis_method`).
@@ -17,7 +22,7 @@ those bounds (`records.iramis_method`).
 A curved needle (`CurvedTipRobot` on iRAM!S, method codes from CURVED on) takes the same loop:
 its error, step and tip come from `curved_iramis` (P then carries the arc, `curved_iramis.params`),
 the roll q5 moves with the other joints, records have the roll error column
-(`record_width(6, roll=True)`) and `fail` holds a 7-row error (`FAIL_WIDTH`).
+(`record_width(6, roll=True)`) and `fail` holds a 7-row error (`records.FAIL_WIDTH`).
 """
 
 from __future__ import annotations
@@ -30,6 +35,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import curved_iramis
 from rcmplan.compiled.curved_kernels import BLOCK_ROWS
 from rcmplan.compiled.kernels import dls_solve, jacobian_a, njit, solve_augmented, task
+from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
@@ -40,6 +46,7 @@ from rcmplan.compiled.records import (
     NO_TIP,
     PAUSED,
     PINV_THESIS,
+    QP,
     QP_FAILED,
     SINGULAR,
     SLIDER_LIMIT,
@@ -231,7 +238,7 @@ def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
 @njit(cache=True)
 def iterate(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool, tip_t: FloatArray,
     trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
     fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray, f: FloatArray,
     J: FloatArray, A: FloatArray,
@@ -240,8 +247,10 @@ def iterate(
 
     Returns DONE (every error within tolerance), STEPPED (the next command is in fail[12:18])
     or a stop code. state = (lambda, time [s], dt [s]); lambda is updated. From the second
-    iteration on the record goes to row (35,). fail holds (q, q_new, s_new, error); a curved
-    needle's rows and error have one more entry (the roll's).
+    iteration on the record goes to row (35,). fail (`records.FAIL_WIDTH`,) holds (q, q_new,
+    s_new, error); a curved needle's rows and error have one more entry (the roll's), the QP's
+    the actuators it was built at and its scratch after the error. qpa: the QP's arrays
+    (`qp_params.loop_qp`), read only for method QP.
     """
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     joints_from_actuators(P, s, q)
@@ -249,7 +258,12 @@ def iterate(
     if holds_rcm(method) and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
     curved = method >= CURVED  # its error and step: `curved_iramis`, J its work block
-    if curved:
+    if method == QP:  # error and step from one solve
+        info[2] = iteration_error(P, K, q, tr, state[0], target, fail, qpa)
+        if info[2] != 1:
+            return QP_FAILED
+        m = 6
+    elif curved:
         m = curved_iramis.task_error(P, method, q, tr, state[0], target, e, w)
     else:
         m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
@@ -263,6 +277,8 @@ def iterate(
         return NO_CONVERGENCE
     if min(abs(tr[0]), abs(tr[2])) < bounds[0]:
         return SINGULAR
+    if method == QP:
+        return qp_step(P, q, fail[24:30], qpa[2][X], trocar, bounds, state, fail, info, w)
     if curved:
         curved_iramis.step(P, method, K, damping, q, tr, state[0], e, J, d, f)
     else:
@@ -328,6 +344,28 @@ def limit_step(
 
 
 @njit(cache=True)
+def qp_step(
+    P: FloatArray, q: FloatArray, s_qp: FloatArray, x: FloatArray, trocar: FloatArray,
+    bounds: FloatArray, state: FloatArray, fail: FloatArray, info: np.ndarray, w: FloatArray,
+) -> int:  # fmt: skip
+    """The step of the QP's solution x built at actuators s_qp, from joints q (`QpSolver.step`):
+    bounded from the RCM tolerance, lambda moved in state[0], the joints and sliders commanded
+    in fail[6:12] and fail[12:18]; returns STEPPED or a stop code (`command_status`)."""
+    qn, sn = fail[6:12], fail[12:18]
+    dlam = step_joints(P, q, s_qp, x, qn, w)
+    for i in range(5):  # the step in joints and lambda, bounded from the RCM tolerance
+        sn[i] = qn[i] - q[i]
+    sn[5] = dlam
+    if bound_rcm_step(P, q, sn, 5, trocar, bounds[1], w, qn) != 1.0:
+        for i in range(5):
+            qn[i] = q[i] + sn[i]
+    else:
+        step_joints(P, q, s_qp, x, qn, w)  # qn as the QP's step left it
+    state[0] += sn[5]
+    return command_status(P, qn, sn, info)
+
+
+@njit(cache=True)
 def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarray) -> int:
     """The sliders sn of the stepped joints qn, and the iteration's status: BAD_JOINTS if no
     sliders realise qn, SLIDER_LIMIT (the slider in info[2]) beyond travel, else STEPPED."""
@@ -342,15 +380,15 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
 @njit(cache=True)
 def iterate_recorded(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool, tip_t: FloatArray,
     trocar: FloatArray, s: FloatArray, state: FloatArray, k: int, it: int, n: int,
     rec: FloatArray, irec: np.ndarray, fail: FloatArray, info: np.ndarray, w: FloatArray,
     d: FloatArray, f: FloatArray, J: FloatArray, A: FloatArray,
 ) -> tuple[int, int]:  # fmt: skip
     """`iterate` on target k, its record kept in rec[n], irec[n] from the second iteration on;
     returns (status, records written), the count also in info[0]."""
-    status = iterate(P, method, K, damping, tol, max_it, drift, bounds, target, pivot, tip_t,
-                     trocar, s, state, it, rec[n], fail, info, w, d, f, J, A)  # fmt: skip
+    status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, target, pivot,
+                     tip_t, trocar, s, state, it, rec[n], fail, info, w, d, f, J, A)  # fmt: skip
     return status, keep_record(status, k, it, n, irec, info)
 
 
@@ -387,14 +425,15 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
 @njit(cache=True)
 def run_targets(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, targets: FloatArray, k0: int, s: FloatArray, state: FloatArray,
-    rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple, targets: FloatArray, k0: int, s: FloatArray,
+    state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] from sliders s, on the kinematic plant; returns a status.
 
     state = (lambda, time [s], dt [s]) is updated in place, as is s. On return info holds
-    (records written, target index reached, slider index for SLIDER_LIMIT) and fail holds
-    (q (6), q_new (6), s_new (6), error (6), or (7) for a curved needle) of the last iteration.
+    (records written, target index reached, slider index for SLIDER_LIMIT or DAQP's exit flag
+    for QP_FAILED) and fail holds (q (6), q_new (6), s_new (6), error (6), or (7) for a curved
+    needle, ...) of the last iteration (`iterate`).
     PAUSED means the record buffer could not hold another target: call again from info[1].
     """
     w, d, f = np.empty(6), np.empty(7), np.empty(7)
@@ -409,7 +448,7 @@ def run_targets(
         if kind < 0:
             return NO_TIP
         for it in range(max_it + 1):
-            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds,
+            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds, qpa,
                                          targets[k], kind == 1, tip_t, trocar, s, state, k,
                                          it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
             if status == DONE:

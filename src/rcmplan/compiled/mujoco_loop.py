@@ -1,12 +1,14 @@
 """Algorithm 1 closed around the dynamic MuJoCo plant, all in compiled code.
 
 Each control period the compiled loop reads the simulated sliders, runs one iteration of
-Algorithm 1 (`fast_loop.iterate`) and, when it steps, runs the plant's period
-(`sim.mujoco.compiled.advance`: the physics steps through MuJoCo's C functions). Python is
+Algorithm 1 (`loop.iterate`; the QP's planned from the plant's last command, the plant being its
+servo) and, when it steps, runs the plant's period (`sim.mujoco.compiled.advance`: the physics
+steps through MuJoCo's C functions). Python is
 back only between record blocks and at the end, so a period costs the physics and about a
 microsecond more. The log, the plant's state and the stops equal those of the per-iteration
-path (`fast_phase.run_phase_on_plant`); tests/test_fast_mujoco.py checks it bit for bit.
-Needs numba (the `fast` extra) and MuJoCo (the `sim` extra).
+path (`phase.run_phase_on_plant`); tests/test_fast_mujoco.py checks it bit for bit, and
+tests/test_qp_mujoco_compiled.py the QP's against the Python QP on the same plant. Needs MuJoCo
+(the `sim` extra).
 """
 
 from __future__ import annotations
@@ -19,11 +21,13 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.curved_kernels import BLOCK_ROWS
 from rcmplan.compiled.loop import holds_rcm, iterate_recorded, target_frame
 from rcmplan.compiled.phase import IntArray
 from rcmplan.compiled.records import (
     DONE,
+    FAIL_WIDTH,
     NO_TIP,
     PAUSED,
     PLANT_STOPPED,
@@ -67,7 +71,8 @@ def read_sliders(n: int, k: int, it: int, rec: FloatArray, info: IntArray, s: Fl
 @njit(cache=True)
 def run_targets_on_mujoco(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, targets: FloatArray, k0: int, it0: int, s: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple, targets: FloatArray, k0: int, it0: int,
+    s: FloatArray,
     cmd: FloatArray, state: FloatArray, rec: FloatArray, irec: NDArray[np.int64],
     info: NDArray[np.int64], fail: FloatArray, slider_qpos: NDArray[np.intp],
     fns: NDArray[np.intp], model: int, data: int, substeps: int, dt: float, steps: FloatArray,
@@ -79,9 +84,10 @@ def run_targets_on_mujoco(
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] (from iteration it0 of target k0) on the MuJoCo plant.
 
-    state = (lambda, plant time [s], dt [s]); cmd (6,) holds the last slider command. On
-    return info = (records written, target reached, detail) and, after PAUSED (the record block
-    is full), info[1], info[2] are the target and iteration to resume from.
+    state = (lambda, plant time [s], dt [s]); cmd (6,) holds the last slider command (for the
+    QP the same array as qpa's cmd: `qp_kernels.loop_qp`). On return info = (records written,
+    target reached, detail) and, after PAUSED (the record block is full), info[1], info[2] are
+    the target and iteration to resume from.
     """
     w, d, f, v = np.empty(6), np.empty(7), np.empty(7), np.empty(6)
     J, A = np.empty((BLOCK_ROWS, 7)), np.empty((6, 6))
@@ -95,7 +101,7 @@ def run_targets_on_mujoco(
         for it in range(it0 if k == k0 else 0, max_it + 1):
             if not read_sliders(n, k, it, rec, info, s, qpos, slider_qpos):
                 return PAUSED
-            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds,
+            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds, qpa,
                                          targets[k], kind == 1, tip_t, trocar, s, state, k,
                                          it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
             if status == STEPPED:
@@ -135,9 +141,10 @@ def run_phase_on_mujoco(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     head: tuple[Any, ...] = (
         robot_params(controller.robot), code, K, damping, tol,
-        cfg.max_iterations, cfg.drift_correction, loop_bounds(controller), targets,
+        cfg.max_iterations, cfg.drift_correction, loop_bounds(controller),
+        fast_cache.qp_kernels().loop_qp(), targets,
     )  # fmt: skip
-    s, cmd, fail = np.empty(6), plant.command, np.empty(24)
+    s, cmd, fail = np.empty(6), plant.command, np.empty(FAIL_WIDTH)
     plant_args = (arrays.slider_qpos, *arrays.args())
     kernel: Any = run_targets_on_mujoco
 

@@ -19,6 +19,7 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.records import (
     BLOCK,
     DONE,
+    FAIL_WIDTH,
     NO_TIP,
     PAUSED,
     STEPPED,
@@ -52,9 +53,9 @@ def run_phase_compiled(
     _, damping, tol = solver_arrays(solver)
     bounds = loop_bounds(controller)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    fail = np.empty(24)
+    fail = np.empty(FAIL_WIDTH)
     args = (robot_params(robot), code, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, bounds, targets)  # fmt: skip
+            cfg.drift_correction, bounds, fast_cache.qp_kernels().loop_qp(), targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip
@@ -101,7 +102,7 @@ def run_phase_on_plant(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> None:
     """Algorithm 1 on each target with any plant: the plant steps in Python, each iteration's
-    kinematics, error, record and step in one compiled call (`fast_loop.iterate`)."""
+    kinematics, error, record and step in one compiled call (`loop.iterate`)."""
     loop = fast_cache.loop_kernels()
     robot, plant, cfg = controller.robot, controller.plant, controller.settings
     code = method_code(solver)
@@ -109,7 +110,8 @@ def run_phase_on_plant(
     bounds = loop_bounds(controller)
     P, state = robot_params(robot), np.array([controller.lam, plant.time, plant.dt])
     rec, irec = np.empty((BLOCK, 35)), np.empty((BLOCK, 2), dtype=np.int64)
-    info, fail = np.zeros(3, dtype=np.int64), np.empty(24)
+    info, fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)
+    qpa = fast_cache.qp_kernels().loop_qp()
     w, d, f, J, A = np.empty(6), np.empty(6), np.empty(6), np.empty((6, 6)), np.empty((6, 6))
     tip_t, trocar = np.empty(3), np.full(3, np.nan)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
@@ -121,7 +123,7 @@ def run_phase_on_plant(
             if kind >= 0:
                 state[1] = plant.time
                 status = loop.iterate(P, code, K, damping, tol, cfg.max_iterations,
-                                      cfg.drift_correction, bounds, targets[k], kind == 1,
+                                      cfg.drift_correction, bounds, qpa, targets[k], kind == 1,
                                       tip_t, trocar, plant.read_actuators(), state, it, rec[n],
                                       fail, info, w, d, f, J, A)  # fmt: skip
             if it > 0 and kind >= 0:

@@ -20,7 +20,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import qp_rows
 from rcmplan.compiled.daqp_c import EQUALITY
 from rcmplan.compiled.kernels import task
-from rcmplan.compiled.qp_rows import X, assemble, solve_assembled, solve_planned
+from rcmplan.compiled.qp_rows import X, assemble, lead_error, solve_assembled, solve_planned
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.limits.rows import times
 from rcmplan.robot.iramis_kernels import (
@@ -28,6 +28,7 @@ from rcmplan.robot.iramis_kernels import (
     joints_from_actuators,
     point,
     point_jacobian,
+    trig,
 )
 
 __all__ = [
@@ -36,6 +37,8 @@ __all__ = [
     "X",
     "buffers",
     "build_step",
+    "iteration_error",
+    "loop_qp",
     "solve_servo_step",
     "solve_step",
     "step_joints",
@@ -48,6 +51,21 @@ N_BOUNDS = N_VAR
 def buffers() -> tuple:
     """The arrays one step's solve works in (`qp_rows.buffers`)."""
     return qp_rows.buffers(N_VAR)
+
+
+def loop_qp(
+    params: tuple[FloatArray, FloatArray] | None = None,
+    res: FloatArray | None = None,
+    cmd: FloatArray | None = None,
+) -> tuple:
+    """The QP's arrays as the iRAM!S loop reads them (`loop.iterate`'s qpa): (Q, contacts,
+    `buffers()`, res, cmd). params: `qp_params.qp_params`'s (Q, contacts), None for a loop of
+    another method (arrays of the same types, never read); res (6,) the plant's slider
+    resolution and cmd (6,) its last command when the plant is the QP's servo (`QpSolver.
+    servo`), the same array the loop commands through."""
+    Q, contacts = params if params is not None else (np.zeros(0), np.zeros((0, 3)))
+    return (Q, contacts, buffers(), np.zeros(0) if res is None else res,
+            np.zeros(6) if cmd is None else cmd)  # fmt: skip
 
 
 @njit(cache=True)
@@ -126,6 +144,32 @@ def solve_servo_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: Floa
     solved; returns DAQP's exit flag (1: optimal)."""
     rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
     return solve_planned(Q, K, rows, e, e_plan, qp)
+
+
+@njit(cache=True)
+def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float,
+                    target: FloatArray, fail: FloatArray, qpa: tuple) -> int:  # fmt: skip
+    """The QP's solve of one loop iteration at joints q (`QpSolver.error`): its error into
+    fail[18:24] and the actuators it was built at into fail[24:30]; returns DAQP's exit flag
+    (1: optimal), the solution in qpa[2][X]. qpa = (Q, contacts, qp, res, cmd) (`qp_params.
+    loop_qp`): with a servo (res (6,), the plant's slider resolution; cmd (6,), its last
+    command) the QP is planned from the command as the plant rounds it, its error the plan's
+    plus the command's lead (`lead_error`, fail[30:48] its scratch); without (res empty) it
+    is built at q."""
+    Q, contacts, qp, res, cmd = qpa
+    e, s_qp = fail[18:24], fail[24:30]
+    if res.shape[0] == 0:
+        return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp)
+    e_plan, q_plan, x_now = fail[30:36], fail[36:42], fail[42:48]
+    for i in range(6):  # the command as the plant rounds it (`QpSolver.planned_joints`)
+        x_now[i] = np.rint(cmd[i] / res[i]) * res[i]
+    joints_from_actuators(P, x_now, q_plan)
+    flag = solve_servo_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,
+                            e_plan, qp)  # fmt: skip
+    if flag == 1:
+        task(P, q, tr, lam, x_now)  # X_ext at the measured joints
+        lead_error(Q, qp[X], target, x_now, e_plan, e)
+    return flag
 
 
 @njit(cache=True)

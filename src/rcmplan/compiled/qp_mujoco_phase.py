@@ -1,5 +1,5 @@
-"""The QP controller's phases on the dynamic MuJoCo plant in compiled code (`qp_mujoco_loop`),
-behind the runner seam.
+"""The QP controller's phases on the dynamic MuJoCo plant in the compiled loop around it
+(`mujoco_loop.run_targets_on_mujoco` with method QP), behind the runner seam.
 
 Applies to a `QpSolver` itself (exact type) with the DAQP back end, a straight needle, and the
 controller's plant as its servo (`QpSolver.servo`: steps planned from the plant's last command
@@ -25,7 +25,7 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.phase import IntArray
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import raise_qp_stop
-from rcmplan.compiled.records import loop_bounds, robot_params, solver_arrays
+from rcmplan.compiled.records import FAIL_WIDTH, QP, loop_bounds, robot_params, solver_arrays
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 
@@ -75,21 +75,21 @@ def run_qp_phase_on_mujoco(
     module docstring)."""
     plant = cast("MujocoPlant", controller.plant)
     robot, cfg = controller.robot, controller.settings
-    loop = fast_cache.qp_mujoco_loop()
-    K, _, tol = solver_arrays(solver)
+    loop = fast_cache.closed_loop()
+    K, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     res = np.ascontiguousarray(plant.actuator_resolution, dtype=np.float64)
-    head = (robot_params(robot), *params, K, tol, cfg.max_iterations, cfg.drift_correction,
-            loop_bounds(controller), targets)  # fmt: skip
     s, cmd = np.empty(6), np.array(plant.command, dtype=np.float64)
-    fail = np.empty(loop.FAIL_WIDTH)
-    tail = (fail, fast_cache.qp_kernels().buffers(), arrays.slider_qpos, *arrays.args())
+    qpa = fast_cache.qp_kernels().loop_qp(params, res, cmd)
+    head = (robot_params(robot), QP, K, damping, tol, cfg.max_iterations,
+            cfg.drift_correction, loop_bounds(controller), qpa, targets)  # fmt: skip
+    fail = np.empty(FAIL_WIDTH)
+    tail = (fail, arrays.slider_qpos, *arrays.args())
 
     def run(k0: int, it0: int, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip
-        return int(loop.run_targets_qp_on_mujoco(*head, k0, it0, s, cmd, res, state, rec, irec,
-                                                 info, *tail))  # fmt: skip
+        return int(loop.run_targets_on_mujoco(*head, k0, it0, s, cmd, state, rec, irec, info,
+                                              *tail))  # fmt: skip
 
-    blocks = fast_cache.closed_loop().run_in_blocks_on_mujoco
-    status, info = blocks(controller, cmd, pid, sid, run)
+    status, info = loop.run_in_blocks_on_mujoco(controller, cmd, pid, sid, run)
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)

@@ -1,4 +1,5 @@
-"""The QP controller's phases in compiled code (`qp_loop`), behind the runner seam.
+"""The QP controller's phases in the compiled iRAM!S loop (`loop.run_targets` with method QP),
+behind the runner seam.
 
 Applies to a `QpSolver` itself (exact type: a subclass may change its step) with the DAQP back
 end and a straight needle, on a plant whose commands are reached exactly (the kinematic plant),
@@ -27,6 +28,8 @@ from rcmplan.compiled.phase import IntArray, run_in_blocks
 from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.records import (
     DONE,
+    FAIL_WIDTH,
+    QP,
     QP_FAILED,
     loop_bounds,
     raise_stop,
@@ -93,15 +96,15 @@ def run_qp_phase(
 ) -> None:  # fmt: skip
     """Algorithm 1 with the QP on each target in turn, compiled (see the module docstring)."""
     robot, cfg = controller.robot, controller.settings
-    K, _, tol = solver_arrays(solver)
+    K, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    fail, qp = np.empty(30), fast_cache.qp_kernels().buffers()
-    args = (robot_params(robot), *params, K, tol, cfg.max_iterations, cfg.drift_correction,
-            loop_bounds(controller), targets)  # fmt: skip
+    fail = np.empty(FAIL_WIDTH)
+    args = (robot_params(robot), QP, K, damping, tol, cfg.max_iterations, cfg.drift_correction,
+            loop_bounds(controller), fast_cache.qp_kernels().loop_qp(params), targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip
-        return int(loop.run_targets_qp(*args, k0, s, state, rec, irec, info, fail, qp))
+        return int(loop.run_targets(*args, k0, s, state, rec, irec, info, fail))
 
     status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET)
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)

@@ -31,8 +31,8 @@ PINV, PINV_THESIS, DLS, TIP = 0, 1, 2, 3  # method codes of the kernels
 # The QP's free-space step (`LimitedTipSolver`): the TIP step scaled to hold the actuators'
 # speed and travel (and a tip speed). The iRAM!S loop (`iramis_method`) and the arm loop run it.
 TIP_LIMITED = 4
-# The QP controller on a serial arm, in the arm loop (`arm_phase.arm_code`); on iRAM!S it has its
-# own loops (`qp_loop`, `qp_mujoco_loop`)
+# The QP controller: one solve gives an iteration's error and step, in the arm loop
+# (`arm_phase.arm_code`) and the iRAM!S loop (`qp_phase`, `qp_mujoco_phase`)
 QP = 5
 # A curved needle's methods (`rcmplan.control.curved`): codes from CURVED on (X_c, 7 rows)
 CURVED = 16
@@ -46,7 +46,9 @@ REC_COLUMNS = {"time": (0, 1), "sliders": (1, 7), "joints": (7, 13), "lam": (13,
                "target_tip": (26, 29), "error": (29, 35)}  # fmt: skip
 REC_WIDTH = 35
 VECTORS = tuple(k for k, (a, b) in REC_COLUMNS.items() if b - a > 1)
-FAIL_WIDTH = 25  # a stop's (q, q_new, s_new, error (7,)) of the iRAM!S loop (24 suffice straight)
+# fail of the iRAM!S loop: (q, q_new, s_new, error (6,), or (7,) curved); the QP's actuators
+# s_qp and a servo's scratch after the error (`loop.iterate`)
+FAIL_WIDTH = 48
 
 
 def record_columns(n: int, roll: bool = False) -> dict[str, tuple[int, int]]:
