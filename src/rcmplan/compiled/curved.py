@@ -129,7 +129,7 @@ def _iramis_maps(robot: CurvedTipRobot, P: FloatArray, q: FloatArray) -> bool:
     s, back = np.empty(6), np.empty(6)
     k.actuators_from_joints(P, q, s)
     k.joints_from_actuators(P, s, back)
-    measure = min(abs(math.cos(q[1])), abs(math.cos(q[3])))
+    measure = k.singular_measure(math.cos(q[1]), math.cos(q[3]))
     return bool(
         np.allclose(s, robot.actuators_from_joints(q), rtol=0.0, atol=PROBE_TOL)
         and np.allclose(back, robot.joints_from_actuators(s), rtol=0.0, atol=PROBE_TOL)

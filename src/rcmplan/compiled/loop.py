@@ -62,6 +62,8 @@ from rcmplan.robot.iramis_kernels import (
     joints_from_actuators,
     point,
     point_jacobian,
+    pose_joints,
+    singular_measure,
     tip_jacobian,
     trig,
 )
@@ -275,7 +277,7 @@ def iterate(
         return DONE
     if it == max_it:
         return NO_CONVERGENCE
-    if min(abs(tr[0]), abs(tr[2])) < bounds[0]:
+    if singular_measure(tr[0], tr[2]) < bounds[0]:
         return SINGULAR
     if method == QP:
         return qp_step(P, q, fail[24:30], qpa[2][X], trocar, bounds, state, fail, info, w)
@@ -472,7 +474,7 @@ def pose_clear(
         if not math.isfinite(x[i]):
             return False
     phi, psi = x[1], x[2]
-    if min(abs(math.cos(phi)), abs(math.cos(psi))) < thr + margin:
+    if singular_measure(math.cos(phi), math.cos(psi)) < thr + margin:
         return False
     if not x_ext_tip(x, a, tip) or abs(a[0]) < 2e-12:
         return False
@@ -482,11 +484,7 @@ def pose_clear(
     lam = 1.0 - depth / P[5]
     if lam < -1e-9 + margin or lam > 1.0 + 1e-9 - margin:
         return False
-    c1, s1, c3, s3 = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
-    w = (P[1] * s1 - P[4] * c1 * s3 - tip[0]) / (c1 * c3)  # x row of eq. 2.7
-    q[0] = tip[2] - (P[0] + P[1] * c1 + s1 * c3 * w + P[4] * s1 * s3)
-    q[1], q[3], q[4], q[5] = phi, psi, w - P[5], 0.0
-    q[2] = tip[1] - (P[2] + P[3] - s3 * w + P[4] * c3)
+    pose_joints(P, phi, psi, tip, q)
     if not actuators_from_joints(P, q, s):
         return False
     for i in range(6):  # noqa: SIM110

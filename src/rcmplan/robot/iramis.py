@@ -338,7 +338,7 @@ class Iramis:
 
         Raises InvalidInputError unless q is 6 finite numbers."""
         q1, q3 = _angles(q)
-        return min(abs(math.cos(q1)), abs(math.cos(q3)))
+        return float(kernels.singular_measure(math.cos(q1), math.cos(q3)))
 
     @staticmethod
     def singular_terms(q: Sequence[float] | FloatArray) -> tuple[FloatArray, FloatArray]:
@@ -385,18 +385,15 @@ class Iramis:
         psi = scalar("psi", psi, -math.pi, math.pi)
         if seed is not None:
             vector("seed", seed, 6)
-        p = self.params
-        thr = p.singular_threshold
-        if min(abs(math.cos(phi)), abs(math.cos(psi))) < thr:
+        thr = self.params.singular_threshold
+        if kernels.singular_measure(math.cos(phi), math.cos(psi)) < thr:
             raise UnreachableTargetError(
                 f"needle angles (phi, psi) = ({phi:.4g}, {psi:.4g}) rad leave the reach "
                 f"|cos phi|, |cos psi| >= {thr:g}"
             )
-        c1, s1, c3, s3 = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
-        w = (p.l2 * s1 - p.l5 * c1 * s3 - tip[0]) / (c1 * c3)  # x row of eq. 2.7
-        q2 = tip[1] - (p.l3 + p.l4 - s3 * w + p.l5 * c3)  # y row
-        q0 = tip[2] - (p.l1 + p.l2 * c1 + s1 * c3 * w + p.l5 * s1 * s3)  # z row
-        return np.array([q0, phi, q2, psi, w - p.l6, 0.0])
+        q = np.empty(6)
+        kernels.pose_joints(self.P, phi, psi, tip, q)
+        return q
 
     def assumptions(self) -> list[Assumption]:
         """Every model parameter with its source, thesis or assumed."""

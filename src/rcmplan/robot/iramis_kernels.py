@@ -84,6 +84,25 @@ def point(P: FloatArray, q: FloatArray, tr: tuple, lam: float, out: FloatArray) 
 
 
 @njit(cache=True)
+def singular_measure(c1: float, c3: float) -> float:
+    """min(|cos q1|, |cos q3|) from c1 = cos q1, c3 = cos q3 (`trig`'s tr[0], tr[2]): zero
+    exactly on the singular set of J_a and J_0^5 (NOTES.md)."""
+    return min(abs(c1), abs(c3))
+
+
+@njit(cache=True)
+def pose_joints(P: FloatArray, phi: float, psi: float, tip: FloatArray, q: FloatArray) -> None:
+    """Joints (q5 = 0) putting the tip at `tip` (3,) [m] with needle angles (phi, psi) [rad]
+    into q (6,): phi = q1, psi = q3, then w = q4 + l6 from the x row of eq. 2.7 (`point` at
+    lambda = 1), q2 from its y row and q0 from its z row. Needs cos phi cos psi != 0."""
+    c1, s1, c3, s3 = math.cos(phi), math.sin(phi), math.cos(psi), math.sin(psi)
+    w = (P[1] * s1 - P[4] * c1 * s3 - tip[0]) / (c1 * c3)  # x row
+    q[0] = tip[2] - (P[0] + P[1] * c1 + s1 * c3 * w + P[4] * s1 * s3)  # z row
+    q[1], q[3], q[4], q[5] = phi, psi, w - P[5], 0.0
+    q[2] = tip[1] - (P[2] + P[3] - s3 * w + P[4] * c3)  # y row
+
+
+@njit(cache=True)
 def needle_point(P: FloatArray, q: FloatArray, lam: float, out: FloatArray) -> None:
     """p(lambda) in [m] into out (3,)."""
     point(P, q, trig(q), lam, out)
