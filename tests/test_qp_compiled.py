@@ -293,6 +293,21 @@ def test_the_limited_free_step_with_a_tip_speed_runs_compiled_and_equals_the_ref
     assert np.sum(moves >= 0.99 * bound) > 10  # the tip speed bound was active
 
 
+def test_a_limited_step_below_the_tip_speed_is_not_lengthened(robot: Iramis) -> None:
+    """A tip step shorter than tip speed x dt (and within every actuator's speed) is taken as
+    it is, compiled as in the reference: the factor never exceeds 1."""
+    tip = robot.tip(robot.home)
+    phases = [Phase("short", np.array([tip + np.array([0.3e-6, 0.2e-6, 0.0])]), "free")]
+    free = LimitedTipSolver(tip_speed=2e-3)  # 2 um per period, ~6x the step
+    (ref, _), (fast, cb) = both(
+        robot, lambda: Controller(KinematicPlant(robot), PinvSolver(), free), phases
+    )
+    assert isinstance(ref, RunLog) and isinstance(fast, RunLog)
+    assert cb.phase_paths == {"short": "compiled"}
+    assert_same_log(ref, fast)
+    assert len(fast) <= 3  # the first step lands on the target (to first order)
+
+
 def test_the_compiled_limited_step_stops_at_the_travel_margin_as_the_reference_does(
     robot: Iramis,
 ) -> None:

@@ -64,6 +64,7 @@ from rcmplan.compiled.records import (
     STEPPED,
     TIP_LIMITED,
 )
+from rcmplan.control.limited_tip import step_fraction, tip_fraction
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.robot.needle import axis_angles, axis_into, closest_point
 
@@ -225,29 +226,16 @@ def limit_step(K: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: Flo
     K[j] (speed x dt) and inside its travel [K[m + j], K[2m + j]] less the margin K[3m] (a
     joint outside that band may only move back), and with a tip speed bound K[3m + 1] > 0
     (tip speed x dt) each component of the tip's first-order step J_tip d (W's J rows, left
-    by the step) within it; d becomes (s + f ds) - s, ds = (s + d) - s."""
+    by the step) within it; d becomes (s + f ds) - s, ds = (s + d) - s
+    (`limited_tip.step_fraction`, `tip_fraction`)."""
     n, m = ix[0], ix[1]
-    f, margin = 1.0, K[3 * m]
-    if K[3 * m + 1] > 0.0:
-        o, tip = 4 * (n + 1), 0.0
-        for i in range(3):
-            acc = 0.0
-            for j in range(m):
-                acc += W[o + i, j] * d[j]
-            tip = max(tip, abs(acc))
-        if tip > 0.0:
-            f = min(f, K[3 * m + 1] / tip)
+    f = tip_fraction(W, 4 * (n + 1), d, m, K[3 * m + 1])
+    s_active = np.empty(m)
     for j in range(m):
         k = ix[2 + n + j]
+        s_active[j] = s[k]
         d[j] = (s[k] + d[j]) - s[k]
-        if abs(d[j]) > 0.0:
-            f = min(f, K[j] / abs(d[j]))
-    for j in range(m):
-        k, lo, hi = ix[2 + n + j], K[m + j] + margin, K[2 * m + j] - margin
-        if d[j] > 0.0 and s[k] + f * d[j] > hi:
-            f = min(f, max(0.0, (hi - s[k]) / d[j]))
-        elif d[j] < 0.0 and s[k] + f * d[j] < lo:
-            f = min(f, max(0.0, (lo - s[k]) / d[j]))
+    f = step_fraction(s_active, d[:m], K[:m], K[m : 2 * m], K[2 * m : 3 * m], K[3 * m], f)
     for j in range(m):
         k = ix[2 + n + j]
         d[j] = (s[k] + f * d[j]) - s[k]

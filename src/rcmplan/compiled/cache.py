@@ -119,8 +119,9 @@ def clear_stale() -> None:
 
 def kernel_sources() -> list[Path]:
     """The files that hold rcmplan's numba kernels (a test keeps the list whole): this folder,
-    the robot kernels, the control kernels (the step bound, the cost, the limits' rows), the
-    compiled MuJoCo plant and the iOCT B-scan's rendering and segmentation."""
+    the robot kernels, the control kernels (the step bound, the cost, the limited step, the
+    limits' rows), the compiled MuJoCo plant and the iOCT B-scan's rendering and
+    segmentation."""
     package = Path(__file__).parent.parent
     robot, control, subretinal = package / "robot", package / "control", package / "subretinal"
     return [
@@ -129,6 +130,7 @@ def kernel_sources() -> list[Path]:
                                        "needle")),
         control / "rcm_step.py",
         control / "cost.py",
+        control / "limited_tip.py",
         *sorted((control / "limits").glob("*.py")),
         package / "sim" / "mujoco" / "compiled.py",
         *(subretinal / f"{m}.py" for m in ("ioct", "segment_filters", "segment_kernels")),

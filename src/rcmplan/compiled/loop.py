@@ -54,6 +54,7 @@ from rcmplan.compiled.records import (
     TIP,
     TIP_LIMITED,
 )
+from rcmplan.control.limited_tip import step_fraction, tip_fraction
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.control.solvers import PIVOT_DISTANCE
 from rcmplan.robot.iramis_kernels import (
@@ -312,32 +313,16 @@ def limit_step(
     within its move per period K[i] and inside its travel less the margin K[6] (one outside
     that band may only move back), and with a tip speed bound K[7] > 0 (tip speed x dt) each
     component of the tip's first-order step J[:3, :5] d within it (J: the tip Jacobian the
-    step left); d becomes joints(s + f ds) - q. s, x, ds (6,) are scratch. A step no sliders
-    realise is left as it is (the travel check then stops the loop)."""
-    f = 1.0
-    if K[7] > 0.0:
-        tip = 0.0
-        for i in range(3):
-            acc = 0.0
-            for j in range(5):
-                acc += J[i, j] * d[j]
-            tip = max(tip, abs(acc))
-        if tip > 0.0:
-            f = K[7] / tip
+    step left); d becomes joints(s + f ds) - q (`limited_tip.step_fraction`, `tip_fraction`).
+    s, x, ds (6,) are scratch. A step no sliders realise is left as it is (the travel check
+    then stops the loop)."""
     for i in range(6):
         x[i] = q[i] + d[i] if i < 5 else q[i]
     if not actuators_from_joints(P, q, s) or not actuators_from_joints(P, x, ds):
         return
     for i in range(6):
         ds[i] -= s[i]
-        if abs(ds[i]) > 0.0:
-            f = min(f, K[i] / abs(ds[i]))
-    for i in range(6):
-        lo, hi = P[7 + i] + K[6], P[13 + i] - K[6]
-        if ds[i] > 0.0 and s[i] + f * ds[i] > hi:
-            f = min(f, max(0.0, (hi - s[i]) / ds[i]))
-        elif ds[i] < 0.0 and s[i] + f * ds[i] < lo:
-            f = min(f, max(0.0, (lo - s[i]) / ds[i]))
+    f = step_fraction(s, ds, K[:6], P[7:13], P[13:19], K[6], tip_fraction(J, 0, d, 5, K[7]))
     for i in range(6):
         s[i] += f * ds[i]
     joints_from_actuators(P, s, x)

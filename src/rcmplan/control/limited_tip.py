@@ -11,6 +11,9 @@ whole increment keeps its direction, so the tip still heads for its target (the 
 tip motion is f times the unscaled one). An actuator already outside the margin band (a home
 pose in it) may move back towards the band, never further out. With a tip speed bound, f also
 keeps each component of the tip's step (to first order, J_tip dq) within tip_speed x dt.
+
+The two factors are kernels (`step_fraction`, `tip_fraction`) that this solver and the compiled
+loops' limited steps (iRAM!S `loop.limit_step`, arms `arm_loop.limit_step`) call alike.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.solvers import SolverKind, TipSolver, Tolerance
@@ -70,12 +74,11 @@ class LimitedTipSolver:
     ) -> tuple[FloatArray, float]:
         """The tip step scaled by `scale_factor`; lambda unchanged."""
         dq, _ = self._tip.step(robot, q, lam, target, error)
-        bound = None
+        f = 1.0
         if self.tip_speed is not None:
-            tip_step = float(np.max(np.abs(TIP_POSITION.jacobian(robot, q, lam)[:, :-1] @ dq)))
-            if tip_step > 0.0:
-                bound = self.tip_speed * self.dt / tip_step
-        return limited_step(robot, q, dq, self.dt, self.travel_margin, bound), 0.0
+            J = np.ascontiguousarray(TIP_POSITION.jacobian(robot, q, lam))
+            f = tip_fraction(J, 0, dq, dq.shape[0], self.tip_speed * self.dt)
+        return limited_step(robot, q, dq, self.dt, self.travel_margin, f), 0.0
 
 
 def limited_step(
@@ -84,20 +87,18 @@ def limited_step(
     dq: FloatArray,
     dt: float,
     margin: float,
-    at_most: float | None = None,
+    at_most: float = 1.0,
 ) -> FloatArray:
     """The joint step dq (of the active joints) shortened along the actuators' motion so that
     each actuator moves at most speed x dt and stays within travel less `margin`
-    (`scale_factor`), and by at most the factor `at_most` (None: 1); the joints recovered
+    (`step_fraction`), and by at most the factor `at_most` (in [0, 1]); the joints recovered
     exactly through the actuator map."""
     active = list(robot.active)
     s = robot.actuators_from_joints(q)
     q_full = q.copy()
     q_full[active] += dq
     ds = robot.actuators_from_joints(q_full) - s
-    f = scale_factor(robot, s, ds, dt, margin)
-    if at_most is not None:
-        f = min(f, at_most)
+    f = step_fraction(s, ds, robot.speed * dt, robot.lower, robot.upper, margin, at_most)
     return np.asarray((robot.joints_from_actuators(s + f * ds) - q)[active], dtype=float)
 
 
@@ -105,16 +106,41 @@ def scale_factor(
     robot: RobotModel, s: FloatArray, ds: FloatArray, dt: float, margin: float
 ) -> float:
     """The largest f in [0, 1] with |f ds_i| <= speed_i dt and s + f ds inside the travel less
-    the margin for every actuator (an actuator outside the band may only move back)."""
-    f = 1.0
-    limit = robot.speed * dt
-    moving = np.abs(ds) > 0.0
-    if np.any(moving):
-        f = min(f, float(np.min(limit[moving] / np.abs(ds[moving]))))
-    lo, hi = robot.lower + margin, robot.upper - margin
-    for i in np.flatnonzero(moving):
-        if ds[i] > 0.0 and s[i] + f * ds[i] > hi[i]:
-            f = min(f, max(0.0, (hi[i] - s[i]) / ds[i]))
-        elif ds[i] < 0.0 and s[i] + f * ds[i] < lo[i]:
-            f = min(f, max(0.0, (lo[i] - s[i]) / ds[i]))
+    the margin for every actuator (an actuator outside the band may only move back):
+    `step_fraction` with the robot's speed, travel and control period dt [s]."""
+    s = np.ascontiguousarray(s, dtype=np.float64)
+    ds = np.ascontiguousarray(ds, dtype=np.float64)
+    return float(step_fraction(s, ds, robot.speed * dt, robot.lower, robot.upper, margin, 1.0))
+
+
+@njit(cache=True)
+def step_fraction(s: FloatArray, ds: FloatArray, limit: FloatArray, lower: FloatArray,
+                  upper: FloatArray, margin: float, f: float) -> float:  # fmt: skip
+    """The largest factor in [0, f] (f <= 1) scaling the actuators' increment ds (n,) from s
+    (n,) so that each moves at most limit_i and stays inside [lower_i + margin, upper_i -
+    margin]; an actuator already outside that band may only move back towards it."""
+    for i in range(s.shape[0]):
+        if abs(ds[i]) > 0.0:
+            f = min(f, limit[i] / abs(ds[i]))
+    for i in range(s.shape[0]):
+        lo, hi = lower[i] + margin, upper[i] - margin
+        if ds[i] > 0.0 and s[i] + f * ds[i] > hi:
+            f = min(f, max(0.0, (hi - s[i]) / ds[i]))
+        elif ds[i] < 0.0 and s[i] + f * ds[i] < lo:
+            f = min(f, max(0.0, (lo - s[i]) / ds[i]))
     return f
+
+
+@njit(cache=True)
+def tip_fraction(J: FloatArray, r: int, d: FloatArray, m: int, bound: float) -> float:
+    """The largest factor in [0, 1] keeping each component of the tip's first-order step
+    J[r:r + 3, :m] d within bound [m] (tip speed x dt); 1 for bound <= 0 or no tip motion."""
+    if not bound > 0.0:
+        return 1.0
+    tip = 0.0
+    for i in range(3):
+        acc = 0.0
+        for j in range(m):
+            acc += J[r + i, j] * d[j]
+        tip = max(tip, abs(acc))
+    return min(1.0, bound / tip) if tip > 0.0 else 1.0
