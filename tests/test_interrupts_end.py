@@ -42,6 +42,7 @@ COMMANDS = {  # command line, the files that must be left, a summary key that mu
         ["targets.csv"],
         "checkpoint",
     ),
+    "reproduce": (["reproduce"], ["figures/pivot.png"], "experiments"),
     "subretinal": (["subretinal", "--no-plots"], ["log.npz", "episode.npz"], None),
     "teleop": (["teleop", "--no-plots"], ["log.npz", "log.csv", "teleop.npz"], "periods"),
 }

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 from typing import Any
 
 from rcmplan.cli import interrupts
 from rcmplan.cli.common import add_json, add_no_plots, add_out
-from rcmplan.cli.output import print_json
+from rcmplan.cli.output import interrupted_message, print_json
 
 HEAD = ["experiment", "setting", "max RCM dev. [um]", "iterations / steps", "per step",
         "wall [s]", "status"]  # fmt: skip
@@ -76,29 +77,30 @@ REPORTED_HEAD = ["experiment", "RCM deviation", "iterations", "time", "source"]
 
 def run(args: argparse.Namespace) -> int:
     """Run each experiment with the thesis setting (as interpreted) and rcmplan's; write
-    summary.json (one row per experiment) and a figure per experiment in OUT/figures."""
-    from rcmplan._atomic import write_text
+    summary.json (one row per experiment) and a figure per experiment in OUT/figures.
+
+    Interrupted (SIGINT, SIGTERM), it writes summary.json with status "interrupted", the rows
+    of the experiments that finished and their figures, then re-raises (exit 130 or 143).
+    """
     from rcmplan.analysis import thesis
-    from rcmplan.analysis.report import jsonable, prepare_folder
-    from rcmplan.cli import thesis_hypothesis
+    from rcmplan.analysis.report import prepare_folder
     from rcmplan.cli.output import table
 
     out = prepare_folder(args.out)
-    rows, figures = [], {}
-    for key, experiment in thesis.EXPERIMENTS.items():
-        outcomes = {setting: experiment(setting) for setting in ("thesis", "rcmplan")}
-        outcomes["hypothesis"] = thesis_hypothesis.EXPERIMENTS[key]()
-        rows.append(experiment_row(key, outcomes))
-        if not args.no_plots:
-            from rcmplan.cli.thesis_figures import experiment_figure
-
-            title = outcomes["thesis"].experiment
-            path = experiment_figure(key, title, outcomes, out / "figures" / f"{key}.png")
-            figures[key] = str(path)
-    doc = {"command": "reproduce", "status": "ok", "message": "", "experiments": rows,
-           "figures": figures}  # fmt: skip
-    write_text(out / "summary.json", json.dumps(jsonable(doc), indent=2))
-    interrupts.finished()
+    rows: list[dict[str, Any]] = []
+    figures: dict[str, str] = {}
+    try:
+        with interrupts.surfaced():
+            run_experiments(out, not args.no_plots, rows, figures)
+            doc = summary(rows, figures, "ok", "")
+            write_summary(out, doc)
+            interrupts.finished()  # inside the handling below: no instant falls between
+    except KeyboardInterrupt as exc:
+        with interrupts.shielded():
+            where = f"during the run, after {len(rows)} of {len(thesis.EXPERIMENTS)} experiments"
+            write_summary(out, summary(rows, figures, "interrupted",
+                                       interrupted_message(exc, where)))  # fmt: skip
+        raise
     if args.json:
         print_json(doc)
         return 0
@@ -115,3 +117,39 @@ def run(args: argparse.Namespace) -> int:
           "precision, measured: docs/thesis.md (python benchmarks/thesis_study.py).")  # fmt: skip
     print(f"\noutputs in {out}/")
     return 0
+
+
+def run_experiments(
+    out: Path, plots: bool, rows: list[dict[str, Any]], figures: dict[str, str]
+) -> None:
+    """Each experiment with every setting, appending its row to `rows` as it finishes, then
+    its figure (out/figures/<experiment>.png) to `figures` when `plots`."""
+    from rcmplan.analysis import thesis
+    from rcmplan.cli import thesis_hypothesis
+
+    for key, experiment in thesis.EXPERIMENTS.items():
+        outcomes = {setting: experiment(setting) for setting in ("thesis", "rcmplan")}
+        outcomes["hypothesis"] = thesis_hypothesis.EXPERIMENTS[key]()
+        rows.append(experiment_row(key, outcomes))
+        if plots:
+            from rcmplan.cli.thesis_figures import experiment_figure
+
+            title = outcomes["thesis"].experiment
+            path = experiment_figure(key, title, outcomes, out / "figures" / f"{key}.png")
+            figures[key] = str(path)
+
+
+def summary(
+    rows: list[dict[str, Any]], figures: dict[str, str], status: str, message: str
+) -> dict[str, Any]:
+    """summary.json's content: the experiments' rows and figures so far, with the status."""
+    return {"command": "reproduce", "status": status, "message": message, "experiments": rows,
+            "figures": figures}  # fmt: skip
+
+
+def write_summary(out: Path, doc: dict[str, Any]) -> None:
+    """doc as out/summary.json, strict JSON written atomically."""
+    from rcmplan._atomic import write_text
+    from rcmplan.analysis.report import jsonable
+
+    write_text(out / "summary.json", json.dumps(jsonable(doc), indent=2))

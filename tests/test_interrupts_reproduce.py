@@ -1,0 +1,88 @@
+"""SIGINT and SIGTERM sent to a real `rcmplan reproduce` process while it runs the thesis's
+experiments and while it draws them: it leaves summary.json with status "interrupted", the
+signal, the rows of the experiments that finished and the figures it drew, exit 130 / 143, and
+no traceback or temporary file."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from test_interrupts import SRC, check_left, our_tracebacks
+
+pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs POSIX signals")
+
+# Runs `rcmplan ARGV...` as the command (program name "rcmplan"), sending itself the signal
+# SIGNAL as it enters the CALL-th call (from 1) of the function NAME of module MODULE.
+DRIVER = """
+import os, signal, sys
+module, name, call, signum = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4])
+sys.argv = ["rcmplan", *sys.argv[5:]]
+from rcmplan.cli import main
+calls = []
+def tracer(frame, event, arg):
+    if event == "call" and frame.f_code.co_name == name and (
+            frame.f_globals.get("__name__") == module):
+        calls.append(1)
+        if len(calls) == call:
+            os.kill(os.getpid(), signum)
+sys.settrace(tracer)
+sys.exit(main())
+"""
+
+INSTANTS = {  # where the signal lands: the function entered, its call, and the options
+    "running the second experiment's thesis setting": (
+        "rcmplan.analysis.thesis", "move_p3_p7", 1, ["--no-plots"]),
+    "running the second experiment's hypothesis": (
+        "rcmplan.cli.thesis_hypothesis", "move_p3_p7", 1, ["--no-plots"]),
+    "drawing the second experiment": (
+        "rcmplan.cli.thesis_figures", "experiment_figure", 2, []),
+}  # fmt: skip
+# The experiments whose rows the summary must hold, and the figures drawn, at each instant.
+EXPECTED = {
+    "running the second experiment's thesis setting": (["pivot"], []),
+    "running the second experiment's hypothesis": (["pivot"], []),
+    "drawing the second experiment": (["pivot", "p3-p7"], ["pivot"]),
+}
+
+
+def interrupt_at(out: Path, sig: int, instant: str) -> subprocess.CompletedProcess[str]:
+    """`rcmplan reproduce --out out` signalled at `instant` (INSTANTS)."""
+    module, name, call, options = INSTANTS[instant]
+    argv = [module, name, str(call), str(int(sig)), "reproduce", *options, "--out", str(out)]
+    return subprocess.run(
+        [sys.executable, "-c", DRIVER, *argv], env={**os.environ, "PYTHONPATH": SRC},
+        capture_output=True, text=True, timeout=900,
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("instant", "sig"),
+    [
+        ("running the second experiment's thesis setting", signal.SIGTERM),
+        ("running the second experiment's hypothesis", signal.SIGINT),
+        ("drawing the second experiment", signal.SIGTERM),
+    ],
+    ids=lambda v: signal.Signals(v).name if isinstance(v, signal.Signals) else v,
+)
+def test_an_interrupted_reproduce_keeps_the_experiments_that_finished(
+    instant: str, sig: int, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    proc = interrupt_at(out, sig, instant)
+    assert proc.returncode == 128 + sig and not our_tracebacks(proc.stderr), proc.stderr[-2000:]
+    check_left(out, "reproduce", proc.returncode, sig)
+    doc = json.loads((out / "summary.json").read_text())
+    rows, drawn = EXPECTED[instant]
+    assert [r["experiment"] for r in doc["experiments"]] == rows
+    assert sorted(doc["figures"]) == drawn
+    assert all(Path(doc["figures"][k]).is_file() for k in drawn)
+    assert f"during the run, after {len(rows)} of 3 experiments" in doc["message"]
+    for row in doc["experiments"]:
+        assert {row[s]["status"] for s in ("thesis", "rcmplan", "hypothesis")} == {"ok"}
