@@ -7,21 +7,24 @@ Runs tests/test_interrupts.py's harness with RCMPLAN_INTERRUPTIONS=N (default 10
 --quick through benchmarks/run.py): per command (inject, inject on the MuJoCo plant, spiral,
 compare, sweep, teleop), N real processes each get SIGINT or SIGTERM at a seeded random point
 of the run (within the shorter of two uninterrupted runs); each must leave a summary saying why
-it stopped, a loadable log or none, no temporary file and no process behind.
-One row per command: the interruptions that broke any of these (the lost logs), out of N.
+it stopped, the records it states in a loadable log (none only when it says the run stopped
+before it began), no temporary file and no process behind (`tests/run_left.py`).
+One row per command: the interruptions that broke any of these, out of N; the harness's count
+of each kind of fault goes to stderr.
 
 Then M processes of `rcmplan inject --no-plots` (default 100; 20 with --quick) each get SIGINT
 or SIGTERM at a seeded instant drawn uniformly from 0 to 1.2 times an uninterrupted run's
 duration (the median of 3), counted from the process's start (interpreter start-up and imports
-included). A run alive at the signal is answered when it exits 128 + the signal number with
-summary.json saying "interrupted" and the signal's name, or, when the signal came after its
-outputs were final, is ended by the signal with summary.json "ok"; anything else (no summary,
-a traceback, a signal ignored) is counted and printed. A run whose exit had begun when the
-signal was sent is not alive: Linux drops that signal (the process ends with the code it chose,
-0 after a run that ended "ok"), though `waitpid` still reports the process running for the
-few milliseconds its memory takes to be freed (`tests/procstat.py`, `exiting`). Rows: the
-share answered, the time from the signal to the process's end (median and largest), the share
-that ended "interrupted".
+included). A run alive at the signal is answered when `tests/run_left.py` (the harness's
+classification) finds no fault: exit 128 + the signal number with summary.json saying
+"interrupted" and the signal's name, or, when the signal came after its outputs were final,
+ended by the signal with summary.json "ok"; either way the records its summary states in a
+loadable log, no traceback, no temporary file; anything else is counted and printed. A run
+whose exit had begun when the signal was sent is not alive: Linux drops that signal (the
+process ends with the code it chose, 0 after a run that ended "ok"), though `waitpid` still
+reports the process running for the few milliseconds its memory takes to be freed
+(`tests/procstat.py`, `exiting`). Rows: the share answered, the time from the signal to the
+process's end (median and largest), the share that ended "interrupted".
 
 Then K starts (default 30; 10 with --quick) of `python -m rcmplan inject --no-plots` (python:
 this interpreter, or --python, e.g. a venv's with nothing installed: its `site` runs no .pth
@@ -55,12 +58,14 @@ from _common import quick, row
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 from procstat import catches, exiting  # noqa: E402  (tests/ holds the /proc readers)
+from run_left import faults  # noqa: E402  (and the classification the harness shares)
 
 COMMANDS = ("compare", "inject", "inject-mujoco", "spiral", "sweep", "teleop")
 
 
 def run_command(command: str, runs: int) -> tuple[int | str, float]:
-    """(failed interruptions: 0, or ">= 1" when the harness stopped at one; wall time [s])."""
+    """(interruptions that broke the promise, as the harness counted them, or "?" when it
+    printed no count; wall time [s])."""
     env = {
         **os.environ,
         "RCMPLAN_INTERRUPTIONS": str(runs),
@@ -69,20 +74,21 @@ def run_command(command: str, runs: int) -> tuple[int | str, float]:
     }  # teleop's case is a heavy test
     start = time.perf_counter()
     proc = subprocess.run(
-        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+        [sys.executable, "-m", "pytest", "-q", "-s", "-p", "no:cacheprovider",
          str(ROOT / "tests" / "test_interrupts.py") + "::test_signals_at_random_points_leave_a"
-         f"_summary_a_loadable_log_and_no_process[{command}]",
-         "--maxfail=1000"],
+         f"_summary_a_loadable_log_and_no_process[{command}]"],
         env=env, cwd=ROOT, capture_output=True, text=True,
     )  # fmt: skip
     wall = time.perf_counter() - start
-    if proc.returncode == 0:
-        return 0, wall
-    # The harness stops a command at its first broken interruption: report the assertion (the
-    # remaining runs of that command are not made).
-    failed = re.findall(r"^E\s+(.*)$", proc.stdout, flags=re.M)
-    print(f"{command}: {failed[:3] or proc.stdout[-2000:]}", file=sys.stderr)
-    return ">= 1", wall
+    # The harness prints one line per command: its runs and every kind of fault counted.
+    tally = re.search(rf"^{re.escape(command)}: \d+ runs; .*$", proc.stdout, flags=re.M)
+    if tally is not None:
+        print(tally.group(0), file=sys.stderr)
+    if proc.returncode != 0:
+        failed = re.findall(r"^E\s+(.*)$", proc.stdout, flags=re.M)
+        print(f"{command}: {failed[:3] or proc.stdout[-2000:]}", file=sys.stderr)
+    broken = re.search(r"broken (\d+)", tally.group(0)) if tally is not None else None
+    return (int(broken.group(1)) if broken else "?"), wall
 
 
 def rows(
@@ -94,7 +100,7 @@ def rows(
     out = []
     for command in COMMANDS:
         lost, wall = run_command(command, n)
-        out.append(row(f"{command}: interruptions losing the log or summary, of {n} "
+        out.append(row(f"{command}: interruptions that broke the promise, of {n} "
                        f"({wall:.0f} s)", lost, "", target="0"))  # fmt: skip
     out += start_rows(from_start or (20 if quick() else 100))
     return out + handler_rows(handler or (10 if quick() else 30))
@@ -103,7 +109,7 @@ def rows(
 def inject(out: Path, sig: int | None, delay: float) -> tuple[bool, int, float, str, str]:
     """Start `rcmplan inject --no-plots --out out`, send sig `delay` s after the start (none if
     None): (alive at the signal: not ended, its exit not begun; exit code, time [s] from the
-    signal (or start) to the end, summary status, stderr and summary message)."""
+    signal (or start) to the end, summary status, stderr)."""
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src"), "MUJOCO_GL": "egl"}
     start = time.perf_counter()
     proc = subprocess.Popen(
@@ -118,19 +124,10 @@ def inject(out: Path, sig: int | None, delay: float) -> tuple[bool, int, float, 
     _, err = proc.communicate(timeout=120)
     took = time.perf_counter() - (sent if sig is not None else start)
     try:
-        doc = json.loads((out / "summary.json").read_text())
-        status, message = str(doc["status"]), str(doc.get("message", ""))
+        status = str(json.loads((out / "summary.json").read_text())["status"])
     except (OSError, ValueError, KeyError):
-        status, message = "none", ""
-    return alive, proc.returncode, took, status, f"{message} | {err[-300:]}"
-
-
-def answered(sig: int, code: int, status: str, text: str) -> bool:
-    """An interrupt the run answered: interrupted with the signal's name and exit 128 + sig
-    and no traceback, or ended by the signal after its outputs were final."""
-    name = signal.Signals(sig).name
-    stopped = code == 128 + sig and status == "interrupted" and name in text.split(" | ")[0]
-    return ("Traceback" not in text and stopped) or (code == -sig and status == "ok")
+        status = "none"
+    return alive, proc.returncode, took, status, err
 
 
 def start_rows(n: int, seed: int = 7) -> list[dict[str, Any]]:
@@ -142,17 +139,18 @@ def start_rows(n: int, seed: int = 7) -> list[dict[str, Any]]:
         for k in range(n):
             sig = (signal.SIGINT, signal.SIGTERM)[k % 2]
             delay = rng.uniform(0.0, 1.2 * whole)
-            alive, code, took, status, text = inject(Path(tmp) / f"run{k}", sig, delay)
+            out = Path(tmp) / f"run{k}"
+            alive, code, took, status, err = inject(out, sig, delay)
             if not alive:
                 continue
             alive_runs += 1
             exits.append(took)
             stopped += status == "interrupted"
-            if answered(sig, code, status, text):
-                good += 1
-            else:
-                print(f"at {delay:.3f} s {signal.Signals(sig).name}: exit {code}, "
-                      f"summary {status!r}: {text}", file=sys.stderr)  # fmt: skip
+            found = faults(out, "inject", code, sig, err)
+            good += not found
+            if found:
+                print(f"at {delay:.3f} s {signal.Signals(sig).name}: exit {code}, {found}, "
+                      f"stderr {err[-300:]!r}", file=sys.stderr)  # fmt: skip
     if not alive_runs:
         return [row(f"inject from its start: no run alive at its signal, of {n}", 0, "")]
     what = f"of {alive_runs} alive at the signal, instants 0-{1.2 * whole:.2f} s from the start"
