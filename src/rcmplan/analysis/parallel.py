@@ -2,7 +2,8 @@
 
 Matplotlib draws on one core; a run's figures are independent, so on a machine with two or
 more cores they can be drawn side by side. A child process inherits the imported matplotlib
-(fork, no new interpreter) and only writes its PNG file. Forking is used only when the process
+(fork, no new interpreter) and only writes its PNG file; the process itself only waits, so an
+interrupt is answered at once rather than after a figure. Forking is used only when the process
 runs a single thread (forking a threaded process can deadlock) and more than one core exists.
 """
 
@@ -29,24 +30,23 @@ def can_fork() -> bool:
 
 
 def run_jobs(jobs: Sequence[Job]) -> list[Path]:
-    """Run every job and return the paths they wrote: the first job in this process, the
-    others in forked children. Raises RcmplanError naming the files whose child failed.
+    """Run every job and return the paths they wrote: each in a forked child while this
+    process waits, so that SIGINT and SIGTERM interrupt the wait at once (the children are
+    stopped and reaped). Raises RcmplanError naming the files whose child failed.
 
-    A job run in this process runs with SIGINT and SIGTERM deferred to its end: matplotlib's
-    C code turns an exception raised inside it (the interrupt's) into a ValueError ("Invalid
-    bounding box"), so an interrupt there would end the command with a traceback instead of
-    its partial outputs."""
-    if len(jobs) < 2 or not can_fork():
+    Where forking is unsafe the jobs run here one by one, each with SIGINT and SIGTERM deferred
+    to its end: matplotlib's C code turns an exception raised inside it (the interrupt's) into
+    a ValueError ("Invalid bounding box"), so an interrupt there would end the command with a
+    traceback instead of its partial outputs."""
+    if not can_fork():
         for _, job in jobs:
             with signals_deferred():
                 job()
         return [path for path, _ in jobs]
     children: list[tuple[int, Path]] = []
     try:
-        for path, job in jobs[1:]:
+        for path, job in jobs:
             children.append((_fork(job), path))
-        with signals_deferred():
-            jobs[0][1]()
         failed = [str(path) for pid, path in children if os.waitpid(pid, 0)[1] != 0]
     except BaseException:  # interrupted (SIGINT, SIGTERM): stop and reap the children
         _stop(pid for pid, _ in children)
