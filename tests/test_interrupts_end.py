@@ -43,7 +43,7 @@ COMMANDS = {  # command line, the files that must be left, a summary key that mu
         "checkpoint",
     ),
     "reproduce": (["reproduce"], ["figures/pivot.png"], "experiments"),
-    "subretinal": (["subretinal", "--no-plots"], ["log.npz", "episode.npz"], None),
+    "subretinal": (["subretinal", "--no-plots"], ["log.npz", "episode.npz"], "periods"),
     "teleop": (["teleop", "--no-plots"], ["log.npz", "log.csv", "teleop.npz"], "periods"),
 }
 HEAVY_COMMANDS = ("teleop",)  # a long session: with RCMPLAN_HEAVY_TESTS=1 only

@@ -123,19 +123,24 @@ def run_experiments(
     out: Path, plots: bool, rows: list[dict[str, Any]], figures: dict[str, str]
 ) -> None:
     """Each experiment with every setting, appending its row to `rows` as it finishes, then
-    its figure (out/figures/<experiment>.png) to `figures` when `plots`."""
-    from rcmplan.analysis import thesis
+    its figure (out/figures/<experiment>.png) to `figures` when `plots`, drawn as a run's
+    figures are (`analysis.parallel.run_jobs`: in a child process while this one waits)."""
+    from functools import partial
+
+    from rcmplan.analysis import style, thesis
+    from rcmplan.analysis.parallel import run_jobs
     from rcmplan.cli import thesis_hypothesis
+    from rcmplan.cli.thesis_figures import experiment_figure
 
     for key, experiment in thesis.EXPERIMENTS.items():
         outcomes = {setting: experiment(setting) for setting in ("thesis", "rcmplan")}
         outcomes["hypothesis"] = thesis_hypothesis.EXPERIMENTS[key]()
         rows.append(experiment_row(key, outcomes))
         if plots:
-            from rcmplan.cli.thesis_figures import experiment_figure
-
+            style.plt()  # matplotlib imported once, before any fork
+            path = out / "figures" / f"{key}.png"
             title = outcomes["thesis"].experiment
-            path = experiment_figure(key, title, outcomes, out / "figures" / f"{key}.png")
+            run_jobs([(path, partial(experiment_figure, key, title, outcomes, path))])
             figures[key] = str(path)
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from rcmplan.analysis.units import fmt
+from rcmplan.cli import interrupts
 from rcmplan.cli.batch_options import add_batch_options
 from rcmplan.cli.common import (
     add_json,
@@ -18,7 +19,7 @@ from rcmplan.cli.common import (
     add_robot,
     announce_robot,
 )
-from rcmplan.cli.output import finish, table
+from rcmplan.cli.output import finish, interrupted_message, table
 from rcmplan.cli.subretinal_settings import settings_of, write_failed
 from rcmplan.exceptions import RcmplanError
 
@@ -99,38 +100,73 @@ def run(args: argparse.Namespace) -> int:
 
         return run_episodes(args)
     out = prepare_folder(args.out)
+    result = None
     try:
-        announce_robot(args.robot, "subretinal")
-        settings = settings_of(args)
-        doc = write_outputs(settings, out, figures=not args.no_plots)
+        with interrupts.surfaced():
+            announce_robot(args.robot, "subretinal")
+            settings = settings_of(args)
+            result = run_episode(settings)
+            doc = write_outputs(settings, out, not args.no_plots, result)
+            interrupts.finished()  # inside the handling below: no instant falls between
     except RcmplanError as exc:
         write_failed(out, exc.status, f"{type(exc).__name__}: {exc}")
+        raise
+    except KeyboardInterrupt as exc:
+        if result is not None:  # the episode ended: its records stay, marked interrupted
+            where = "while writing the outputs (the episode had ended)"
+            with interrupts.shielded():
+                write_records(result, out, "interrupted", interrupted_message(exc, where))
         raise
     failure = None if doc["status"] == "ok" else f"{doc['status']}: {doc['message']}"
     return finish(args, out, doc, lambda: print_table(doc), failure)
 
 
-def write_outputs(settings: Any, out: Path, figures: bool) -> dict[str, Any]:
-    """Run one episode and write its outputs in `out`; returns the summary."""
+def run_episode(settings: Any) -> Any:
+    """The episode of `settings`, run (`rcmplan.subretinal.episode.run_episode`)."""
+    from rcmplan.subretinal.episode import run_episode as run
+
+    return run(settings)
+
+
+def write_outputs(settings: Any, out: Path, figures: bool, result: Any = None) -> dict[str, Any]:
+    """Run one episode (unless its `result` is given) and write its outputs in `out`; returns
+    the summary. The figure is drawn as a run's figures are (`analysis.parallel.run_jobs`)."""
+    result = run_episode(settings) if result is None else result
+    doc = write_records(result, out)
+    if figures:
+        from functools import partial
+
+        from rcmplan.analysis import style
+        from rcmplan.analysis.parallel import run_jobs
+        from rcmplan.subretinal.episode_plot import depth_figure
+
+        style.plt()  # matplotlib imported once, before any fork
+        path = out / "figures" / "depth.png"
+        run_jobs([(path, partial(depth_figure, result, path))])
+        doc["figure"] = str(path)
+    return doc
+
+
+def write_records(result: Any, out: Path, status: str | None = None, message: str = ""
+                  ) -> dict[str, Any]:  # fmt: skip
+    """log.npz, episode.npz, bscans.npz and summary.json of an episode that ended (its
+    `status` and `message` replaced when given); returns the summary."""
     import numpy as np
 
     from rcmplan._atomic import atomic_path, write_text
     from rcmplan.analysis.report import jsonable
-    from rcmplan.subretinal.episode import PHASES, run_episode
+    from rcmplan.subretinal.episode import PHASES
     from rcmplan.subretinal.episode_metrics import summarise
 
-    result = run_episode(settings)
     result.log.save_npz(out / "log.npz")
     with atomic_path(out / "episode.npz") as tmp, open(tmp, "wb") as fh:
         series: dict[str, Any] = dict(result.series)
         np.savez_compressed(fh, **series, phase_names=np.array(PHASES, dtype=str))
     doc: dict[str, Any] = jsonable(summarise(result))
     doc.update(replay_fields(result, out))
+    if status is not None:
+        doc.update(status=status, message=message)
     write_text(out / "summary.json", json.dumps(doc, indent=2))
-    if figures:
-        from rcmplan.subretinal.episode_plot import depth_figure
-
-        doc["figure"] = str(depth_figure(result, out / "figures" / "depth.png"))
     return doc
 
 
