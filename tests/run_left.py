@@ -87,6 +87,7 @@ def stated_records(doc: dict[str, Any]) -> int | None:
 def run_log(out: Path, doc: dict[str, Any]) -> list[str]:
     """A run with one log: none beside a summary saying it stopped before it began; else
     out/log.npz loadable (`rcmplan.view.run_folder.read_log`), with the stated records."""
+    from rcmplan.control.log import RunLog
     from rcmplan.view.run_folder import RunFolderError, read_log
 
     n, path = stated_records(doc), out / "log.npz"
@@ -96,9 +97,9 @@ def run_log(out: Path, doc: dict[str, Any]) -> list[str]:
         return [f"the summary states no records ({doc.get('message')!r})"]
     if not path.exists():
         return [f"no log.npz beside a summary of {n} records ({doc.get('message')!r})"]
-    try:
-        held = len(read_log(path))
-    except RunFolderError as exc:
+    try:  # the view refuses a log of no records, which a run stopped at its start leaves
+        held = len(read_log(path) if n else RunLog.load_npz(path))
+    except (RunFolderError, OSError, ValueError, KeyError) as exc:
         return [f"log.npz does not load: {exc}"]
     return [] if held == n else [f"log.npz holds {held} records, the summary states {n}"]
 
