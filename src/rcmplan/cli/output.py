@@ -65,14 +65,16 @@ def write_stopped(
     out: Path, args: argparse.Namespace, status: str, message: str, result: RunResult | None = None
 ) -> None:
     """Outputs of a run command stopped before it finished (interrupted, or a bad scenario):
-    the partial log and summary.json with `status` and `message` when a result exists, else
+    the partial log (an interrupted run's without log.csv: `report.write_summary`) and
+    summary.json with `status` and `message` when a result exists, else
     the command's stop file alone (`interrupts.write_stop_file`: no log of an earlier run left
     beside it). Signals are ignored meanwhile, and every file is written atomically."""
     from rcmplan.analysis.report import write_summary
 
     with interrupts.shielded():
         if result is not None:
-            write_summary(replace(result, status=status, message=message), out)
+            stopped = replace(result, status=status, message=message)
+            write_summary(stopped, out, csv=status != "interrupted")
             return
         doc = {"status": status, "message": one_line(message)}
         if getattr(args, "scenario", None):

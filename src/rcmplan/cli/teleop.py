@@ -136,7 +136,7 @@ def write_interrupted(out: Path, exc: KeyboardInterrupt, result: Any) -> None:
         write_failed(out, "interrupted", message)
         return
     with interrupts.shielded():
-        write_summary(replace(result, status="interrupted", message=message), out)
+        write_summary(replace(result, status="interrupted", message=message), out, csv=False)
 
 
 def print_table(doc: dict[str, Any]) -> None:
