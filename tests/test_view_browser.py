@@ -104,7 +104,9 @@ def test_playing_runs_the_timeline_to_the_end_and_pauses(browser, replay):
     probe.wait_for(lambda: not view.state()["playing"], 30.0)
     state = view.state()
     assert state["index"] == len(view.current.log) - 1
-    assert state["shows"] > 10  # it played through records, not one jump
+    # it played through records, not one jump: records between the first and the last (how
+    # many depends on the machine's redraw rate; 7 were seen on 2 loaded cores)
+    assert state["shows"] > 2
     page.close()
 
 
