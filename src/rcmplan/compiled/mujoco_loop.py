@@ -47,7 +47,10 @@ if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
     from rcmplan.sim.mujoco.plant import MujocoPlant
 
-CAPACITY = 1 << 15  # records per block
+# Records per block. Python answers a signal only between blocks, so a block is short: 1,024
+# control periods of the dynamic plant take about 0.1 s (a 32,768-record block took 2-3 s and
+# held an interrupt that long); the per-block cost (one call, one append) is a few tens of us.
+CAPACITY = 1 << 10
 # A compiled loop around the plant, run(k0, it0, state, rec, irec, info) -> status, with the
 # protocol of `run_targets_on_mujoco`
 BlockRunner = Callable[[int, int, FloatArray, FloatArray, IntArray, IntArray], int]
