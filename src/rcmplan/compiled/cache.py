@@ -120,8 +120,8 @@ def clear_stale() -> None:
 def kernel_sources() -> list[Path]:
     """The files that hold rcmplan's numba kernels (a test keeps the list whole): this folder,
     the robot kernels, the control kernels (the step bound, the cost, the limited step, the
-    limits' rows), the compiled MuJoCo plant and the iOCT B-scan's rendering and
-    segmentation."""
+    limits' rows), the compiled MuJoCo plant and its actuators' velocity profile, and the iOCT
+    B-scan's rendering and segmentation."""
     package = Path(__file__).parent.parent
     robot, control, subretinal = package / "robot", package / "control", package / "subretinal"
     return [
@@ -132,7 +132,7 @@ def kernel_sources() -> list[Path]:
         control / "cost.py",
         control / "limited_tip.py",
         *sorted((control / "limits").glob("*.py")),
-        package / "sim" / "mujoco" / "compiled.py",
+        *(package / "sim" / "mujoco" / f"{m}.py" for m in ("compiled", "actuators")),
         *(subretinal / f"{m}.py" for m in ("ioct", "segment_filters", "segment_kernels")),
     ]  # fmt: skip
 

@@ -91,7 +91,7 @@ def run_targets_on_mujoco(
     target reached, detail) and, after PAUSED (the record block is full), info[1], info[2] are
     the target and iteration to resume from.
     """
-    w, d, f, v = np.empty(6), np.empty(7), np.empty(7), np.empty(6)
+    w, d, f, v = np.empty(6), np.empty(7), np.empty(7), np.empty((4, 6))
     J, A = np.empty((BLOCK_ROWS, 7)), np.empty((6, 6))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
     n = 0

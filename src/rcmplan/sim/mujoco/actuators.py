@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.robot.iramis import Iramis
@@ -133,17 +134,10 @@ def reference_velocity(
 def synchronised_velocity(
     target: FloatArray, s_ref: FloatArray, dt: float, speed: FloatArray
 ) -> FloatArray:
-    """(target - s_ref) / dt, scaled down as a whole so that no slider exceeds its speed.
-
-    `target` is already quantised; this is the per-period part of `reference_velocity`,
-    written with in-place operations (the MuJoCo plant calls it every control period).
-    """
-    v = np.subtract(target, s_ref)
-    v /= dt
-    excess = float(np.max(np.abs(v) / speed))
-    if excess > 1.0:
-        v /= excess
-    return v
+    """(target - s_ref) / dt, scaled down as a whole so that no slider exceeds its speed:
+    `profile_velocity` without its acceleration bound (`target` is already quantised; the
+    per-period part of `reference_velocity`)."""
+    return profile_velocity(target, s_ref, np.zeros_like(speed), dt, speed, 0.0)
 
 
 def profile_velocity(
@@ -154,31 +148,57 @@ def profile_velocity(
     speed: FloatArray,
     ramp_time: float,
 ) -> FloatArray:
-    """Reference velocity [m/s, rad/s] for one period of dt [s]: from the reference s_ref,
-    moving at v_prev, towards the (quantised) target, within speed and acceleration.
+    """Reference velocity [m/s, rad/s] for one period of dt [s] (`velocity_into`) from the
+    reference s_ref, moving at v_prev, towards the (quantised) target."""
+    v = np.empty(len(speed))
+    velocity_into(np.asarray(target, dtype=np.float64), np.asarray(s_ref, dtype=np.float64),
+                  np.asarray(v_prev, dtype=np.float64), dt, np.asarray(speed, dtype=np.float64),
+                  float(ramp_time), v)  # fmt: skip
+    return v
 
-    1. `synchronised_velocity`: arrive within the period, or go at full speed along the way.
+
+@njit(cache=True)
+def velocity_into(target: FloatArray, s_ref: FloatArray, v_prev: FloatArray, dt: float,
+                  speed: FloatArray, ramp: float, v: FloatArray) -> None:  # fmt: skip
+    """The reference velocity of one period of dt [s] into v (n,): from the reference s_ref,
+    moving at v_prev, towards the (quantised) target, within speed and acceleration. The one
+    implementation: the Python plants and the compiled period (`compiled.advance`) call it.
+
+    1. Synchronised: arrive within the period, the whole vector scaled down so that no slider
+       exceeds its speed (every slider arrives together, the slider-space path stays straight).
     2. Braking: the speed fraction sigma = max_i |v_i| / speed_i is capped so that the
-       reference can still stop at the target while slowing by dt / ramp_time per period.
-       From sigma such a stop covers sigma^2 ramp_time / 2 + sigma dt / 2 (in seconds at full
+       reference can still stop at the target while slowing by dt / ramp per period.
+       From sigma such a stop covers sigma^2 ramp / 2 + sigma dt / 2 (in seconds at full
        speed), which must not exceed r = max_i |target_i - s_ref_i| / speed_i.
     3. Acceleration: the change v - v_prev is scaled as a whole so that no slider's speed
-       changes by more than speed_i dt / ramp_time (the profiles stay synchronised).
-    With ramp_time 0 only step 1 applies. `sim.mujoco.compiled.advance` repeats these
-    operations in compiled code, in the same order.
-    """
-    v = synchronised_velocity(target, s_ref, dt, speed)
-    if ramp_time <= 0.0:
-        return v
-    r = float(np.max(np.abs(target - s_ref) / speed))
-    sigma = float(np.max(np.abs(v) / speed))
+       changes by more than speed_i dt / ramp (the profiles stay synchronised).
+    With ramp <= 0 only step 1 applies."""
+    n = v.shape[0]
+    excess, r = 0.0, 0.0
+    for i in range(n):
+        d = target[i] - s_ref[i]
+        v[i] = d / dt
+        excess = max(excess, abs(v[i]) / speed[i])
+        r = max(r, abs(d) / speed[i])
+    sigma = 0.0
+    for i in range(n):
+        if excess > 1.0:
+            v[i] /= excess
+        sigma = max(sigma, abs(v[i]) / speed[i])
+    if ramp <= 0.0:
+        return
     half = 0.5 * dt
-    brake = (math.sqrt(half * half + 2.0 * ramp_time * r) - half) / ramp_time
+    brake = (math.sqrt(half * half + 2.0 * ramp * r) - half) / ramp
     if sigma > brake:
-        v *= brake / sigma
-    v -= v_prev
-    excess = float(np.max(np.abs(v) / speed)) * ramp_time / dt
-    if excess > 1.0:
-        v /= excess
-    v += v_prev
-    return v
+        factor = brake / sigma
+        for i in range(n):
+            v[i] *= factor
+    change = 0.0
+    for i in range(n):
+        v[i] -= v_prev[i]
+        change = max(change, abs(v[i]) / speed[i])
+    change = change * ramp / dt
+    for i in range(n):
+        if change > 1.0:
+            v[i] /= change
+        v[i] += v_prev[i]

@@ -1,13 +1,14 @@
-"""The dynamic MuJoCo plant's control period in compiled code (needs numba: the `fast` extra).
+"""The dynamic MuJoCo plant's control period in compiled code.
 
 `advance` is `MujocoPlant.advance` in dynamic mode, operation for operation: the quantised
 command, the synchronised reference velocity within speed and acceleration
-(`actuators.profile_velocity`), the servo and feed-forward controls, the physics
-steps, the kinematics and the checks (NaN, MuJoCo warnings, loop-closure gap). MuJoCo's own
-`mj_step` and `mj_kinematics` are called from the compiled code through their C addresses, so
-a closed control loop on the MuJoCo plant runs without returning to Python between periods
-(`rcmplan.compiled.mujoco_loop`). tests/test_fast_mujoco.py checks that it gives the same log,
-to the last bit, as the Python plant.
+(`actuators.velocity_into`, the kernel the Python plants call too), the servo and
+feed-forward controls, the physics steps, the kinematics and the checks (NaN, MuJoCo
+warnings, loop-closure gap). MuJoCo's own `mj_step` and `mj_kinematics` are called from the
+compiled code through their C addresses, so a closed control loop on the MuJoCo plant runs
+without returning to Python between periods (`rcmplan.compiled.mujoco_loop`).
+tests/test_fast_mujoco.py checks that it gives the same log, to the last bit, as the Python
+plant.
 
 The C addresses come from the shared library the `mujoco` package loaded; they are arguments,
 not constants, so numba's cache stays valid across processes.
@@ -29,6 +30,7 @@ from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.sim.mujoco.actuators import velocity_into
 
 OK, DIVERGED, WARNED, GAP = range(4)  # status codes of `advance`
 LIBRARY_PATTERNS = {"linux": "libmujoco.so*", "darwin": "libmujoco*.dylib", "win32": "mujoco*.dll"}
@@ -142,37 +144,14 @@ def reference_velocity(
     ramp: float, act: FloatArray, act_idx: NDArray[np.intp], ctrl: FloatArray,
     servo: NDArray[np.intp],
 ) -> None:  # fmt: skip
-    """v (6,) = `actuators.profile_velocity` towards the quantised command cmd from the servo
-    references act[act_idx], moving at the last period's ctrl[servo]; same operations, same
-    order (so the same bits)."""
-    excess, r = 0.0, 0.0
+    """v[0] (6,) = `actuators.velocity_into` towards the quantised command cmd from the servo
+    references act[act_idx], moving at the last period's ctrl[servo]; v (4, 6): the velocity,
+    then the quantised command, the references and the last velocities."""
     for i in range(6):
-        d = np.rint(cmd[i] / steps[i]) * steps[i] - act[act_idx[i]]
-        v[i] = d / dt
-        excess = max(excess, abs(v[i]) / speed[i])
-        r = max(r, abs(d) / speed[i])
-    sigma = 0.0
-    for i in range(6):
-        if excess > 1.0:
-            v[i] /= excess
-        sigma = max(sigma, abs(v[i]) / speed[i])
-    if ramp <= 0.0:
-        return
-    half = 0.5 * dt
-    brake = (np.sqrt(half * half + 2.0 * ramp * r) - half) / ramp
-    if sigma > brake:
-        factor = brake / sigma
-        for i in range(6):
-            v[i] *= factor
-    change = 0.0
-    for i in range(6):
-        v[i] -= ctrl[servo[i]]
-        change = max(change, abs(v[i]) / speed[i])
-    change = change * ramp / dt
-    for i in range(6):
-        if change > 1.0:
-            v[i] /= change
-        v[i] += ctrl[servo[i]]
+        v[1, i] = np.rint(cmd[i] / steps[i]) * steps[i]
+        v[2, i] = act[act_idx[i]]
+        v[3, i] = ctrl[servo[i]]
+    velocity_into(v[1], v[2], v[3], dt, speed, ramp, v[0])
 
 
 @njit(cache=True)
@@ -183,12 +162,12 @@ def advance(
     warn: NDArray[np.int32], act_idx: NDArray[np.intp], servo: NDArray[np.intp],
     feedforward: NDArray[np.intp], slot: NDArray[np.intp], pin: NDArray[np.intp],
 ) -> int:  # fmt: skip
-    """One control period of the dynamic plant towards the command cmd (6,); v (6,) is
+    """One control period of the dynamic plant towards the command cmd (6,); v (4, 6) is
     scratch. Returns OK or the first failing check (DIVERGED, WARNED, GAP)."""
     reference_velocity(cmd, v, dt, steps, speed, ramp, act, act_idx, ctrl, servo)
     for i in range(6):
-        ctrl[servo[i]] = v[i]
-        ctrl[feedforward[i]] = v[i]
+        ctrl[servo[i]] = v[0, i]
+        ctrl[feedforward[i]] = v[0, i]
     for _ in range(substeps):
         call_model_data(fns[0], model, data)
     call_model_data(fns[1], model, data)
