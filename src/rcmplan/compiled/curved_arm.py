@@ -30,6 +30,7 @@ from rcmplan.robot.chain_kinematics import (
     needle_point,
     rotate,
 )
+from rcmplan.robot.needle import roll_of
 
 
 def work_shape(n: int, m: int, m_c: int) -> tuple[int, int]:
@@ -71,7 +72,7 @@ def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: flo
     n = ix[0]
     o, a, b, tip = frame(A, n, W)
     e[0], e[1], e[2] = tip
-    e[3] = ck.roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
+    e[3] = roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
     e[4], e[5], e[6] = o if method == CURVED_POSE else needle_point(A, n, W, lam)
     ck.error(e, target, e)
     return ck.WIDTH
@@ -132,6 +133,6 @@ def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam
     frames(A, ix, q, W)
     o, a, b, t = frame(A, n, W)
     x[0], x[1], x[2] = t
-    x[3] = ck.roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
+    x[3] = roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
     x[4], x[5], x[6] = o if pose else needle_point(A, n, W, lam)
     jacobian(A, ix, W, lam, pose)

@@ -38,16 +38,6 @@ ROLL = 3  # the roll's row in X_c
 
 
 @njit(cache=True, inline="always")
-def roll_of(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> float:
-    """The needle roll rho in [rad] of bend direction b about the axis a (`roll_from_axes`):
-    rho = atan2(-b . e1, -b . e2) with e1, e2 from the needle angles, both scaled by the same
-    positive factor h |a| (h = sqrt(a_x^2 + a_z^2)) so that no angle is formed."""
-    h2 = ax * ax + az * az
-    r = math.sqrt(h2 + ay * ay)
-    return math.atan2(-r * (bx * az - bz * ax), -(ay * (bx * ax + bz * az) - by * h2))
-
-
-@njit(cache=True, inline="always")
 def wrap(x: float) -> float:
     """x wrapped to [-pi, pi) as the reference does it, (x + pi) mod 2 pi - pi (the modulo
     only where it changes x + pi)."""

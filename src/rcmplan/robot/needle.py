@@ -187,10 +187,18 @@ def roll_from_axes(axis: FloatArray, bend: FloatArray) -> float:
     rho = atan2(-b . e1, -b . e2) grows with a right-handed turn about a. On iRAM!S, with b the x
     axis of the tip frame (eq. 2.7), rho = q5.
     """
-    phi, psi = angles_from_axis(axis)
-    e1 = np.array([math.sin(phi), 0.0, math.cos(phi)])
-    e2 = np.array([math.cos(phi) * math.sin(psi), -math.cos(psi), -math.sin(phi) * math.sin(psi)])
-    return math.atan2(-float(np.dot(bend, e1)), -float(np.dot(bend, e2)))
+    a, b = [float(x) for x in axis[:3]], [float(x) for x in bend[:3]]
+    return float(roll_of(a[0], a[1], a[2], b[0], b[1], b[2]))
+
+
+@njit(cache=True, inline="always")  # inlined into the curved needle's compiled task
+def roll_of(ax: float, ay: float, az: float, bx: float, by: float, bz: float) -> float:
+    """`roll_from_axes` of the axis a and bend direction b given by their components:
+    rho = atan2(-b . e1, -b . e2) with e1, e2 scaled by the same positive factor h |a|
+    (h = sqrt(a_x^2 + a_z^2)), so that no angle is formed."""
+    h2 = ax * ax + az * az
+    r = math.sqrt(h2 + ay * ay)
+    return math.atan2(-r * (bx * az - bz * ax), -(ay * (bx * ax + bz * az) - by * h2))
 
 
 def roll_jacobian(axis: FloatArray, J_omega: FloatArray) -> FloatArray:
