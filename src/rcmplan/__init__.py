@@ -16,24 +16,16 @@ from __future__ import annotations
 
 from rcmplan._lazy import lazy_names
 from rcmplan._version import __version__
+from rcmplan.robot import EXPORTS as ROBOT_EXPORTS
 
 # typing.TYPE_CHECKING without importing typing: the `rcmplan` command imports this package
 # before it installs its signal handler (rcmplan.cli.interrupts), and typing took 12 ms of that.
 TYPE_CHECKING = False
 
 _EXPORTS: dict[str, str] = {
-    # robots and tools
-    "ChainJoint": "rcmplan.robot.chain",
+    # robots and tools: the robot package's names, then loaders and the curved needle
+    **ROBOT_EXPORTS,
     "CurvedNeedle": "rcmplan.robot.curved_needle",
-    "DHChain": "rcmplan.robot.dh",
-    "DHLink": "rcmplan.robot.dh",
-    "Iramis": "rcmplan.robot.iramis",
-    "IramisParameters": "rcmplan.robot.iramis",
-    "JointChain": "rcmplan.robot.chain",
-    "Pcjm": "rcmplan.robot.pcjm",
-    "RobotModel": "rcmplan.robot.model",
-    "SerialArm": "rcmplan.robot.model",
-    "StraightNeedle": "rcmplan.robot.needle",
     "load_mjcf": "rcmplan.robot.mjcf",
     "load_robot_file": "rcmplan.robot.robot_file",
     "load_urdf": "rcmplan.robot.urdf",

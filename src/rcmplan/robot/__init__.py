@@ -11,7 +11,7 @@ from rcmplan._lazy import lazy_names
 
 TYPE_CHECKING = False  # typing.TYPE_CHECKING, not imported: see rcmplan/__init__.py
 
-_EXPORTS: dict[str, str] = {
+EXPORTS: dict[str, str] = {  # name -> the module that defines it (`rcmplan` lists them too)
     "ChainJoint": "rcmplan.robot.chain",
     "DHChain": "rcmplan.robot.dh",
     "DHLink": "rcmplan.robot.dh",
@@ -38,7 +38,7 @@ __all__ = [
 ]
 
 
-__getattr__ = lazy_names("rcmplan.robot", _EXPORTS, globals())
+__getattr__ = lazy_names("rcmplan.robot", EXPORTS, globals())
 
 
 if TYPE_CHECKING:  # the same names, for type checkers and editors
