@@ -100,7 +100,7 @@ def kernel_run(problem: Problem) -> Any:
         width = REC_WIDTH if arrays is None else record_width(6, roll=True)
         rec, fail = np.empty((cap, width)), np.empty(FAIL_WIDTH)
         bounds = np.array([robot.singular_threshold, LoopSettings().rcm_tolerance])
-        qpa = None
+        qpa = fast_cache.qp_kernels().loop_qp()
         head = (P, code, K, damping, tol, 100, True, bounds, qpa, targets, 0)
         kernel = fast_cache.loop_kernels().run_targets
 

@@ -78,7 +78,7 @@ def loop_rows() -> list[dict[str, Any]]:
         100,
         True,
         bounds,
-        None,
+        fast_cache.qp_kernels().loop_qp(),
         targets,
         0,
     )

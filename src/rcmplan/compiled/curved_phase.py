@@ -77,7 +77,7 @@ def run_iramis_phase(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
     args = (arrays.P, method_code(solver), K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, loop_bounds(controller), None,
+            cfg.drift_correction, loop_bounds(controller), fast_cache.qp_kernels().loop_qp(),
             targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,

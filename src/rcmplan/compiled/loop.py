@@ -13,8 +13,7 @@ into the reference exception. Records go to preallocated arrays: `rec` (cap, 35)
 The QP controller (method QP) takes the same loop: its error (J x* / K) and step come from one
 solve (`qp_kernels.iteration_error`, planned from the plant's last command when the plant is
 the QP's servo) in place of the error and step kernels, the step then bounded from the RCM
-tolerance (`qp_step`); `qpa` carries what the solve reads (`qp_kernels.loop_qp`; None for the
-other methods), and a solve
+tolerance (`qp_step`); `qpa` carries what the solve reads (`qp_params.loop_qp`), and a solve
 DAQP does not finish optimally stops the loop with QP_FAILED (DAQP's exit flag in info[2]).
 The QP's free-space step (TIP_LIMITED, `LimitedTipSolver`) is the TIP step scaled in actuator
 space to hold each actuator's speed and travel less the margin (`limit_step`); K then carries
@@ -242,10 +241,10 @@ def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
 @njit(cache=True)
 def iterate(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple | None, target: FloatArray, pivot: bool,
-    tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
-    row: FloatArray, fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray,
-    f: FloatArray, J: FloatArray, A: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
+    fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray, f: FloatArray,
+    J: FloatArray, A: FloatArray,
 ) -> int:  # fmt: skip
     """One iteration of Algorithm 1 from sliders s, as `Controller.converge` does it.
 
@@ -254,8 +253,7 @@ def iterate(
     iteration on the record goes to row (35,). fail (`records.FAIL_WIDTH`,) holds (q, q_new,
     s_new, error); a curved needle's rows and error have one more entry (the roll's), the QP's
     the actuators it was built at and its scratch after the error. qpa: the QP's arrays
-    (`qp_kernels.loop_qp`) for method QP, None for the others (numba then compiles the loop
-    without the QP: a caller of another method neither compiles nor passes its buffers).
+    (`qp_params.loop_qp`), read only for method QP.
     """
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     joints_from_actuators(P, s, q)
@@ -263,7 +261,7 @@ def iterate(
     if holds_rcm(method) and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
     curved = method >= CURVED  # its error and step: `curved_iramis`, J its work block
-    if qpa is not None and method == QP:  # error and step from one solve
+    if method == QP:  # error and step from one solve
         info[2] = iteration_error(P, K, q, tr, state[0], target, fail, qpa)
         if info[2] != 1:
             return QP_FAILED
@@ -282,7 +280,7 @@ def iterate(
         return NO_CONVERGENCE
     if singular_measure(tr[0], tr[2]) < bounds[0]:
         return SINGULAR
-    if qpa is not None and method == QP:
+    if method == QP:
         return qp_step(P, q, fail[24:30], qpa[2][X], trocar, bounds, state, fail, info, w)
     if curved:
         curved_iramis.step(P, method, K, damping, q, tr, state[0], e, J, d, f)
@@ -369,10 +367,10 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
 @njit(cache=True)
 def iterate_recorded(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple | None, target: FloatArray, pivot: bool,
-    tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, k: int, it: int,
-    n: int, rec: FloatArray, irec: np.ndarray, fail: FloatArray, info: np.ndarray,
-    w: FloatArray, d: FloatArray, f: FloatArray, J: FloatArray, A: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, k: int, it: int, n: int,
+    rec: FloatArray, irec: np.ndarray, fail: FloatArray, info: np.ndarray, w: FloatArray,
+    d: FloatArray, f: FloatArray, J: FloatArray, A: FloatArray,
 ) -> tuple[int, int]:  # fmt: skip
     """`iterate` on target k, its record kept in rec[n], irec[n] from the second iteration on;
     returns (status, records written), the count also in info[0]."""
@@ -414,7 +412,7 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
 @njit(cache=True)
 def run_targets(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple | None, targets: FloatArray, k0: int, s: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple, targets: FloatArray, k0: int, s: FloatArray,
     state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] from sliders s, on the kinematic plant; returns a status.

@@ -21,6 +21,7 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.curved_kernels import BLOCK_ROWS
 from rcmplan.compiled.loop import holds_rcm, iterate_recorded, target_frame
 from rcmplan.compiled.phase import IntArray
@@ -73,7 +74,7 @@ def read_sliders(n: int, k: int, it: int, rec: FloatArray, info: IntArray, s: Fl
 @njit(cache=True)
 def run_targets_on_mujoco(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple | None, targets: FloatArray, k0: int, it0: int,
+    drift: bool, bounds: FloatArray, qpa: tuple, targets: FloatArray, k0: int, it0: int,
     s: FloatArray,
     cmd: FloatArray, state: FloatArray, rec: FloatArray, irec: NDArray[np.int64],
     info: NDArray[np.int64], fail: FloatArray, slider_qpos: NDArray[np.intp],
@@ -144,7 +145,7 @@ def run_phase_on_mujoco(
     head: tuple[Any, ...] = (
         robot_params(controller.robot), code, K, damping, tol,
         cfg.max_iterations, cfg.drift_correction, loop_bounds(controller),
-        None, targets,
+        fast_cache.qp_kernels().loop_qp(), targets,
     )  # fmt: skip
     s, cmd, fail = np.empty(6), plant.command, np.empty(FAIL_WIDTH)
     plant_args = (arrays.slider_qpos, *arrays.args())
