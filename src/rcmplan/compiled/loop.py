@@ -13,7 +13,7 @@ into the reference exception. Records go to preallocated arrays: `rec` (cap, 35)
 The QP controller (method QP) takes the same loop: its error (J x* / K) and step come from one
 solve (`qp_kernels.iteration_error`, planned from the plant's last command when the plant is
 the QP's servo) in place of the error and step kernels, the step then bounded from the RCM
-tolerance (`qp_step`); `qpa` carries what the solve reads (`qp_params.loop_qp`), and a solve
+tolerance (`qp_step`); `qpa` carries what the solve reads (`qp_kernels.loop_qp`), and a solve
 DAQP does not finish optimally stops the loop with QP_FAILED (DAQP's exit flag in info[2]).
 The QP's free-space step (TIP_LIMITED, `LimitedTipSolver`) is the TIP step scaled in actuator
 space to hold each actuator's speed and travel less the margin (`limit_step`); K then carries
@@ -241,10 +241,10 @@ def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
 @njit(cache=True)
 def iterate(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool, tip_t: FloatArray,
-    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
-    fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray, f: FloatArray,
-    J: FloatArray, A: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool,
+    tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
+    row: FloatArray, fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray,
+    f: FloatArray, J: FloatArray, A: FloatArray,
 ) -> int:  # fmt: skip
     """One iteration of Algorithm 1 from sliders s, as `Controller.converge` does it.
 
@@ -253,7 +253,9 @@ def iterate(
     iteration on the record goes to row (35,). fail (`records.FAIL_WIDTH`,) holds (q, q_new,
     s_new, error); a curved needle's rows and error have one more entry (the roll's), the QP's
     the actuators it was built at and its scratch after the error. qpa: the QP's arrays
-    (`qp_params.loop_qp`), read only for method QP.
+    (`qp_kernels.loop_qp`), read only for method QP; every method passes arrays of these
+    types, so numba compiles one loop for all (with None for the others it compiled two,
+    and a cold compile of every kernel took 197 s against 163 s).
     """
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     joints_from_actuators(P, s, q)
