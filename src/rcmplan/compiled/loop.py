@@ -254,8 +254,8 @@ def iterate(
     s_new, error); a curved needle's rows and error have one more entry (the roll's), the QP's
     the actuators it was built at and its scratch after the error. qpa: the QP's arrays
     (`qp_kernels.loop_qp`), read only for method QP; every method passes arrays of these
-    types, so numba compiles one loop for all (with None for the others it compiled two,
-    and a cold compile of every kernel took 197 s against 163 s).
+    types, so numba compiles one loop for all (None for the others would compile a second
+    one: `docs/benchmarks.md`, the cold compile row).
     """
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     joints_from_actuators(P, s, q)
