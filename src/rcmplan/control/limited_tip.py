@@ -72,7 +72,8 @@ class LimitedTipSolver:
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """The tip step scaled by `scale_factor`; lambda unchanged."""
+        """The tip step scaled by `step_fraction` (and `tip_fraction` with a tip speed); lambda
+        unchanged."""
         dq, _ = self._tip.step(robot, q, lam, target, error)
         f = 1.0
         if self.tip_speed is not None:
