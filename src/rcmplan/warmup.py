@@ -81,8 +81,9 @@ def compile_iramis_kernels() -> None:
 
 
 def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
-    """The compiled QP loop (and DAQP's binding), on a 20 um move about the trocar; nothing if
-    DAQP's C solver cannot be called from compiled code (`cache.qp_loop`)."""
+    """The QP in the compiled iRAM!S loop (the loop is one for every method; this runs its QP
+    branch and loads DAQP's binding), on a 20 um move about the trocar; nothing if DAQP's C
+    solver cannot be called from compiled code (`cache.qp_loop`)."""
     from rcmplan.control.qp import QpSolver
     from rcmplan.control.targets import rcm_target
 
@@ -110,8 +111,8 @@ def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -
 
 
 def _compile_qp_mujoco_loop(robot: Iramis, targets: FloatArray) -> None:
-    """The QP's compiled loop around the dynamic MuJoCo plant (`qp_mujoco_phase`), on the first
-    of the short RCM move's targets."""
+    """The QP in the compiled loop around the dynamic MuJoCo plant (`qp_mujoco_phase`: its
+    servo plan), on the first of the short RCM move's targets."""
     from rcmplan.control.qp import QpSolver
     from rcmplan.sim.mujoco.plant import MujocoPlant
 
