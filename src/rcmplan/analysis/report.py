@@ -50,7 +50,7 @@ def write_summary(result: RunResult, out: Path, csv: bool = True) -> Path:
     else:
         (out / "log.csv").unlink(missing_ok=True)
         doc["log_csv"] = CSV_SKIPPED
-    return write_text(out / "summary.json", json.dumps(jsonable(doc), indent=2))
+    return write_json(out / "summary.json", doc)
 
 
 def summary_json(result: RunResult) -> dict[str, Any]:
@@ -69,6 +69,11 @@ def summary_json(result: RunResult) -> dict[str, Any]:
     s["simulated_time_s"] = float(log.time[-1]) if len(log) else 0.0
     s["scene"] = scene_record(result.scenario, result.robot)
     return s
+
+
+def write_json(path: Path, doc: Any) -> Path:
+    """doc as strict JSON (`jsonable`), written atomically; returns the path."""
+    return write_text(path, json.dumps(jsonable(doc), indent=2))
 
 
 def jsonable(obj: Any) -> Any:

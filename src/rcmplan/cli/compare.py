@@ -8,7 +8,6 @@ robot (`execution_path`).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -114,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
     Interrupted (SIGINT, SIGTERM), it writes summary.json with status "interrupted" and the
     rows of the methods that finished, then re-raises (exit 130 or 143).
     """
-    from rcmplan.analysis.report import prepare_folder
+    from rcmplan.analysis.report import prepare_folder, write_json
 
     out = prepare_folder(args.out)
     rows: list[dict[str, Any]] = []
@@ -146,11 +145,3 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)  # fmt: skip
         return 1
     return 0
-
-
-def write_json(path: Path, doc: dict[str, Any]) -> None:
-    """doc as strict JSON, written atomically."""
-    from rcmplan._atomic import write_text
-    from rcmplan.analysis.report import jsonable
-
-    write_text(path, json.dumps(jsonable(doc), indent=2))

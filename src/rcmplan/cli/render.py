@@ -12,7 +12,6 @@ names the images alone), the run's log (log.npz, log.csv) and the images in figu
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import sys
 from pathlib import Path
@@ -163,8 +162,7 @@ def write_render_summary(
 ) -> dict[str, Any]:
     """summary.json: the run's (written with its log) with the images under `figures`, or a
     demo's naming the images alone; with `error`, its status and message (no images)."""
-    from rcmplan._atomic import write_text
-    from rcmplan.analysis.report import jsonable, summary_json
+    from rcmplan.analysis.report import summary_json, write_json
 
     if result is None:
         doc: dict[str, Any] = {"command": "render", "procedure": "demo", "status": "ok",
@@ -174,5 +172,5 @@ def write_render_summary(
     doc["figures"] = {key: str(path) for key, path in figures.items()}
     if error is not None:
         doc.update(status=error.status, message=f"{type(error).__name__}: {error}")
-    write_text(out / "summary.json", json.dumps(jsonable(doc), indent=2))
+    write_json(out / "summary.json", doc)
     return doc

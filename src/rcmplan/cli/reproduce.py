@@ -4,7 +4,6 @@ rcmplan's runs of the thesis setting and rcmplan's setting, on the same axes."""
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 from typing import Any
 
@@ -83,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     of the experiments that finished and their figures, then re-raises (exit 130 or 143).
     """
     from rcmplan.analysis import thesis
-    from rcmplan.analysis.report import prepare_folder
+    from rcmplan.analysis.report import prepare_folder, write_json
     from rcmplan.cli.output import table
 
     out = prepare_folder(args.out)
@@ -93,13 +92,13 @@ def run(args: argparse.Namespace) -> int:
         with interrupts.surfaced():
             run_experiments(out, not args.no_plots, rows, figures)
             doc = summary(rows, figures, "ok", "")
-            write_summary(out, doc)
+            write_json(out / "summary.json", doc)
             interrupts.finished()  # inside the handling below: no instant falls between
     except KeyboardInterrupt as exc:
         with interrupts.shielded():
             where = f"during the run, after {len(rows)} of {len(thesis.EXPERIMENTS)} experiments"
-            write_summary(out, summary(rows, figures, "interrupted",
-                                       interrupted_message(exc, where)))  # fmt: skip
+            doc = summary(rows, figures, "interrupted", interrupted_message(exc, where))
+            write_json(out / "summary.json", doc)
         raise
     if args.json:
         print_json(doc)
@@ -150,11 +149,3 @@ def summary(
     """summary.json's content: the experiments' rows and figures so far, with the status."""
     return {"command": "reproduce", "status": status, "message": message, "experiments": rows,
             "figures": figures}  # fmt: skip
-
-
-def write_summary(out: Path, doc: dict[str, Any]) -> None:
-    """doc as out/summary.json, strict JSON written atomically."""
-    from rcmplan._atomic import write_text
-    from rcmplan.analysis.report import jsonable
-
-    write_text(out / "summary.json", json.dumps(jsonable(doc), indent=2))

@@ -143,8 +143,7 @@ def write_outputs(
 def write_partial(out: Path, batch: BatchSettings, checkpoint: EpisodeCheckpoint, status: str,
                   why: str) -> None:  # fmt: skip
     """summary.json and the per-episode log of the finished jobs of a stopped batch."""
-    from rcmplan._atomic import write_text
-    from rcmplan.analysis.report import jsonable
+    from rcmplan.analysis.report import write_json
     from rcmplan.subretinal.episode_report import batch_summary, write_records
 
     with interrupts.shielded():
@@ -157,7 +156,7 @@ def write_partial(out: Path, batch: BatchSettings, checkpoint: EpisodeCheckpoint
         doc = {"status": status, "message": message, **batch_summary(batch, records),
                "checkpoint": str(checkpoint.path)}  # fmt: skip
         write_records(records, out)
-        write_text(out / "summary.json", json.dumps(jsonable(doc), indent=2))
+        write_json(out / "summary.json", doc)
         print(f"rcmplan subretinal: {message}", file=sys.stderr)
 
 

@@ -24,8 +24,7 @@ def write_outputs(
 ) -> dict[str, Any]:  # fmt: skip
     """targets.csv, the figures, then summary.json naming them under `figures` ({} with
     --no-plots) and the resume record under `resumed`; returns the summary."""
-    from rcmplan._atomic import write_text
-    from rcmplan.analysis.report import jsonable
+    from rcmplan.analysis.report import write_json
     from rcmplan.sweep import report
 
     s = {"status": "ok", "message": "", **report.summary(result), "resumed": resumed}
@@ -40,7 +39,7 @@ def write_outputs(
         if gains is not None:
             figs["gains"] = maps.gain_tradeoff(gains, out / "figures" / "gains.png")
     s["figures"] = {k: str(v) for k, v in figs.items()}
-    write_text(out / "summary.json", json.dumps(jsonable(s), indent=2))
+    write_json(out / "summary.json", s)
     return s
 
 
