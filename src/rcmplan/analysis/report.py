@@ -39,18 +39,22 @@ CSV_SKIPPED = (
 
 
 def write_summary(result: RunResult, out: Path, csv: bool = True) -> Path:
-    """summary.json (and the log files) first, so an early stop still leaves them. Without
-    `csv` (an interrupted run, to answer the signal at once: the CSV of a 54,000-record run
-    takes seconds) log.csv is not written, an earlier run's is removed, and the summary says
-    how to write it (`log_csv`)."""
-    result.log.save_npz(out / "log.npz")
-    doc = summary_json(result)
+    """summary.json (and the log files, `write_log`) first, so an early stop still leaves
+    them."""
+    about_log = write_log(result.log, out, csv)
+    return write_json(out / "summary.json", {**summary_json(result), **about_log})
+
+
+def write_log(log: RunLog, out: Path, csv: bool = True) -> dict[str, str]:
+    """log.npz and log.csv in out. Without `csv` (an interrupted run, to answer the signal at
+    once: the CSV of a 54,000-record run takes seconds) log.csv is not written and an earlier
+    run's is removed; returns what the summary then says of it (`log_csv`), else {}."""
+    log.save_npz(out / "log.npz")
     if csv:
-        result.log.save_csv(out / "log.csv")
-    else:
-        (out / "log.csv").unlink(missing_ok=True)
-        doc["log_csv"] = CSV_SKIPPED
-    return write_json(out / "summary.json", doc)
+        log.save_csv(out / "log.csv")
+        return {}
+    (out / "log.csv").unlink(missing_ok=True)
+    return {"log_csv": CSV_SKIPPED}
 
 
 def summary_json(result: RunResult) -> dict[str, Any]:

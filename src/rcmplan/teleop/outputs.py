@@ -8,7 +8,7 @@ from functools import partial
 from pathlib import Path
 
 from rcmplan._atomic import write_text
-from rcmplan.analysis.report import CSV_SKIPPED, jsonable, prepare_folder
+from rcmplan.analysis.report import jsonable, prepare_folder, write_log
 from rcmplan.exceptions import OutputError
 from rcmplan.teleop.run import TeleopResult
 from rcmplan.teleop.summary import summary
@@ -17,14 +17,10 @@ from rcmplan.teleop.summary import summary
 def write_summary(result: TeleopResult, out: Path, csv: bool = True) -> dict[str, object]:
     """The log, the trace and summary.json (first, so an early stop still leaves them);
     without `csv` (an interrupted session) no log.csv, as `analysis.report.write_summary`."""
-    result.log.save_npz(out / "log.npz")
-    if csv:
-        result.log.save_csv(out / "log.csv")
-    else:
-        (out / "log.csv").unlink(missing_ok=True)
+    about_log = write_log(result.log, out, csv)
     extra = {} if result.intended is None else {"intended": result.intended}
     result.trace.save_npz(out / "teleop.npz", **extra)
-    doc = jsonable({**summary(result), **({} if csv else {"log_csv": CSV_SKIPPED})})
+    doc = jsonable({**summary(result), **about_log})
     write_text(out / "summary.json", json.dumps(doc, indent=2))
     return dict(doc)
 
