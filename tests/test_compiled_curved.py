@@ -1,6 +1,7 @@
-"""The compiled path for a curved needle equals the reference: X_c and J_c, the three steps, whole
-phases of the curved injection (records with the roll error, the plant, lambda) on iRAM!S and the
-UR5, and the reference's exceptions; a straight needle's runs keep their path and records."""
+"""The curved needle's kernels: J_c against finite differences of X_c, each step against the
+equation it solves (numpy); the compiled loop against the loop run from Python: whole phases of
+the curved injection (records with the roll error, the plant, lambda) on iRAM!S and the UR5,
+and the same exceptions; a straight needle's runs keep their path and records."""
 
 from __future__ import annotations
 
@@ -11,10 +12,8 @@ import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they
 import numpy as np
 import pytest
 
-from rcmplan.compiled import curved_arm, curved_iramis, curved_phase
-from rcmplan.compiled import curved_kernels as ck
-from rcmplan.compiled.curved import CurvedArrays, arm_work_shape, curved_arrays
-from rcmplan.compiled.records import CURVED_DLS, CURVED_PINV, CURVED_POSE
+from rcmplan.compiled import curved_phase
+from rcmplan.compiled.curved import curved_arrays
 from rcmplan.control import LoopSettings, Phase, PinvSolver
 from rcmplan.control.curved import (
     CURVED_POSE_TASKS,
@@ -31,9 +30,8 @@ from rcmplan.control.solvers import Solver
 from rcmplan.control.tasks import stack_value
 from rcmplan.controller import Controller
 from rcmplan.exceptions import ConvergenceError, RcmplanError, SliderLimitError
-from rcmplan.robot.curved import CurvedTipRobot, curved_robot
+from rcmplan.robot.curved import CurvedArrays, CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
-from rcmplan.robot.iramis_kernels import trig
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import Steps, injection
@@ -45,7 +43,7 @@ from paths import use_path
 
 TOL = 1e-12
 ROBOTS = ("iramis", "ur5")
-METHODS = {"pinv": CURVED_PINV, "dls": CURVED_DLS}
+METHODS = ("pinv", "dls")
 
 
 @pytest.fixture(autouse=True)
@@ -73,66 +71,77 @@ def configurations(robot: CurvedTipRobot, rng: np.random.Generator, n: int) -> n
     return robot.home + scale * rng.uniform(-1.0, 1.0, (n, len(robot.home)))
 
 
-def kernel_step(robot: CurvedTipRobot, code: int, solver: Solver, q: np.ndarray, lam: float,
-                e: np.ndarray) -> np.ndarray:  # fmt: skip
-    """The compiled step d (m + 1,) of a curved solver at (q, lambda) for its error e."""
-    arrays, d = arrays_of(robot), np.empty(arrays_of(robot).m + 1)
-    K = np.asarray(getattr(solver, "K", np.ones(7)), dtype=float)
-    damping = float(getattr(solver, "damping", 0.0))
-    if arrays.P is not None:
-        C = np.empty((ck.BLOCK_ROWS, 7))
-        curved_iramis.step(arrays.P, code, K, damping, q, trig(q), lam, e, C, d, np.empty(3))
-        return d
-    A, ix = arrays.arm()
-    W = np.empty(arm_work_shape(arrays))
-    curved_arm.task_jacobian(A, ix, W, q, lam, False, np.empty(7))
-    gain = float(getattr(solver, "posture_gain", 0.0))
-    curved_arm.step(A, ix, W, code, K, gain, damping, q, lam, e, d)
-    return d
+def theta_ext_fd(f, robot: CurvedTipRobot, q0: np.ndarray, lam0: float,
+                 h: float = 1e-7) -> np.ndarray:  # fmt: skip
+    """Central differences of f(q, lambda) over theta_ext = (q[active], lambda), the roll
+    row's differences wrapped to [-pi, pi)."""
+    active = list(robot.active)
+    x0 = np.append(q0[active], lam0)
+    cols = []
+    for j in range(x0.size):
+        out = []
+        for sign in (1.0, -1.0):
+            x = x0.copy()
+            x[j] += sign * h
+            q = q0.copy()
+            q[active] = x[:-1]
+            out.append(f(q, float(x[-1])))
+        diff = out[0] - out[1]
+        diff[3] = (diff[3] + np.pi) % (2.0 * np.pi) - np.pi
+        cols.append(diff / (2.0 * h))
+    return np.array(cols).T
 
 
-def test_the_kernels_give_the_models_x_c_and_j_c(robot: CurvedTipRobot, rng) -> None:
-    arrays = arrays_of(robot)
-    for q in configurations(robot, rng, 20):
-        lam = float(rng.uniform())
-        for pose, tasks in ((False, CURVED_TASKS), (True, CURVED_POSE_TASKS)):
-            x, J = np.empty(7), np.empty((7, arrays.m + 1))
-            if arrays.P is not None:
-                C = np.empty((ck.BLOCK_ROWS, 7))
-                curved_iramis.task_jacobian(arrays.P, q, lam, pose, x, C)
-                J = C[ck.J : ck.J + 7]
-            else:
-                W = np.empty(arm_work_shape(arrays))
-                curved_arm.task_jacobian(*arrays.arm(), W, q, lam, pose, x)
-                r = curved_arm.block_row(arrays.n) + ck.J
-                J = W[r : r + 7, : arrays.m + 1]
-            ref = stack_value(tasks, robot, q, lam)
-            dx = x - ref
-            dx[3] = ck.wrap(dx[3])
-            assert np.abs(dx).max() <= TOL
-            np.testing.assert_allclose(J, task_jacobian(tasks, robot, q, lam), rtol=0, atol=TOL)
+@pytest.mark.parametrize("pose", [False, True], ids=["x_c", "whole pose"])
+def test_j_c_equals_finite_differences_of_x_c(robot: CurvedTipRobot, pose: bool, rng) -> None:
+    for q in configurations(robot, rng, 5):
+        lam = float(rng.uniform(0.2, 0.9))
+        J = robot.task_and_jacobian(q, lam, pose)[1].copy()
+
+        def x_c(qq: np.ndarray, ll: float) -> np.ndarray:
+            return robot.task_and_jacobian(qq, ll, pose)[0].copy()
+
+        np.testing.assert_allclose(J, theta_ext_fd(x_c, robot, q, lam), rtol=0, atol=2e-7)
+        if pose:
+            assert np.all(J[:, -1] == 0.0)  # lambda moves no point of the whole pose
+
+
+def numpy_step(solver: Solver, robot: CurvedTipRobot, q: np.ndarray, lam: float,
+               e: np.ndarray) -> np.ndarray:  # fmt: skip
+    """The step the solver's equation defines, solved by numpy: J_c d = K e (square J_c); DLS
+    d = J^T (J J^T + D^2 I)^-1 e with the roll row times l_s; the whole pose's least squares."""
+    J = task_jacobian(solver.tasks, robot, q, lam)
+    if isinstance(solver, CurvedPoseSolver):
+        d = np.linalg.lstsq(J[:, :-1], np.asarray(solver.K) * e, rcond=None)[0]
+        return np.append(d, 0.0)
+    if isinstance(solver, CurvedDlsSolver):
+        scale = np.ones(7)
+        scale[3] = robot.needle_length
+        Js, es = scale[:, None] * J, scale * e
+        A = Js @ Js.T + solver.damping**2 * np.eye(7)
+        return Js.T @ np.linalg.solve(A, es)
+    return np.linalg.solve(J, np.asarray(solver.K) * e)
 
 
 @pytest.mark.parametrize(
     "solver", [CurvedPinvSolver(), CurvedDlsSolver(), CurvedPoseSolver()], ids=lambda s: s.name
 )
-def test_each_step_equals_the_reference_solvers(robot: CurvedTipRobot, solver, rng) -> None:
-    code = {CurvedPinvSolver: CURVED_PINV, CurvedDlsSolver: CURVED_DLS,
-            CurvedPoseSolver: CURVED_POSE}[type(solver)]  # fmt: skip
+def test_each_step_solves_its_equation(robot: CurvedTipRobot, solver, rng) -> None:
     for q in configurations(robot, rng, 10):
         lam = float(rng.uniform(0.2, 0.9))
         x = stack_value(solver.tasks, robot, q, lam)
         target = x + rng.normal(0.0, 1e-4, 7)
         e = solver.error(robot, q, lam, target)
         dq, dlam = solver.step(robot, q, lam, target, e)
-        d = kernel_step(robot, code, solver, q, lam, e)
-        np.testing.assert_allclose(d, [*dq, dlam], rtol=0, atol=TOL)
+        np.testing.assert_allclose([*dq, dlam], numpy_step(solver, robot, q, lam, e),
+                                   rtol=0, atol=TOL)  # fmt: skip
 
 
 def test_a_satisfied_task_gives_zero_motion(robot: CurvedTipRobot) -> None:
     q = robot.home.copy()
-    d = kernel_step(robot, CURVED_PINV, CurvedPinvSolver(), q, 0.5, np.zeros(7))
-    assert np.abs(d).max() == 0.0
+    target = stack_value(CURVED_TASKS, robot, q, 0.5)
+    dq, dlam = CurvedPinvSolver().step(robot, q, 0.5, target, np.zeros(7))
+    assert np.abs(dq).max() == 0.0 and dlam == 0.0
 
 
 def assert_same_log(a: RunLog, b: RunLog) -> None:

@@ -171,9 +171,10 @@ def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:
 
 
 def compile_curved_kernels() -> None:
-    """Compile (or load from numba's cache) the curved needle's loops and target screens with
-    the argument types used here: the screen and each curved solver on one target, on iRAM!S
-    and on iRAM!S's DH chain as an arm holding the needle (no robot package needed)."""
+    """Compile (or load from numba's cache) the curved needle's loops, steps and target screens
+    with the argument types used here: the screen and each curved solver on one target (one
+    step called from Python, one phase in the loop), on iRAM!S and on iRAM!S's DH chain as an
+    arm holding the needle (no robot package needed)."""
     from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, CurvedPoseSolver
     from rcmplan.robot.chain import JointChain
     from rcmplan.robot.curved import CurvedTipRobot
@@ -202,6 +203,7 @@ def compile_curved_kernels() -> None:
             continue
         screen(robot, arrays, x[None, :], np.ascontiguousarray(q, dtype=np.float64))
         for solver, target in jobs:
+            solver.step(robot, q, 0.5, target, solver.error(robot, q, 0.5, target))  # from Python
             ctl = Controller(KinematicPlant(base), solver, robot=robot)
             ctl.lam = 0.5
             pid = ctl.log.phase_id("warm")

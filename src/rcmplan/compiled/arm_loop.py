@@ -33,7 +33,6 @@ import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled import curved_arm
 from rcmplan.compiled.arm_qp_kernels import solve_arm_step, solve_servo_step
 from rcmplan.compiled.chain_kernels import (
     ROWS,
@@ -64,8 +63,10 @@ from rcmplan.compiled.records import (
     STEPPED,
     TIP_LIMITED,
 )
+from rcmplan.control import curved_step
 from rcmplan.control.limited_tip import step_fraction, tip_fraction
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
+from rcmplan.robot import curved_arm
 from rcmplan.robot.needle import axis_angles, axis_into, closest_point
 
 
@@ -187,7 +188,7 @@ def arm_iterate(
             return QP_FAILED
         ne = 6
     elif curved:
-        ne = curved_arm.task_error(A, ix, W, method, state[0], target, e)
+        ne = curved_step.arm_task_error(A, ix, W, method, state[0], target, e)
     else:
         ne = task_error(A, ix, W, method, state[0], target, tip_t, pivot, e)
     if it > 0 and curved:
@@ -201,7 +202,7 @@ def arm_iterate(
     if is_singular(A, ix, W, bounds[0]):
         return SINGULAR
     if curved:
-        curved_arm.step(A, ix, W, method, K, gain, damping, s, state[0], e, d)
+        curved_step.arm_step(A, ix, W, method, K, gain, damping, s, state[0], e, d)
     elif method != QP:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
     if method == TIP_LIMITED:

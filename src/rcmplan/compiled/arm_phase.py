@@ -26,7 +26,6 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
 from rcmplan.compiled.arm_qp import arm_qp_applies, qp_arrays, servo_command
-from rcmplan.compiled.curved import CurvedArrays, arm_work_shape
 from rcmplan.compiled.qp_phase import raise_qp_failure
 from rcmplan.compiled.records import (
     BLOCK,
@@ -47,6 +46,7 @@ from rcmplan.compiled.records import (
 from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
+from rcmplan.robot.curved import CurvedArrays
 from rcmplan.robot.model import SerialArm
 
 if TYPE_CHECKING:
@@ -119,7 +119,7 @@ class _Setup:
             self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
             self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)
         else:
-            self.W = np.empty(arm_work_shape(curved))
+            self.W = np.empty(curved.work_shape())
             self.fail, self.d = np.empty(2 * self.n + 7), np.empty(curved.m + 1)
         self.width = record_width(self.n, roll=curved is not None)
 

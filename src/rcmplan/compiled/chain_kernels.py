@@ -3,7 +3,7 @@
 memory layout), the singularity measure (`chain_singular`), steps (`chain_solve`) and checks
 (`chain_checks`).
 
-The same maths as `SerialArm` (`robot/model.py`), `angles_jacobian` (`robot/needle.py`), the
+The same maths as `SerialArm` (`robot/model.py`, which calls `chain_kinematics`), the
 X_ext stacking (`control/augmented.py`) and `PinvSolver` / `DlsSolver` (`control/solvers.py`),
 so results agree with the reference to rounding. Imports numba (the `fast` extra); loaded only
 through `rcmplan.compiled.cache.chain_kernels`.

@@ -18,9 +18,10 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled import curved_arm, curved_iramis
-from rcmplan.compiled import curved_kernels as ck
-from rcmplan.compiled.records import CURVED_PINV
+from rcmplan.control import curved_step
+from rcmplan.control.curved_step import CURVED_PINV
+from rcmplan.robot import curved_arm
+from rcmplan.robot import curved_block as ck
 from rcmplan.robot.chain_kinematics import IntArray, frames, needle_point
 from rcmplan.robot.iramis_kernels import actuators_from_joints, point, trig
 from rcmplan.robot.needle import closest_point
@@ -64,11 +65,11 @@ def screen_iramis(P: FloatArray, seed: FloatArray, max_it: int, clear_it: int, t
         steps = -1
         for it in range(max_it):
             tr = trig(q)
-            curved_iramis.task_error(P, CURVED_PINV, q, tr, lam, x, e, w)
+            curved_step.iramis_task_error(P, CURVED_PINV, q, tr, lam, x, e, w)
             if within(e, tol):
                 steps = it
                 break
-            curved_iramis.pinv_step(P, K, q, tr, lam, e, d, w, C)
+            curved_step.iramis_pinv_step(P, K, q, tr, lam, e, d, w, C)
             for i in range(6):
                 q[i] += d[i]
             lam += d[6]
@@ -105,12 +106,12 @@ def screen_arm(A: FloatArray, ix: IntArray, W: FloatArray, lower: FloatArray,
         for it in range(max_it):
             if it > 0:
                 frames(A, ix, q, W)
-            curved_arm.task_error(A, ix, W, CURVED_PINV, lam, x, e)
+            curved_step.arm_task_error(A, ix, W, CURVED_PINV, lam, x, e)
             if within(e, tol):
                 steps = it
                 break
             curved_arm.jacobian(A, ix, W, lam, False)
-            ck.step(W, c, CURVED_PINV, mc, K, 0.0, A[5 * n + 12, 0], e, d)
+            curved_step.step(W, c, CURVED_PINV, mc, K, 0.0, A[5 * n + 12, 0], e, d)
             for j in range(mc):
                 q[ix[first + j]] += d[j]
             lam += d[mc]

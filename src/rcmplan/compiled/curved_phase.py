@@ -18,7 +18,7 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.curved import CurvedArrays, curved_arrays
+from rcmplan.compiled.curved import curved_arrays
 from rcmplan.compiled.phase import IntArray, run_in_blocks
 from rcmplan.compiled.records import (
     CURVED_POSE,
@@ -31,16 +31,14 @@ from rcmplan.compiled.records import (
     record_width,
     solver_arrays,
 )
+from rcmplan.control.curved import POSE_JOINTS
 from rcmplan.control.solvers import Solver
+from rcmplan.robot.curved import CurvedArrays
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
 
 ITERATIONS_PER_TARGET = 4  # on the kinematic plant: 12,725 records / 9,768 targets (`curved`)
-# The whole-pose task has seven rows for a rigid needle's six freedoms: with more than six
-# active joints its Jacobian is rank-deficient both ways, and the reference's least-squares
-# step (an SVD) runs on the reference path.
-POSE_JOINTS = 6
 
 
 def applies(controller: Controller, solver: Solver) -> bool:
@@ -51,8 +49,8 @@ def applies(controller: Controller, solver: Solver) -> bool:
 def run_if_fast(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
-    """Run the phase compiled if the plant reaches its commands exactly and the kernels
-    reproduce the robot; False (nothing done) otherwise."""
+    """Run the phase compiled if the plant reaches its commands exactly and the robot is a
+    `CurvedTipRobot` itself; False (nothing done) otherwise."""
     if not getattr(controller.plant, "exact_commands", False):
         return False
     arrays = curved_arrays(controller.robot)

@@ -20,9 +20,9 @@ space to hold each actuator's speed and travel less the margin (`limit_step`); K
 those bounds (`records.iramis_method`).
 
 A curved needle (`CurvedTipRobot` on iRAM!S, method codes from CURVED on) takes the same loop:
-its error, step and tip come from `curved_iramis` (P then carries the arc, `curved_iramis.params`),
-the roll q5 moves with the other joints, records have the roll error column
-(`record_width(6, roll=True)`) and `fail` holds a 7-row error (`records.FAIL_WIDTH`).
+its error and step come from `curved_step`, its tip from `curved_iramis` (P then carries the
+arc, `curved_iramis.params`), the roll q5 moves with the other joints, records have the roll
+error column (`record_width(6, roll=True)`) and `fail` holds a 7-row error (`records.FAIL_WIDTH`).
 """
 
 from __future__ import annotations
@@ -32,8 +32,6 @@ import math
 import numpy as np
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled import curved_iramis
-from rcmplan.compiled.curved_kernels import BLOCK_ROWS
 from rcmplan.compiled.kernels import dls_solve, jacobian_a, njit, solve_augmented, task
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
 from rcmplan.compiled.records import (
@@ -54,9 +52,12 @@ from rcmplan.compiled.records import (
     TIP,
     TIP_LIMITED,
 )
+from rcmplan.control import curved_step
 from rcmplan.control.limited_tip import step_fraction, tip_fraction
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.control.solvers import PIVOT_DISTANCE
+from rcmplan.robot import curved_iramis
+from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.robot.iramis_kernels import (
     actuators_from_joints,
     first_beyond_travel,
@@ -269,7 +270,7 @@ def iterate(
             return QP_FAILED
         m = 6
     elif curved:
-        m = curved_iramis.task_error(P, method, q, tr, state[0], target, e, w)
+        m = curved_step.iramis_task_error(P, method, q, tr, state[0], target, e, w)
     else:
         m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
     if it > 0 and curved:
@@ -285,7 +286,7 @@ def iterate(
     if method == QP:
         return qp_step(P, q, fail[24:30], qpa[2][X], trocar, bounds, state, fail, info, w)
     if curved:
-        curved_iramis.step(P, method, K, damping, q, tr, state[0], e, J, d, f)
+        curved_step.iramis_step(P, method, K, damping, q, tr, state[0], e, J, d, f)
     else:
         solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
     moved = 6 if curved else 5  # a curved needle's roll q5 is active

@@ -21,7 +21,6 @@ from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.curved_kernels import BLOCK_ROWS
 from rcmplan.compiled.loop import holds_rcm, iterate_recorded, target_frame
 from rcmplan.compiled.phase import IntArray
 from rcmplan.compiled.records import (
@@ -41,6 +40,7 @@ from rcmplan.compiled.records import (
 )
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import SimulationError
+from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.sim.mujoco.compiled import OK, PlantArrays, advance, plant_arrays
 
 if TYPE_CHECKING:

@@ -16,6 +16,10 @@ from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, CurvedPoseSolver
+from rcmplan.control.curved_step import CURVED as CURVED
+from rcmplan.control.curved_step import CURVED_DLS as CURVED_DLS
+from rcmplan.control.curved_step import CURVED_PINV as CURVED_PINV
+from rcmplan.control.curved_step import CURVED_POSE as CURVED_POSE
 from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.log import LogBuilder
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
@@ -34,9 +38,8 @@ TIP_LIMITED = 4
 # The QP controller: one solve gives an iteration's error and step, in the arm loop
 # (`arm_phase.arm_code`) and the iRAM!S loop (`qp_phase`, `qp_mujoco_phase`)
 QP = 5
-# A curved needle's methods (`rcmplan.control.curved`): codes from CURVED on (X_c, 7 rows)
-CURVED = 16
-CURVED_PINV, CURVED_DLS, CURVED_POSE = CURVED, CURVED + 1, CURVED + 2
+# A curved needle's methods (`rcmplan.control.curved`): codes from CURVED on (X_c, 7 rows), each
+# its solver's `code` (`rcmplan.control.curved_step`)
 DONE, PAUSED, NO_CONVERGENCE, SINGULAR, BAD_JOINTS, SLIDER_LIMIT, NO_TIP, STEPPED = range(8)
 QP_FAILED = 8  # DAQP did not return an optimal solution (its exit flag in info[2])
 PLANT_STOPPED = 100  # the dynamic MuJoCo plant's period failed a check (code in info[2])
@@ -92,9 +95,9 @@ def method_code(solver: Solver) -> int | None:
         return DLS
     if type(solver) is TipSolver:
         return TIP
-    curved: dict[type, int] = {CurvedPinvSolver: CURVED_PINV, CurvedDlsSolver: CURVED_DLS,
-                               CurvedPoseSolver: CURVED_POSE}  # fmt: skip
-    return curved.get(type(solver))
+    if type(solver) in (CurvedPinvSolver, CurvedDlsSolver, CurvedPoseSolver):
+        return int(solver.code)  # type: ignore[attr-defined]
+    return None
 
 
 def iramis_method(solver: Solver, robot: RobotModel) -> tuple[int, FloatArray] | None:

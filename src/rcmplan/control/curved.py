@@ -21,22 +21,35 @@ shaft's base instead of the RCM, so that the arc can pass the trocar (`rcmplan.c
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
 
 from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.control.curved_step import (
+    CURVED_DLS,
+    CURVED_PINV,
+    CURVED_POSE,
+    arm_step,
+    iramis_step,
+)
 from rcmplan.control.limited_tip import limited_step
-from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, dls_solve, pinv_solve
+from rcmplan.control.solvers import SolverKind, Tolerance, check_damping
+from rcmplan.control.targets import checked_target
 from rcmplan.control.tasks import NeedleBase, RcmPoint, Task, TipPosition
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.chain_kinematics import frames
 from rcmplan.robot.curved import CurvedTipRobot
+from rcmplan.robot.curved_block import wrap
+from rcmplan.robot.iramis_kernels import trig
 from rcmplan.robot.model import RobotModel
 
 TARGET_WIDTH = 7
 ROLL_ROW = 3
+# The whole-pose task has seven rows for a rigid needle's six freedoms: with more than six
+# active joints its Jacobian is rank-deficient both ways, beyond the compiled step's solves.
+POSE_JOINTS = 6
 
 
 def curved(robot: RobotModel) -> CurvedTipRobot:
@@ -71,7 +84,7 @@ def task_error(
     """target - value of the 7-row stack, the roll error wrapped to [-pi, pi)."""
     value = np.concatenate([t.value(robot, q, lam) for t in tasks])
     e = vector("target", target, TARGET_WIDTH) - value
-    e[ROLL_ROW] = (e[ROLL_ROW] + math.pi) % (2.0 * math.pi) - math.pi
+    e[ROLL_ROW] = wrap(e[ROLL_ROW])
     return e
 
 
@@ -101,12 +114,33 @@ def _tolerance(tol: Tolerance) -> FloatArray:
     return np.array([p, p, p, a, p, p, p])
 
 
+def kernel_step(
+    robot: RobotModel, code: int, K: FloatArray, damping: float, gain: float, q: FloatArray,
+    lam: float, error: FloatArray,
+) -> FloatArray:  # fmt: skip
+    """The compiled loops' step d = (dq[active], dlambda) (m + 1,) of the curved solver `code`
+    (`curved_step`) at (q, lambda) for its error (7,); `gain` is the null-space posture's."""
+    arrays = curved(robot).arrays
+    assert arrays is not None  # `curved` refuses a straight needle
+    q = vector("q", q, arrays.n)
+    e = checked_target(error, TARGET_WIDTH, "error", finite=False)  # NaN shows in the step
+    d, work = np.empty(arrays.m + 1), np.empty(arrays.work_shape())
+    if arrays.P is not None:
+        iramis_step(arrays.P, code, K, damping, q, trig(q), float(lam), e, work, d, np.empty(3))
+        return d
+    A, ix = arrays.arm()
+    frames(A, ix, q, work)
+    arm_step(A, ix, work, code, K, gain, damping, q, float(lam), e, d)
+    return d
+
+
 class CurvedSolver:
     """What the curved-needle solvers share: the task X_c, its error and its tolerance."""
 
     tasks: ClassVar[tuple[Task, ...]] = CURVED_TASKS
     kind: ClassVar[SolverKind] = "rcm"
     target_width: ClassVar[int] = TARGET_WIDTH
+    code: ClassVar[int]
     tol: Tolerance
 
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
@@ -131,6 +165,7 @@ class CurvedPinvSolver(CurvedSolver):
     tol: Tolerance = field(default_factory=Tolerance)
     posture_gain: float = 0.05
     name: ClassVar[str] = "pinv"
+    code: ClassVar[int] = CURVED_PINV
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "K", tuple(check_gains7(self.K)))
@@ -140,9 +175,10 @@ class CurvedPinvSolver(CurvedSolver):
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """Solve J_c d = K e (square) or the minimum-norm step plus the null-space posture."""
-        J = task_jacobian(self.tasks, robot, q, lam)
-        d = pinv_solve(J, np.asarray(self.K) * error, robot, q, lam, self.posture_gain)
+        """Solve J_c d = K e (square) or the minimum-norm step plus the null-space posture
+        (`curved_step.step`)."""
+        K = np.asarray(self.K, dtype=np.float64)
+        d = kernel_step(robot, self.code, K, 0.0, self.posture_gain, q, lam, error)
         return d[:-1], float(d[-1])
 
 
@@ -158,6 +194,7 @@ class CurvedDlsSolver(CurvedSolver):
     damping: float = 1e-4
     tol: Tolerance = field(default_factory=Tolerance)
     name: ClassVar[str] = "dls"
+    code: ClassVar[int] = CURVED_DLS
 
     def __post_init__(self) -> None:
         check_damping(self.damping)
@@ -166,11 +203,8 @@ class CurvedDlsSolver(CurvedSolver):
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """One DLS step with the roll row and error times l_s."""
-        J = task_jacobian(self.tasks, robot, q, lam)
-        scale = np.ones(TARGET_WIDTH)
-        scale[ROLL_ROW] = robot.needle_length
-        d = dls_solve(scale[:, None] * J, scale * error, self.damping)
+        """One DLS step with the roll row and error times l_s (`curved_step.step`)."""
+        d = kernel_step(robot, self.code, np.ones(TARGET_WIDTH), self.damping, 0.0, q, lam, error)
         return d[:-1], float(d[-1])
 
 
@@ -182,14 +216,20 @@ class CurvedPoseSolver(CurvedPinvSolver):
     tasks: ClassVar[tuple[Task, ...]] = CURVED_POSE_TASKS
     name: ClassVar[str] = "pose-pinv"
     kind: ClassVar[SolverKind] = "free"
+    code: ClassVar[int] = CURVED_POSE
 
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """The minimum-norm step on the (7, m) pose Jacobian."""
-        J = task_jacobian(self.tasks, robot, q, lam)[:, :-1]
-        d = np.linalg.lstsq(J, np.asarray(self.K) * error, rcond=None)[0]
-        return np.asarray(d, dtype=np.float64), 0.0
+        """The least-squares step on the (7, m) pose Jacobian (`curved_step.step`); with more
+        than POSE_JOINTS active joints, where that Jacobian is rank-deficient both ways, the
+        minimum-norm least-squares step (an SVD)."""
+        K = np.asarray(self.K, dtype=np.float64)
+        if len(robot.active) > POSE_JOINTS:
+            J = task_jacobian(self.tasks, robot, q, lam)[:, :-1]
+            d = np.linalg.lstsq(J, K * error, rcond=None)[0]
+            return np.asarray(d, dtype=np.float64), 0.0
+        return kernel_step(robot, self.code, K, 0.0, 0.0, q, lam, error)[:-1], 0.0
 
 
 @dataclass(frozen=True)

@@ -171,8 +171,9 @@ def point_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, J: Fl
 @njit(cache=True)
 def angle_rows(A: FloatArray, ix: IntArray, W: FloatArray, thesis: bool, J: FloatArray,
                r: int) -> None:  # fmt: skip
-    """d(phi, psi) / d(q[active], lambda) into rows r, r+1 of J: exact (`angles_jacobian`:
-    da_j = omega_j x a, then the chain rule), or eq. 6.1's (omega_y, omega_z) if `thesis`."""
+    """d(phi, psi) / d(q[active], lambda) into rows r, r+1 of J: exact (the axis turns
+    with the needle, da_j = omega_j x a, then the chain rule), or eq. 6.1's (omega_y, omega_z)
+    if `thesis`."""
     n, m = ix[0], ix[1]
     ax, ay, az = needle_axis(A, n, W)
     h2 = ax * ax + az * az

@@ -5,10 +5,12 @@ rotation into the Jacobian matrix").
 SerialArm with a StraightNeedle of length l_s) and puts the arc of a `CurvedNeedle` after it.
 The RCM stays on the shaft, so p(lambda), the needle axis and the needle angles are the shaft's.
 The tip is the arc's end: the roll joint (iRAM!S's q5, an arm's last joint) now moves it, so the
-roll joins the active joints, theta_ext = (q[active + roll], lambda). Jacobians are exact:
+roll joins the active joints, theta_ext = (q[active + roll], lambda). The tip, the roll and their
+exact Jacobians are the compiled kernels' (`curved_iramis` on iRAM!S, `curved_arm` on an arm,
+`curved_block` for J_c):
 
     J_tip = J_v - [p_tip - o]x J_w          (tool-frame Jacobian moved to the tip, eq. 2.11)
-    rho   = roll_from_axes(a, b),  J_rho = a^T J_w - a_y J_phi   (`rcmplan.robot.needle`)
+    rho   = roll_of(a, b),  J_rho = a^T J_w - a_y J_phi   (`rcmplan.robot.needle.roll_of`)
 
 with (J_v, J_w) the geometric Jacobian of the needle base frame, a the shaft axis and b the bevel
 direction (the mount's +x). With alpha = 0 every quantity is the wrapped model's own: the same
@@ -17,19 +19,59 @@ straight needle, the roll held.
 
 from __future__ import annotations
 
-import numpy as np
+from typing import NamedTuple
 
-from rcmplan._validate import FloatArray
+import numpy as np
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot import curved_arm, curved_iramis
+from rcmplan.robot.curved_block import BLOCK_ROWS, WIDTH, G, J
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel, SerialArm
-from rcmplan.robot.needle import angles_jacobian, roll_from_axes, roll_jacobian
+
+TIP, ROLL, POINT = slice(0, 3), 3, slice(4, 7)  # rows of X_c and J_c
 
 
-def skew(v: FloatArray) -> FloatArray:
-    """[v]x, the (3, 3) cross-product matrix."""
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+class CurvedArrays(NamedTuple):
+    """The kernels' arrays of a curved-needle robot: `P` for iRAM!S (`curved_iramis.params`),
+    else (A, ix) of an arm (`curved_arm.pack`); `n` joints, `m` active (with the roll)."""
+
+    P: FloatArray | None
+    A: FloatArray | None
+    ix: NDArray[np.int64] | None
+    n: int
+    m: int
+
+    def arm(self) -> tuple[FloatArray, NDArray[np.int64]]:
+        """(A, ix) of an arm (InvalidInputError for iRAM!S's arrays)."""
+        if self.A is None or self.ix is None:
+            raise InvalidInputError("curved-needle arrays", "iRAM!S's P", "an arm's (A, ix)")
+        return self.A, self.ix
+
+    def work_shape(self) -> tuple[int, int]:
+        """Shape of the work array of the kernels: iRAM!S's block, or an arm's frames and
+        block (`curved_arm.work_shape`)."""
+        if self.P is not None:
+            return BLOCK_ROWS, WIDTH
+        return curved_arm.work_shape(self.n, int(self.arm()[1][1]), self.m)
+
+    def block_row(self) -> int:
+        """First row of the curved work block in the work array."""
+        return 0 if self.P is not None else int(curved_arm.block_row(self.n))
+
+
+def _arrays(
+    base: Iramis | SerialArm, needle: CurvedNeedle, active: tuple[int, ...]
+) -> CurvedArrays:
+    """The kernels' arrays of `base` holding `needle` with `active` joints moving."""
+    tip = needle.tip_local()
+    if isinstance(base, Iramis):
+        return CurvedArrays(curved_iramis.params(base.P, tip), None, None, 6, 6)
+    A, ix = curved_arm.pack(*base.kernel_arrays, tip, active)
+    return CurvedArrays(None, A, ix, len(base.home), len(active))
 
 
 class CurvedTipRobot:
@@ -41,6 +83,8 @@ class CurvedTipRobot:
     """
 
     def __init__(self, base: Iramis | SerialArm, needle: CurvedNeedle) -> None:
+        if not isinstance(base, Iramis | SerialArm):
+            raise InvalidInputError("robot", type(base).__name__, "an Iramis or a SerialArm")
         roll = getattr(base, "roll_joint", None)
         if roll is None:
             raise InvalidInputError("robot", base.name, "a model with a needle roll joint")
@@ -59,8 +103,13 @@ class CurvedTipRobot:
         self.needle_kind = needle.name
         self.needle_length = needle.shaft_length
         self.active: tuple[int, ...] = base.active
+        self.arrays: CurvedArrays | None = None
         if needle.curved:
             self.active = tuple(sorted({*base.active, roll}))
+            self.arrays = _arrays(base, needle, self.active)
+            self._x = np.empty(WIDTH)
+            self._work = np.empty(self.arrays.work_shape())
+            self._key: tuple[bytes, float, bool] | None = None
         self._base_cols = [self.active.index(i) for i in base.active]
 
     # --- actuators and singularities: the base's ---------------------------------------
@@ -104,23 +153,44 @@ class CurvedTipRobot:
         """Joints putting the shaft's end at `tip` with the shaft along (phi, psi)."""
         return self.base.needle_pose(tip, phi, psi, seed)
 
-    # --- the shaft (RCM, needle axis and angles) ----------------------------------------
-    def _widen(self, J_base: FloatArray, roll_col: FloatArray) -> FloatArray:
-        """A base Jacobian (k, m_base + 1) with the roll's column inserted (k, m + 1)."""
-        if not self.needle.curved:
-            return J_base
+    # --- the kernels ---------------------------------------------------------------------
+    def task_and_jacobian(
+        self, q: FloatArray, lam: float, pose: bool = False
+    ) -> tuple[FloatArray, FloatArray]:
+        """X_c (7,) and J_c (7, m + 1) of the curved needle at (q, lambda), from the kernels;
+        with `pose` the whole-pose task (p_tip, rho, p(0)). Views of this model's work arrays,
+        valid until its next query (InvalidInputError for a straight needle)."""
+        arrays = self.arrays
+        if arrays is None:
+            raise InvalidInputError("robot", self.name, "a robot holding a curved needle")
+        q = vector("q", q, arrays.n)
+        lam = scalar("lam", lam)
+        key = (q.tobytes(), lam, bool(pose))
+        if key != self._key:
+            if arrays.P is not None:
+                curved_iramis.task_jacobian(arrays.P, q, lam, bool(pose), self._x, self._work)
+            else:
+                A, ix = arrays.arm()
+                curved_arm.task_jacobian(A, ix, self._work, q, lam, bool(pose), self._x)
+            self._key = key
+        c = arrays.block_row()
+        return self._x, self._work[c + J : c + J + WIDTH, : arrays.m + 1]
+
+    def _angular(self, q: FloatArray) -> FloatArray:
+        """J_w over the active joints (3, m) from the kernels' work block."""
+        assert self.arrays is not None
+        self.task_and_jacobian(q, 0.0, True)
+        c = self.arrays.block_row() + G
+        return self._work[c + 3 : c + 6, : self.arrays.m]
+
+    def _widen(self, J_base: FloatArray) -> FloatArray:
+        """A base Jacobian (k, m_base + 1) with a zero column for the roll, (k, m + 1)."""
         out = np.zeros((J_base.shape[0], len(self.active) + 1))
         out[:, self._base_cols] = J_base[:, :-1]
         out[:, -1] = J_base[:, -1]
-        out[:, self.active.index(self.roll_joint)] = roll_col
         return out
 
-    def _roll_column(self, q: FloatArray, p: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(linear velocity of world point p, angular velocity) per unit roll."""
-        J = self.base.tool_jacobian(q)[:, [self.roll_joint]][:, 0]
-        o = self.base.tool_pose(q)[:3, 3]
-        return J[:3] - skew(p - o) @ J[3:], J[3:]
-
+    # --- the shaft (RCM, needle axis and angles) ----------------------------------------
     def needle_point(self, q: FloatArray, lam: float) -> FloatArray:
         """The shaft point p(lambda) in [m]."""
         return self.base.needle_point(q, lam)
@@ -131,57 +201,52 @@ class CurvedTipRobot:
 
     def needle_point_jacobian(self, q: FloatArray, lam: float) -> FloatArray:
         """d p(lambda) / d theta_ext, (3, m + 1)."""
-        J = self.base.needle_point_jacobian(q, lam)
-        if not self.needle.curved:
-            return J
-        return self._widen(J, self._roll_column(q, self.needle_point(q, lam))[0])
+        if self.arrays is None:
+            return self.base.needle_point_jacobian(q, lam)
+        return self.task_and_jacobian(q, lam)[1][POINT].copy()
 
     def needle_angular_jacobian(self, q: FloatArray) -> FloatArray:
-        """Angular velocity of the needle per theta_ext, (3, m + 1)."""
-        J = self.base.needle_angular_jacobian(q)
-        if not self.needle.curved:
-            return J
-        return self._widen(J, self._roll_column(q, self.needle_point(q, 0.0))[1])
+        """Angular velocity of the needle per theta_ext, (3, m + 1), zero lambda column."""
+        if self.arrays is None:
+            return self.base.needle_angular_jacobian(q)
+        out = np.zeros((3, len(self.active) + 1))
+        out[:, :-1] = self._angular(q)
+        return out
 
     def needle_angles_jacobian(self, q: FloatArray) -> FloatArray:
-        """Exact d(phi, psi) / d theta_ext of the shaft axis, (2, m + 1)."""
-        if not self.needle.curved:
-            return self.base.needle_angles_jacobian(q)
-        return angles_jacobian(self.needle_axis(q), self.needle_angular_jacobian(q))
+        """Exact d(phi, psi) / d theta_ext of the shaft axis, (2, m + 1): the base's, the roll
+        turning about the axis itself (its column zero)."""
+        J_base = self.base.needle_angles_jacobian(q)
+        return J_base if self.arrays is None else self._widen(J_base)
 
     # --- the tip ------------------------------------------------------------------------
     def tip(self, q: FloatArray) -> FloatArray:
         """The tip (the arc's end) in [m]."""
-        if not self.needle.curved:
+        if self.arrays is None:
             return self.base.tip(q)
-        T = self.base.tool_pose(q)
-        return T[:3, :3] @ self.needle.tip_local() + T[:3, 3]
+        return self.task_and_jacobian(q, 0.0, True)[0][TIP].copy()
 
     def tip_direction(self, q: FloatArray) -> FloatArray:
         """The unit tip tangent."""
         return self.base.tool_pose(q)[:3, :3] @ self.needle.tip_direction_local()
 
-    def bend_direction(self, q: FloatArray) -> FloatArray:
-        """The unit bevel direction b (the mount's +x), normal to the shaft."""
-        return self.base.tool_pose(q)[:3, 0].copy()
-
     def tip_jacobian(self, q: FloatArray) -> FloatArray:
         """d p_tip / d theta_ext, (3, m + 1), zero lambda column."""
-        if not self.needle.curved:
+        if self.arrays is None:
             return self.base.tip_jacobian(q)
-        J = self.base.tool_jacobian(q)
-        o = self.base.tool_pose(q)[:3, 3]
-        out = np.zeros((3, len(self.active) + 1))
-        out[:, :-1] = (J[:3] - skew(self.tip(q) - o) @ J[3:])[:, list(self.active)]
-        return out
+        return self.task_and_jacobian(q, 0.0, True)[1][TIP].copy()
 
     def roll(self, q: FloatArray) -> float:
-        """The needle roll rho in [rad] (`rcmplan.robot.needle.roll_from_axes`)."""
-        return roll_from_axes(self.needle_axis(q), self.bend_direction(q))
+        """The needle roll rho in [rad] (`rcmplan.robot.needle.roll_of`; q5 on iRAM!S)."""
+        if self.arrays is None:
+            raise InvalidInputError("robot", self.name, "a robot holding a curved needle")
+        return float(self.task_and_jacobian(q, 0.0, True)[0][ROLL])
 
     def roll_jacobian(self, q: FloatArray) -> FloatArray:
         """d rho / d theta_ext, (m + 1,)."""
-        return roll_jacobian(self.needle_axis(q), self.needle_angular_jacobian(q))
+        if self.arrays is None:
+            raise InvalidInputError("robot", self.name, "a robot holding a curved needle")
+        return self.task_and_jacobian(q, 0.0, True)[1][ROLL].copy()
 
 
 def curved_robot(base: RobotModel, needle: CurvedNeedle) -> CurvedTipRobot:

@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from typing import Protocol, runtime_checkable
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray, array, instance, integer, scalar, text, vector
 from rcmplan.exceptions import (
@@ -203,6 +204,11 @@ class SerialArm:
         """Distance of each joint to its nearer limit (negative when beyond)."""
         s = vector("s", s, self.chain.n)
         return np.minimum(s - self.lower, self.upper - s)
+
+    @property
+    def kernel_arrays(self) -> tuple[FloatArray, NDArray[np.int64]]:
+        """The chain kernels' arrays (A, ix) of this arm (`chain_kinematics.pack`)."""
+        return self._A, self._ix
 
     # --- needle ---------------------------------------------------------------------------
     def _kernel_frames(self, q: FloatArray) -> FloatArray:

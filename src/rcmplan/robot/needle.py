@@ -155,29 +155,6 @@ def x_ext_tips(X: FloatArray, tips: FloatArray) -> int:
     return -1
 
 
-def angles_jacobian(axis: FloatArray, J_omega: FloatArray) -> FloatArray:
-    """d(phi, psi)/d theta (2, k) from the unit axis a and its angular Jacobian (3, k).
-
-    The axis turns with the needle: da = omega x a, so da/d theta = -[a]x J_omega; then the
-    chain rule through the definitions of phi and psi (module docstring).
-    """
-    ax, ay, az = float(axis[0]), float(axis[1]), float(axis[2])
-    w = J_omega
-    da = np.array(
-        [
-            w[1] * axis[2] - w[2] * axis[1],
-            w[2] * axis[0] - w[0] * axis[2],
-            w[0] * axis[1] - w[1] * axis[0],
-        ]
-    )  # (3, k): column j is omega_j x a
-    h2 = ax * ax + az * az
-    h = math.sqrt(h2)
-    out = np.empty((2, J_omega.shape[1]))
-    out[0] = (az * da[0] - ax * da[2]) / h2
-    out[1] = -h * da[1] + ay * (ax * da[0] + az * da[2]) / h
-    return out
-
-
 def roll_from_axes(axis: FloatArray, bend: FloatArray) -> float:
     """The needle roll rho in [rad]: the angle of a direction `bend` normal to the unit `axis`
     about the axis, measured in the frame the needle angles define.
@@ -199,18 +176,6 @@ def roll_of(ax: float, ay: float, az: float, bx: float, by: float, bz: float) ->
     h2 = ax * ax + az * az
     r = math.sqrt(h2 + ay * ay)
     return math.atan2(-r * (bx * az - bz * ax), -(ay * (bx * ax + bz * az) - by * h2))
-
-
-def roll_jacobian(axis: FloatArray, J_omega: FloatArray) -> FloatArray:
-    """d rho / d theta (k,) from the unit axis a and the needle's angular Jacobian (3, k).
-
-    The frame (e1, e2, a) turns with phi about the world y axis and with psi about e1 (normal
-    to a), so it spins about a at a_y d phi; the needle spins about a at a . omega. Hence
-    d rho = a . omega - a_y d phi (exact; FD-tested).
-    """
-    d_phi = angles_jacobian(axis, J_omega)[0]
-    out: FloatArray = axis @ J_omega - float(axis[1]) * d_phi
-    return out
 
 
 def cross3(a: FloatArray, b: FloatArray) -> FloatArray:

@@ -1,13 +1,14 @@
 """Compiled curved-needle kinematics of any serial arm: the needle base frame from the chain
-kernels' frames, the tip on the arc, X_c, J_c and the step (`rcmplan.robot.curved
-.CurvedTipRobot` on a `SerialArm`).
+kernels' frames, the tip on the arc, X_c and J_c (the implementation of
+`rcmplan.robot.curved.CurvedTipRobot` on a `SerialArm`; its steps are
+`rcmplan.control.curved_step`'s).
 
-The arm travels as the chain kernels' arrays (`chain_kinematics`) with a tail
-(`rcmplan.compiled.curved.pack_curved_arm` builds them): A gains row 5 n + 13 = (x, z, 0, 0),
+The arm travels as the chain kernels' arrays (`chain_kinematics`) with a tail (`pack` builds
+them): A gains row 5 n + 13 = (x, z, 0, 0),
 the arc's end in the needle base frame (the mount) [m]; ix gains (m_c, the m_c active joints of
 the curved needle: the arm's active joints and its roll joint). The head of both is the arm's
 own, so the chain kernels (frames, the singularity check over the arm's active joints) read them
-unchanged. The work array W has the curved work block (`curved_kernels`) after its joint axes
+unchanged. The work array W has the curved work block (`curved_block`) after its joint axes
 rows (`block_row`). The base frame's geometric Jacobian over the curved needle's active joints:
 J_v = z_k x (o - o_k), J_w = z_k for a revolute joint k; J_v = z_k, J_w = 0 for a prismatic one.
 The small kernels the loop calls each iteration are inlined into it (`inline="always"`).
@@ -16,11 +17,12 @@ Imports numba.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
+from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled import curved_kernels as ck
-from rcmplan.compiled.records import CURVED_PINV, CURVED_POSE
+from rcmplan.robot import curved_block as ck
 from rcmplan.robot.chain_kinematics import (
     IntArray,
     axes_row,
@@ -31,6 +33,15 @@ from rcmplan.robot.chain_kinematics import (
     rotate,
 )
 from rcmplan.robot.needle import roll_of
+
+
+def pack(A: FloatArray, ix: NDArray[np.int64], tip_local: FloatArray,
+         active: tuple[int, ...]) -> tuple[FloatArray, NDArray[np.int64]]:  # fmt: skip
+    """The arm's chain arrays (A, ix) with the curved needle's tail: the arc's end (x, z) in the
+    mount frame [m] and the curved needle's m_c active joints."""
+    A = np.vstack([A, [[tip_local[0], tip_local[2], 0.0, 0.0]]])
+    ix = np.concatenate([ix, [len(active)], np.asarray(active, dtype=np.int64)])
+    return np.ascontiguousarray(A), ix
 
 
 def work_shape(n: int, m: int, m_c: int) -> tuple[int, int]:
@@ -64,20 +75,6 @@ def frame(A: FloatArray, n: int, W: FloatArray) -> tuple[tuple, tuple, tuple, tu
     return o, a, b, tip
 
 
-@njit(cache=True, inline="always")
-def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: float,
-               target: FloatArray, e: FloatArray) -> int:  # fmt: skip
-    """The curved solver's error (7,) at the frames in W into e: X_c target - X_c, or the
-    whole pose's (p_tip, rho, p(0)) for CURVED_POSE; returns 7."""
-    n = ix[0]
-    o, a, b, tip = frame(A, n, W)
-    e[0], e[1], e[2] = tip
-    e[3] = roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
-    e[4], e[5], e[6] = o if method == CURVED_POSE else needle_point(A, n, W, lam)
-    ck.error(e, target, e)
-    return ck.WIDTH
-
-
 @njit(cache=True)
 def jacobian(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, pose: bool) -> None:
     """J_c (7, m_c + 1) at the frames in W into the curved work block."""
@@ -99,23 +96,14 @@ def jacobian(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, pose: bool)
     ck.assemble(W, c, mc, o, tip, p, a, A[5 * n + 12, 0], pose)
 
 
-@njit(cache=True)
-def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray, gain: float,
-         damping: float, s: FloatArray, lam: float, e: FloatArray,
-         d: FloatArray) -> None:  # fmt: skip
-    """The curved solver's step d = (dq[active_c], dlambda) (m_c + 1,) at joints s for its
-    error e, at the frames in W; a redundant arm's pinv step adds the null-space posture
-    gain (home - q) over the curved needle's active joints."""
-    n = ix[0]
-    c = block_row(n)
-    first, mc = active_span(ix)
-    jacobian(A, ix, W, lam, method == CURVED_POSE)
-    if method == CURVED_PINV and mc + 1 > ck.WIDTH:
-        for j in range(mc):
-            k = ix[first + j]
-            W[c + ck.Z, j] = gain * (A[4 * (n + 3) + k, 3] - s[k])
-        W[c + ck.Z, mc] = 0.0
-    ck.step(W, c, method, mc, K, damping, A[5 * n + 12, 0], e, d)
+@njit(cache=True, inline="always")
+def task(A: FloatArray, n: int, W: FloatArray, lam: float, pose: bool, x: FloatArray) -> None:
+    """X_c = (p_tip, rho, p(lambda)) at the frames in W into x (7,), or with `pose`
+    (p_tip, rho, p(0))."""
+    o, a, b, t = frame(A, n, W)
+    x[0], x[1], x[2] = t
+    x[3] = roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
+    x[4], x[5], x[6] = o if pose else needle_point(A, n, W, lam)
 
 
 @njit(cache=True, inline="always")
@@ -128,11 +116,7 @@ def tip(A: FloatArray, n: int, W: FloatArray) -> tuple[float, float, float]:
 def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: float,
                   pose: bool, x: FloatArray) -> None:  # fmt: skip
     """Frames of q into W, X_c (or the whole pose) into x (7,) and J_c into the curved work
-    block's J rows (`block_row` + `curved_kernels.J`)."""
-    n = ix[0]
+    block's J rows (`block_row` + `curved_block.J`)."""
     frames(A, ix, q, W)
-    o, a, b, t = frame(A, n, W)
-    x[0], x[1], x[2] = t
-    x[3] = roll_of(a[0], a[1], a[2], b[0], b[1], b[2])
-    x[4], x[5], x[6] = o if pose else needle_point(A, n, W, lam)
+    task(A, ix[0], W, lam, pose, x)
     jacobian(A, ix, W, lam, pose)

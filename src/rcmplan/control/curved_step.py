@@ -1,0 +1,229 @@
+"""Compiled steps of a curved needle, for any robot: the task error and the pinv, DLS and
+whole-pose steps on X_c (the implementation of `rcmplan.control.curved`'s solvers, which call
+`solve`, and of the compiled loops' curved iterations).
+
+    CURVED_PINV: J_c d = K e when J_c is square (m = 6), else the minimum-norm step plus the
+        null-space posture z: d = J^+ (K e - J z) + z;
+    CURVED_DLS: d = J^T (J J^T + D^2 I)^-1 e with the roll row and error times l_s, so that every
+        row is in [m] (one damping for all);
+    CURVED_POSE: the least-squares (or minimum-norm) step of J_c without its lambda column for
+        K e; dlambda = 0.
+
+On iRAM!S J_c has structure, exact in exact arithmetic, that the pinv step uses
+(`iramis_pinv_step`, as the straight needle's `kernels.solve_augmented` uses J_a's): the roll
+row is e_q5; the prismatic q0, q2, q4 move the tip and the RCM point alike (e_z, e_y, a) and
+turn nothing; the roll moves no RCM point; a turn w moves the tip by w x (p_tip - p) more than
+the RCM point. The square system then splits into one 3 x 3 system in (dq1, dq3, dlambda) (the
+tip rows minus the RCM rows) and substitutions. The work block is `rcmplan.robot.curved_block`'s.
+Imports numba.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from rcmplan._validate import FloatArray
+from rcmplan.control.lu import lu_solve
+from rcmplan.robot import curved_arm, curved_iramis
+from rcmplan.robot.chain_kinematics import IntArray
+from rcmplan.robot.curved_block import ROLL, WIDTH, B, J, S, Z, wrap
+from rcmplan.robot.iramis_kernels import point, point_jacobian
+
+# A curved needle's method codes (X_c, 7 rows), after the straight needle's
+# (`rcmplan.compiled.records`)
+CURVED = 16
+CURVED_PINV, CURVED_DLS, CURVED_POSE = CURVED, CURVED + 1, CURVED + 2
+
+
+@njit(cache=True, inline="always")
+def error(x: FloatArray, target: FloatArray, e: FloatArray) -> None:
+    """e = target - x (7,), the roll error wrapped to [-pi, pi)."""
+    for i in range(WIDTH):
+        e[i] = target[i] - x[i]
+    e[ROLL] = wrap(e[ROLL])
+
+
+@njit(cache=True)
+def gram(C: FloatArray, c: int, cols: int, damping: float) -> None:
+    """S = J J^T + D^2 I (7, 7) over J's first `cols` columns, into rows c + S.."""
+    for i in range(WIDTH):
+        for k in range(i + 1):
+            acc = 0.0
+            for col in range(cols):
+                acc += C[c + J + i, col] * C[c + J + k, col]
+            C[c + S + i, k], C[c + S + k, i] = acc, acc
+        C[c + S + i, i] += damping * damping
+
+
+@njit(cache=True)
+def back(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
+    """d[:cols] = J^T f for f in row c + B (after `gram` and `lu_solve`)."""
+    for col in range(cols):
+        acc = 0.0
+        for i in range(WIDTH):
+            acc += C[c + J + i, col] * C[c + B, i]
+        d[col] = acc
+
+
+@njit(cache=True)
+def square(C: FloatArray, c: int, d: FloatArray) -> None:
+    """d = J^-1 (row c + B) for a square J (7, 7) (`np.linalg.solve`)."""
+    for i in range(WIDTH):
+        for k in range(WIDTH):
+            C[c + S + i, k] = C[c + J + i, k]
+    lu_solve(C, c + S, WIDTH, c + B)
+    for i in range(WIDTH):
+        d[i] = C[c + B, i]
+
+
+@njit(cache=True)
+def normal(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
+    """The least-squares d[:cols] of J[:, :cols] d = (row c + B) for a tall J (cols < 7):
+    (J^T J) d = J^T b."""
+    for i in range(cols):
+        for k in range(i + 1):
+            acc = 0.0
+            for r in range(WIDTH):
+                acc += C[c + J + r, i] * C[c + J + r, k]
+            C[c + S + i, k], C[c + S + k, i] = acc, acc
+    for i in range(cols):
+        acc = 0.0
+        for r in range(WIDTH):
+            acc += C[c + J + r, i] * C[c + B, r]
+        d[i] = acc
+    for i in range(cols):
+        C[c + B, i] = d[i]
+    lu_solve(C, c + S, cols, c + B)
+    for i in range(cols):
+        d[i] = C[c + B, i]
+
+
+@njit(cache=True)
+def step(C: FloatArray, c: int, method: int, m: int, K: FloatArray, damping: float,
+         shaft: float, e: FloatArray, d: FloatArray) -> None:  # fmt: skip
+    """The solver's step d (m + 1,) from J_c in rows c + J.. and the error e (7,):
+
+    - CURVED_PINV: J_c d = K e when J_c is square (m = 6), else the minimum-norm step plus the
+      null-space posture z (row c + Z, filled by the caller): d = J^+ (K e - J z) + z;
+    - CURVED_DLS: d = J^T (J J^T + D^2 I)^-1 e with the roll row and error times l_s (`shaft`);
+    - CURVED_POSE: the least-squares (or minimum-norm) step of J_c without its lambda column
+      for K e; dlambda = 0.
+    """
+    b = c + B
+    if method == CURVED_DLS:
+        for j in range(m + 1):
+            C[c + J + ROLL, j] *= shaft
+        for i in range(WIDTH):
+            C[b, i] = e[i] * shaft if i == ROLL else e[i]
+        gram(C, c, m + 1, damping)
+        lu_solve(C, c + S, WIDTH, b)
+        back(C, c, m + 1, d)
+        return
+    cols = m + 1 if method == CURVED_PINV else m
+    wide = method == CURVED_PINV and cols > WIDTH
+    for i in range(WIDTH):
+        acc = K[i] * e[i]
+        if wide:  # K e - J z
+            for j in range(cols):
+                acc -= C[c + J + i, j] * C[c + Z, j]
+        C[b, i] = acc
+    if cols == WIDTH:
+        square(C, c, d)
+    elif cols < WIDTH:
+        normal(C, c, cols, d)
+    else:
+        gram(C, c, cols, 0.0)
+        lu_solve(C, c + S, WIDTH, b)
+        back(C, c, cols, d)
+    if wide:
+        for j in range(cols):
+            d[j] += C[c + Z, j]
+    if method != CURVED_PINV:
+        d[m] = 0.0
+
+
+@njit(cache=True, inline="always")
+def iramis_task_error(P: FloatArray, method: int, q: FloatArray, tr: tuple, lam: float,
+               target: FloatArray, e: FloatArray, w: FloatArray) -> int:  # fmt: skip
+    """The curved solver's error (7,) into e (the whole-pose task for CURVED_POSE); returns 7."""
+    curved_iramis.task(P, q, tr, lam, method == CURVED_POSE, e, w)
+    error(e, target, e)
+    return WIDTH
+
+
+@njit(cache=True, inline="always")
+def iramis_pinv_step(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float,
+              e: FloatArray, d: FloatArray, w: FloatArray, R: FloatArray) -> None:  # fmt: skip
+    """d = J_c^-1 K e (7,) by J_c's structure (module docstring): dq5 from the roll row;
+    (dq1, dq3, dlambda) from the tip rows minus the RCM rows (Cramer's rule); dq4, dq2, dq0
+    from the RCM rows x, y, z, whose q1 and q3 columns are eq. 3.10's (into R, (3, 6))."""
+    c1, s1 = tr[0], tr[1]
+    o, a, _, tip = curved_iramis.frame(P, q, tr, w)
+    point(P, q, tr, lam, w)
+    dx, dy, dz = tip[0] - w[0], tip[1] - w[1], tip[2] - w[2]  # p_tip - p(lambda)
+    tx, ty, tz = tip[0] - o[0], tip[1] - o[1], tip[2] - o[2]  # p_tip - p(0)
+    point_jacobian(P, q, tr, lam, R, 0)
+    l6 = P[5]
+    b = (K[0] * e[0], K[1] * e[1], K[2] * e[2], K[3] * e[3], K[4] * e[4], K[5] * e[5],
+         K[6] * e[6])  # fmt: skip
+    d[5] = b[3]
+    # the tip rows minus the RCM rows: u1 dq1 + u3 dq3 + u6 dlambda = v
+    u1 = (dz, 0.0, -dx)  # e_y x (p_tip - p)
+    u3 = (-c1 * dy, c1 * dx - s1 * dz, s1 * dy)  # (sin q1, 0, cos q1) x (p_tip - p)
+    u6 = (-l6 * a[0], -l6 * a[1], -l6 * a[2])
+    t5 = (a[1] * tz - a[2] * ty, a[2] * tx - a[0] * tz, a[0] * ty - a[1] * tx)  # a x (p_tip - o)
+    v = (b[0] - b[4] - t5[0] * d[5], b[1] - b[5] - t5[1] * d[5], b[2] - b[6] - t5[2] * d[5])
+    c36 = (u3[1] * u6[2] - u3[2] * u6[1], u3[2] * u6[0] - u3[0] * u6[2],
+           u3[0] * u6[1] - u3[1] * u6[0])  # fmt: skip
+    cv6 = (v[1] * u6[2] - v[2] * u6[1], v[2] * u6[0] - v[0] * u6[2], v[0] * u6[1] - v[1] * u6[0])
+    c3v = (u3[1] * v[2] - u3[2] * v[1], u3[2] * v[0] - u3[0] * v[2], u3[0] * v[1] - u3[1] * v[0])
+    det = u1[0] * c36[0] + u1[1] * c36[1] + u1[2] * c36[2]
+    d[1] = (v[0] * c36[0] + v[1] * c36[1] + v[2] * c36[2]) / det
+    d[3] = (u1[0] * cv6[0] + u1[1] * cv6[1] + u1[2] * cv6[2]) / det
+    d[6] = (u1[0] * c3v[0] + u1[1] * c3v[1] + u1[2] * c3v[2]) / det
+    # the RCM rows: eq. 3.10's columns, 1 for q0 (z) and q2 (y), a for q4, l6 a for lambda
+    d[4] = (b[4] - R[0, 1] * d[1] - R[0, 3] * d[3]) / R[0, 4] - l6 * d[6]
+    d[2] = b[5] - R[1, 1] * d[1] - R[1, 3] * d[3] - R[1, 4] * (d[4] + l6 * d[6])
+    d[0] = b[6] - R[2, 1] * d[1] - R[2, 3] * d[3] - R[2, 4] * (d[4] + l6 * d[6])
+
+
+@njit(cache=True, inline="always")
+def iramis_step(P: FloatArray, method: int, K: FloatArray, damping: float, q: FloatArray, tr: tuple,
+         lam: float, e: FloatArray, C: FloatArray, d: FloatArray,
+         w: FloatArray) -> None:  # fmt: skip
+    """The curved solver's step d = (dq0..dq5, dlambda) (7,) for its error e; C is the work
+    block (rows 0..)."""
+    if method == CURVED_PINV:
+        iramis_pinv_step(P, K, q, tr, lam, e, d, w, C)
+        return
+    curved_iramis.jacobian(P, q, tr, lam, method == CURVED_POSE, C, 0, w)
+    step(C, 0, method, curved_iramis.ACTIVE, K, damping, P[5], e, d)
+
+
+@njit(cache=True, inline="always")
+def arm_task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: float,
+               target: FloatArray, e: FloatArray) -> int:  # fmt: skip
+    """The curved solver's error (7,) at the frames in W into e: X_c target - X_c, or the
+    whole pose's (p_tip, rho, p(0)) for CURVED_POSE; returns 7."""
+    curved_arm.task(A, ix[0], W, lam, method == CURVED_POSE, e)
+    error(e, target, e)
+    return WIDTH
+
+
+@njit(cache=True)
+def arm_step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray, gain: float,
+         damping: float, s: FloatArray, lam: float, e: FloatArray,
+         d: FloatArray) -> None:  # fmt: skip
+    """The curved solver's step d = (dq[active_c], dlambda) (m_c + 1,) at joints s for its
+    error e, at the frames in W; a redundant arm's pinv step adds the null-space posture
+    gain (home - q) over the curved needle's active joints."""
+    n = ix[0]
+    c = curved_arm.block_row(n)
+    first, mc = curved_arm.active_span(ix)
+    curved_arm.jacobian(A, ix, W, lam, method == CURVED_POSE)
+    if method == CURVED_PINV and mc + 1 > WIDTH:
+        for j in range(mc):
+            k = ix[first + j]
+            W[c + Z, j] = gain * (A[4 * (n + 3) + k, 3] - s[k])
+        W[c + Z, mc] = 0.0
+    step(W, c, method, mc, K, damping, A[5 * n + 12, 0], e, d)
