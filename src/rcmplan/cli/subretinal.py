@@ -4,7 +4,7 @@ or with --episodes N many, drawn (`cli/subretinal_episodes.py`)."""
 from __future__ import annotations
 
 import argparse
-import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -112,20 +112,30 @@ def run(args: argparse.Namespace) -> int:
         write_failed(out, exc.status, f"{type(exc).__name__}: {exc}")
         raise
     except KeyboardInterrupt as exc:
-        if result is not None:  # the episode ended: its records stay, marked interrupted
+        if result is None:  # the periods recorded before the interrupt (`Episode.run`), if any
+            result = getattr(exc, "result", None)
+            message = "" if result is None else result.message
+        else:  # the episode ended: its records stay, marked interrupted
             where = "while writing the outputs (the episode had ended)"
+            message = interrupted_message(exc, where)
+        if result is not None:
             with interrupts.shielded():
-                write_records(result, out, "interrupted", interrupted_message(exc, where))
+                write_records(result, out, "interrupted", message)
         raise
     failure = None if doc["status"] == "ok" else f"{doc['status']}: {doc['message']}"
     return finish(args, out, doc, lambda: print_table(doc), failure)
 
 
 def run_episode(settings: Any) -> Any:
-    """The episode of `settings`, run (`rcmplan.subretinal.episode.run_episode`)."""
-    from rcmplan.subretinal.episode import run_episode as run
+    """The episode of `settings`, built (its checks pass before any motion), announced on
+    stderr, and run (`rcmplan.subretinal.episode.Episode`)."""
+    from rcmplan.subretinal.episode import Episode
 
-    return run(settings)
+    episode = Episode(settings)
+    print(f"rcmplan subretinal: running the episode: {episode.n_periods} periods of "
+          f"{settings.dt * 1e3:g} ms after {settings.warmup_s:g} s of iOCT warm-up",
+          file=sys.stderr)  # fmt: skip
+    return episode.run()
 
 
 def write_outputs(settings: Any, out: Path, figures: bool, result: Any = None) -> dict[str, Any]:
@@ -149,12 +159,14 @@ def write_outputs(settings: Any, out: Path, figures: bool, result: Any = None) -
 
 def write_records(result: Any, out: Path, status: str | None = None, message: str = ""
                   ) -> dict[str, Any]:  # fmt: skip
-    """log.npz, episode.npz, bscans.npz and summary.json of an episode that ended (its
-    `status` and `message` replaced when given); returns the summary."""
+    """log.npz, episode.npz, bscans.npz and summary.json of an episode that ended or was
+    stopped (its `status` and `message` replaced when given); returns the summary. An
+    interrupted episode's bscans.npz is not written (rendering its B-scans again takes seconds,
+    an interrupt is answered at once) and an earlier one is removed; the summary says so."""
     import numpy as np
 
-    from rcmplan._atomic import atomic_path, write_text
-    from rcmplan.analysis.report import jsonable
+    from rcmplan._atomic import atomic_path
+    from rcmplan.analysis.report import write_json
     from rcmplan.subretinal.episode import PHASES
     from rcmplan.subretinal.episode_metrics import summarise
 
@@ -162,18 +174,22 @@ def write_records(result: Any, out: Path, status: str | None = None, message: st
     with atomic_path(out / "episode.npz") as tmp, open(tmp, "wb") as fh:
         series: dict[str, Any] = dict(result.series)
         np.savez_compressed(fh, **series, phase_names=np.array(PHASES, dtype=str))
-    doc: dict[str, Any] = jsonable(summarise(result))
-    doc.update(replay_fields(result, out))
+    doc: dict[str, Any] = summarise(result)
+    doc.update(replay_fields(result, out, bscans=status != "interrupted"))
     if status is not None:
         doc.update(status=status, message=message)
-    write_text(out / "summary.json", json.dumps(doc, indent=2))
+    write_json(out / "summary.json", doc)
     return doc
 
 
-def replay_fields(result: Any, out: Path) -> dict[str, Any]:
-    """Write bscans.npz (the B-scans of the volumes the controller received) and return what
-    `rcmplan view` reads from summary.json: the periods logged, the eye with the target, the
-    version, the B-scan frames."""
+BSCANS_SKIPPED = "not written: the episode was interrupted"
+
+
+def replay_fields(result: Any, out: Path, bscans: bool = True) -> dict[str, Any]:
+    """Write bscans.npz (the B-scans of the volumes the controller received; without
+    `bscans`, remove an earlier one instead) and return what `rcmplan view` reads from
+    summary.json: the periods logged, the eye with the target, the version, the B-scan
+    frames."""
     from rcmplan._version import __version__
     from rcmplan.robot.registry import make_robot
     from rcmplan.scene.eye import default_eye
@@ -182,13 +198,17 @@ def replay_fields(result: Any, out: Path) -> dict[str, Any]:
     from rcmplan.subretinal.episode_ioct import bscan_axes
 
     cfg, layers = result.settings, result.layers
-    frames = episode_bscans(result).save(out / "bscans.npz")
+    if bscans:
+        frames = episode_bscans(result).save(out / "bscans.npz").name
+    else:
+        (out / "bscans.npz").unlink(missing_ok=True)
+        frames = BSCANS_SKIPPED
     eye = default_eye(make_robot(cfg.robot))
     normal, _ = bscan_axes(eye, cfg.direction)
     target = eye.center + (layers.ilm_radius_m + layers.target_depth_m) * normal
     scene = eye_record(eye, {"target": target}, ["target"])
     return {"periods": len(result.log), "rcmplan_version": __version__, "scene": scene,
-            "bscans": frames.name}  # fmt: skip
+            "bscans": frames}  # fmt: skip
 
 
 def print_table(doc: dict[str, Any]) -> None:

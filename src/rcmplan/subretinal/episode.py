@@ -303,10 +303,12 @@ class Episode:
     def run(self) -> EpisodeResult:
         """Feed the warm-up estimates, run every period (a planned block at a time where the
         compiled block loop applies), return the result (also when the RCM bound stopped it:
-        status "rcm_bound_exceeded")."""
-        self.deliver(self.cfg.warmup_s)
+        status "rcm_bound_exceeded"). An interrupt (KeyboardInterrupt: SIGINT, SIGTERM in the
+        `rcmplan` command) carries the periods recorded so far as `exc.result`, status
+        "interrupted", and propagates."""
         status, message = "ok", ""
         try:
+            self.deliver(self.cfg.warmup_s)
             while self.done < self.n_periods:
                 if self.blocks is None:
                     self.period()
@@ -316,13 +318,40 @@ class Episode:
                 self.blocks.run(self, self.done, self._planned_to)
         except RcmBoundError as exc:
             status, message = exc.status, str(exc)
-        series = {k: v[: self.done].copy() for k, v in self.series.items()}
+        except KeyboardInterrupt as exc:
+            why = f"interrupted by {getattr(exc, 'signal_name', 'SIGINT')} during the run"
+            exc.result = self.result("interrupted", f"{why}, {self.reached()}")  # type: ignore[attr-defined]
+            raise
+        return self.result(status, message)
+
+    def reached(self) -> str:
+        """How far the episode got: "in the <phase> phase after N of M periods", or in the
+        warm-up (how many of its iOCT volumes were fed), before the first period."""
+        n = self.recorded()
+        if n == 0:
+            warm = int(np.searchsorted(self.arrival_s, self.cfg.warmup_s, side="right"))
+            return (f"in the warm-up ({min(self._next, warm)} of its {warm} iOCT volumes fed "
+                    f"to the predictor), before the first of {self.n_periods} periods")  # fmt: skip
+        return f"in the {PHASES[self.phase[n - 1]]} phase after {n} of {self.n_periods} periods"
+
+    def recorded(self) -> int:
+        """Periods whose records are both logged and stored (an interrupt can land between the
+        log's append and the series' store: the periods of both)."""
+        return min(self.done, len(self.log))
+
+    def result(self, status: str, message: str) -> EpisodeResult:
+        """The result of the periods recorded so far, with `status` and `message`."""
+        n = self.recorded()
+        series = {k: v[:n].copy() for k, v in self.series.items()}
+        log = self.log.finish()
+        if len(log) > n:
+            log = log.select(np.arange(len(log)) < n)
         starts, t0 = {}, self.cfg.warmup_s
         for name, length in self.durations.items():
             if length > 0.0:  # a phase of zero length (no withdraw) never starts
                 starts[name] = t0
             t0 += length
-        return EpisodeResult(self.cfg, self.layers, series, self.log.finish(), self.trace,
+        return EpisodeResult(self.cfg, self.layers, series, log, self.trace,
                              tuple(self.ioct.received), starts, status, message)  # fmt: skip
 
 
