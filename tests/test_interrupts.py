@@ -37,8 +37,9 @@ COMMANDS = {  # command line, and the span [s] after start-up in which the signa
     "compare": (["compare", "--method", "pinv", "--method", "dls"], None),
     "sweep": (["sweep", "--targets", "30000", "--workers", "2", "--no-plots"], 3.0),
     "teleop": (["teleop"], None),
+    "subretinal": (["subretinal"], None),
 }
-HEAVY_COMMANDS = ("teleop", "inject-mujoco")  # long runs: with RCMPLAN_HEAVY_TESTS=1 only
+HEAVY_COMMANDS = ("teleop", "inject-mujoco", "subretinal")  # long: RCMPLAN_HEAVY_TESTS=1 only
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 # Interruptions per command: 3 (12 with RCMPLAN_HEAVY_TESTS=1, HEAVY_COMMANDS' only then);
 # `benchmarks/bench_interruptions.py` runs 100 per command.

@@ -92,6 +92,23 @@ def test_a_checkpoint_for_other_settings_is_refused(tmp_path: Path) -> None:
         Checkpoint.open(tmp_path / "cp", other, resume=True)
 
 
+def test_a_checkpoint_of_the_hyphenated_statuses_is_refused_naming_its_header(
+    tmp_path: Path,
+) -> None:
+    # As an older rcmplan wrote it: format version 1, statuses spelled "no-convergence".
+    cp = interrupted_checkpoint(tmp_path / "cp", after_chunks=1)
+    header = tmp_path / "cp" / "header.json"
+    header.write_text(json.dumps({**json.loads(header.read_text()), "version": 1}))
+    chunk = cp.chunk_files()[0]
+    data = json.loads(chunk.read_text())
+    data["results"][0]["status"] = "no-convergence"
+    chunk.write_text(json.dumps(data))
+    with pytest.raises(CheckpointError, match="format version 1, expected 2") as info:
+        Checkpoint.open(tmp_path / "cp", SETTINGS, resume=True)
+    assert info.value.path == header and "no-convergence" in info.value.problem
+    assert "no_convergence" in info.value.problem
+
+
 def test_a_truncated_chunk_is_named_as_corrupt(tmp_path: Path) -> None:
     cp = interrupted_checkpoint(tmp_path / "cp", after_chunks=2)
     bad = cp.chunk_files()[1]

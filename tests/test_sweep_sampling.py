@@ -64,7 +64,7 @@ def test_reachability_agrees_with_the_closed_form_pose(robot: Iramis) -> None:
 
 def test_a_narrow_cone_is_reachable_everywhere() -> None:
     sample = sample_region(Region(max_angle=math.radians(5), n_targets=40), MOTION)
-    assert sample.counts() == {"reachable": 40, "misses-retina": 0, "unreachable": 0}
+    assert sample.counts() == {"reachable": 40, "misses_retina": 0, "unreachable": 0}
 
 
 def test_raises_when_no_target_in_the_region_is_reachable() -> None:

@@ -4,12 +4,23 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
-from rcmplan.exceptions import RcmBoundError
-from rcmplan.sweep.sampling import sample_region
+from rcmplan.controller import Controller
+from rcmplan.exceptions import (
+    ConvergenceError,
+    QPError,
+    RcmBoundError,
+    RcmplanError,
+    SingularPoseError,
+    SliderLimitError,
+    UnreachableTargetError,
+)
+from rcmplan.sweep.report import status_counts
+from rcmplan.sweep.sampling import STATUS_NAMES, sample_region
 from rcmplan.sweep.settings import MotionSettings, Region, SweepSettings
-from rcmplan.sweep.task import TargetResult, run_chunk, run_target
+from rcmplan.sweep.task import STATUSES, TargetResult, run_chunk, run_target
 
 FAST = MotionSettings(step_position=1e-3, step_angle=1e-2)
 
@@ -45,7 +56,7 @@ def test_an_iteration_cap_too_small_is_recorded_as_no_convergence(sample) -> Non
     tight = MotionSettings(step_position=1e-3, step_angle=1e-2, max_iterations=1)
     i = int(sample.reachable_ids[0])
     r = run_target(tight, i, sample.points[i])
-    assert r.status == "no-convergence" and not r.converged
+    assert r.status == ConvergenceError.status == "no_convergence" and not r.converged
     assert "ConvergenceError" in r.message
 
 
@@ -60,6 +71,43 @@ def test_a_motion_stopped_by_the_rcm_bound_is_recorded_with_the_single_run_statu
     assert r.status == RcmBoundError.status == "rcm_bound_exceeded" and not r.converged
     assert r.message.startswith("RcmBoundError: RCM bound exceeded in phase 'to-target'")
     assert r.iterations > 0 and r.max_rcm_deviation_m > 0.05e-6
+
+
+STOPS = [
+    UnreachableTargetError("lambda outside [0, 1]"),
+    SingularPoseError(np.zeros(6), 1e-9, 1e-6),
+    SliderLimitError(0, "L1", 0.02, -0.01, 0.01),
+    QPError("the QP is infeasible"),  # one no sweep status is listed for: counted all the same
+]
+
+
+@pytest.mark.parametrize("error", STOPS, ids=lambda e: type(e).__name__)
+def test_a_stopped_motion_has_the_status_a_run_summary_gives_its_error(
+    error: RcmplanError, sample, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def stop(self: Controller, phases: object) -> None:
+        raise error
+
+    monkeypatch.setattr(Controller, "run", stop)
+    i = int(sample.reachable_ids[0])
+    r = run_target(FAST, i, sample.points[i])
+    assert r.status == error.status and not r.converged  # as `job.run_scenario` reports it
+    assert r.message.startswith(f"{type(error).__name__}: ")
+
+
+def test_the_summary_counts_each_status_a_motion_reports() -> None:
+    def result(i: int, status: str) -> TargetResult:
+        return TargetResult(i, status, 10, None, None, 0.0)
+
+    counts = status_counts([result(0, "ok"), result(1, "qp_failed"), result(2, "ok")])
+    assert list(counts) == [*STATUSES, "qp_failed"]
+    assert counts["ok"] == 2 and counts["qp_failed"] == 1 and sum(counts.values()) == 3
+
+
+def test_statuses_are_spelled_as_the_run_summaries_spell_them() -> None:
+    errors = (ConvergenceError, UnreachableTargetError, SingularPoseError, SliderLimitError)
+    assert {e.status for e in errors} <= set(STATUSES)
+    assert all("-" not in s for s in (*STATUSES, *STATUS_NAMES))
 
 
 def test_results_round_trip_through_a_dictionary(sample) -> None:

@@ -4,7 +4,7 @@
 and a plain-dictionary form; `Checkpoint` is a sweep's (settings `SweepSettings`, records
 `TargetResult`). A checkpoint is a folder:
 
-    header.json            {"format": "rcmplan-sweep-checkpoint", "version": 1,
+    header.json            {"format": "rcmplan-sweep-checkpoint", "version": 2,
                             "settings_hash": <sha256>, "settings": {...}, "n_targets": N}
     chunk-<first id>.json  {"settings_hash": <sha256>, "results": [TargetResult, ...],
                             "sha256": <sha256 of the canonical JSON of "results">}
@@ -13,7 +13,10 @@ Each chunk file is written whole to a temporary name, flushed to disk and rename
 a killed process leaves either a complete chunk or none (stray temporary files are removed on
 open). On resume every chunk is read and checked: valid JSON, the sweep's settings hash, the
 checksum, known fields, ids in range and never repeated. Any failure raises CheckpointError
-naming the file and the problem; a checkpoint is never silently reused or overwritten.
+naming the file and the problem; a checkpoint is never silently reused or overwritten. A
+checkpoint of an older format version is refused the same way, saying what changed (a sweep's
+version 1 spelled its statuses with hyphens, "no-convergence", where version 2 records the
+statuses the run summaries name, "no_convergence"): rerun without --resume.
 """
 
 from __future__ import annotations
@@ -112,10 +115,14 @@ class RecordCheckpoint(Generic[S, R]):
         n_targets: Ids must lie in [0, n_targets).
         kind: What runs, in messages ("sweep").
         format_name: The header's "format".
+        format_version: The header's "version": the form of the records.
+        older_versions: Why a checkpoint of each older version cannot be resumed, by version.
     """
 
     kind = "run"
     format_name = FORMAT_NAME
+    format_version = FORMAT_VERSION
+    older_versions: dict[int, str] = {}
 
     def __init__(self, path: Path, settings: S) -> None:
         self.path = path
@@ -165,7 +172,7 @@ class RecordCheckpoint(Generic[S, R]):
         """The header record of this checkpoint."""
         return {
             "format": self.format_name,
-            "version": FORMAT_VERSION,
+            "version": self.format_version,
             "settings_hash": self.digest,
             "settings": self.settings.as_dict(),
             "n_targets": self.n_targets,
@@ -177,9 +184,11 @@ class RecordCheckpoint(Generic[S, R]):
         data = _read_json(path)
         if not isinstance(data, dict) or data.get("format") != self.format_name:
             raise CheckpointError(path, f"is not a {self.format_name} header")
-        if data.get("version") != FORMAT_VERSION:
-            raise CheckpointError(path, f"has format version {data.get('version')!r}, "
-                                  f"expected {FORMAT_VERSION}")  # fmt: skip
+        version = data.get("version")
+        if version != self.format_version:
+            why = self.older_versions.get(version) if isinstance(version, int) else None
+            raise CheckpointError(path, f"has format version {version!r}, expected "
+                                  f"{self.format_version}" + (f": {why}" if why else ""))  # fmt: skip
         if data.get("settings_hash") != self.digest:
             theirs = str(data.get("settings_hash"))[:12]
             raise CheckpointError(
@@ -236,6 +245,12 @@ class Checkpoint(RecordCheckpoint[SweepSettings, TargetResult]):
     """A sweep's checkpoint: one record per reachable target of the region."""
 
     kind = "sweep"
+    format_version = 2
+    older_versions = {
+        1: "its results spell their statuses with hyphens (no-convergence, unreachable-path, "
+        "singular, slider-limit), as rcmplan did before the sweep took the run summaries' "
+        "names (no_convergence, unreachable_target, singular_pose, actuator_limit)",
+    }
 
     @staticmethod
     def count(settings: SweepSettings) -> int:

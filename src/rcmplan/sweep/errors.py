@@ -11,7 +11,7 @@ class EmptyRegionError(UnreachableTargetError):
     """A sampling region holds no target the robot can reach.
 
     Attributes:
-        counts: Number of samples per status ("reachable", "misses-retina", "unreachable").
+        counts: Number of samples per status ("reachable", "misses_retina", "unreachable").
     """
 
     def __init__(self, reason: str, counts: dict[str, int] | None = None) -> None:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import math
+from collections import Counter
 from dataclasses import asdict
 from pathlib import Path
 from typing import Any
@@ -14,7 +15,7 @@ from rcmplan._atomic import atomic_path
 from rcmplan.sweep.gains import Evaluation, GainSearchResult
 from rcmplan.sweep.runner import SweepResult
 from rcmplan.sweep.sampling import STATUS_NAMES
-from rcmplan.sweep.task import STATUSES
+from rcmplan.sweep.task import STATUSES, TargetResult
 
 UM = 1e6
 # Units of the settings block, whose keys are hashed into checkpoints and so keep their names
@@ -54,10 +55,10 @@ def summary(result: SweepResult) -> dict[str, Any]:
         "executor": result.executor,
         "targets": {
             "sampled": len(result.sample),
-            **{k.replace("-", "_"): v for k, v in result.sample.counts().items()},
+            **result.sample.counts(),
             "run": len(rs),
             "resumed_from_checkpoint": result.resumed,
-            "by_status": {s: sum(r.status == s for r in rs) for s in STATUSES},
+            "by_status": status_counts(rs),
             "by_cause": cause_counts(result),
         },
         "iterations": {
@@ -74,6 +75,13 @@ def summary(result: SweepResult) -> dict[str, Any]:
         "targets_run_now": fresh,
         "targets_per_s": fresh / result.wall_time_s if fresh and result.wall_time_s > 0 else None,
     }
+
+
+def status_counts(results: list[TargetResult]) -> dict[str, int]:
+    """Targets per status: every one of `task.STATUSES` (0 when none), then any other status a
+    motion reported (another error's `RcmplanError.status`)."""
+    counts = Counter(r.status for r in results)
+    return {s: counts[s] for s in (*STATUSES, *sorted(set(counts) - set(STATUSES)))}
 
 
 def cause_counts(result: SweepResult) -> dict[str, int]:

@@ -31,7 +31,7 @@ from rcmplan.sweep.errors import EmptyRegionError
 from rcmplan.sweep.settings import MotionSettings, Region
 
 REACHABLE, MISSES_RETINA, UNREACHABLE = 0, 1, 2
-STATUS_NAMES = ("reachable", "misses-retina", "unreachable")
+STATUS_NAMES = ("reachable", "misses_retina", "unreachable")
 GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
 
 

@@ -39,16 +39,11 @@ from rcmplan.sim.registry import make_plant
 from rcmplan.sweep.sampling import start_point
 from rcmplan.sweep.settings import MotionSettings
 
-# An RCM-bound stop is named as the single-run commands name it (RcmBoundError.status).
-STATUSES = ("ok", "no-convergence", "unreachable-path", "singular", "slider-limit",
-            RcmBoundError.status, "error")  # fmt: skip
-ERROR_STATUS: tuple[tuple[type[RcmplanError], str], ...] = (
-    (ConvergenceError, "no-convergence"),
-    (UnreachableTargetError, "unreachable-path"),
-    (SingularPoseError, "singular"),
-    (SliderLimitError, "slider-limit"),
-    (RcmBoundError, RcmBoundError.status),
-)
+# A stopped motion's status is its error's, as a run's summary names it (`RcmplanError.status`):
+# those a sweep's motions meet, then the base class's ("error"). `report.summary` counts each,
+# and any other error's status a motion reports.
+STATUSES = ("ok", *(e.status for e in (ConvergenceError, UnreachableTargetError,
+            SingularPoseError, SliderLimitError, RcmBoundError, RcmplanError)))  # fmt: skip
 TargetItem = tuple[int, Sequence[float]]
 
 
@@ -140,7 +135,7 @@ def run_target(motion: MotionSettings, target_id: int, point: Sequence[float]) -
     try:
         log = controller.run(motion_phases(motion, start, target, eye.port))
     except RcmplanError as exc:
-        status = next((s for cls, s in ERROR_STATUS if isinstance(exc, cls)), "error")
+        status = exc.status
         message = f"{type(exc).__name__}: {exc}"
         log = exc.log if exc.log is not None else controller.log.finish()
     wall = time.perf_counter() - t0
