@@ -5,10 +5,11 @@ the process runs before it handles SIGINT and SIGTERM at all.
 Run alone: python benchmarks/bench_interruptions.py [--runs N] [--from-start M] [--handler K]
 Runs tests/test_interrupts.py's harness with RCMPLAN_INTERRUPTIONS=N (default 100; 10 with
 --quick through benchmarks/run.py): per command (inject, inject on the MuJoCo plant, spiral,
-compare, sweep, teleop, one subretinal episode), N real processes each get SIGINT or SIGTERM at a seeded random point
-of the run (within the shorter of two uninterrupted runs); each must leave a summary saying why
-it stopped, the records it states in a loadable log (none only when it says the run stopped
-before it began), no temporary file and no process behind (`tests/run_left.py`).
+compare, sweep, teleop, one subretinal episode), N real processes each get SIGINT or SIGTERM
+at a seeded random point of the run (within the shorter of two uninterrupted runs); each must
+leave a summary saying why it stopped, the records it states in a loadable log (none only when
+it says the run stopped before it began), no temporary file and no process behind
+(`tests/run_left.py`).
 One row per command: the interruptions that broke any of these, out of N; the harness's count
 of each kind of fault goes to stderr.
 

@@ -50,8 +50,10 @@ STOP_FILES: dict[str, tuple[str, tuple[str, ...]]] = {
     "inject": ("summary.json", ("log.npz", "log.csv", "report.html")),
     "spiral": ("summary.json", ("log.npz", "log.csv", "report.html")),
     "teleop": ("summary.json", ("log.npz", "log.csv", "teleop.npz")),
-    "subretinal": ("summary.json", ("log.npz", "episode.npz", "bscans.npz", "episodes.csv",
-                                    "episodes.json")),
+    "subretinal": (
+        "summary.json",
+        ("log.npz", "episode.npz", "bscans.npz", "episodes.csv", "episodes.json"),
+    ),
     "sweep": ("summary.json", ()),
     "compare": ("summary.json", ()),
     "reproduce": ("summary.json", ()),

@@ -27,7 +27,7 @@ import os
 import shutil
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any, Generic, Protocol, Self, TypeVar
+from typing import Any, ClassVar, Generic, Protocol, Self, TypeVar
 
 from rcmplan._atomic import atomic_path
 from rcmplan.sweep.errors import CheckpointError
@@ -122,7 +122,7 @@ class RecordCheckpoint(Generic[S, R]):
     kind = "run"
     format_name = FORMAT_NAME
     format_version = FORMAT_VERSION
-    older_versions: dict[int, str] = {}
+    older_versions: ClassVar[dict[int, str]] = {}
 
     def __init__(self, path: Path, settings: S) -> None:
         self.path = path
@@ -187,8 +187,8 @@ class RecordCheckpoint(Generic[S, R]):
         version = data.get("version")
         if version != self.format_version:
             why = self.older_versions.get(version) if isinstance(version, int) else None
-            raise CheckpointError(path, f"has format version {version!r}, expected "
-                                  f"{self.format_version}" + (f": {why}" if why else ""))  # fmt: skip
+            problem = f"has format version {version!r}, expected {self.format_version}"
+            raise CheckpointError(path, problem + (f": {why}" if why else ""))
         if data.get("settings_hash") != self.digest:
             theirs = str(data.get("settings_hash"))[:12]
             raise CheckpointError(
@@ -246,7 +246,7 @@ class Checkpoint(RecordCheckpoint[SweepSettings, TargetResult]):
 
     kind = "sweep"
     format_version = 2
-    older_versions = {
+    older_versions: ClassVar[dict[int, str]] = {
         1: "its results spell their statuses with hyphens (no-convergence, unreachable-path, "
         "singular, slider-limit), as rcmplan did before the sweep took the run summaries' "
         "names (no_convergence, unreachable_target, singular_pose, actuator_limit)",
