@@ -1,7 +1,7 @@
 """A real `rcmplan subretinal` process (one episode) signalled while its episode runs: it keeps
 the periods recorded so far (summary.json "interrupted" with the signal, the phase reached and
 the periods, log.npz and episode.npz holding as many), exits 130 / 143, and prints no
-traceback (docs/report.md, "Interrupted runs")."""
+traceback (docs/report.md, "A run stopped early")."""
 
 from __future__ import annotations
 
