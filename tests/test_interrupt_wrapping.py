@@ -55,3 +55,48 @@ def test_an_interrupt_that_cut_an_extension_s_import_is_raised_as_the_interrupt(
     monkeypatch.setattr(importlib, "import_module", missing)
     with pytest.raises(MissingExtraError, match="mujoco"):
         require_extra("mujoco", "sim")
+
+
+# numpy looks special methods up on an object's class and clears any exception the class's
+# `__getattr__` raises there: an interrupt landing in it would be lost.
+SWALLOWED_BY_NUMPY = """
+import os, signal
+import numpy as np
+from rcmplan.cli import interrupts
+
+interrupts.install(["robot"])
+sent = []
+class Meta(type):
+    def __getattr__(cls, name):
+        if not sent:
+            sent.append(1)
+            os.kill(os.getpid(), signal.SIGINT)
+            for _ in range(1000): pass  # the handler runs here, inside the lookup
+        raise AttributeError(name)
+class Box(metaclass=Meta):
+    pass
+with interrupts.handled():
+    try:
+        np.where(np.zeros(3) > 0, Box(), 1)
+        print("numpy returned", bool(sent))
+        for _ in range(10**8): pass
+        print("ran to the end")
+    except interrupts.Interrupted:
+        with interrupts.shielded():
+            print("interrupted")
+"""
+
+
+def test_an_interrupt_numpy_swallows_is_raised_again_at_once() -> None:
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    done = subprocess.run([sys.executable, "-c", SWALLOWED_BY_NUMPY], env=env,
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    # numpy returned normally (the interrupt was swallowed), then it came again: the loop of
+    # 10**8 steps did not run to its end first.
+    assert done.stdout.split("\n")[:2] == ["numpy returned True", "interrupted"], done.stderr
+    assert done.returncode == 0, done.stderr

@@ -16,7 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from rcmplan.cli import interrupts
 from rcmplan.control.log import RunLog
+from rcmplan.subretinal.episode import Episode
+from rcmplan.subretinal.episode_settings import EpisodeSettings
 from test_interrupts import SRC, check_left, our_tracebacks
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs POSIX signals")
@@ -54,7 +57,7 @@ def test_an_episode_signalled_while_it_runs_keeps_its_records(sig: int, tmp_path
     doc = json.loads((out / "summary.json").read_text())
     name = signal.Signals(sig).name
     assert doc["status"] == "interrupted"
-    assert doc["message"].startswith(f"interrupted by {name} during the run, "), doc["message"]
+    assert doc["message"].startswith(f"interrupted by {name} during the run, "), err[-2000:]
     log = RunLog.load_npz(out / "log.npz")
     assert doc["periods"] == len(log)
     with np.load(out / "episode.npz") as episode:
@@ -66,3 +69,33 @@ def test_an_episode_signalled_while_it_runs_keeps_its_records(sig: int, tmp_path
         assert "before the first of 34350 periods" in doc["message"]
     assert not (out / "bscans.npz").exists()  # not rendered on an interrupt; the old one gone
     check_left(out, "subretinal", proc.returncode, sig, err)
+
+
+def test_an_interrupt_numba_wraps_still_carries_the_periods_recorded(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # SIGTERM landing in numba's dispatcher (a cached kernel's first call) comes out as a
+    # SystemError whose cause is the interrupt: the episode raises the interrupt itself.
+    episode = Episode(EpisodeSettings(hold_s=1.0, hover_s=0.5))
+    plan, calls = Episode.plan, []
+
+    def plan_then_stop(self: Episode, k: int) -> None:
+        calls.append(k)
+        if len(calls) == 40:
+            try:
+                raise interrupts.Terminated()
+            except interrupts.Terminated as cause:
+                raise SystemError("a dispatcher returned a result with an exception set") from cause
+        plan(self, k)
+
+    monkeypatch.setattr(Episode, "plan", plan_then_stop)
+    with pytest.raises(interrupts.Terminated) as info:
+        episode.run()
+    result = info.value.result  # type: ignore[attr-defined]
+    n = len(result.log)
+    assert n == result.series["t_s"].size == calls[-1] > 0
+    phase = result.log.phase_names[int(result.log.phase[-1])]
+    assert result.status == "interrupted"
+    assert result.message == (f"interrupted by SIGTERM during the run, in the {phase} phase "
+                              f"after {n} of {episode.n_periods} periods")  # fmt: skip
+    assert isinstance(info.value.__cause__, SystemError)

@@ -15,8 +15,10 @@ has got:
 
 Python drops an exception raised where it cannot propagate (a weakref callback of the import
 machinery, a `__del__`) with an "Exception ignored" note; an interrupt dropped so is sent again
-(`sys.unraisablehook`, a timer a millisecond later), and one that some code swallowed ends the
-process once the command returns, so no signal is ignored.
+(`sys.unraisablehook`, a timer a millisecond later). An interrupt some code swallowed (numpy
+clears an exception raised in a class's `__getattr__` while it looks up a special method) is
+sent again the same way as it is freed unanswered (a weak reference to it); should any still be
+lost, it ends the process once the command returns, so no signal is ignored.
 
 An interrupted command exits 128 + the signal number (130, 143), as shells report a command
 killed by that signal. Called in-process (`rcmplan.cli.main` from Python), `handled()` installs
@@ -30,6 +32,7 @@ import os
 import signal
 import sys
 import threading
+import weakref
 
 from rcmplan._signals import wrapped_interrupt
 
@@ -88,6 +91,7 @@ class _State:
     pending = 0  # a signal that came while they were imported
     answered = True  # False from an interrupt raised until the code handling it answers
     signum = 0  # the last interrupt's signal
+    watch: Any = None  # a weak reference to the last interrupt raised (`_watched`)
 
 
 _state = _State()
@@ -130,10 +134,8 @@ def install(argv: Sequence[str]) -> None:
     def raise_again(unraisable: Any) -> None:
         if not isinstance(unraisable.exc_value, Interrupted):
             previous(unraisable)
-        elif threading.current_thread() is threading.main_thread():
-            # Not from here: a handler run inside this hook would be dropped the same way.
-            signal.signal(signal.SIGALRM, _on_alarm)
-            signal.setitimer(signal.ITIMER_REAL, 0.001)
+        else:
+            _send_again()
 
     sys.unraisablehook = raise_again
     _load_writers()
@@ -150,6 +152,23 @@ def _load_writers() -> None:
     _state.ready = True
     if _state.pending and _state.stage == "starting":
         _stop_now(_state.pending)
+
+
+def _send_again() -> None:
+    """Raise the unanswered interrupt again a millisecond from now, from the main thread's next
+    Python instruction (not from here: an exception raised in a hook or a weak reference's
+    callback would be dropped the same way)."""
+    if threading.current_thread() is threading.main_thread() and not _state.answered:
+        signal.signal(signal.SIGALRM, _on_alarm)
+        signal.setitimer(signal.ITIMER_REAL, 0.001)
+
+
+def _watched(interrupt: Interrupted) -> Interrupted:
+    """The interrupt, watched in the command's process: freed while unanswered, it was
+    swallowed, and it is raised again (`_send_again`)."""
+    if _state.command is not None:
+        _state.watch = weakref.ref(interrupt, lambda _ref: _send_again())
+    return interrupt
 
 
 def _on_alarm(signum: int, frame: FrameType | None) -> None:
@@ -181,7 +200,8 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
         os.kill(os.getpid(), signum)
         return
     _state.answered, _state.signum = False, signum
-    raise Terminated() if signum == signal.SIGTERM else Interrupted()
+    # No local name holds it: a frame of its own traceback would keep it alive once swallowed.
+    raise _watched(Terminated() if signum == signal.SIGTERM else Interrupted())
 
 
 def _stop_now(signum: int) -> NoReturn:

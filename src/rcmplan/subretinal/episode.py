@@ -46,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from rcmplan._signals import wrapped_interrupt
 from rcmplan._validate import FloatArray
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.limits import TissueDepthLimit
@@ -305,8 +306,23 @@ class Episode:
         compiled block loop applies), return the result (also when the RCM bound stopped it:
         status "rcm_bound_exceeded"). An interrupt (KeyboardInterrupt: SIGINT, SIGTERM in the
         `rcmplan` command) carries the periods recorded so far as `exc.result`, status
-        "interrupted", and propagates."""
-        status, message = "ok", ""
+        "interrupted", and propagates (itself where Python or numba wrapped it in another
+        exception: `rcmplan._signals.wrapped_interrupt`)."""
+        try:
+            return self.result(*self.run_periods())
+        except BaseException as exc:
+            interrupt = wrapped_interrupt(exc)  # numba wraps one landing in its dispatcher
+            if interrupt is None:
+                raise
+            why = f"interrupted by {getattr(interrupt, 'signal_name', 'SIGINT')} during the run"
+            interrupt.result = self.result("interrupted", f"{why}, {self.reached()}")  # type: ignore[attr-defined]
+            if interrupt is exc:
+                raise
+            raise interrupt from exc
+
+    def run_periods(self) -> tuple[str, str]:
+        """Feed the warm-up estimates and run the periods (`run`); (status, message): "ok", or
+        the RCM bound's stop."""
         try:
             self.deliver(self.cfg.warmup_s)
             while self.done < self.n_periods:
@@ -317,12 +333,8 @@ class Episode:
                     self.plan(self.done)
                 self.blocks.run(self, self.done, self._planned_to)
         except RcmBoundError as exc:
-            status, message = exc.status, str(exc)
-        except KeyboardInterrupt as exc:
-            why = f"interrupted by {getattr(exc, 'signal_name', 'SIGINT')} during the run"
-            exc.result = self.result("interrupted", f"{why}, {self.reached()}")  # type: ignore[attr-defined]
-            raise
-        return self.result(status, message)
+            return exc.status, str(exc)
+        return "ok", ""
 
     def reached(self) -> str:
         """How far the episode got: "in the <phase> phase after N of M periods", or in the
