@@ -9,7 +9,8 @@ import contextlib
 import os
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import NoReturn
 
 
 @contextlib.contextmanager
@@ -33,6 +34,22 @@ def signals_deferred() -> Iterator[None]:
                 handler(signum, None)
             elif handler == signal.SIG_DFL:
                 os.kill(os.getpid(), signum)
+
+
+def raise_interrupt(
+    exc: BaseException, result: Callable[[KeyboardInterrupt], object] | None = None
+) -> NoReturn:
+    """Raise `exc` again; if it is an interrupt or carries one (`wrapped_interrupt`: numba
+    wraps one landing in its dispatcher in a SystemError), raise the interrupt itself, with
+    `result(interrupt)` (what the interrupted code has done so far) as its `result`."""
+    interrupt = wrapped_interrupt(exc)
+    if interrupt is None:
+        raise exc
+    if result is not None:
+        interrupt.result = result(interrupt)  # type: ignore[attr-defined]
+    if interrupt is exc:
+        raise exc
+    raise interrupt from exc
 
 
 def wrapped_interrupt(exc: BaseException) -> KeyboardInterrupt | None:

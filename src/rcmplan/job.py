@@ -15,6 +15,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from rcmplan._signals import raise_interrupt
 from rcmplan._validate import instance
 from rcmplan.analysis.limits import limit_figures
 from rcmplan.analysis.metrics import phase_metrics
@@ -83,12 +84,15 @@ def run_scenario(
     except RcmplanError as exc:
         error = exc
         log = exc.log if exc.log is not None else LogBuilder().finish()
-    except KeyboardInterrupt as exc:
-        if controller is not None:
-            why = "interrupted by " + getattr(exc, "signal_name", "SIGINT")
-            log = controller.log.finish()
-            exc.result = _result(scenario, robot, controller, log, start, "interrupted", why)  # type: ignore[attr-defined]
-        raise
+    except BaseException as exc:  # an interrupt carries the records so far, as `result`
+        ctl = controller
+
+        def partial(interrupt: KeyboardInterrupt) -> RunResult:
+            assert ctl is not None
+            why = "interrupted by " + getattr(interrupt, "signal_name", "SIGINT")
+            return _result(scenario, robot, ctl, ctl.log.finish(), start, "interrupted", why)
+
+        raise_interrupt(exc, None if ctl is None else partial)
     if error is None:
         return _result(scenario, robot, controller, log, start, "ok", "", extra=extra)
     message = " ".join(f"{type(error).__name__}: {error}".split())

@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._signals import wrapped_interrupt
+from rcmplan._signals import raise_interrupt
 from rcmplan._validate import FloatArray
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.limits import TissueDepthLimit
@@ -311,14 +311,12 @@ class Episode:
         try:
             return self.result(*self.run_periods())
         except BaseException as exc:
-            interrupt = wrapped_interrupt(exc)  # numba wraps one landing in its dispatcher
-            if interrupt is None:
-                raise
-            why = f"interrupted by {getattr(interrupt, 'signal_name', 'SIGINT')} during the run"
-            interrupt.result = self.result("interrupted", f"{why}, {self.reached()}")  # type: ignore[attr-defined]
-            if interrupt is exc:
-                raise
-            raise interrupt from exc
+
+            def partial(interrupt: KeyboardInterrupt) -> EpisodeResult:
+                why = f"interrupted by {getattr(interrupt, 'signal_name', 'SIGINT')} during the run"
+                return self.result("interrupted", f"{why}, {self.reached()}")
+
+            raise_interrupt(exc, partial)
 
     def run_periods(self) -> tuple[str, str]:
         """Feed the warm-up estimates and run the periods (`run`); (status, message): "ok", or

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from rcmplan._signals import raise_interrupt
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import RcmplanError
 from rcmplan.teleop.live import LiveInput
@@ -179,10 +180,13 @@ def _run(
     except RcmplanError as exc:
         status, error = exc.status, exc
         message = " ".join(f"{type(exc).__name__}: {exc}".split())
-    except KeyboardInterrupt as exc:
-        why = "interrupted by " + getattr(exc, "signal_name", "SIGINT")
-        exc.result = _result(session, start, source, intended, pacing, "interrupted", why)  # type: ignore[attr-defined]
-        raise
+    except BaseException as exc:  # an interrupt carries the periods so far, as `result`
+
+        def partial(interrupt: KeyboardInterrupt) -> TeleopResult:
+            why = "interrupted by " + getattr(interrupt, "signal_name", "SIGINT")
+            return _result(session, start, source, intended, pacing, "interrupted", why)
+
+        raise_interrupt(exc, partial)
     return _result(session, start, source, intended, pacing, status, message, error)
 
 
