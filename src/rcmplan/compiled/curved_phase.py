@@ -1,12 +1,14 @@
-"""One phase of Algorithm 1 with a curved needle, compiled, on a plant that reaches its commands
-exactly (the kinematic plant): iRAM!S through the iRAM!S loop (`loop.run_targets`), an arm
-through the arm loop (`arm_loop.run_arm_targets`), each with the curved needle's method codes.
+"""One phase of Algorithm 1 with a curved needle, compiled: on a plant that reaches its commands
+exactly (the kinematic plant), iRAM!S through the iRAM!S loop (`loop.run_targets`), an arm
+through the arm loop (`arm_loop.run_arm_targets`); on the dynamic MuJoCo plant, iRAM!S through
+the loop around the plant's period (`mujoco_loop.run_targets_on_mujoco`); each with the curved
+needle's method codes.
 
 Applies to `CurvedPinvSolver`, `CurvedDlsSolver` and `CurvedPoseSolver` (exact types; the pose
 solver with at most six active joints) driving a robot `curved.curved_arrays` accepts. The side
 effects are the reference loop's: records (with the roll error) go to the controller's log, the
 plant and controller.lam end where `Controller.converge` leaves them, and a stop raises the
-reference exception with the partial log kept. Plants with dynamics take the reference loop.
+reference exception with the partial log kept. Other plants take the Python loop.
 """
 
 from __future__ import annotations
@@ -49,13 +51,18 @@ def applies(controller: Controller, solver: Solver) -> bool:
 def run_if_fast(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
-    """Run the phase compiled if the plant reaches its commands exactly and the robot is a
-    `CurvedTipRobot` itself; False (nothing done) otherwise."""
-    if not getattr(controller.plant, "exact_commands", False):
-        return False
+    """Run the phase compiled for a `CurvedTipRobot` itself: on a plant that reaches its
+    commands exactly (iRAM!S's loop or the arm loop) or, on iRAM!S, around the dynamic MuJoCo
+    plant's compiled period (`mujoco_loop.run_phase_on_mujoco`); False (nothing done)
+    otherwise."""
     arrays = curved_arrays(controller.robot)
     if arrays is None or (method_code(solver) == CURVED_POSE and arrays.m > POSE_JOINTS):
         return False
+    if not getattr(controller.plant, "exact_commands", False):
+        if arrays.P is None or not getattr(controller.plant, "compiled_physics", False):
+            return False
+        closed = fast_cache.closed_loop()
+        return bool(closed.run_phase_on_mujoco(controller, solver, targets, pid, sid, P=arrays.P))
     if arrays.P is not None:
         run_iramis_phase(controller, solver, targets, pid, sid, arrays)
     else:

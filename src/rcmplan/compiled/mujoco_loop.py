@@ -33,8 +33,10 @@ from rcmplan.compiled.records import (
     STEPPED,
     append_records,
     iramis_method,
+    is_curved,
     loop_bounds,
     raise_stop,
+    record_width,
     robot_params,
     solver_arrays,
 )
@@ -126,10 +128,12 @@ def run_targets_on_mujoco(
 
 def run_phase_on_mujoco(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int,
-    arrays: PlantArrays | None = None,
+    arrays: PlantArrays | None = None, P: FloatArray | None = None,
 ) -> bool:  # fmt: skip
     """Algorithm 1 on each target with the dynamic MuJoCo plant, compiled; False (nothing
-    done) if MuJoCo's C functions cannot be found. See the module docstring."""
+    done) if MuJoCo's C functions cannot be found. See the module docstring. P: the kernels'
+    parameters (default: iRAM!S's own; a curved needle's carry its arc, `curved_iramis.params`,
+    and its records the roll error)."""
     plant = cast("MujocoPlant", controller.plant)
     arrays = arrays or plant_arrays(plant)
     if arrays is None:
@@ -142,7 +146,7 @@ def run_phase_on_mujoco(
     _, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     head: tuple[Any, ...] = (
-        robot_params(controller.robot), code, K, damping, tol,
+        robot_params(controller.robot) if P is None else P, code, K, damping, tol,
         cfg.max_iterations, cfg.drift_correction, loop_bounds(controller),
         fast_cache.qp_kernels().loop_qp(), targets,
     )  # fmt: skip
@@ -154,7 +158,8 @@ def run_phase_on_mujoco(
             info: IntArray) -> int:  # fmt: skip
         return int(kernel(*head, k0, it0, s, cmd, state, rec, irec, info, fail, *plant_args))
 
-    status, info = run_in_blocks_on_mujoco(controller, cmd, pid, sid, run)
+    width = record_width(6, roll=is_curved(code))
+    status, info = run_in_blocks_on_mujoco(controller, cmd, pid, sid, run, width)
     if status != DONE:
         where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
         m = solver.tolerance().shape[0]
@@ -163,16 +168,18 @@ def run_phase_on_mujoco(
 
 
 def run_in_blocks_on_mujoco(
-    controller: Controller, cmd: FloatArray, pid: int, sid: int, run: BlockRunner
-) -> tuple[int, IntArray]:
+    controller: Controller, cmd: FloatArray, pid: int, sid: int, run: BlockRunner,
+    width: int = REC_WIDTH,
+) -> tuple[int, IntArray]:  # fmt: skip
     """Call a compiled loop around the dynamic MuJoCo plant `run(k0, it0, state, rec, irec,
     info)` until it stops pausing, each block of CAPACITY records appended to the log. The
     plant ends at its last command cmd (6,) and time, controller.lam holds the last lambda,
     and a failed period (PLANT_STOPPED) raises the plant's SimulationError. Returns (status,
-    info); state = (lambda, plant time [s], dt [s])."""
+    info); state = (lambda, plant time [s], dt [s]); records are `width` wide (a curved
+    needle's carry the roll error: `records.record_width`)."""
     plant = cast("MujocoPlant", controller.plant)
     state = np.array([controller.lam, plant.time, plant.dt])
-    rec, irec = np.empty((CAPACITY, REC_WIDTH)), np.empty((CAPACITY, 2), dtype=np.int64)
+    rec, irec = np.empty((CAPACITY, width)), np.empty((CAPACITY, 2), dtype=np.int64)
     info = np.zeros(3, dtype=np.int64)
     status, k0, it0 = PAUSED, 0, 0
     try:

@@ -1,0 +1,84 @@
+"""A curved needle on the dynamic MuJoCo plant runs in the compiled loop around the plant's period
+(`compiled/mujoco_loop.py`) with the Python loop's log and plant state: X_c phases (pinv, DLS)
+and whole-pose phases, the records with their roll error."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they do not skip)
+import numpy as np
+import pytest
+
+from rcmplan.control import Phase, interpolate
+from rcmplan.control.curved import (
+    CURVED_POSE_TASKS,
+    CURVED_TASKS,
+    CurvedDlsSolver,
+    CurvedPinvSolver,
+    CurvedPoseSolver,
+)
+from rcmplan.control.curved_targets import solve_curved_pose
+from rcmplan.control.log import RunLog
+from rcmplan.control.phase import LoopSettings
+from rcmplan.control.solvers import Solver, Tolerance
+from rcmplan.control.tasks import stack_value
+from rcmplan.controller import Controller
+from rcmplan.robot.curved import curved_robot
+from rcmplan.robot.curved_needle import CurvedNeedle
+from rcmplan.robot.registry import make_robot
+from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.sim.mujoco.files import mujoco_module
+from rcmplan.sim.mujoco.plant import MujocoPlant
+
+from logcheck import assert_same_log
+from paths import use_path
+
+mujoco = mujoco_module()  # without the `sim` extra these tests fail, they do not skip
+TOL_M = 1e-9  # records within 1 nm (and 1 nrad): the same operations, rounding apart
+# the roll's position servo settles to about 2.4e-7 rad (the `curved-mujoco` scenario's)
+TOLERANCE = Tolerance(position=1e-7, angle=1e-5)
+
+
+@pytest.fixture(autouse=True)
+def compiled_default() -> Iterator[None]:
+    yield
+    use_path(None)
+
+
+def run(path: str, solver: Solver) -> tuple[RunLog, MujocoPlant, Controller]:
+    """From a pose with the tip at p3 and the shaft through the trocar: the tip 0.2 mm aside
+    with the roll turned 2 mrad (X_c targets), then the whole needle 0.1 mm along x (poses)."""
+    base = make_robot("iramis")
+    robot = curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.25))
+    eye = default_eye(robot)
+    start = solve_curved_pose(robot, np.array([*default_points(eye).p3, 0.0, *eye.port]))
+    x0 = stack_value(CURVED_TASKS, robot, start.q, start.lam)
+    pose0 = stack_value(CURVED_POSE_TASKS, robot, start.q, 0.0)
+    phases = [Phase("aside", interpolate(x0, x0 + [2e-4, 1e-4, 0.0, 2e-3, 0.0, 0.0, 0.0], 8)),
+              Phase("along", interpolate(pose0, pose0 + [1e-4, 0, 0, 0, 1e-4, 0, 0], 4),
+                    kind="free")]  # fmt: skip
+    use_path(path)
+    plant = MujocoPlant(base, mode="dynamic")
+    plant.reset(robot.actuators_from_joints(start.q))
+    free = CurvedPoseSolver(tol=TOLERANCE)
+    ctl = Controller(plant, solver, free, settings=LoopSettings(max_iterations=2000), robot=robot)
+    ctl.lam = start.lam
+    return ctl.run(phases), plant, ctl
+
+
+@pytest.mark.parametrize(
+    "solver", [CurvedPinvSolver(tol=TOLERANCE), CurvedDlsSolver(tol=TOLERANCE)],
+    ids=lambda s: s.name,
+)  # fmt: skip
+def test_a_curved_needle_on_mujoco_runs_compiled_with_the_python_loops_log(solver) -> None:
+    ref, ref_plant, ref_ctl = run("off", solver)
+    got, plant, ctl = run("on", solver)
+    assert ref_ctl.phase_paths == {"aside": "reference", "along": "reference"}
+    assert ctl.phase_paths == {"aside": "compiled", "along": "compiled"}
+    assert_same_log(ref, got, TOL_M, nonempty=True)
+    assert np.isfinite(got.roll_error).all()  # every record states its roll error
+    np.testing.assert_allclose(plant.data.qpos, ref_plant.data.qpos, rtol=0, atol=TOL_M)
+    np.testing.assert_allclose(plant.command, ref_plant.command, rtol=0, atol=TOL_M)
+    assert plant.time == pytest.approx(ref_plant.time, abs=1e-12)
+    assert ctl.lam == pytest.approx(ref_ctl.lam, abs=TOL_M)
