@@ -16,19 +16,25 @@ returns its step at the edge of DAQP's tolerances).
 
 from __future__ import annotations
 
+import struct
+
 import numpy as np
 
 from rcmplan._validate import FloatArray, vector
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
+from rcmplan.compiled.packed import pack
 from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.qp_phase import assembled_step
 from rcmplan.compiled.qp_rows import buffers
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_problem import StepQP
 from rcmplan.control.solvers import SolverKind
+from rcmplan.control.targets import checked_target
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import RobotModel, SerialArm
+
+_DOUBLE = struct.Struct("d").pack  # lambda's 8 bytes in a state's key
 
 
 def arm_qp_applies(solver: object) -> bool:
@@ -71,9 +77,24 @@ def servo_command(solver: object, qpa: tuple) -> None:
         servo[: command.shape[0]] = command
 
 
+def step_buffers(solver: QpSolver, K: FloatArray) -> tuple:
+    """What one compiled step on the solver's arm reads and writes, in `arm_qp_kernels.
+    step_arrays`' order: the arm (A, ix), its work array W, travel, Q, contacts (`qp_arrays`),
+    the gains K (6,), the active joints s (m,), the error e (6,), the step d (m + 1,), the
+    servo array and the QP's buffers (`qp_rows.buffers`)."""
+    A, ix = arm_arrays(solver.robot)  # type: ignore[misc]
+    n, m = int(ix[0]), int(ix[1])
+    travel, Q, contacts, qp, _, _, servo = qp_arrays(solver, n, m)
+    W = np.zeros(fast_cache.chain_kernels().work_shape(n, m))
+    return (A, ix, W, travel, Q, contacts, K, np.zeros(m), np.zeros(6), np.zeros(m + 1), servo,
+            *qp)  # fmt: skip
+
+
 class ArmQpStep:
     """A QpSolver's `error` and `step` on its serial arm, each state's QP assembled and solved
-    in compiled code once (`error` and `step` at the same state share the solve).
+    in compiled code once (`error` and `step` at the same state share the solve). The arrays
+    of a step live in two buffers (`packed`), made once: a call from Python passes the kernel
+    those two, the joints, lambda and the target.
 
     Args:
         solver: The QP solver reproduced (InvalidInputError unless `arm_qp_applies`).
@@ -83,17 +104,16 @@ class ArmQpStep:
         if not arm_qp_applies(solver):
             raise InvalidInputError("solver", solver, "a QpSolver on a SerialArm that the "
                                     "compiled arm QP reproduces (`arm_qp_applies`)")  # fmt: skip
-        self.solver, robot = solver, solver.robot
+        self.solver = solver
         self.name: str = solver.name
         self.kind: SolverKind = solver.kind
-        self.A, self.ix = arm_arrays(robot)  # type: ignore[misc]
-        self.n, self.m = int(self.ix[0]), int(self.ix[1])
-        self.qpa = qp_arrays(solver, self.n, self.m)
-        self.travel, self.Q, self.contacts, self.qp, self.s, _, self.servo = self.qpa
-        self.K = np.ascontiguousarray(solver.K, dtype=np.float64)
         self._k = fast_cache.arm_qp_kernels()
-        self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, self.m))
-        self.e, self.d = np.empty(6), np.empty(self.m + 1)
+        K = np.array(solver.K, dtype=np.float64)
+        self.F, self.I = pack(step_buffers(solver, K))
+        (self.A, self.ix, self.W, self.travel, self.Q, self.contacts, self.K, self.s, self.e,
+         self.d, self.servo, self.qp) = self._k.step_arrays(self.F, self.I)  # fmt: skip
+        self.n, self.m = int(self.ix[0]), int(self.ix[1])
+        self.qpa = (self.travel, self.Q, self.contacts, self.qp, self.s, None, self.servo)
         self._key, self._flag = b"", 0
 
     def tolerance(self) -> FloatArray:
@@ -108,19 +128,15 @@ class ArmQpStep:
         """Assemble and solve the QP at (q, lambda) for the X_ext target (float64 arrays (n,)
         and (6,)), once per state; DAQP's exit flag (1: optimal, then `e` and `d` hold the
         error and the step)."""
-        key = q.tobytes() + np.float64(lam).tobytes() + target.tobytes()
-        if self.servo.shape[0] > 0:  # with a servo the plan is its last command
+        key = q.tobytes() + _DOUBLE(lam) + target.tobytes()
+        servo = self.servo.shape[0] > 0
+        if servo:  # with a servo the plan is its last command
             servo_command(self.solver, self.qpa)
             key += self.servo[: self.n].tobytes()  # the command (the rest is the solve's scratch)
         if key != self._key:
             if self.solver.extra_limits:  # a moving limit's parameters as they are now
                 pack_extras(self.solver, self.Q)
-            args = (self.A, self.ix, self.W, self.travel, self.Q, self.contacts, self.K, q,
-                    float(lam), target, self.s, self.e, self.d, self.qp)  # fmt: skip
-            if self.servo.shape[0] > 0:
-                self._flag = self._k.solve_servo_step(*args, self.servo)
-            else:
-                self._flag = self._k.solve_arm_step(*args)
+            self._flag = self._k.solve_packed(self.F, self.I, q, float(lam), target)
             self._key = key
         return int(self._flag)
 
@@ -140,7 +156,7 @@ class ArmQpStep:
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """`QpSolver.error`: J x* / K, or the plain X_ext error at an actuator's full speed."""
         target = self.solver.check_target(target)
-        q = vector("q", q, self.n)
+        q = checked_target(q, self.n, "q")
         if self.solve(q, lam, target) != 1:
             return self.solver.error(robot, q, lam, target)
         return self.e.copy()
@@ -149,11 +165,11 @@ class ArmQpStep:
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """`QpSolver.step`: the active joints' increments and d lambda."""
-        target = vector("target", target, 6)
-        q = vector("q", q, self.n)
+        target, q = checked_target(target, 6), checked_target(q, self.n, "q")
         if self.solve(q, lam, target) != 1:
             return self.solver.step(robot, q, lam, target, error)
-        return self.d[: self.m].copy(), float(self.d[self.m])
+        d = self.d.tolist()
+        return np.array(d[: self.m]), d[self.m]
 
 
 def arm_qp_step(solver: QpSolver) -> ArmQpStep | None:

@@ -12,7 +12,8 @@ for lambda (`limits.base.variable_map`): variables x = (dq[active], l dlambda) /
 The arm travels as the chain kernels' (A, ix) with a work array W (`chain_kinematics.
 work_shape`), its active joints' travel as travel (2, m) [rad or m], the settings as Q
 (`qp_params`, the speeds of the active joints last), and the buffers of one solve as
-`qp_rows.buffers(m + 1)`.
+`qp_rows.buffers(m + 1)`. Called from Python once per period (`arm_qp.ArmQpStep`), the step
+receives all of them packed in two buffers (`packed`, `solve_packed`).
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from rcmplan.compiled.qp_rows import (
     solve_assembled,
     solve_planned,
 )
+from rcmplan.compiled.packed import int32s, ints, mat, vec
 from rcmplan.control.limits.base import SCALE
 from rcmplan.robot.chain_kinematics import (
     IntArray,
@@ -41,7 +43,8 @@ from rcmplan.robot.chain_kinematics import (
 )
 from rcmplan.robot.chain_singular import singular_terms
 
-__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step", "solve_servo_step"]
+__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step", "solve_packed",
+           "solve_servo_step", "step_arrays"]
 
 
 @njit(cache=True)
@@ -142,3 +145,27 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
         d[j] = (plan[k] + x[j] * SCALE) - q[k]
     d[m] = x[m] * SCALE / A[5 * n + 12, 0]
     return flag
+
+
+@njit(cache=True)
+def step_arrays(F: FloatArray, I: IntArray) -> tuple:
+    """Views of the arrays `packed.pack` holds in F and I, in `arm_qp.step_buffers`' order:
+    (A, ix, W, travel, Q, contacts, K, s, e, d, servo, qp), qp the tuple of `buffers`."""
+    qp = (mat(F, I, 11), vec(F, I, 12), mat(F, I, 13), vec(F, I, 14), vec(F, I, 15),
+          int32s(I, 16), mat(F, I, 17), mat(F, I, 18), mat(F, I, 19), vec(F, I, 20),
+          vec(F, I, 21), vec(F, I, 22), ints(I, 23), ints(I, 24), vec(F, I, 25), mat(F, I, 26),
+          mat(F, I, 27), mat(F, I, 28), mat(F, I, 29))  # fmt: skip
+    return (mat(F, I, 0), ints(I, 1), mat(F, I, 2), mat(F, I, 3), vec(F, I, 4), mat(F, I, 5),
+            vec(F, I, 6), vec(F, I, 7), vec(F, I, 8), vec(F, I, 9), vec(F, I, 10), qp)  # fmt: skip
+
+
+@njit(cache=True)
+def solve_packed(F: FloatArray, I: IntArray, q: FloatArray, lam: float,
+                 target: FloatArray) -> int:  # fmt: skip
+    """`solve_arm_step`, or with a servo (a servo array of any length) `solve_servo_step`, on
+    the arrays packed in F and I (`step_arrays`); returns DAQP's exit flag."""
+    A, ix, W, travel, Q, contacts, K, s, e, d, servo, qp = step_arrays(F, I)
+    if servo.shape[0] > 0:
+        return solve_servo_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d, qp,
+                                servo)  # fmt: skip
+    return solve_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d, qp)
