@@ -280,8 +280,8 @@ def test_error_and_step_at_one_state_share_one_servo_solve(
     plant = ServoPlant(arm)
     fast = ArmQpStep(QpSolver(arm, None, servo=plant))
     calls: list[int] = []
-    solve = fast._k.solve_servo_step
-    monkeypatch.setattr(fast._k, "solve_servo_step", lambda *a: calls.append(1) or solve(*a))
+    solve = fast._k.solve_packed  # the one compiled call per solve (`solve_servo_step` inside)
+    monkeypatch.setattr(fast._k, "solve_packed", lambda *a: calls.append(1) or solve(*a))
     q, lam, target = next(states(arm, np.random.default_rng(1), 1, spread=1e-6))
     plant.lead = q + 1e-4
     fast.step(arm, q, lam, target, fast.error(arm, q, lam, target))

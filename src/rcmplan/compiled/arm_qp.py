@@ -16,11 +16,12 @@ returns its step at the edge of DAQP's tolerances).
 
 from __future__ import annotations
 
+import math
 import struct
 
 import numpy as np
 
-from rcmplan._validate import FloatArray, vector
+from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
 from rcmplan.compiled.packed import pack
@@ -109,12 +110,12 @@ class ArmQpStep:
         self.kind: SolverKind = solver.kind
         self._k = fast_cache.arm_qp_kernels()
         K = np.array(solver.K, dtype=np.float64)
-        self.F, self.I = pack(step_buffers(solver, K))
+        self.F, self.Z = pack(step_buffers(solver, K))
         (self.A, self.ix, self.W, self.travel, self.Q, self.contacts, self.K, self.s, self.e,
-         self.d, self.servo, self.qp) = self._k.step_arrays(self.F, self.I)  # fmt: skip
+         self.d, self.servo, self.qp) = self._k.step_arrays(self.F, self.Z)  # fmt: skip
         self.n, self.m = int(self.ix[0]), int(self.ix[1])
         self.qpa = (self.travel, self.Q, self.contacts, self.qp, self.s, None, self.servo)
-        self._key, self._flag = b"", 0
+        self._key, self._checked, self._flag = b"", b"", 0
 
     def tolerance(self) -> FloatArray:
         """The solver's tolerance per X_ext component."""
@@ -128,15 +129,24 @@ class ArmQpStep:
         """Assemble and solve the QP at (q, lambda) for the X_ext target (float64 arrays (n,)
         and (6,)), once per state; DAQP's exit flag (1: optimal, then `e` and `d` hold the
         error and the step)."""
+        return self._solve(self._state(q, lam, target), q, lam, target)
+
+    def _state(self, q: FloatArray, lam: float, target: FloatArray) -> bytes:
+        """The state's key: the bytes of q, lambda, the target and with a servo its last
+        command, copied now into the servo array (the plan is that command)."""
         key = q.tobytes() + _DOUBLE(lam) + target.tobytes()
-        servo = self.servo.shape[0] > 0
-        if servo:  # with a servo the plan is its last command
+        if self.servo.shape[0] > 0:
             servo_command(self.solver, self.qpa)
             key += self.servo[: self.n].tobytes()  # the command (the rest is the solve's scratch)
+        return key
+
+    def _solve(self, key: bytes, q: FloatArray, lam: float, target: FloatArray) -> int:
+        """`solve` at the state of this key (`_state`): one compiled call unless it is the
+        state solved last."""
         if key != self._key:
             if self.solver.extra_limits:  # a moving limit's parameters as they are now
                 pack_extras(self.solver, self.Q)
-            self._flag = self._k.solve_packed(self.F, self.I, q, float(lam), target)
+            self._flag = self._k.solve_packed(self.F, self.Z, q, float(lam), target)
             self._key = key
         return int(self._flag)
 
@@ -155,21 +165,35 @@ class ArmQpStep:
 
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """`QpSolver.error`: J x* / K, or the plain X_ext error at an actuator's full speed."""
-        target = self.solver.check_target(target)
+        target, lam = self.solver.check_target(target), _finite("lam", lam)
         q = checked_target(q, self.n, "q")
-        if self.solve(q, lam, target) != 1:
+        key = self._checked = self._state(q, lam, target)
+        if self._solve(key, q, lam, target) != 1:
             return self.solver.error(robot, q, lam, target)
         return self.e.copy()
 
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """`QpSolver.step`: the active joints' increments and d lambda."""
-        target, q = checked_target(target, 6), checked_target(q, self.n, "q")
-        if self.solve(q, lam, target) != 1:
+        """`QpSolver.step`: the active joints' increments and d lambda. The numbers of q and
+        the target are checked unless they are those `error` or `step` checked last."""
+        target, lam = checked_target(target, 6, finite=False), _finite("lam", lam)
+        q = checked_target(q, self.n, "q", finite=False)
+        key = self._state(q, lam, target)
+        if key != self._checked:  # a state not checked yet: its numbers must be finite
+            checked_target(target, 6)
+            checked_target(q, self.n, "q")
+            self._checked = key
+        if self._solve(key, q, lam, target) != 1:
             return self.solver.step(robot, q, lam, target, error)
-        d = self.d.tolist()
-        return np.array(d[: self.m]), d[self.m]
+        return self.d[: self.m].copy(), float(self.d[self.m])
+
+
+def _finite(name: str, value: float) -> float:
+    """value as a finite float, or InvalidInputError naming it (`scalar`)."""
+    if value.__class__ is float and math.isfinite(value):
+        return value
+    return scalar(name, value)
 
 
 def arm_qp_step(solver: QpSolver) -> ArmQpStep | None:
