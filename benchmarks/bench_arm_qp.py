@@ -8,6 +8,10 @@ cache of a state's solve hits.
   default eye, the default limits), against `arm_qp.ArmQpStep`'s (the controller's stand-in on
   the compiled path: the QP assembled with the same row kernels and solved by DAQP's C
   function in one compiled call).
+- Where the step's time goes: the same solve (`arm_qp_kernels.solve_packed`, the one compiled
+  call of `ArmQpStep`) at the same two states, timed in a compiled loop (what the step costs
+  with no call from Python), against one call of it from Python (the call with its five
+  arguments added); `error` + `step` adds the argument checks, the state's key and the copies.
 - Singular terms: `SerialArm.singular_terms` (the measure kappa = s_min / s_max of
   [J_tip / l; N J_omega] and its exact gradient, `robot/chain_singular.py`) against the numpy
   SVD formulation kept as the tests' oracle (`tests/chain_oracle.py`).
@@ -20,8 +24,11 @@ from itertools import cycle
 from pathlib import Path
 from typing import Any
 
+from numba import njit
+
 from _common import per_call, quick, row
 from rcmplan.compiled.arm_qp import ArmQpStep
+from rcmplan.compiled.arm_qp_kernels import solve_packed
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.robot.shipped import shipped_arm
@@ -54,6 +61,29 @@ def qp_step_us(name: str, compiled: bool, n: int) -> float:
     return 1e6 * per_call(step, n)
 
 
+@njit(cache=True)
+def _solves(F: Any, Z: Any, q0: Any, q1: Any, lam: float, target: Any, n: int) -> int:
+    """n solves alternating between joints q0 and q1; returns the optimal count."""
+    ok = 0
+    for i in range(n):
+        ok += solve_packed(F, Z, q0 if i % 2 == 0 else q1, lam, target) == 1
+    return ok
+
+
+def solve_us(name: str, compiled_loop: bool, n: int) -> float:
+    """Median time of the compiled step's solve in [us], in a compiled loop or called from
+    Python (`ArmQpStep`'s packed arrays; both states share lambda)."""
+    arm = shipped_arm(name)
+    fast = ArmQpStep(QpSolver(arm, default_eye(arm)))
+    ((q0, lam), (q1, _)), target = states(arm)
+    if compiled_loop:
+        batch = 20
+        return 1e6 * per_call(lambda: _solves(fast.F, fast.Z, q0, q1, lam, target, batch),
+                              n // batch) / batch  # fmt: skip
+    it = cycle([q0, q1])
+    return 1e6 * per_call(lambda: solve_packed(fast.F, fast.Z, next(it), lam, target), n)
+
+
 def singular_us(name: str, oracle: bool, n: int) -> float:
     """Median time of the arm's singular terms (value and gradient) in [us]."""
     arm = shipped_arm(name)
@@ -77,6 +107,9 @@ def rows() -> list[dict[str, Any]]:
         out.append(row(f"{label} QP error + step from Python, compiled (arm_qp.ArmQpStep)",
                        qp_step_us(name, True, n), "us", "rcmplan QpSolver (Python)",
                        qp_step_us(name, False, slow), "<= 10 us"))  # fmt: skip
+        out.append(row(f"{label} QP step's solve in a compiled loop (arm_qp_kernels.solve_packed)",
+                       solve_us(name, True, n), "us", "the same solve called from Python",
+                       solve_us(name, False, n)))  # fmt: skip
         out.append(row(f"{label} singular terms (kappa and gradient) from Python",
                        singular_us(name, False, n), "us", "numpy SVD (tests/chain_oracle.py)",
                        singular_us(name, True, slow)))  # fmt: skip
