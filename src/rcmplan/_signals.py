@@ -9,8 +9,14 @@ import contextlib
 import os
 import signal
 import threading
-from collections.abc import Callable, Iterator
-from typing import NoReturn
+from collections.abc import Iterator
+
+# The command's interrupt handling imports this module before its handler exists: `typing` is
+# not imported (typing.TYPE_CHECKING, spelled out; `rcmplan.cli.interrupts`).
+TYPE_CHECKING = False
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from typing import NoReturn
 
 
 @contextlib.contextmanager
