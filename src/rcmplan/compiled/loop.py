@@ -367,7 +367,10 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
     return STEPPED
 
 
-@njit(cache=True)
+# Inlined into its two callers (the phase loops): compiled as a function of its own it would
+# optimise `iterate`'s whole tree once more (numba links a callee's code into its caller's
+# module and optimises that again), 9-11 s of a first run's compile.
+@njit(cache=True, inline="always")
 def iterate_recorded(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
     drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool, tip_t: FloatArray,
