@@ -239,7 +239,7 @@ def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def iterate(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
     drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool,
@@ -367,9 +367,10 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
     return STEPPED
 
 
-# Inlined into its two callers (the phase loops): compiled as a function of its own it would
-# optimise `iterate`'s whole tree once more (numba links a callee's code into its caller's
-# module and optimises that again), 9-11 s of a first run's compile.
+# `iterate` and `iterate_recorded` are inlined into the two phase loops: compiled as functions
+# of their own each would optimise the whole tree below it once more (numba links a callee's
+# code into its caller's module and optimises that again). A first default run's compile:
+# 57.2-61.0 s of CPU before, 42.4-50.2 s after (docs/benchmarks.md).
 @njit(cache=True, inline="always")
 def iterate_recorded(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
