@@ -5,8 +5,6 @@ the packed step gives bit for bit what the kernel gives on separately allocated 
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import numpy as np
 import pytest
 
@@ -16,24 +14,9 @@ from rcmplan.compiled.qp_period import period_step
 from rcmplan.control.qp import QpSolver
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.model import SerialArm
-from rcmplan.robot.registry import make_robot
 from test_arm_qp_compiled import ServoPlant, solvers, states
-
-from paths import use_path
-
-
-@pytest.fixture(scope="module", params=["ur5", "panda"])
-def arm(request: pytest.FixtureRequest) -> SerialArm:
-    robot = make_robot(request.param)
-    assert isinstance(robot, SerialArm)
-    return robot
-
-
-@pytest.fixture(autouse=True)
-def fast_on() -> Iterator[None]:
-    use_path("on")
-    yield
-    use_path(None)
+from test_arm_qp_compiled import arm as arm  # the fixtures, shared
+from test_arm_qp_compiled import fast_on as fast_on
 
 
 def test_pack_gives_every_array_back_as_a_view_of_its_buffer() -> None:
