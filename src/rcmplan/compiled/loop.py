@@ -370,7 +370,7 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
 # `iterate` and `iterate_recorded` are inlined into the two phase loops: compiled as functions
 # of their own each would optimise the whole tree below it once more (numba links a callee's
 # code into its caller's module and optimises that again). A first default run's compile:
-# 57.2-61.0 s of CPU before, 42.4-50.2 s after (docs/benchmarks.md).
+# 57.2-61.0 s of CPU before, 42.4-57.6 s after, median 49.9 (docs/benchmarks.md).
 @njit(cache=True, inline="always")
 def iterate_recorded(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
