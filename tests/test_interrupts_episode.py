@@ -95,6 +95,7 @@ def test_an_interrupt_numba_wraps_still_carries_the_periods_recorded(
     n = len(result.log)
     assert n == result.series["t_s"].size == calls[-1] > 0
     phase = result.log.phase_names[int(result.log.phase[-1])]
+    assert list(result.phase_starts_s)[-1] == phase  # no phase it did not reach
     assert result.status == "interrupted"
     assert result.message == (f"interrupted by SIGTERM during the run, in the {phase} phase "
                               f"after {n} of {episode.n_periods} periods")  # fmt: skip

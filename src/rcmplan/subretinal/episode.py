@@ -350,15 +350,18 @@ class Episode:
         return min(self.done, len(self.log))
 
     def result(self, status: str, message: str) -> EpisodeResult:
-        """The result of the periods recorded so far, with `status` and `message`."""
+        """The result of the periods recorded so far, with `status` and `message` (the start
+        times of the phases they reached)."""
         n = self.recorded()
         series = {k: v[:n].copy() for k, v in self.series.items()}
         log = self.log.finish()
         if len(log) > n:
             log = log.select(np.arange(len(log)) < n)
+        # the phases begun by the last period recorded (all of them in a finished episode)
+        reached = self.t_s[n - 1] + 0.5 * self.cfg.dt if n else -np.inf
         starts, t0 = {}, self.cfg.warmup_s
         for name, length in self.durations.items():
-            if length > 0.0:  # a phase of zero length (no withdraw) never starts
+            if length > 0.0 and t0 < reached:  # a phase of zero length (no withdraw) never starts
                 starts[name] = t0
             t0 += length
         return EpisodeResult(self.cfg, self.layers, series, log, self.trace,
