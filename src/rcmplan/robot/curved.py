@@ -238,19 +238,13 @@ class CurvedTipRobot:
 
     def roll(self, q: FloatArray) -> float:
         """The needle roll rho in [rad] (`rcmplan.robot.needle.roll_of`; q5 on iRAM!S)."""
-        if self.arrays is None:
-            raise InvalidInputError("robot", self.name, "a robot holding a curved needle")
         return float(self.task_and_jacobian(q, 0.0, True)[0][ROLL])
 
     def roll_jacobian(self, q: FloatArray) -> FloatArray:
         """d rho / d theta_ext, (m + 1,)."""
-        if self.arrays is None:
-            raise InvalidInputError("robot", self.name, "a robot holding a curved needle")
         return self.task_and_jacobian(q, 0.0, True)[1][ROLL].copy()
 
 
 def curved_robot(base: RobotModel, needle: CurvedNeedle) -> CurvedTipRobot:
-    """`base` (Iramis or SerialArm) holding `needle` (checks the base's kind)."""
-    if not isinstance(base, Iramis | SerialArm):
-        raise InvalidInputError("robot", type(base).__name__, "an Iramis or a SerialArm")
-    return CurvedTipRobot(base, needle)
+    """`base` (Iramis or SerialArm) holding `needle` (the constructor checks the base's kind)."""
+    return CurvedTipRobot(base, needle)  # type: ignore[arg-type]
