@@ -13,6 +13,7 @@ from rcmplan.cli import sweep as sweep_cli
 from rcmplan.exceptions import InvalidInputError, RcmplanError
 from rcmplan.sweep.checkpoint import Checkpoint
 from rcmplan.sweep.errors import CheckpointError, EmptyRegionError, SchedulerError
+from rcmplan.sweep.fundus import CAUSE_KEYS
 from rcmplan.sweep.settings import MotionSettings, SweepSettings
 
 
@@ -43,6 +44,9 @@ def test_sweep_writes_summary_targets_checkpoint_and_maps(tmp_path: Path, capsys
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["targets"]["sampled"] == 8
     assert summary["targets"]["run"] == summary["targets"]["reachable"]
+    by_cause = summary["targets"]["by_cause"]  # keys are identifiers, like the statuses'
+    assert list(by_cause) == list(CAUSE_KEYS) and all(k.isidentifier() for k in by_cause)
+    assert sum(by_cause.values()) == 8
     assert len((tmp_path / "targets.csv").read_text().splitlines()) == 9
     for name in ("reachability", "rcm_deviation", "iterations"):
         assert (tmp_path / "figures" / f"{name}.png").stat().st_size > 0

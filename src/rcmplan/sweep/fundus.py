@@ -21,15 +21,18 @@ from rcmplan.scene.eye import Eye
 from rcmplan.sweep.sampling import MISSES_RETINA, REACHABLE, Sample, trocar_frame
 
 # Cause of each category index; converged and failed motions first, then the refusals
-CAUSES = (
-    "converged",
-    "motion failed",
-    "actuator travel",
-    "singular margin",
-    "RCM cone (RCM off the needle)",
-    "other robot limit",
-    "eye wall (ray misses the retina)",
+# (key in summary.json's `targets.by_cause`, label on the map and in the table)
+CAUSE_NAMES = (
+    ("converged", "converged"),
+    ("motion_failed", "motion failed"),
+    ("actuator_travel", "actuator travel"),
+    ("singular_margin", "singular margin"),
+    ("rcm_cone", "RCM cone (RCM off the needle)"),
+    ("other_limit", "other robot limit"),
+    ("misses_retina", "eye wall (ray misses the retina)"),
 )
+CAUSE_KEYS = tuple(key for key, _ in CAUSE_NAMES)
+CAUSES = tuple(label for _, label in CAUSE_NAMES)
 CONVERGED, FAILED, SLIDER, SINGULAR, CONE, OTHER, WALL = range(len(CAUSES))
 
 

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from rcmplan._atomic import atomic_path
+from rcmplan.sweep.fundus import CAUSE_KEYS, CAUSES, causes
 from rcmplan.sweep.gains import Evaluation, GainSearchResult
 from rcmplan.sweep.runner import SweepResult
 from rcmplan.sweep.sampling import STATUS_NAMES
@@ -86,10 +87,8 @@ def status_counts(results: list[TargetResult]) -> dict[str, int]:
 
 def cause_counts(result: SweepResult) -> dict[str, int]:
     """Number of sampled targets per cause (converged, failed, and why the rest are refused)."""
-    from rcmplan.sweep.fundus import CAUSES, causes
-
     found = causes(result.sample, result.column("converged"))
-    return {name: int(np.sum(found == i)) for i, name in enumerate(CAUSES)}
+    return {key: int(np.sum(found == i)) for i, key in enumerate(CAUSE_KEYS)}
 
 
 def summary_rows(s: dict[str, Any]) -> list[list[str]]:
@@ -101,9 +100,9 @@ def summary_rows(s: dict[str, Any]) -> list[list[str]]:
         ["reachable / out of reach / miss retina",
          f"{t['reachable']} / {t['unreachable']} / {t['misses_retina']}", ""],
         ["converged", f"{t['by_status']['ok']} of {t['run']}", ""],
-        ["out of reach, by cause", ", ".join(f"{k} {v}" for k, v in t["by_cause"].items()
-                                             if v and k not in ("converged", "motion failed"))
-         or "none", ""],
+        ["out of reach, by cause", ", ".join(
+            f"{CAUSES[CAUSE_KEYS.index(k)]} {v}" for k, v in t["by_cause"].items()
+            if v and k not in ("converged", "motion_failed")) or "none", ""],
         ["iterations per target (median / max)", f"{_g(it['median'])} / {_g(it['max'])}", ""],
         ["max RCM deviation (median / p95 / max)",
          f"{_g(dev['median'], UM)} / {_g(dev['p95'], UM)} / {_g(dev['max'], UM)}", "um"],
