@@ -21,7 +21,6 @@ from rcmplan.control import (
 )
 from rcmplan.control.augmented import augmented_jacobian, extended_task
 from rcmplan.control.log import RunLog
-from rcmplan.control.solvers import dls_solve
 from rcmplan.controller import Controller
 from rcmplan.exceptions import (
     ConvergenceError,
@@ -93,15 +92,6 @@ def test_control_step_equals_pinv_solver(robot: Iramis, rng: np.random.Generator
             dq, dlam = solver.step(robot, q, lam, target, solver.error(robot, q, lam, target))
             d = fast.step(q, lam, target, K, variant)
             np.testing.assert_allclose(d, [*dq, dlam], atol=TOL)
-
-
-def test_dls_kernel_equals_reference(rng: np.random.Generator) -> None:
-    kernels = fast_cache.kernels()
-    for m, n in ((6, 6), (3, 5)):
-        J, e = rng.normal(size=(6, 6)), rng.normal(size=6)
-        d, A, f = np.empty(6), np.empty((6, 6)), np.empty(6)
-        kernels.dls_solve(J, e, 1e-2, m, n, A, f, d)
-        np.testing.assert_allclose(d[:n], dls_solve(J[:m, :n], e[:m], 1e-2), atol=TOL)
 
 
 def test_batch_equals_single_evaluations(robot: Iramis, rng: np.random.Generator) -> None:

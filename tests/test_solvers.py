@@ -5,9 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rcmplan import Iramis
+from rcmplan import Iramis, linalg
 from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.solvers import DlsSolver, PinvSolver, TipSolver, Tolerance, dls_solve
+from rcmplan.control.solvers import DlsSolver, PinvSolver, TipSolver, Tolerance
 from rcmplan.control.tasks import TIP_AND_RCM, stack_jacobian
 from rcmplan.exceptions import InvalidInputError
 
@@ -55,7 +55,7 @@ def test_dls_step_solves_the_damped_normal_equations(robot: Iramis) -> None:
     J = stack_jacobian(TIP_AND_RCM, robot, Q, 0.8)
     e = np.linspace(-1e-4, 1e-4, 6)
     D = 0.05
-    d = dls_solve(J, e, D)
+    d = linalg.step(J, e, D)
     np.testing.assert_allclose((J.T @ J + D * D * np.eye(6)) @ d, J.T @ e, atol=1e-15)
 
 

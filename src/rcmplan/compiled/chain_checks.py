@@ -1,5 +1,5 @@
-"""Compiled checks of any serial arm: the Newton IK that screens targets before motion; the
-singularity measure and its certificate are `chain_kinematics`'s (re-exported here)."""
+"""Compiled checks of any serial arm: the screen of a path's targets before motion, on the
+Newton IK of `chain_pose`."""
 
 from __future__ import annotations
 
@@ -10,59 +10,9 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.kernels import dls_solve, gauss_solve
-from rcmplan.robot.chain_kinematics import (
-    ROWS,
-    E,
-    F,
-    IntArray,
-    Z,
-    angle_rows,
-    frames,
-    needle_axis,
-    needle_point,
-    point_jacobian,
-)
-from rcmplan.robot.needle import axis_angles, x_ext_tip
-
-
-@njit(cache=True)
-def needle_pose(A: FloatArray, ix: IntArray, W: FloatArray, tip: FloatArray, phi: float,
-                psi: float, q: FloatArray, max_it: int, tol: float) -> int:  # fmt: skip
-    """`SerialArm.needle_pose` from the seed q (updated in place): Newton's method with
-    minimum-norm steps on (tip [m], phi, psi [rad]) over the active joints, angle errors
-    wrapped to [-pi, pi). Returns the steps taken when every error is within tol, -1 when
-    max_it checks fail (the reference's cap: its exception)."""
-    n, m = ix[0], ix[1]
-    o = 4 * (n + 1)
-    J, S, v = W[o:], W[o + ROWS :], o + 2 * ROWS
-    err, f, dq = W[v + E], W[v + F], W[v + Z]
-    for it in range(max_it):
-        frames(A, ix, q, W)
-        px, py, pz = needle_point(A, n, W, 1.0)
-        ax, ay, az = needle_axis(A, n, W)
-        err[0], err[1], err[2] = tip[0] - px, tip[1] - py, tip[2] - pz
-        phi_now, psi_now = axis_angles(ax, ay, az)
-        err[3], err[4] = phi - phi_now, psi - psi_now
-        within = True  # every |error| <= tol (False for NaN)
-        for i in range(5):
-            if i >= 3:
-                err[i] = (err[i] + math.pi) % (2.0 * math.pi) - math.pi
-            within &= abs(err[i]) <= tol
-        if within:
-            return it
-        point_jacobian(A, ix, W, 1.0, J, 0)
-        angle_rows(A, ix, W, False, J, 3)
-        if m == 5:
-            for i in range(5):
-                for j in range(5):
-                    S[i, j] = J[i, j]
-            gauss_solve(S, err, 5, dq)
-        else:
-            dls_solve(J, err, 0.0, 5, m, S, f, dq)
-        for j in range(m):
-            q[ix[2 + n + j]] += dq[j]
-    return -1
+from rcmplan.robot.chain_kinematics import IntArray
+from rcmplan.robot.chain_pose import needle_pose
+from rcmplan.robot.needle import x_ext_tip
 
 
 @njit(cache=True)

@@ -9,15 +9,13 @@ so results agree with the reference to rounding. Imports numba (the `fast` extra
 through `rcmplan.compiled.cache.chain_kernels`.
 """
 
-from rcmplan.compiled.chain_checks import needle_pose, screen_targets
+from rcmplan.compiled.chain_checks import screen_targets
 from rcmplan.compiled.chain_solve import (
     dls_solve_at,
     dls_step,
     gram_solve,
-    lu_solve,
     pinv_solve,
     pinv_step,
-    square_solve,
 )
 from rcmplan.robot.chain_kinematics import (
     AXIS,
@@ -45,6 +43,7 @@ from rcmplan.robot.chain_kinematics import (
     task_jacobian,
     work_shape,
 )
+from rcmplan.robot.chain_pose import needle_pose
 from rcmplan.robot.chain_singular import (
     CERTIFY,
     gram_extremes,
@@ -77,7 +76,6 @@ __all__ = [
     "is_singular",
     "jacobian_at",
     "joint_axis",
-    "lu_solve",
     "move",
     "needle_axis",
     "needle_point",
@@ -90,7 +88,6 @@ __all__ = [
     "singular_gram",
     "singular_terms",
     "singularity_measure",
-    "square_solve",
     "task_at",
     "task_jacobian",
     "work_shape",

@@ -1,6 +1,6 @@
-"""Compiled steps of any serial arm: LU and Gram solves, the pinv step (square, or minimum norm
-with the null-space posture) and the DLS step, as `PinvSolver` and `DlsSolver` take them; the
-layout is in `chain_kinematics`."""
+"""Compiled steps of any serial arm: the pinv step (square, or minimum norm with the null-space
+posture) and the DLS step, as `PinvSolver` and `DlsSolver` take them, on `rcmplan.linalg`'s
+solves; the layout is in `chain_kinematics`."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import math
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.lu import lu_solve
 from rcmplan.control.solvers import PIVOT_DISTANCE
+from rcmplan.linalg import damped, pinv
 from rcmplan.robot.chain_kinematics import (
     AXIS,
     ROWS,
@@ -32,66 +32,32 @@ from rcmplan.robot.needle import x_ext_tip
 def gram_solve(W: FloatArray, j: int, rows: int, cols: int, damping: float, e: FloatArray,
                d: FloatArray) -> None:  # fmt: skip
     """d[:cols] = J^T f with (J J^T + D^2 I) f = e[:rows] for J at rows j.. of W (eqs. 2.19,
-    2.20; D = 0: the minimum-norm step), solved on W's 6 x 6 scratch (rows j + ROWS..) and its
-    F row (`lu_solve`). J at W's J rows; e may be d (read before d is written)."""
-    S = j + ROWS
-    f = S + ROWS + F
+    2.20; D = 0: the minimum-norm step, `linalg.damped`) on W's scratch (rows j + ROWS..) and
+    its F row; e is left as it is (it may be d: read before d is written)."""
+    f = j + 2 * ROWS + F
     for i in range(rows):
-        for k in range(i + 1):
-            acc = 0.0
-            for c in range(cols):
-                acc += W[j + i, c] * W[j + k, c]
-            W[S + i, k], W[S + k, i] = acc, acc
-        W[S + i, i] += damping * damping
         W[f, i] = e[i]
-    lu_solve(W, S, rows, f)
-    for c in range(cols):
-        acc = 0.0
-        for i in range(rows):
-            acc += W[j + i, c] * W[f, i]
-        d[c] = acc
-
-
-@njit(cache=True)
-def square_solve(W: FloatArray, j: int, b: int, d: FloatArray) -> None:
-    """d = J^-1 W[b] for the square J at rows j.. of W (J_a of a non-redundant arm), by
-    `lu_solve` on W's 6 x 6 scratch (rows j + ROWS..); W[b] is overwritten."""
-    S = j + ROWS
-    for r in range(ROWS):
-        for c in range(ROWS):
-            W[S + r, c] = W[j + r, c]
-    lu_solve(W, S, ROWS, b)
-    for r in range(ROWS):
-        d[r] = W[b, r]
+    damped(W, j, rows, cols, damping, j + ROWS, f, d)
 
 
 @njit(cache=True)
 def pinv_solve(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, K: FloatArray,
                gain: float, err: FloatArray, d: FloatArray) -> None:  # fmt: skip
     """The `PinvSolver` step into d (m + 1,) from J_a in W's J rows and the X_ext error err
-    (6,) at joints q: J_a d = K e when J_a is square (`square_solve`), else
-    d = J_a^+ (K e - J_a z) + z, the minimum-norm step through J_a J_a^T plus the null-space
-    posture step z = gain (home - q) over the active joints."""
+    (6,) at joints q: J_a d = K e when J_a is square, else d = J_a^+ (K e - J_a z) + z, the
+    minimum-norm step plus the null-space posture step z = gain (home - q) over the active
+    joints (`linalg.pinv`)."""
     n, m = ix[0], ix[1]
     o = 4 * (n + 1)
     e, z = o + 2 * ROWS + E, o + 2 * ROWS + Z
-    if m + 1 == ROWS:
-        for i in range(ROWS):
-            W[e, i] = K[i] * err[i]
-        square_solve(W, o, e, d)
-        return
-    for j in range(m):
-        k = ix[2 + n + j]
-        W[z, j] = gain * (A[4 * (n + 3) + k, 3] - q[k])
-    W[z, m] = 0.0
-    for i in range(ROWS):  # K e - J_a z into d (gram_solve reads it before writing d)
-        acc = K[i] * err[i]
-        for j in range(m + 1):
-            acc -= W[o + i, j] * W[z, j]
-        d[i] = acc
-    gram_solve(W, o, ROWS, m + 1, 0.0, d, d)
-    for j in range(m + 1):
-        d[j] += W[z, j]
+    for i in range(ROWS):
+        W[e, i] = K[i] * err[i]
+    if m + 1 > ROWS:
+        for j in range(m):
+            k = ix[2 + n + j]
+            W[z, j] = gain * (A[4 * (n + 3) + k, 3] - q[k])
+        W[z, m] = 0.0
+    pinv(W, o, ROWS, m + 1, o + ROWS, e, z, d)
 
 
 @njit(cache=True)

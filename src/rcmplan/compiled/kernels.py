@@ -73,54 +73,6 @@ def solve_augmented(J: FloatArray, b: FloatArray, d: FloatArray) -> None:
 
 
 @njit(cache=True)
-def gauss_solve(A: FloatArray, b: FloatArray, n: int, x: FloatArray) -> None:
-    """Solve A[:n, :n] x = b[:n]: Gaussian elimination, partial pivoting (A, b overwritten)."""
-    for c in range(n):
-        p = c
-        for r in range(c + 1, n):
-            if abs(A[r, c]) > abs(A[p, c]):
-                p = r
-        if p != c:
-            for j in range(n):
-                A[c, j], A[p, j] = A[p, j], A[c, j]
-            b[c], b[p] = b[p], b[c]
-        for r in range(c + 1, n):
-            f = A[r, c] / A[c, c]
-            for j in range(c + 1, n):
-                A[r, j] -= f * A[c, j]
-            b[r] -= f * b[c]
-    for r in range(n - 1, -1, -1):
-        acc = b[r]
-        for j in range(r + 1, n):
-            acc -= A[r, j] * x[j]
-        x[r] = acc / A[r, r]
-
-
-@njit(cache=True)
-def dls_solve(
-    J: FloatArray, e: FloatArray, D: float, m: int, n: int, A: FloatArray, f: FloatArray,
-    d: FloatArray,
-) -> None:  # fmt: skip
-    """d = J^T f with (J J^T + D^2 I) f = e for J[:m, :n] (eqs. 2.19, 2.20); A, f scratch."""
-    for i in range(m):
-        for j in range(m):
-            acc = 0.0
-            for k in range(n):
-                acc += J[i, k] * J[j, k]
-            A[i, j] = acc
-        A[i, i] += D * D
-        f[i] = e[i]
-    gauss_solve(A, f, m, d)  # d[:m] holds the solution f
-    for i in range(m):
-        f[i] = d[i]
-    for k in range(n):
-        acc = 0.0
-        for i in range(m):
-            acc += J[i, k] * f[i]
-        d[k] = acc
-
-
-@njit(cache=True)
 def batch_task_jacobians(
     P: FloatArray, Q: FloatArray, lam: FloatArray, thesis: bool, X: FloatArray, J: FloatArray
 ) -> None:

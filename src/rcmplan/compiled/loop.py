@@ -32,7 +32,7 @@ import math
 import numpy as np
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.kernels import dls_solve, jacobian_a, njit, solve_augmented, task
+from rcmplan.compiled.kernels import jacobian_a, njit, solve_augmented, task
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
 from rcmplan.compiled.records import (
     BAD_JOINTS,
@@ -56,8 +56,9 @@ from rcmplan.control import curved_step
 from rcmplan.control.limited_tip import step_fraction, tip_fraction
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.control.solvers import PIVOT_DISTANCE
+from rcmplan.linalg import damped
 from rcmplan.robot import curved_iramis
-from rcmplan.robot.curved_block import BLOCK_ROWS
+from rcmplan.robot.curved_block import BLOCK_ROWS, B, S
 from rcmplan.robot.iramis_kernels import (
     actuators_from_joints,
     first_beyond_travel,
@@ -175,24 +176,26 @@ def task_error(
 @njit(cache=True)
 def solve_step(
     P: FloatArray, method: int, K: FloatArray, damping: float, q: FloatArray, tr: tuple,
-    lam: float, pivot: bool, e: FloatArray, J: FloatArray, A: FloatArray, f: FloatArray,
-    d: FloatArray,
+    lam: float, pivot: bool, e: FloatArray, J: FloatArray, d: FloatArray,
 ) -> None:  # fmt: skip
-    """The solver's step (dq0..dq4, dlambda) into d; J, A, f are scratch."""
+    """The solver's step (dq0..dq4, dlambda) into d; J is the work block (`curved_block`:
+    the Jacobian in rows 0.., the solves' scratch in rows S.. and B)."""
     if method <= PINV_THESIS:
         jacobian_a(P, q, tr, lam, method == PINV_THESIS, J)
         for i in range(6):
-            f[i] = K[i] * e[i]
-        solve_augmented(J, f, d)
-    elif method == DLS:
-        tip_jacobian(P, q, tr, J, 0)
+            J[B, i] = K[i] * e[i]
+        solve_augmented(J, J[B], d)
+        return
+    tip_jacobian(P, q, tr, J, 0)
+    rows = 6 if method == DLS else 3
+    if method == DLS:
         point_jacobian(P, q, tr, 0.0 if pivot else lam, J, 3)
         if pivot:
             J[3, 5], J[4, 5], J[5, 5] = 0.0, 0.0, 0.0
-        dls_solve(J, e, damping, 6, 6, A, f, d)
-    else:
-        tip_jacobian(P, q, tr, J, 0)
-        dls_solve(J, e, damping, 3, 5, A, f, d)
+    for i in range(rows):
+        J[B, i] = e[i]
+    damped(J, 0, rows, rows if method == DLS else 5, damping, S, B, d)
+    if method != DLS:
         d[5] = 0.0
 
 
@@ -245,7 +248,7 @@ def iterate(
     drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool,
     tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
     row: FloatArray, fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray,
-    f: FloatArray, J: FloatArray, A: FloatArray,
+    f: FloatArray, J: FloatArray,
 ) -> int:  # fmt: skip
     """One iteration of Algorithm 1 from sliders s, as `Controller.converge` does it.
 
@@ -288,7 +291,7 @@ def iterate(
     if curved:
         curved_step.iramis_step(P, method, K, damping, q, tr, state[0], e, J, d, f)
     else:
-        solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, A, f, d)
+        solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, d)
     moved = 6 if curved else 5  # a curved needle's roll q5 is active
     if method == TIP_LIMITED:
         limit_step(P, K, q, d, sn, qn, w, J)
@@ -377,12 +380,12 @@ def iterate_recorded(
     drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool, tip_t: FloatArray,
     trocar: FloatArray, s: FloatArray, state: FloatArray, k: int, it: int, n: int,
     rec: FloatArray, irec: np.ndarray, fail: FloatArray, info: np.ndarray, w: FloatArray,
-    d: FloatArray, f: FloatArray, J: FloatArray, A: FloatArray,
+    d: FloatArray, f: FloatArray, J: FloatArray,
 ) -> tuple[int, int]:  # fmt: skip
     """`iterate` on target k, its record kept in rec[n], irec[n] from the second iteration on;
     returns (status, records written), the count also in info[0]."""
     status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, target, pivot,
-                     tip_t, trocar, s, state, it, rec[n], fail, info, w, d, f, J, A)  # fmt: skip
+                     tip_t, trocar, s, state, it, rec[n], fail, info, w, d, f, J)  # fmt: skip
     return status, keep_record(status, k, it, n, irec, info)
 
 
@@ -431,7 +434,7 @@ def run_targets(
     PAUSED means the record buffer could not hold another target: call again from info[1].
     """
     w, d, f = np.empty(6), np.empty(7), np.empty(7)
-    J, A = np.empty((BLOCK_ROWS, 7)), np.empty((6, 6))
+    J = np.empty((BLOCK_ROWS, 7))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
     n, cap = 0, rec.shape[0]
     for k in range(k0, targets.shape[0]):
@@ -444,7 +447,7 @@ def run_targets(
         for it in range(max_it + 1):
             status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds, qpa,
                                          targets[k], kind == 1, tip_t, trocar, s, state, k,
-                                         it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
+                                         it, n, rec, irec, fail, info, w, d, f, J)  # fmt: skip
             if status == DONE:
                 break
             if status != STEPPED:

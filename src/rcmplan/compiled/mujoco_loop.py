@@ -94,7 +94,7 @@ def run_targets_on_mujoco(
     the target and iteration to resume from.
     """
     w, d, f, v = np.empty(6), np.empty(7), np.empty(7), np.empty((4, 6))
-    J, A = np.empty((BLOCK_ROWS, 7)), np.empty((6, 6))
+    J = np.empty((BLOCK_ROWS, 7))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
     n = 0
     for k in range(k0, targets.shape[0]):
@@ -107,7 +107,7 @@ def run_targets_on_mujoco(
                 return PAUSED
             status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds, qpa,
                                          targets[k], kind == 1, tip_t, trocar, s, state, k,
-                                         it, n, rec, irec, fail, info, w, d, f, J, A)  # fmt: skip
+                                         it, n, rec, irec, fail, info, w, d, f, J)  # fmt: skip
             if status == STEPPED:
                 for i in range(6):
                     cmd[i] = fail[12 + i]

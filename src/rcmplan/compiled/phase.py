@@ -33,6 +33,7 @@ from rcmplan.compiled.records import (
 )
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import RcmplanError
+from rcmplan.robot.curved_block import BLOCK_ROWS
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -112,7 +113,7 @@ def run_phase_on_plant(
     rec, irec = np.empty((BLOCK, 35)), np.empty((BLOCK, 2), dtype=np.int64)
     info, fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)
     qpa = fast_cache.qp_kernels().loop_qp()
-    w, d, f, J, A = np.empty(6), np.empty(6), np.empty(6), np.empty((6, 6)), np.empty((6, 6))
+    w, d, f, J = np.empty(6), np.empty(7), np.empty(7), np.empty((BLOCK_ROWS, 7))
     tip_t, trocar = np.empty(3), np.full(3, np.nan)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     n = 0
@@ -125,7 +126,7 @@ def run_phase_on_plant(
                 status = loop.iterate(P, code, K, damping, tol, cfg.max_iterations,
                                       cfg.drift_correction, bounds, qpa, targets[k], kind == 1,
                                       tip_t, trocar, plant.read_actuators(), state, it, rec[n],
-                                      fail, info, w, d, f, J, A)  # fmt: skip
+                                      fail, info, w, d, f, J)  # fmt: skip
             if it > 0 and kind >= 0:
                 irec[n] = k, it
                 n += 1

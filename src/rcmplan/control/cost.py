@@ -9,7 +9,7 @@ from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.limits.rows import SCALE
-from rcmplan.control.lu import lu_solve
+from rcmplan.linalg import lu_solve
 
 
 @njit(cache=True)
@@ -47,7 +47,7 @@ def synchronise(H: FloatArray, f: FloatArray, window: FloatArray) -> float:
     """Scale the linear term f (w,) of 1/2 x'Hx + f'x by 1 / sigma when sigma > 1, sigma the
     largest fraction |x_i| / window_i that the unconstrained optimum x = -H^-1 f uses of the
     first k = len(window) variables' windows (`qp.synchronised_step`); returns sigma. The
-    solve is `lu.lu_solve` (H and f copied: both stay as they are)."""
+    solve is `linalg.lu_solve` (H and f copied: both stay as they are)."""
     w = f.shape[0]
     M = np.empty((w + 1, w))  # H in rows 0..w-1, f then -x in row w (H positive definite)
     for i in range(w):

@@ -23,7 +23,7 @@ from __future__ import annotations
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.lu import lu_solve
+from rcmplan.linalg import damped, lu_solve, pinv
 from rcmplan.robot import curved_arm, curved_iramis
 from rcmplan.robot.chain_kinematics import IntArray
 from rcmplan.robot.curved_block import ROLL, WIDTH, B, J, S, Z, wrap
@@ -41,39 +41,6 @@ def error(x: FloatArray, target: FloatArray, e: FloatArray) -> None:
     for i in range(WIDTH):
         e[i] = target[i] - x[i]
     e[ROLL] = wrap(e[ROLL])
-
-
-@njit(cache=True)
-def gram(C: FloatArray, c: int, cols: int, damping: float) -> None:
-    """S = J J^T + D^2 I (7, 7) over J's first `cols` columns, into rows c + S.."""
-    for i in range(WIDTH):
-        for k in range(i + 1):
-            acc = 0.0
-            for col in range(cols):
-                acc += C[c + J + i, col] * C[c + J + k, col]
-            C[c + S + i, k], C[c + S + k, i] = acc, acc
-        C[c + S + i, i] += damping * damping
-
-
-@njit(cache=True)
-def back(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
-    """d[:cols] = J^T f for f in row c + B (after `gram` and `lu_solve`)."""
-    for col in range(cols):
-        acc = 0.0
-        for i in range(WIDTH):
-            acc += C[c + J + i, col] * C[c + B, i]
-        d[col] = acc
-
-
-@njit(cache=True)
-def square(C: FloatArray, c: int, d: FloatArray) -> None:
-    """d = J^-1 (row c + B) for a square J (7, 7) (`np.linalg.solve`)."""
-    for i in range(WIDTH):
-        for k in range(WIDTH):
-            C[c + S + i, k] = C[c + J + i, k]
-    lu_solve(C, c + S, WIDTH, c + B)
-    for i in range(WIDTH):
-        d[i] = C[c + B, i]
 
 
 @njit(cache=True)
@@ -115,29 +82,17 @@ def step(C: FloatArray, c: int, method: int, m: int, K: FloatArray, damping: flo
             C[c + J + ROLL, j] *= shaft
         for i in range(WIDTH):
             C[b, i] = e[i] * shaft if i == ROLL else e[i]
-        gram(C, c, m + 1, damping)
-        lu_solve(C, c + S, WIDTH, b)
-        back(C, c, m + 1, d)
+        damped(C, c + J, WIDTH, m + 1, damping, c + S, b, d)
         return
     cols = m + 1 if method == CURVED_PINV else m
-    wide = method == CURVED_PINV and cols > WIDTH
     for i in range(WIDTH):
-        acc = K[i] * e[i]
-        if wide:  # K e - J z
-            for j in range(cols):
-                acc -= C[c + J + i, j] * C[c + Z, j]
-        C[b, i] = acc
-    if cols == WIDTH:
-        square(C, c, d)
-    elif cols < WIDTH:
+        C[b, i] = K[i] * e[i]
+    if cols < WIDTH:
         normal(C, c, cols, d)
+    elif cols == WIDTH or method == CURVED_PINV:  # square, or wide with the posture
+        pinv(C, c + J, WIDTH, cols, c + S, b, c + Z, d)
     else:
-        gram(C, c, cols, 0.0)
-        lu_solve(C, c + S, WIDTH, b)
-        back(C, c, cols, d)
-    if wide:
-        for j in range(cols):
-            d[j] += C[c + Z, j]
+        damped(C, c + J, WIDTH, cols, 0.0, c + S, b, d)
     if method != CURVED_PINV:
         d[m] = 0.0
 

@@ -15,9 +15,10 @@ from typing import Any, ClassVar, Literal, NamedTuple, Protocol
 
 import numpy as np
 
+from rcmplan import linalg
 from rcmplan._validate import FloatArray, instance, scalar, text, vector
 from rcmplan.control.augmented import augmented_jacobian, extended_task
-from rcmplan.control.targets import checked_target, finite_step, solved, tip_of_target
+from rcmplan.control.targets import checked_target, finite_step, tip_of_target
 from rcmplan.control.tasks import (
     TIP_AND_BASE,
     TIP_AND_RCM,
@@ -172,32 +173,20 @@ class PinvSolver:
         error = checked_target(error, 6, "error", finite=False)  # NaN shows in the step
         Ke = np.asarray(self.K) * error
         J = augmented_jacobian(robot, q, lam, self.variant)
-        d = finite_step(
-            solved(pinv_solve, J, Ke, robot, q, lam, self.posture_gain), robot, q, error
-        )
+        d = finite_step(pinv_solve(J, Ke, robot, q, lam, self.posture_gain), robot, q, error)
         return d[:-1], float(d[-1])
 
 
 def pinv_solve(
     J: FloatArray, Ke: FloatArray, robot: RobotModel, q: FloatArray, lam: float, gain: float
 ) -> FloatArray:
-    """d with J d = K e: solved when J is square; otherwise the minimum-norm solution plus
-    (I - J^+ J) z, z = gain (home - q) on the active joints (lambda has no preferred value)."""
-    if J.shape[0] == J.shape[1]:
-        return np.asarray(np.linalg.solve(J, Ke), dtype=np.float64)
-    J_pinv = np.linalg.pinv(J)
-    home = Posture().value(robot, robot.home, lam)
+    """d with J d = K e (`linalg.pinv`): solved when J is square; otherwise the minimum-norm
+    solution plus (I - J^+ J) z, z = gain (home - q) on the active joints (lambda has no
+    preferred value)."""
     z = np.zeros(J.shape[1])
-    z[:-1] = gain * (home - Posture().value(robot, q, lam))
-    return np.asarray(J_pinv @ Ke + z - J_pinv @ (J @ z), dtype=np.float64)
-
-
-def dls_solve(J: FloatArray, e: FloatArray, D: float) -> FloatArray:
-    """J^T f with (J J^T + D^2 I) f = e (eqs. 2.19, 2.20), without forming an inverse."""
-    A = J @ J.T
-    A[np.diag_indices_from(A)] += D * D
-    d: FloatArray = J.T @ np.linalg.solve(A, e)
-    return d
+    if J.shape[0] < J.shape[1]:
+        z[:-1] = gain * (Posture().value(robot, robot.home, lam) - Posture().value(robot, q, lam))
+    return linalg.step(J, Ke, z=z)
 
 
 @dataclass(frozen=True)
@@ -248,7 +237,7 @@ class DlsSolver:
         error = checked_target(error, 6, "error", finite=False)  # NaN shows in the step
         pivot = _is_pivot(tip_of_target(target), target)
         J = stack_jacobian(TIP_AND_BASE if pivot else TIP_AND_RCM, robot, q, lam)
-        d = finite_step(solved(dls_solve, J, error, self.damping), robot, q, error)
+        d = finite_step(linalg.step(J, error, self.damping), robot, q, error)
         return d[:-1], float(d[-1])
 
 
@@ -295,7 +284,7 @@ class TipSolver:
         """Minimum-norm (or damped) step on the (3, m) tip Jacobian; lambda unchanged."""
         error = checked_target(error, 3, "error", finite=False)  # the target enters through it
         J = TIP_POSITION.jacobian(robot, q, lam)[:, :-1]
-        return finite_step(solved(dls_solve, J, error, self.damping), robot, q, error), 0.0
+        return finite_step(linalg.step(J, error, self.damping), robot, q, error), 0.0
 
 
 def _tip_point(target: Any) -> FloatArray:

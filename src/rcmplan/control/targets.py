@@ -10,7 +10,6 @@ lets every target be checked for lambda in [0, 1], reach and actuator travel bef
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -43,7 +42,7 @@ def checked_target(
 def finite_step(d: FloatArray, robot: RobotModel, q: Any, error: Any = None) -> FloatArray:
     """d, a solver's step, if finite; else InvalidInputError naming the error (a non-finite
     task error) or q (joints far out of range), or SingularPoseError (the system was singular:
-    `solved` gives NaN for numpy's LinAlgError)."""
+    `linalg`'s solves then give inf or NaN)."""
     if math.isfinite(sum(d.tolist())):
         return d
     if error is not None:
@@ -53,15 +52,6 @@ def finite_step(d: FloatArray, robot: RobotModel, q: Any, error: Any = None) -> 
     if measure < robot.singular_threshold:
         raise SingularPoseError(q, measure, robot.singular_threshold, "singularity measure")
     raise InvalidInputError("q", q, "joints at which the step's system is solvable (finite)")
-
-
-def solved(solve: Callable[..., FloatArray], *args: Any) -> FloatArray:
-    """solve(*args), a solver's step; NaN (for `finite_step`) when numpy finds the system
-    singular (LinAlgError)."""
-    try:
-        return solve(*args)
-    except np.linalg.LinAlgError:
-        return np.full(1, np.nan)
 
 
 class Pose(NamedTuple):

@@ -18,6 +18,7 @@ import math
 from numba import njit
 
 from rcmplan._validate import FloatArray
+from rcmplan.linalg import gram
 from rcmplan.robot.chain_kinematics import (
     ROWS,
     SING,
@@ -70,12 +71,7 @@ def singular_gram(A: FloatArray, ix: IntArray, W: FloatArray) -> int:
             W[r + i, j] = W[o + i, j] / length
         W[r + 3, j] = n1[0] * wx + n1[1] * wy + n1[2] * wz
         W[r + 4, j] = n2[0] * wx + n2[1] * wy + n2[2] * wz
-    for i in range(SING):
-        for j in range(i + 1):
-            acc = 0.0
-            for k in range(m):
-                acc += W[r + i, k] * W[r + j, k]
-            W[g + i, j], W[g + j, i] = acc, acc
+    gram(W, r, SING, m, 0.0, g)
     return g
 
 

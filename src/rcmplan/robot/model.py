@@ -24,9 +24,10 @@ from rcmplan.exceptions import (
     UnreachableTargetError,
 )
 from rcmplan.robot import chain_kinematics as kin
+from rcmplan.robot import chain_pose
 from rcmplan.robot import chain_singular as sing
 from rcmplan.robot.chain import JointChain
-from rcmplan.robot.needle import StraightNeedle, angles_from_axis
+from rcmplan.robot.needle import StraightNeedle
 
 IK_ITERATIONS = 100  # Newton iterations of `SerialArm.needle_pose`
 IK_TOLERANCE = 1e-12  # [m] and [rad]
@@ -325,21 +326,20 @@ class SerialArm:
         self, tip: FloatArray, phi: float, psi: float, seed: FloatArray | None = None
     ) -> FloatArray:
         """Joints putting the tip at `tip` [m] with needle angles (phi, psi) [rad]: Newton's
-        method (minimum-norm steps) on (tip, phi, psi) over the active joints from `seed`
-        (default home), at most IK_ITERATIONS steps; travel is not checked here. phi and psi
+        method (minimum-norm steps, `chain_pose.needle_pose`) on (tip, phi, psi) over the active
+        joints from `seed` (default home), at most IK_ITERATIONS steps; travel is not checked
+        here. phi and psi
         lie in [-pi, pi] (InvalidInputError otherwise)."""
         phi = scalar("phi", phi, -np.pi, np.pi)
         psi = scalar("psi", psi, -np.pi, np.pi)
         q = (self.home if seed is None else vector("seed", seed, self.chain.n)).copy()
         goal = np.array([*vector("tip", tip, 3), phi, psi])
-        cols = list(self.active)
-        for _ in range(IK_ITERATIONS):
-            err = goal - np.array([*self.tip(q), *angles_from_axis(self.needle_axis(q))])
-            err[3:] = (err[3:] + np.pi) % (2 * np.pi) - np.pi
-            if np.abs(err).max() <= IK_TOLERANCE:
-                return q
-            J = np.vstack([self.needle_point_jacobian(q, 1.0), self.needle_angles_jacobian(q)])
-            q[cols] += np.linalg.lstsq(J[:, :-1], err, rcond=None)[0]
+        n = self.chain.n
+        W = np.empty(kin.work_shape(n, len(self.active)))
+        if chain_pose.needle_pose(self._A, self._ix, W, goal[:3], phi, psi, q, IK_ITERATIONS,
+                                  IK_TOLERANCE) >= 0:  # fmt: skip
+            return q
+        err = W[4 * (n + 1) + 2 * kin.ROWS + kin.E, :5]  # the last check's error
         distance = float(np.linalg.norm(goal[:3] - self.chain.base[:3, 3]))
         raise UnreachableTargetError(
             f"no joints of {self.name} put the tip at {np.round(1e3 * goal[:3], 3).tolist()} mm "
