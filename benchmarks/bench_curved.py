@@ -42,6 +42,7 @@ from rcmplan.control.phase import LoopSettings
 from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.controller import Controller
+from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
@@ -100,8 +101,8 @@ def kernel_run(problem: Problem) -> Any:
         width = REC_WIDTH if arrays is None else record_width(6, roll=True)
         rec, fail = np.empty((cap, width)), np.empty(FAIL_WIDTH)
         bounds = np.array([robot.singular_threshold, LoopSettings().rcm_tolerance])
-        qpa = fast_cache.qp_kernels().loop_qp()
-        head = (P, code, K, damping, tol, 100, True, bounds, qpa, targets, 0)
+        C = np.empty((BLOCK_ROWS, 7)) if arrays is not None else None  # the curved block
+        head = (P, code, K, damping, tol, 100, True, bounds, None, C, targets, 0)
         kernel = fast_cache.loop_kernels().run_targets
 
         def once() -> tuple[float, int]:

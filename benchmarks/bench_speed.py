@@ -78,7 +78,8 @@ def loop_rows() -> list[dict[str, Any]]:
         100,
         True,
         bounds,
-        fast_cache.qp_kernels().loop_qp(),
+        None,
+        None,
         targets,
         0,
     )

@@ -340,3 +340,32 @@ def test_the_period_step_runs_an_arms_qp_compiled(arm: SerialArm) -> None:
     for q, lam, target in list(states(arm, rng, 0, spread=1e-6)):
         ref = solver.step(arm, q, lam, target, solver.task_error(arm, q, lam, target))[0]
         np.testing.assert_allclose(step(q, lam, target), ref, rtol=0, atol=X_TOL * SCALE)
+
+
+def test_a_solve_that_fails_in_the_arm_loop_raises_the_reference_qp_error(arm: SerialArm) -> None:
+    """A phase whose QP has no solution stops the compiled arm loop with QP_FAILED, raised as
+    the reference path's QPError (the arm loop read DAQP's exit flag from the wrong array)."""
+    from rcmplan.control.phase import LoopSettings, Phase
+
+    rng = np.random.default_rng(3)
+    solver = QpSolver(arm, default_eye(arm))
+    outcomes: dict[str, int] = {}
+    for q, _, target in states(arm, rng, 40, spread=0.3):
+        try:
+            s = arm.actuators_from_joints(q)
+            plant = KinematicPlant(arm)
+            plant.reset(s)
+        except Exception:  # a random pose beyond travel: not a start
+            continue
+        ctl = Controller(plant, solver, settings=LoopSettings(max_target_step=None))
+        try:
+            ctl.run_phase(Phase("far", target[None, :]))
+            outcome = "ran"
+        except QPError:
+            outcome = "qp_error"
+        except Exception as exc:  # other stops are counted, not this test's
+            assert not isinstance(exc, IndexError | TypeError | AttributeError), exc
+            outcome = type(exc).__name__
+        assert ctl.phase_paths.get("far", "compiled") == "compiled"
+        outcomes[outcome] = outcomes.get(outcome, 0) + 1
+    assert outcomes.get("qp_error", 0) > 0, outcomes

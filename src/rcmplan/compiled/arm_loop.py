@@ -153,14 +153,16 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
 @njit(cache=True, inline="always")  # inlined into run_arm_targets: a call costs ~0.2 us
 def arm_iterate(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray,
-    pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
-    row: FloatArray, fail: FloatArray, W: FloatArray, d: FloatArray, framed: bool = False,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
+    target: FloatArray, pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray,
+    state: FloatArray, it: int, row: FloatArray, fail: FloatArray, W: FloatArray, d: FloatArray,
+    framed: bool = False,
 ) -> int:  # fmt: skip
     """One iteration from joints s (n,). Returns DONE, STEPPED (the next joints in fail[n:2n]),
     NO_CONVERGENCE, SINGULAR or QP_FAILED. state = (lambda, time [s], ...); lambda is updated.
     fail holds (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). qpa: the QP's
-    arrays (`arm_phase.qp_arrays`), read only for method QP. `framed`: W already holds the
+    arrays (`arm_phase.qp_arrays`) for method QP, else None (numba then leaves the QP's code
+    out, `loop.iterate`). `framed`: W already holds the
     frames of s."""
     n, m = ix[0], ix[1]
     first, curved = 2 + n, method >= CURVED  # the moving joints: the arm's active ones
@@ -176,7 +178,7 @@ def arm_iterate(
         lam, now = closest_on_needle(A, n, W, trocar)
         if drift:
             state[0] = lam
-    if method == QP:  # error and step from one solve (`ArmQpStep`), with a servo's plan
+    if qpa is not None and method == QP:  # error and step from one solve (`ArmQpStep`)
         travel, Q, contacts, qp, act, flag, servo = qpa
         if servo.shape[0] > 0:
             flag[0] = solve_servo_step(A, ix, W, travel, Q, contacts, K, s, state[0], target,
@@ -281,7 +283,7 @@ def command_status(fail: FloatArray, n: int, lower: FloatArray, upper: FloatArra
 @njit(cache=True)
 def run_arm_targets(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
     lower: FloatArray, upper: FloatArray, targets: FloatArray, k0: int, s: FloatArray,
     state: FloatArray, rec: FloatArray, irec: IntArray, info: IntArray, fail: FloatArray,
     W: FloatArray, d: FloatArray,

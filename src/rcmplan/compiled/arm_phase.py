@@ -127,7 +127,8 @@ class _Setup:
              where: str) -> None:  # fmt: skip
         """Raise the reference exception for a stop status."""
         if status == QP_FAILED:
-            flag = int(self.qpa[-1][0])
+            assert self.qpa is not None  # QP_FAILED comes from the QP's solve
+            flag = int(self.qpa[5][0])  # DAQP's exit flag (`arm_qp.qp_arrays`)
             raise_qp_failure(controller, solver, target, self.fail[: self.n], flag)  # type: ignore[arg-type]
         tol = self.tol[: solver.tolerance().shape[0]]
         raise_arm_stop(controller, status, target, self.fail, self.n, tol, where)

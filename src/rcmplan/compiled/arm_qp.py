@@ -49,30 +49,28 @@ def arm_qp_applies(solver: object) -> bool:
     return qp_params(solver.robot, solver) is not None
 
 
-def qp_arrays(solver: object, n: int, m: int) -> tuple:
+def qp_arrays(solver: object, n: int, m: int) -> tuple | None:
     """What the arm QP's solve reads (`arm_loop.arm_iterate`'s qpa) for n joints, m active:
     travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are now), the
     solve's buffers (`qp_rows.buffers`), the active joints (m,), DAQP's exit flag (1,) and with
     a servo its array (`arm_qp_kernels.solve_servo_step`: the command, filled before each
-    solve by `servo_command`, the resolution, scratch), else (0,). For another solver, arrays
-    of the same types that the arm loop does not read."""
+    solve by `servo_command`, the resolution, scratch), else (0,). None for another solver."""
+    if not (isinstance(solver, QpSolver) and arm_qp_applies(solver)):
+        return None
     servo = np.zeros(0)
-    if isinstance(solver, QpSolver) and arm_qp_applies(solver):
-        robot, active = solver.robot, list(solver.robot.active)
-        travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
-        Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
-        if solver.servo is not None:
-            servo = np.zeros(3 * n + 12)
-            res = getattr(solver.servo, "actuator_resolution", None)
-            servo[n : 2 * n] = 0.0 if res is None else res
-    else:
-        travel, Q, contacts = np.zeros((2, m)), np.zeros(1), np.zeros((0, 3))
+    robot, active = solver.robot, list(solver.robot.active)
+    travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
+    Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
+    if solver.servo is not None:
+        servo = np.zeros(3 * n + 12)
+        res = getattr(solver.servo, "actuator_resolution", None)
+        servo[n : 2 * n] = 0.0 if res is None else res
     return travel, Q, contacts, buffers(m + 1), np.empty(m), np.zeros(1, dtype=np.int64), servo
 
 
-def servo_command(solver: object, qpa: tuple) -> None:
+def servo_command(solver: object, qpa: tuple | None) -> None:
     """Copy the servo's last command into qpa's servo array (a QP with a servo)."""
-    servo = qpa[-1]
+    servo = np.zeros(0) if qpa is None else qpa[-1]
     if servo.shape[0] > 0:
         command = np.asarray(solver.servo.command, dtype=np.float64)  # type: ignore[attr-defined]
         servo[: command.shape[0]] = command
@@ -85,7 +83,11 @@ def step_buffers(solver: QpSolver, K: FloatArray) -> tuple:
     servo array and the QP's buffers (`qp_rows.buffers`)."""
     A, ix = arm_arrays(solver.robot)  # type: ignore[misc]
     n, m = int(ix[0]), int(ix[1])
-    travel, Q, contacts, qp, _, _, servo = qp_arrays(solver, n, m)
+    arrays = qp_arrays(solver, n, m)
+    if arrays is None:
+        raise InvalidInputError("solver", solver, "a QpSolver the compiled arm step runs "
+                                "(`arm_qp_applies`)")  # fmt: skip
+    travel, Q, contacts, qp, _, _, servo = arrays
     W = np.zeros(fast_cache.chain_kernels().work_shape(n, m))
     return (A, ix, W, travel, Q, contacts, K, np.zeros(m), np.zeros(6), np.zeros(m + 1), servo,
             *qp)  # fmt: skip

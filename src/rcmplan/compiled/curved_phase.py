@@ -36,6 +36,7 @@ from rcmplan.compiled.records import (
 from rcmplan.control.curved import POSE_JOINTS
 from rcmplan.control.solvers import Solver
 from rcmplan.robot.curved import CurvedArrays
+from rcmplan.robot.curved_block import BLOCK_ROWS
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -82,8 +83,8 @@ def run_iramis_phase(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
     args = (arrays.P, method_code(solver), K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, loop_bounds(controller), fast_cache.qp_kernels().loop_qp(),
-            targets)  # fmt: skip
+            cfg.drift_correction, loop_bounds(controller), None,
+            np.empty((BLOCK_ROWS, 7)), targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip

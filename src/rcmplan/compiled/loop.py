@@ -245,10 +245,10 @@ def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
 @njit(cache=True, inline="always")
 def iterate(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool,
-    tip_t: FloatArray, trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
-    row: FloatArray, fail: FloatArray, info: np.ndarray, w: FloatArray, d: FloatArray,
-    f: FloatArray, J: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
+    target: FloatArray, pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray,
+    state: FloatArray, it: int, row: FloatArray, fail: FloatArray, info: np.ndarray,
+    w: FloatArray, d: FloatArray, f: FloatArray, J: FloatArray,
 ) -> int:  # fmt: skip
     """One iteration of Algorithm 1 from sliders s, as `Controller.converge` does it.
 
@@ -256,43 +256,47 @@ def iterate(
     or a stop code. state = (lambda, time [s], dt [s]); lambda is updated. From the second
     iteration on the record goes to row (35,). fail (`records.FAIL_WIDTH`,) holds (q, q_new,
     s_new, error); a curved needle's rows and error have one more entry (the roll's), the QP's
-    the actuators it was built at and its scratch after the error. qpa: the QP's arrays
-    (`qp_kernels.loop_qp`), read only for method QP; every method passes arrays of these
-    types, so numba compiles one loop for all (None for the others would compile a second
-    one: `docs/benchmarks.md`, the cold compile row).
+    the actuators it was built at and its scratch after the error. J: the straight needle's
+    work block (`curved_block`'s shape).
+
+    qpa: the QP's arrays (`qp_kernels.loop_qp`) for method QP, else None; C: a curved needle's
+    work block (`curved_block`) for its methods, else None. numba leaves out the branches of
+    an argument that is None, so a loop without the QP or the curved needle compiles without
+    their code (a first default run: `docs/benchmarks.md`, the cold compile row).
     """
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     joints_from_actuators(P, s, q)
     tr = trig(q)
     if holds_rcm(method) and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
-    curved = method >= CURVED  # its error and step: `curved_iramis`, J its work block
-    if method == QP:  # error and step from one solve
+    if qpa is not None and method == QP:  # error and step from one solve
         info[2] = iteration_error(P, K, q, tr, state[0], target, fail, qpa)
         if info[2] != 1:
             return QP_FAILED
         m = 6
-    elif curved:
+    elif C is not None and method >= CURVED:  # error and step: `curved_iramis`
         m = curved_step.iramis_task_error(P, method, q, tr, state[0], target, e, w)
     else:
         m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
-    if it > 0 and curved:
-        record_curved(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e)
-    elif it > 0:
-        record(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e, m)
+    if it > 0:
+        if C is not None and method >= CURVED:
+            record_curved(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e)
+        else:
+            record(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e, m)
     if converged(e, tol, m):
         return DONE
     if it == max_it:
         return NO_CONVERGENCE
     if singular_measure(tr[0], tr[2]) < bounds[0]:
         return SINGULAR
-    if method == QP:
+    if qpa is not None and method == QP:
         return qp_step(P, q, fail[24:30], qpa[2][X], trocar, bounds, state, fail, info, w)
-    if curved:
-        curved_step.iramis_step(P, method, K, damping, q, tr, state[0], e, J, d, f)
+    moved = 5
+    if C is not None and method >= CURVED:
+        curved_step.iramis_step(P, method, K, damping, q, tr, state[0], e, C, d, f)
+        moved = 6  # a curved needle's roll q5 is active
     else:
         solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, d)
-    moved = 6 if curved else 5  # a curved needle's roll q5 is active
     if method == TIP_LIMITED:
         limit_step(P, K, q, d, sn, qn, w, J)
     elif holds_rcm(method):
@@ -377,14 +381,15 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
 @njit(cache=True, inline="always")
 def iterate_recorded(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple, target: FloatArray, pivot: bool, tip_t: FloatArray,
-    trocar: FloatArray, s: FloatArray, state: FloatArray, k: int, it: int, n: int,
+    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
+    target: FloatArray, pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray,
+    state: FloatArray, k: int, it: int, n: int,
     rec: FloatArray, irec: np.ndarray, fail: FloatArray, info: np.ndarray, w: FloatArray,
     d: FloatArray, f: FloatArray, J: FloatArray,
 ) -> tuple[int, int]:  # fmt: skip
     """`iterate` on target k, its record kept in rec[n], irec[n] from the second iteration on;
     returns (status, records written), the count also in info[0]."""
-    status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, target, pivot,
+    status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, C, target, pivot,
                      tip_t, trocar, s, state, it, rec[n], fail, info, w, d, f, J)  # fmt: skip
     return status, keep_record(status, k, it, n, irec, info)
 
@@ -422,7 +427,8 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
 @njit(cache=True)
 def run_targets(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple, targets: FloatArray, k0: int, s: FloatArray,
+    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
+    targets: FloatArray, k0: int, s: FloatArray,
     state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] from sliders s, on the kinematic plant; returns a status.
@@ -446,7 +452,7 @@ def run_targets(
             return NO_TIP
         for it in range(max_it + 1):
             status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds, qpa,
-                                         targets[k], kind == 1, tip_t, trocar, s, state, k,
+                                         C, targets[k], kind == 1, tip_t, trocar, s, state, k,
                                          it, n, rec, irec, fail, info, w, d, f, J)  # fmt: skip
             if status == DONE:
                 break

@@ -20,7 +20,6 @@ from numba import njit
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.loop import holds_rcm, iterate_recorded, target_frame
 from rcmplan.compiled.phase import IntArray
 from rcmplan.compiled.records import (
@@ -75,7 +74,8 @@ def read_sliders(n: int, k: int, it: int, rec: FloatArray, info: IntArray, s: Fl
 @njit(cache=True)
 def run_targets_on_mujoco(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple, targets: FloatArray, k0: int, it0: int,
+    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
+    targets: FloatArray, k0: int, it0: int,
     s: FloatArray,
     cmd: FloatArray, state: FloatArray, rec: FloatArray, irec: NDArray[np.int64],
     info: NDArray[np.int64], fail: FloatArray, slider_qpos: NDArray[np.intp],
@@ -106,7 +106,7 @@ def run_targets_on_mujoco(
             if not read_sliders(n, k, it, rec, info, s, qpos, slider_qpos):
                 return PAUSED
             status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds, qpa,
-                                         targets[k], kind == 1, tip_t, trocar, s, state, k,
+                                         C, targets[k], kind == 1, tip_t, trocar, s, state, k,
                                          it, n, rec, irec, fail, info, w, d, f, J)  # fmt: skip
             if status == STEPPED:
                 for i in range(6):
@@ -148,7 +148,7 @@ def run_phase_on_mujoco(
     head: tuple[Any, ...] = (
         robot_params(controller.robot) if P is None else P, code, K, damping, tol,
         cfg.max_iterations, cfg.drift_correction, loop_bounds(controller),
-        fast_cache.qp_kernels().loop_qp(), targets,
+        None, np.empty((BLOCK_ROWS, 7)) if is_curved(code) else None, targets,
     )  # fmt: skip
     s, cmd, fail = np.empty(6), plant.command, np.empty(FAIL_WIDTH)
     plant_args = (arrays.slider_qpos, *arrays.args())

@@ -56,7 +56,7 @@ def run_phase_compiled(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
     args = (robot_params(robot), code, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, bounds, fast_cache.qp_kernels().loop_qp(), targets)  # fmt: skip
+            cfg.drift_correction, bounds, None, None, targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip
@@ -112,7 +112,6 @@ def run_phase_on_plant(
     P, state = robot_params(robot), np.array([controller.lam, plant.time, plant.dt])
     rec, irec = np.empty((BLOCK, 35)), np.empty((BLOCK, 2), dtype=np.int64)
     info, fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)
-    qpa = fast_cache.qp_kernels().loop_qp()
     w, d, f, J = np.empty(6), np.empty(7), np.empty(7), np.empty((BLOCK_ROWS, 7))
     tip_t, trocar = np.empty(3), np.full(3, np.nan)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
@@ -124,9 +123,9 @@ def run_phase_on_plant(
             if kind >= 0:
                 state[1] = plant.time
                 status = loop.iterate(P, code, K, damping, tol, cfg.max_iterations,
-                                      cfg.drift_correction, bounds, qpa, targets[k], kind == 1,
-                                      tip_t, trocar, plant.read_actuators(), state, it, rec[n],
-                                      fail, info, w, d, f, J)  # fmt: skip
+                                      cfg.drift_correction, bounds, None, None, targets[k],
+                                      kind == 1, tip_t, trocar, plant.read_actuators(), state,
+                                      it, rec[n], fail, info, w, d, f, J)  # fmt: skip
             if it > 0 and kind >= 0:
                 irec[n] = k, it
                 n += 1

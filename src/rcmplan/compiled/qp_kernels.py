@@ -54,16 +54,16 @@ def buffers() -> tuple:
 
 
 def loop_qp(
-    params: tuple[FloatArray, FloatArray] | None = None,
+    params: tuple[FloatArray, FloatArray],
     res: FloatArray | None = None,
     cmd: FloatArray | None = None,
 ) -> tuple:
-    """The QP's arrays as the iRAM!S loop reads them (`loop.iterate`'s qpa): (Q, contacts,
-    `buffers()`, res, cmd). params: `qp_params.qp_params`'s (Q, contacts), None for a loop of
-    another method (arrays of the same types, never read); res (6,) the plant's slider
-    resolution and cmd (6,) its last command when the plant is the QP's servo (`QpSolver.
-    servo`), the same array the loop commands through."""
-    Q, contacts = params if params is not None else (np.zeros(0), np.zeros((0, 3)))
+    """The QP's arrays as the iRAM!S loop reads them (`loop.iterate`'s qpa, None for the other
+    methods): (Q, contacts, `buffers()`, res, cmd). params: `qp_params.qp_params`'s
+    (Q, contacts); res (6,) the plant's slider resolution and cmd (6,) its last command when
+    the plant is the QP's servo (`QpSolver.servo`), the same array the loop commands
+    through."""
+    Q, contacts = params
     return (Q, contacts, buffers(), np.zeros(0) if res is None else res,
             np.zeros(6) if cmd is None else cmd)  # fmt: skip
 

@@ -82,7 +82,7 @@ def run_qp_phase_on_mujoco(
     s, cmd = np.empty(6), np.array(plant.command, dtype=np.float64)
     qpa = fast_cache.qp_kernels().loop_qp(params, res, cmd)
     head = (robot_params(robot), QP, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, loop_bounds(controller), qpa, targets)  # fmt: skip
+            cfg.drift_correction, loop_bounds(controller), qpa, None, targets)  # fmt: skip
     fail = np.empty(FAIL_WIDTH)
     tail = (fail, arrays.slider_qpos, *arrays.args())
 

@@ -99,8 +99,9 @@ def run_qp_phase(
     K, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
+    qpa = fast_cache.qp_kernels().loop_qp(params)
     args = (robot_params(robot), QP, K, damping, tol, cfg.max_iterations, cfg.drift_correction,
-            loop_bounds(controller), fast_cache.qp_kernels().loop_qp(params), targets)  # fmt: skip
+            loop_bounds(controller), qpa, None, targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip
