@@ -64,6 +64,7 @@ from rcmplan.compiled.records import (
     TIP_LIMITED,
 )
 from rcmplan.control import curved_step
+from rcmplan.control.dls_task import dls_error
 from rcmplan.control.limited_tip import step_fraction, tip_fraction
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
 from rcmplan.robot import curved_arm
@@ -86,9 +87,7 @@ def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: flo
         a = W[4 * (n + 1) + 2 * ROWS]  # a vector row of W as scratch
         axis_into(target[1], target[2], a)
         p = needle_point(A, n, W, 0.0 if pivot else lam)
-        for i in range(3):
-            e[i] = tip_t[i] - p_tip[i]
-            e[3 + i] = (tip_t[i] - A[5 * n + 12, 0] * a[i] if pivot else target[3 + i]) - p[i]
+        dls_error(tip_t, a, pivot, A[5 * n + 12, 0], target, p_tip, p, e)
         return 6
     phi, psi = axis_angles(*needle_axis(A, n, W))
     p = needle_point(A, n, W, lam)

@@ -4,12 +4,10 @@ solves; the layout is in `chain_kinematics`."""
 
 from __future__ import annotations
 
-import math
-
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.solvers import PIVOT_DISTANCE
+from rcmplan.control.dls_task import dls_error, is_pivot
 from rcmplan.linalg import damped, pinv
 from rcmplan.robot.chain_kinematics import (
     AXIS,
@@ -108,13 +106,9 @@ def dls_step(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: flo
     e, tip, a = W[v + E], W[v + TIP], W[v + AXIS]
     if not x_ext_tip(target, a, tip):
         return False
-    pivot = math.sqrt((tip[0] - target[3]) ** 2 + (tip[1] - target[4]) ** 2
-                      + (tip[2] - target[5]) ** 2) < PIVOT_DISTANCE  # fmt: skip
-    lam_rcm, length = 0.0 if pivot else lam, A[5 * n + 12, 0]
+    pivot = is_pivot(tip, target)
     frames(A, ix, q, W)
-    p_tip, p_rcm = needle_point(A, n, W, 1.0), needle_point(A, n, W, lam_rcm)
-    for i in range(3):
-        e[i] = tip[i] - p_tip[i]
-        e[3 + i] = (tip[i] - length * a[i] if pivot else target[3 + i]) - p_rcm[i]
+    p_tip, p_rcm = needle_point(A, n, W, 1.0), needle_point(A, n, W, 0.0 if pivot else lam)
+    dls_error(tip, a, pivot, A[5 * n + 12, 0], target, p_tip, p_rcm, e)
     dls_solve_at(A, ix, W, lam, pivot, e, damping, d)
     return True

@@ -53,9 +53,9 @@ from rcmplan.compiled.records import (
     TIP_LIMITED,
 )
 from rcmplan.control import curved_step
+from rcmplan.control.dls_task import dls_error, is_pivot
 from rcmplan.control.limited_tip import step_fraction, tip_fraction
 from rcmplan.control.rcm_step import STEP_TRIES, step_scale
-from rcmplan.control.solvers import PIVOT_DISTANCE
 from rcmplan.linalg import damped
 from rcmplan.robot import curved_iramis
 from rcmplan.robot.curved_block import BLOCK_ROWS, B, S
@@ -137,15 +137,6 @@ def bound_rcm_step(
 
 
 @njit(cache=True)
-def is_pivot(tip: FloatArray, target: FloatArray) -> bool:
-    """True when the target's tip lies on its trocar point (within PIVOT_DISTANCE)."""
-    acc = 0.0
-    for i in range(3):
-        acc += (tip[i] - target[3 + i]) ** 2
-    return math.sqrt(acc) < PIVOT_DISTANCE
-
-
-@njit(cache=True)
 def task_error(
     P: FloatArray, method: int, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
     tip_t: FloatArray, pivot: bool, e: FloatArray, w: FloatArray,
@@ -161,15 +152,11 @@ def task_error(
         e[i] = (target[i] if tip_only(method) else tip_t[i]) - w[i]
     if tip_only(method):
         return 3
-    if pivot:  # the needle base to its place on the target axis, l6 behind the tip
+    if pivot:  # the target's axis
         axis_into(target[1], target[2], w[3:])
-        point(P, q, tr, 0.0, w[:3])
-        for i in range(3):
-            e[3 + i] = (tip_t[i] - P[5] * w[3 + i]) - w[i]
-    else:
-        point(P, q, tr, lam, w[:3])
-        for i in range(3):
-            e[3 + i] = target[3 + i] - w[i]
+    p = (w[0], w[1], w[2])  # the tip
+    point(P, q, tr, 0.0 if pivot else lam, w[:3])
+    dls_error(tip_t, w[3:], pivot, P[5], target, p, w[:3], e)
     return 6
 
 

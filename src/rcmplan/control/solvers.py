@@ -18,6 +18,7 @@ import numpy as np
 from rcmplan import linalg
 from rcmplan._validate import FloatArray, instance, scalar, text, vector
 from rcmplan.control.augmented import augmented_jacobian, extended_task
+from rcmplan.control.dls_task import dls_error, is_pivot
 from rcmplan.control.targets import checked_target, finite_step, tip_of_target
 from rcmplan.control.tasks import (
     TIP_AND_BASE,
@@ -33,12 +34,6 @@ from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import axis_from_angles
 
 SolverKind = Literal["rcm", "free"]
-# [m] A target tip this close to its trocar point is on it: a pivot about the tip (lambda = 1).
-# The loop's default position tolerance, so that a tip the loop left within tolerance of the
-# trocar (after the approach) counts as there. The compiled kernels read it as a compile-time
-# constant, which numba's cache does not track: after changing it, delete the cached kernels
-# (`src/rcmplan/compiled/__pycache__/*.nbi`, `*.nbc`).
-PIVOT_DISTANCE = 1e-8
 
 
 class _ToleranceFields(NamedTuple):
@@ -215,14 +210,11 @@ class DlsSolver:
     def error(self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         """(tip target - tip, trocar - p_rcm), both in [m] (base task for a pivot)."""
         target = checked_target(target, 6)
-        e = np.empty(6)
-        tip = tip_of_target(target)
-        e[:3] = tip - robot.tip(q)
-        if _is_pivot(tip, target):
-            base = tip - robot.needle_length * axis_from_angles(target[1], target[2])
-            e[3:] = base - robot.needle_point(q, 0.0)
-        else:
-            e[3:] = target[3:] - robot.needle_point(q, lam)
+        tip, e = tip_of_target(target), np.empty(6)
+        pivot = is_pivot(tip, target)
+        p = robot.needle_point(q, 0.0 if pivot else lam)
+        a = axis_from_angles(target[1], target[2])
+        dls_error(tip, a, pivot, robot.needle_length, target, robot.tip(q), p, e)
         return e
 
     def tolerance(self) -> FloatArray:
@@ -235,15 +227,10 @@ class DlsSolver:
         """One DLS step on the stacked (tip, RCM) task."""
         target = checked_target(target, 6, finite=False)  # NaN: no pivot, error() refuses it
         error = checked_target(error, 6, "error", finite=False)  # NaN shows in the step
-        pivot = _is_pivot(tip_of_target(target), target)
+        pivot = is_pivot(tip_of_target(target), target)
         J = stack_jacobian(TIP_AND_BASE if pivot else TIP_AND_RCM, robot, q, lam)
         d = finite_step(linalg.step(J, error, self.damping), robot, q, error)
         return d[:-1], float(d[-1])
-
-
-def _is_pivot(tip: FloatArray, target: FloatArray) -> bool:
-    """True when the target's tip lies on its trocar point (within PIVOT_DISTANCE)."""
-    return bool(np.linalg.norm(tip - target[3:]) < PIVOT_DISTANCE)
 
 
 @dataclass(frozen=True)
