@@ -153,19 +153,19 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
 def arm_iterate(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
     tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
-    target: FloatArray, pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray,
-    state: FloatArray, it: int, row: FloatArray, fail: FloatArray, W: FloatArray, d: FloatArray,
-    framed: bool = False,
+    C: FloatArray | None, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
+    fail: FloatArray, W: FloatArray, d: FloatArray, framed: bool = False,
 ) -> int:  # fmt: skip
     """One iteration from joints s (n,). Returns DONE, STEPPED (the next joints in fail[n:2n]),
     NO_CONVERGENCE, SINGULAR or QP_FAILED. state = (lambda, time [s], ...); lambda is updated.
     fail holds (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). qpa: the QP's
-    arrays (`arm_phase.qp_arrays`) for method QP, else None (numba then leaves the QP's code
-    out, `loop.iterate`). `framed`: W already holds the
-    frames of s."""
+    arrays (`arm_phase.qp_arrays`) for method QP, else None; C: for a curved needle's methods
+    its work array (W itself), else None (numba leaves out the branches of a None argument,
+    `loop.iterate`). `framed`: W already holds the frames of s."""
     n, m = ix[0], ix[1]
-    first, curved = 2 + n, method >= CURVED  # the moving joints: the arm's active ones
-    if curved:  # or the curved needle's (with the roll joint)
+    first = 2 + n  # the moving joints: the arm's active ones
+    if C is not None and method >= CURVED:  # or the curved needle's (with the roll joint)
         first, m = curved_arm.active_span(ix)
     e = fail[2 * n :]
     for i in range(n):
@@ -188,22 +188,23 @@ def arm_iterate(
         if flag[0] != 1:
             return QP_FAILED
         ne = 6
-    elif curved:
-        ne = curved_step.arm_task_error(A, ix, W, method, state[0], target, e)
+    elif C is not None and method >= CURVED:
+        ne = curved_step.arm_task_error(A, ix, C, method, state[0], target, e)
     else:
         ne = task_error(A, ix, W, method, state[0], target, tip_t, pivot, e)
-    if it > 0 and curved:
-        record_curved(A, n, W, row, state[1], s, state[0], trocar, tip_t, e)
-    elif it > 0:
-        record(A, n, W, row, state[1], s, state[0], trocar, tip_t, e, ne)
+    if it > 0:
+        if C is not None and method >= CURVED:
+            record_curved(A, n, C, row, state[1], s, state[0], trocar, tip_t, e)
+        else:
+            record(A, n, W, row, state[1], s, state[0], trocar, tip_t, e, ne)
     if converged(e, tol, ne):
         return DONE
     if it == max_it:
         return NO_CONVERGENCE
     if is_singular(A, ix, W, bounds[0]):
         return SINGULAR
-    if curved:
-        curved_step.arm_step(A, ix, W, method, K, gain, damping, s, state[0], e, d)
+    if C is not None and method >= CURVED:
+        curved_step.arm_step(A, ix, C, method, K, gain, damping, s, state[0], e, d)
     elif method != QP:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
     if method == TIP_LIMITED:
@@ -283,9 +284,9 @@ def command_status(fail: FloatArray, n: int, lower: FloatArray, upper: FloatArra
 def run_arm_targets(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
     tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
-    lower: FloatArray, upper: FloatArray, targets: FloatArray, k0: int, s: FloatArray,
-    state: FloatArray, rec: FloatArray, irec: IntArray, info: IntArray, fail: FloatArray,
-    W: FloatArray, d: FloatArray,
+    C: FloatArray | None, lower: FloatArray, upper: FloatArray, targets: FloatArray, k0: int,
+    s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray, info: IntArray,
+    fail: FloatArray, W: FloatArray, d: FloatArray,
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] from joints s, on a plant that reaches every command
     exactly; returns a status.
@@ -308,7 +309,7 @@ def run_arm_targets(
             return NO_TIP
         for it in range(max_it + 1):  # the first reuses the last target's final frames
             status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa,
-                                 target, kind == 1, tip_t, trocar, s, state, it, rec[count],
+                                 C, target, kind == 1, tip_t, trocar, s, state, it, rec[count],
                                  fail, W, d, it == 0 and k > k0)  # fmt: skip
             count = keep_record(status, k, it, count, irec, info)
             if status == DONE:

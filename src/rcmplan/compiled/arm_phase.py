@@ -113,14 +113,15 @@ class _Setup:
             K = limited_K(controller.robot, solver)  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
         self.qpa = qp_arrays(solver, self.n, m)
-        self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
-                     bool(cfg.drift_correction), loop_bounds(controller), self.qpa)  # fmt: skip
         if curved is None:
             self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
             self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)
         else:
             self.W = np.empty(curved.work_shape())
             self.fail, self.d = np.empty(2 * self.n + 7), np.empty(curved.m + 1)
+        self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
+                     bool(cfg.drift_correction), loop_bounds(controller), self.qpa,
+                     None if curved is None else self.W)  # fmt: skip
         self.width = record_width(self.n, roll=curved is not None)
 
     def stop(self, controller: Controller, solver: Solver, status: int, target: FloatArray,
