@@ -60,7 +60,7 @@ def reference_control(compiled: dict[str, Any]) -> float:
     """The control step's median [s] of the same wflc session with the reference Python QP
     step (`QpSolver.step`: the session's compiled period step withheld), checked to give the
     same figures as the compiled run."""
-    with mock.patch("rcmplan.teleop.session.fast_period_step", lambda solver: None):
+    with mock.patch("rcmplan.servo.fast_period_step", lambda solver: None):
         result, s = session("wflc")
     if result.session.fast_step is not None:
         raise RuntimeError("the reference session took the compiled QP step")

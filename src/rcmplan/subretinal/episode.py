@@ -46,16 +46,15 @@ from typing import Any
 
 import numpy as np
 
+from rcmplan import servo
 from rcmplan._signals import raise_interrupt
 from rcmplan._validate import FloatArray
-from rcmplan.control.augmented import extended_task
 from rcmplan.control.limits import TissueDepthLimit
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.targets import rcm_target, rcm_targets, solve_pose
 from rcmplan.exceptions import RcmBoundError, UnreachableTargetError
-from rcmplan.robot.needle import closest_lambda
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.sim.registry import make_plant
@@ -74,7 +73,6 @@ from rcmplan.subretinal.motion import (
 from rcmplan.subretinal.predictors import make_predictor
 from rcmplan.subretinal.tissue import TissueContact
 from rcmplan.subretinal.trace import IlmTrace
-from rcmplan.teleop.session import fast_period_step
 
 SERIES = ("t_s", "phase", "wall_m", "predicted_m", "limit_m", "command_depth_m",
           "depth_vs_undeformed_m", "depth_m", "tissue_state", "rcm_deviation_m")  # fmt: skip
@@ -158,7 +156,7 @@ class Episode:
         self.solver = QpSolver(
             robot, None, cfg.dt, limits=QpLimits(), servo=self.plant, extra_limits=extra
         )  # a servo only on a plant that lags (MuJoCo)
-        self.fast_step = fast_period_step(self.solver)  # the compiled step where it applies
+        self.fast_step = servo.fast_period_step(self.solver)  # the compiled step where it applies
         self.tissue = TissueContact()
         self.log = LogBuilder()
         self.log.actuator_labels = tuple(
@@ -259,27 +257,15 @@ class Episode:
         self.depth_limit.set_floor(float(self.floor_m[k]))
         self.depth_limit.set_center(self.center_m[k])
         desired, target = self.desired[k], self.targets[k]
-        s = plant.read_actuators()
-        q = robot.joints_from_actuators(s)
-        base, end = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
-        lam = closest_lambda(base, end, trocar)
-        tip = robot.tip(q)
-        e = target - extended_task(robot, q, lam)
-        if self.fast_step is not None:
-            dq = self.fast_step(q, lam, target)
-        else:
-            dq, _ = self.solver.step(robot, q, lam, target, e)
-        q_new = q.copy()
-        q_new[list(robot.active)] += dq
-        plant.command_actuators(robot.actuators_from_joints(q_new))
-        plant.advance()
-        rcm = base + lam * (end - base)
-        self.log.append(time=float(self.t_s[k]), sliders=s, joints=q, lam=lam, tip=tip, rcm=rcm,
-                        trocar=trocar, base=base, target_tip=desired, error=e, step=k,
-                        iteration=0, solver=self._sid,
+        now = servo.read(robot, plant, trocar)
+        e = servo.step(robot, plant, self.solver, self.fast_step, now, target)
+        tip, rcm = now.tip, now.rcm
+        self.log.append(time=float(self.t_s[k]), sliders=now.s, joints=now.q, lam=now.lam,
+                        tip=tip, rcm=rcm, trocar=trocar, base=now.base, target_tip=desired,
+                        error=e, step=k, iteration=0, solver=self._sid,
                         phase=self._pids[PHASES[self.phase[k]]])  # fmt: skip
         deviation = float(np.linalg.norm(rcm - trocar))
-        self.store(k, tip[None, :], base[None, :], np.array([deviation]))
+        self.store(k, tip[None, :], now.base[None, :], np.array([deviation]))
         if deviation > cfg.rcm_bound_m:
             raise RcmBoundError(PHASES[self.phase[k]], deviation, cfg.rcm_bound_m)
 

@@ -10,18 +10,16 @@ step. The needle starts inserted through the trocar with its tip at `TeleopSetti
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
 
+from rcmplan import servo
 from rcmplan._validate import FloatArray
-from rcmplan.control.augmented import extended_task
 from rcmplan.control.log import LogBuilder
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.targets import rcm_target, solve_pose
-from rcmplan.exceptions import MissingExtraError, RcmBoundError
-from rcmplan.robot.needle import closest_lambda
+from rcmplan.exceptions import RcmBoundError
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.sim.registry import make_plant
@@ -32,19 +30,7 @@ from rcmplan.teleop.scaling import MotionScaling
 from rcmplan.teleop.settings import TeleopSettings
 from rcmplan.teleop.trace import TraceBuilder
 
-StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 PHASES = ("released", "engaged")
-
-
-def fast_period_step(solver: QpSolver) -> StepFunction | None:
-    """The QP's compiled single step where it applies (`rcmplan.compiled.qp_period`), else
-    None; without DAQP's C binding, None."""
-    from rcmplan.compiled.qp_period import period_step
-
-    try:
-        return period_step(solver)
-    except MissingExtraError:
-        return None
 
 
 class TeleopState(NamedTuple):
@@ -95,7 +81,7 @@ class Session:
         held = cfg.fixtures.workspace(eye, guard)  # the fixture the QP holds
         self.solver = QpSolver(robot, eye, cfg.dt, limits=cfg.fixtures.qp_limits(guard),
                                extra_limits=(held,))  # fmt: skip
-        self.fast_step = fast_period_step(self.solver)
+        self.fast_step = servo.fast_period_step(self.solver)
         self.pipeline = Pipeline(cfg.make_filter(), MotionScaling(cfg.scale, R))
         allowed = eye.retina_radius - cfg.fixtures.retina_margin - guard
         self.targets = TargetMaker(eye.port, held, eye.center, allowed)
@@ -124,27 +110,15 @@ class Session:
             self.start(sample.position)
         robot, plant, trocar = self.robot, self.plant, self.eye.port
         t = plant.time
-        s = plant.read_actuators()
-        q = robot.joints_from_actuators(s)
-        base, end = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
-        lam = closest_lambda(base, end, trocar)
-        tip = robot.tip(q)
+        now = servo.read(robot, plant, trocar)
+        s, q, tip, rcm = now.s, now.q, now.tip, now.rcm
         start = time.perf_counter()
         desired = self.pipeline.step(t, sample, (float(tip[0]), float(tip[1]), float(tip[2])))
         target = self.targets.target(desired)
         mid = time.perf_counter()
-        e = target - extended_task(robot, q, lam)
-        if self.fast_step is not None:
-            dq = self.fast_step(q, lam, target)
-        else:
-            dq, _ = self.solver.step(robot, q, lam, target, e)
-        q_new = q.copy()
-        q_new[self._active] += dq
-        plant.command_actuators(robot.actuators_from_joints(q_new))
-        plant.advance()
+        e = servo.step(robot, plant, self.solver, self.fast_step, now, target)
         stop = time.perf_counter()
-        rcm = base + lam * (end - base)
-        self._record(t, sample, s, q, lam, tip, rcm, base, np.array(desired), e)
+        self._record(t, sample, s, q, now.lam, tip, rcm, now.base, np.array(desired), e)
         self.trace.append(t, sample.t, sample.position, self.pipeline.filtered,
                           sample.clutch, desired, self._segment_of(sample.clutch),
                           mid - start, stop - mid)  # fmt: skip
