@@ -369,3 +369,23 @@ def test_a_solve_that_fails_in_the_arm_loop_raises_the_reference_qp_error(arm: S
         assert ctl.phase_paths.get("far", "compiled") == "compiled"
         outcomes[outcome] = outcomes.get(outcome, 0) + 1
     assert outcomes.get("qp_error", 0) > 0, outcomes
+
+
+def test_the_arm_loop_refuses_the_qp_without_its_arrays(arm: SerialArm) -> None:
+    """The arm loop leaves out the QP's code when its arrays are None (numba prunes the
+    branch): method QP without them is refused, not run as another method."""
+    from rcmplan.control.solvers import PinvSolver
+
+    ctl = Controller(KinematicPlant(arm), PinvSolver())
+    setup = arm_phase._Setup(ctl, ctl.solver)
+    args = list(setup.args)
+    args[2] = QP  # the method code; qpa (args[10]) is None for the pinv solver
+    assert args[10] is None
+    target = extended_task(arm, arm.home, 0.5)[None, :]
+    rec = np.empty((200, setup.width))  # room for a whole target (the loop pauses before)
+    with pytest.raises(ValueError, match="needs qpa"):
+        fast_cache.arm_loop().run_arm_targets(
+            *args, np.ascontiguousarray(arm.lower), np.ascontiguousarray(arm.upper), target, 0,
+            arm.home.copy(), np.array([0.5, 0.0, 1e-3]), rec, np.empty((200, 2), dtype=np.int64),
+            np.zeros(4, dtype=np.int64), setup.fail, setup.W, setup.d,
+        )  # fmt: skip

@@ -163,6 +163,8 @@ def arm_iterate(
     arrays (`arm_phase.qp_arrays`) for method QP, else None; C: for a curved needle's methods
     its work array (W itself), else None (numba leaves out the branches of a None argument,
     `loop.iterate`). `framed`: W already holds the frames of s."""
+    if (method == QP and qpa is None) or (method >= CURVED and C is None):
+        raise ValueError("arm_loop.arm_iterate: method QP needs qpa, a curved needle's method C")
     n, m = ix[0], ix[1]
     first = 2 + n  # the moving joints: the arm's active ones
     if C is not None and method >= CURVED:  # or the curved needle's (with the roll joint)

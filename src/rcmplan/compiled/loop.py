@@ -251,6 +251,8 @@ def iterate(
     an argument that is None, so a loop without the QP or the curved needle compiles without
     their code (a first default run: `docs/benchmarks.md`, the cold compile row).
     """
+    if (method == QP and qpa is None) or (method >= CURVED and C is None):
+        raise ValueError("loop.iterate: method QP needs qpa, a curved needle's method C")
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     joints_from_actuators(P, s, q)
     tr = trig(q)
