@@ -92,7 +92,6 @@ class Session:
         self._pid = [self.log.phase_id(p) for p in PHASES]
         self._sid = self.log.solver_id(self.solver.name)
         self.trace = TraceBuilder()
-        self._active = list(robot.active)
         self._segment = -1
         self._k = 0
         self.started = False
