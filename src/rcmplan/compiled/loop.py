@@ -148,9 +148,9 @@ def task_error(
             e[i] = target[i] - e[i]
         return 6
     point(P, q, tr, 1.0, w[:3])
-    for i in range(3):
-        e[i] = (target[i] if tip_only(method) else tip_t[i]) - w[i]
     if tip_only(method):
+        for i in range(3):
+            e[i] = target[i] - w[i]
         return 3
     if pivot:  # the target's axis
         axis_into(target[1], target[2], w[3:])
