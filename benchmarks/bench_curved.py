@@ -10,6 +10,9 @@ injection on the compiled and the reference path.
   <= 1.3 x straight.
 - `rcmplan inject --scenario curved --no-plots [--robot ur5]` wall time, one process each,
   numba's cache warmed first.
+- The QP on the `curved` scenario (iRAM!S): `Controller.run` of the whole procedure (target
+  checks and motion, 37,290 iterations) in the compiled loop (`CURVED_QP`, its free phases
+  `CURVED_POSE_LIMITED`) against the Python loop (`ReferenceRunner`), in the same process.
 """
 
 from __future__ import annotations
@@ -38,7 +41,9 @@ from rcmplan.compiled.records import (
 from rcmplan.control import PinvSolver
 from rcmplan.control.curved import CurvedPinvSolver
 from rcmplan.control.curved_targets import solve_curved_pose
+from rcmplan.control.methods import make_solver
 from rcmplan.control.phase import LoopSettings
+from rcmplan.control.runner import ReferenceRunner, Runner
 from rcmplan.control.solvers import Solver
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.controller import Controller
@@ -172,12 +177,37 @@ def inject_rows(name: str) -> list[dict[str, Any]]:
     return [row(figure, seconds, "s")]
 
 
+def qp_run_seconds(runner: Runner | None) -> tuple[float, int]:
+    """(wall time [s], records) of `Controller.run` on the `curved` scenario with the QP, on
+    the runner given (None: the default, compiled)."""
+    scenario = load_scenario("curved").with_method("qp")
+    robot = scenario.needle.fit(make_robot("iramis"))
+    plant = KinematicPlant(getattr(robot, "base", robot))
+    plant.reset(robot.home_actuators)
+    solver = make_solver("qp", scenario.method_settings, robot, eye=default_eye(robot))
+    ctl = Controller(plant, solver, settings=scenario.loop, runner=runner, robot=robot)
+    phases = scenario.phases(robot)
+    t = time.perf_counter()
+    log = ctl.run(phases)
+    return time.perf_counter() - t, len(log)
+
+
+def qp_rows() -> list[dict[str, Any]]:
+    """The curved QP's procedure, compiled (after a first run that compiles) and in Python."""
+    qp_run_seconds(None)
+    compiled, n = qp_run_seconds(None)
+    python, _ = qp_run_seconds(ReferenceRunner())
+    figure = f"iRAM!S curved needle, QP: `Controller.run` of the `curved` procedure ({n} records)"
+    return [row(figure, compiled, "s", "the Python loop, same run", python)]
+
+
 def rows() -> list[dict[str, Any]]:
-    """The step rows of both robots, then the injection's wall time (iRAM!S only with
-    --quick)."""
+    """The step rows of both robots, the curved QP's procedure, then the injection's wall time
+    (iRAM!S only with --quick)."""
     out: list[dict[str, Any]] = []
     for name in ROBOTS:
         out += step_rows(name)
+    out += qp_rows()
     for name in ("iramis",) if quick() else tuple(ROBOTS):
         out += inject_rows(name)
     return out

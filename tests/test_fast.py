@@ -29,6 +29,7 @@ from rcmplan.exceptions import (
     UnreachableTargetError,
 )
 from rcmplan.robot import iramis_kernels
+from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection, spiral
 from rcmplan.sim import KinematicPlant
@@ -230,19 +231,21 @@ def test_the_first_run_stamp_covers_every_file_that_holds_a_kernel() -> None:
     assert holding <= set(fast_cache.kernel_sources())
 
 
-@pytest.mark.parametrize("code", ["QP", "CURVED_PINV"])
+@pytest.mark.parametrize("code", ["QP", "CURVED_PINV", "CURVED_QP", "PINV"])
 def test_the_loop_refuses_a_method_without_the_arrays_it_reads(robot: Iramis, code: str) -> None:
     """The loop leaves out the QP's and the curved needle's code when their arrays are None
     (numba prunes those branches): a call naming the method without its arrays is refused,
-    not run as another method."""
+    not run as another method, and so is a straight needle's method given a curved needle's
+    work block."""
     from rcmplan.compiled import records
 
     x0 = extended_task(robot, robot.home, 1.0)
-    target = x0 if code == "QP" else np.r_[x0[:3], 0.0, x0[3:]]
+    target = np.r_[x0[:3], 0.0, x0[3:]] if code.startswith("CURVED") else x0
+    C = np.empty((BLOCK_ROWS, 7)) if code in ("CURVED_QP", "PINV") else None
     args = (robot_params(robot), getattr(records, code), np.ones(7), 0.0, np.full(7, 1e-8), 10,
-            True, np.array([0.1, 0.0]), None, None, target[None, :], 0,
+            True, np.array([0.1, 0.0]), None, C, target[None, :], 0,
             robot.home_actuators.copy(), np.array([1.0, 0.0, 1e-3]), np.empty((20, 36)),
             np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
             np.empty(records.FAIL_WIDTH))  # fmt: skip
-    with pytest.raises(ValueError, match="needs qpa"):
+    with pytest.raises(ValueError, match="need qpa, a curved needle's methods C"):
         fast_cache.loop_kernels().run_targets(*args)

@@ -93,7 +93,7 @@ def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
     solver = QpSolver(robot)
     ctl = Controller(KinematicPlant(robot), solver)
     ctl.lam = 1.0 - 8e-3 / robot.params.l6
-    qp_phase.run_if_ready(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
+    qp_phase.run_if_ready(ctl, solver, targets, ctl.log.phase_id("warm"), 0, robot_params(robot))
 
 
 def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -> None:
@@ -174,8 +174,15 @@ def compile_curved_kernels() -> None:
     """Compile (or load from numba's cache) the curved needle's loops, steps and target screens
     with the argument types used here: the screen and each curved solver on one target (one
     step called from Python, one phase in the loop), on iRAM!S and on iRAM!S's DH chain as an
-    arm holding the needle (no robot package needed)."""
-    from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, CurvedPoseSolver
+    arm holding the needle (no robot package needed); on iRAM!S also the QP and its limited
+    free-space step."""
+    from rcmplan.control.curved import (
+        CurvedDlsSolver,
+        CurvedPinvSolver,
+        CurvedPoseSolver,
+        LimitedPoseSolver,
+    )
+    from rcmplan.control.qp import QpSolver
     from rcmplan.robot.chain import JointChain
     from rcmplan.robot.curved import CurvedTipRobot
     from rcmplan.robot.curved_needle import CurvedNeedle
@@ -201,6 +208,8 @@ def compile_curved_kernels() -> None:
         arrays = curved_arrays(robot)
         if arrays is None:
             continue
+        if arrays.P is not None:
+            jobs.append((LimitedPoseSolver(), pose))
         screen(robot, arrays, x[None, :], np.ascontiguousarray(q, dtype=np.float64))
         for solver, target in jobs:
             solver.step(robot, q, 0.5, target, solver.error(robot, q, 0.5, target))  # from Python
@@ -211,6 +220,11 @@ def compile_curved_kernels() -> None:
                 curved_phase.run_iramis_phase(ctl, solver, target[None, :], pid, 0, arrays)
             else:
                 arm_phase.run_arm_phase_exact(ctl, solver, target[None, :], pid, 0, arrays)
+        if arrays.P is not None:
+            qp = QpSolver(robot)
+            ctl = Controller(KinematicPlant(base), qp, robot=robot)
+            ctl.lam = 0.5
+            qp_phase.run_if_ready(ctl, qp, x[None, :], ctl.log.phase_id("warm"), 0, arrays.P)
 
 
 def compile_bscan_kernels() -> None:

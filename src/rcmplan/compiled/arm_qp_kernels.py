@@ -31,6 +31,7 @@ from rcmplan.compiled.qp_rows import (
     solve_assembled,
     solve_planned,
 )
+from rcmplan.control.cost import x_ext_jacobian
 from rcmplan.control.limits.base import SCALE
 from rcmplan.robot.chain_kinematics import (
     IntArray,
@@ -86,6 +87,7 @@ def build_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
     for i in range(6):
         e[i] = target[i] - e[i]
     arm_kinematics(A, ix, W, lam, J, JT, pts)
+    x_ext_jacobian(JT[:3], JT[6:8], JT[3:6], qp[6])
     values = qp[9][:1]
     values[0] = singular_terms(A, ix, W, grads[0])  # SerialArm.singular_terms, over active
     grads[0, m] = 0.0  # kappa does not depend on lambda

@@ -5,7 +5,9 @@ the loop around the plant's period (`mujoco_loop.run_targets_on_mujoco`); each w
 needle's method codes.
 
 Applies to `CurvedPinvSolver`, `CurvedDlsSolver` and `CurvedPoseSolver` (exact types; the pose
-solver with at most six active joints) driving a robot `curved.curved_arrays` accepts. The side
+solver with at most six active joints) driving a robot `curved.curved_arrays` accepts, and to
+the curved QP's free-space step `LimitedPoseSolver` on iRAM!S and the kinematic plant (method
+CURVED_POSE_LIMITED, `records.iramis_method`; the QP's own phases: `qp_phase`). The side
 effects are the reference loop's: records (with the roll error) go to the controller's log, the
 plant and controller.lam end where `Controller.converge` leaves them, and a stop raises the
 reference exception with the partial log kept. Other plants take the Python loop.
@@ -26,6 +28,7 @@ from rcmplan.compiled.records import (
     CURVED_POSE,
     DONE,
     FAIL_WIDTH,
+    iramis_method,
     is_curved,
     loop_bounds,
     method_code,
@@ -33,7 +36,7 @@ from rcmplan.compiled.records import (
     record_width,
     solver_arrays,
 )
-from rcmplan.control.curved import POSE_JOINTS
+from rcmplan.control.curved import POSE_JOINTS, LimitedPoseSolver
 from rcmplan.control.solvers import Solver
 from rcmplan.robot.curved import CurvedArrays
 from rcmplan.robot.curved_block import BLOCK_ROWS
@@ -46,7 +49,7 @@ ITERATIONS_PER_TARGET = 4  # on the kinematic plant: 12,725 records / 9,768 targ
 
 def applies(controller: Controller, solver: Solver) -> bool:
     """True for a curved needle's solver (whether the compiled path runs is `run_if_fast`'s)."""
-    return is_curved(method_code(solver))
+    return is_curved(method_code(solver)) or type(solver) is LimitedPoseSolver
 
 
 def run_if_fast(
@@ -59,6 +62,11 @@ def run_if_fast(
     arrays = curved_arrays(controller.robot)
     if arrays is None or (method_code(solver) == CURVED_POSE and arrays.m > POSE_JOINTS):
         return False
+    if type(solver) is LimitedPoseSolver:  # on iRAM!S and the kinematic plant
+        if arrays.P is None or not getattr(controller.plant, "exact_commands", False):
+            return False
+        run_iramis_phase(controller, solver, targets, pid, sid, arrays)
+        return True
     if not getattr(controller.plant, "exact_commands", False):
         if arrays.P is None or not getattr(controller.plant, "compiled_physics", False):
             return False
@@ -79,10 +87,14 @@ def run_iramis_phase(
     needle (`arrays.P`); the plant ends at the last command with its time advanced."""
     loop = fast_cache.loop_kernels()
     cfg = controller.settings
-    K, damping, tol = solver_arrays(solver)
+    _, damping, tol = solver_arrays(solver)
+    method = iramis_method(solver, controller.robot)
+    if method is None:
+        raise ValueError(f"the iRAM!S loop does not run solver {solver.name!r}")
+    code, K = method
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
-    args = (arrays.P, method_code(solver), K, damping, tol, cfg.max_iterations,
+    args = (arrays.P, code, K, damping, tol, cfg.max_iterations,
             cfg.drift_correction, loop_bounds(controller), None,
             np.empty((BLOCK_ROWS, 7)), targets)  # fmt: skip
 

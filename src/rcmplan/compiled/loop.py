@@ -38,6 +38,8 @@ from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
     CURVED_POSE,
+    CURVED_POSE_LIMITED,
+    CURVED_QP,
     DLS,
     DONE,
     NO_CONVERGENCE,
@@ -83,7 +85,7 @@ def put(dst: FloatArray, i: int, src: FloatArray, j: int, n: int) -> None:
 @njit(cache=True, inline="always")
 def holds_rcm(method: int) -> bool:
     """True for a method with RCM targets (False: the free-space tip and whole-pose solvers)."""
-    return method != TIP and method != TIP_LIMITED and method != CURVED_POSE
+    return method not in (TIP, TIP_LIMITED, CURVED_POSE, CURVED_POSE_LIMITED)
 
 
 @njit(cache=True, inline="always")
@@ -251,20 +253,22 @@ def iterate(
     an argument that is None, so a loop without the QP or the curved needle compiles without
     their code (a first default run: `docs/benchmarks.md`, the cold compile row).
     """
-    if (method == QP and qpa is None) or (method >= CURVED and C is None):
-        raise ValueError("loop.iterate: method QP needs qpa, a curved needle's method C")
+    qp = method in (QP, CURVED_QP)
+    if (qp and qpa is None) or (method >= CURVED) == (C is None):
+        raise ValueError("loop.iterate: QP methods need qpa, a curved needle's methods C")
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
+    cm = CURVED_POSE if method == CURVED_POSE_LIMITED else method  # the curved step's method
     joints_from_actuators(P, s, q)
     tr = trig(q)
     if holds_rcm(method) and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
-    if qpa is not None and method == QP:  # error and step from one solve
-        info[2] = iteration_error(P, K, q, tr, state[0], target, fail, qpa)
+    if qpa is not None and qp:  # error and step from one solve
+        info[2] = iteration_error(P, K, q, tr, state[0], target, fail, qpa, C)
         if info[2] != 1:
             return QP_FAILED
-        m = 6
+        m = 7 if method >= CURVED else 6
     elif C is not None and method >= CURVED:  # error and step: `curved_iramis`
-        m = curved_step.iramis_task_error(P, method, q, tr, state[0], target, e, w)
+        m = curved_step.iramis_task_error(P, cm, q, tr, state[0], target, e, w)
     else:
         m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
     if it > 0:
@@ -278,16 +282,19 @@ def iterate(
         return NO_CONVERGENCE
     if singular_measure(tr[0], tr[2]) < bounds[0]:
         return SINGULAR
-    if qpa is not None and method == QP:
-        return qp_step(P, q, fail[24:30], qpa[2][X], trocar, bounds, state, fail, info, w)
+    if qpa is not None and qp:  # a curved needle's QP moves the roll q5 too
+        moved = 6 if method >= CURVED else 5
+        return qp_step(P, q, moved, qpa[2][X], trocar, bounds, state, fail, info, w, d)
     moved = 5
     if C is not None and method >= CURVED:
-        curved_step.iramis_step(P, method, K, damping, q, tr, state[0], e, C, d, f)
+        curved_step.iramis_step(P, cm, K, damping, q, tr, state[0], e, C, d, f)
         moved = 6  # a curved needle's roll q5 is active
     else:
         solve_step(P, method, K, damping, q, tr, state[0], pivot, e, J, d)
     if method == TIP_LIMITED:
-        limit_step(P, K, q, d, sn, qn, w, J)
+        limit_step(P, K, q, d, moved, sn, qn, w, J)
+    elif C is not None and method == CURVED_POSE_LIMITED:  # K: the gains (7,), the bounds
+        limit_step(P, K[7:], q, d, moved, sn, qn, w, J)
     elif holds_rcm(method):
         bound_rcm_step(P, q, d, moved, trocar, bounds[1], w, qn)
     for i in range(6):
@@ -302,52 +309,57 @@ def limit_step(
     K: FloatArray,
     q: FloatArray,
     d: FloatArray,
+    moved: int,
     s: FloatArray,
     x: FloatArray,
     ds: FloatArray,
     J: FloatArray,
 ) -> None:
-    """`LimitedTipSolver.step` on the tip step d (dq0..dq4): the actuator increment ds of the
-    step, from s = actuators(q), scaled by the largest f in [0, 1] keeping every actuator
-    within its move per period K[i] and inside its travel less the margin K[6] (one outside
-    that band may only move back), and with a tip speed bound K[7] > 0 (tip speed x dt) each
-    component of the tip's first-order step J[:3, :5] d within it (J: the tip Jacobian the
-    step left); d becomes joints(s + f ds) - q (`limited_tip.step_fraction`, `tip_fraction`).
-    s, x, ds (6,) are scratch. A step no sliders realise is left as it is (the travel check
-    then stops the loop)."""
+    """`LimitedTipSolver.step` on the tip step d (dq0..dq4, moved = 5), or
+    `LimitedPoseSolver.step` on the whole-pose step (dq0..dq5, moved = 6): the actuator
+    increment ds of the step, from s = actuators(q), scaled by the largest f in [0, 1] keeping
+    every actuator within its move per period K[i] and inside its travel less the margin K[6]
+    (one outside that band may only move back), and with a tip speed bound K[7] > 0 (tip speed
+    x dt) each component of the tip's first-order step J[:3, :5] d within it (J: the tip
+    Jacobian the step left); d becomes joints(s + f ds) - q (`limited_tip.step_fraction`,
+    `tip_fraction`). s, x, ds (6,) are scratch. A step no sliders realise is left as it is
+    (the travel check then stops the loop)."""
     for i in range(6):
-        x[i] = q[i] + d[i] if i < 5 else q[i]
+        x[i] = q[i] + d[i] if i < moved else q[i]
     if not actuators_from_joints(P, q, s) or not actuators_from_joints(P, x, ds):
         return
     for i in range(6):
         ds[i] -= s[i]
-    f = step_fraction(s, ds, K[:6], P[7:13], P[13:19], K[6], tip_fraction(J, 0, d, 5, K[7]))
+    f = step_fraction(s, ds, K[:6], P[7:13], P[13:19], K[6], tip_fraction(J, 0, d, moved, K[7]))
     for i in range(6):
         s[i] += f * ds[i]
     joints_from_actuators(P, s, x)
-    for i in range(5):
+    for i in range(moved):
         d[i] = x[i] - q[i]
 
 
 @njit(cache=True)
 def qp_step(
-    P: FloatArray, q: FloatArray, s_qp: FloatArray, x: FloatArray, trocar: FloatArray,
+    P: FloatArray, q: FloatArray, moved: int, x: FloatArray, trocar: FloatArray,
     bounds: FloatArray, state: FloatArray, fail: FloatArray, info: np.ndarray, w: FloatArray,
+    d: FloatArray,
 ) -> int:  # fmt: skip
-    """The step of the QP's solution x built at actuators s_qp, from joints q (`QpSolver.step`):
-    bounded from the RCM tolerance, lambda moved in state[0], the joints and sliders commanded
-    in fail[6:12] and fail[12:18]; returns STEPPED or a stop code (`command_status`)."""
-    qn, sn = fail[6:12], fail[12:18]
+    """The step of the QP's solution x, from joints q (`QpSolver.step`), moving joints
+    0..moved-1: built at the actuators after the error in fail (`qp_kernels.iteration_error`),
+    bounded from the RCM tolerance (d (moved + 1,) the step in joints and lambda), lambda
+    moved in state[0], the joints and sliders commanded in fail[6:12] and fail[12:18];
+    returns STEPPED or a stop code (`command_status`)."""
+    qn, sn, s_qp = fail[6:12], fail[12:18], fail[19 + moved : 25 + moved]
     dlam = step_joints(P, q, s_qp, x, qn, w)
-    for i in range(5):  # the step in joints and lambda, bounded from the RCM tolerance
-        sn[i] = qn[i] - q[i]
-    sn[5] = dlam
-    if bound_rcm_step(P, q, sn, 5, trocar, bounds[1], w, qn) != 1.0:
-        for i in range(5):
-            qn[i] = q[i] + sn[i]
+    for i in range(moved):  # the step in joints and lambda, bounded from the RCM tolerance
+        d[i] = qn[i] - q[i]
+    d[moved] = dlam
+    if bound_rcm_step(P, q, d, moved, trocar, bounds[1], w, qn) != 1.0:
+        for i in range(moved):
+            qn[i] = q[i] + d[i]
     else:
         step_joints(P, q, s_qp, x, qn, w)  # qn as the QP's step left it
-    state[0] += sn[5]
+    state[0] += d[moved]
     return command_status(P, qn, sn, info)
 
 

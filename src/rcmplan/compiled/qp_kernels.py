@@ -4,7 +4,9 @@ solved by DAQP's C function (`daqp_c`), and the step read from its solution.
 The assembly computes iRAM!S's kinematics with its kernels (`robot/iramis_kernels.py`) and
 its singular terms (cos q1, cos q3), then writes the QP with `qp_rows.assemble`, the code every
 robot's compiled step shares (the limits' own row kernels and `cost.weighted_cost`):
-variables x = (ds[L1..L5], l dlambda) / SCALE.
+variables x = (ds[L1..L5], l dlambda) / SCALE. A curved needle (`build_curved_step`) adds the
+roll's actuator L6 to the variables, x = (ds[L1..L6], l dlambda) / SCALE, and its task is X_c
+(`control.curved`: tip, roll, RCM point), its kinematics `curved_iramis`'s.
 
 Settings travel as one float64 vector Q (`qp_params`), the robot as the kernels' P
 (`iramis_kernels.PARAMS`), retina contact points as a (k, 3) array, and the buffers of one
@@ -21,8 +23,12 @@ from rcmplan.compiled import qp_rows
 from rcmplan.compiled.daqp_c import EQUALITY
 from rcmplan.compiled.kernels import task
 from rcmplan.compiled.qp_rows import X, assemble, lead_error, solve_assembled, solve_planned
+from rcmplan.control import curved_step
+from rcmplan.control.cost import x_ext_jacobian
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.limits.rows import times
+from rcmplan.robot import curved_block as ck
+from rcmplan.robot import curved_iramis
 from rcmplan.robot.iramis_kernels import (
     actuators_from_joints,
     joints_from_actuators,
@@ -36,6 +42,7 @@ __all__ = [
     "N_BOUNDS",
     "X",
     "buffers",
+    "build_curved_step",
     "build_step",
     "iteration_error",
     "loop_qp",
@@ -46,38 +53,58 @@ __all__ = [
 
 N_VAR = 6  # L1..L5 and l dlambda
 N_BOUNDS = N_VAR
+CURVED_VAR = 7  # a curved needle's: L1..L6 and l dlambda
 
 
-def buffers() -> tuple:
-    """The arrays one step's solve works in (`qp_rows.buffers`)."""
-    return qp_rows.buffers(N_VAR)
+def buffers(curved: bool = False) -> tuple:
+    """The arrays one step's solve works in (`qp_rows.buffers`): a straight needle's, or with
+    `curved` a curved needle's (seven variables, X_c's seven task rows)."""
+    return qp_rows.buffers(CURVED_VAR, 7) if curved else qp_rows.buffers(N_VAR)
 
 
 def loop_qp(
     params: tuple[FloatArray, FloatArray],
     res: FloatArray | None = None,
     cmd: FloatArray | None = None,
+    curved: bool = False,
 ) -> tuple:
     """The QP's arrays as the iRAM!S loop reads them (`loop.iterate`'s qpa, None for the other
-    methods): (Q, contacts, `buffers()`, res, cmd). params: `qp_params.qp_params`'s
+    methods): (Q, contacts, `buffers(curved)`, res, cmd). params: `qp_params.qp_params`'s
     (Q, contacts); res (6,) the plant's slider resolution and cmd (6,) its last command when
-    the plant is the QP's servo (`QpSolver.servo`), the same array the loop commands
-    through."""
+    the plant is the QP's servo (`QpSolver.servo`; a straight needle's only), the same array
+    the loop commands through."""
     Q, contacts = params
-    return (Q, contacts, buffers(), np.zeros(0) if res is None else res,
+    return (Q, contacts, buffers(curved), np.zeros(0) if res is None else res,
             np.zeros(6) if cmd is None else cmd)  # fmt: skip
 
 
 @njit(cache=True)
 def variable_map(P: FloatArray, tr: tuple, T: FloatArray) -> None:
-    """T = d(q0..q4, lambda) / d(L1..L5, l lambda) (`limits.base.variable_map`) into T (6, 6),
-    whose other entries stay zero: the PCJM rates (`Iramis.joint_rates`) and 1 / l6."""
+    """T = d(q[active], lambda) / d(s[active], l lambda) (`limits.base.variable_map`) into T
+    (w, w), whose other entries stay zero: the PCJM rates (`Iramis.joint_rates`), 1 for q4 (and
+    a curved needle's roll q5, w = 7) and 1 / l6."""
+    w = T.shape[0]
     for i in (0, 2):
         g = tr[i] ** 2 / P[6]
         T[i, i] = T[i, i + 1] = 0.5
         T[i + 1, i], T[i + 1, i + 1] = -g, g
-    T[4, 4] = 1.0
-    T[5, 5] = 1.0 / P[5]
+    for i in range(4, w - 1):
+        T[i, i] = 1.0
+    T[w - 1, w - 1] = 1.0 / P[5]
+
+
+@njit(cache=True)
+def singular_rows(q: FloatArray, tr: tuple, T: FloatArray, qp: tuple) -> FloatArray:
+    """`Iramis.singular_terms` (cos q1, cos q3) into qp's values, their gradients times T into
+    its gradient rows; returns the values."""
+    grads = qp[18]
+    for a in range(2):
+        j_q = 1 + 2 * a
+        for j in range(T.shape[0]):
+            grads[a, j] = -np.sin(q[j_q]) * T[j_q, j]
+    values = qp[9][:2]
+    values[0], values[1] = tr[0], tr[2]
+    return values
 
 
 @njit(cache=True)
@@ -107,20 +134,44 @@ def build_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray
     also the actuators s (6,) and the X_ext error e (6,). Returns the number of rows of A
     (`qp_rows.assemble`)."""
     T, J = qp[7:9]
-    JT, pts, _, grads = qp[15:]
+    JT, pts = qp[15:17]
     actuators_from_joints(P, q, s)
     task(P, q, tr, lam, e)
     for i in range(6):
         e[i] = target[i] - e[i]
     kinematics(P, q, tr, lam, T, J, JT, pts)
-    for a in range(2):  # Iramis.singular_terms: cos q1, cos q3 and their gradients times T
-        j_q = 1 + 2 * a
-        for j in range(N_VAR):
-            grads[a, j] = -np.sin(q[j_q]) * T[j_q, j]
-    values = qp[9][:2]
-    values[0], values[1] = tr[0], tr[2]
+    x_ext_jacobian(JT[:3], JT[6:8], JT[3:6], qp[6])
+    values = singular_rows(q, tr, T, qp)
     return assemble(Q, contacts, K, lam, target, e, s[:5], P[7:12], P[13:18], P[5], values,
                     qp)  # fmt: skip
+
+
+@njit(cache=True)
+def build_curved_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
+                      q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
+                      e: FloatArray, qp: tuple, C: FloatArray) -> int:  # fmt: skip
+    """`build_step` for iRAM!S holding a curved needle (P with its arc, `curved_iramis.params`):
+    the QP at joints q, lambda towards X_c target (7,), its task rows J_c T (7, 7) with J_c
+    from the work block C (`curved_block`); also the actuators s (6,) and the X_c error e (7,).
+    Returns the number of rows of A."""
+    T, task_ = qp[7], qp[6]
+    JT, pts = qp[15:17]
+    w = pts[3]  # scratch: the target's tip is written later, by the retina's row
+    actuators_from_joints(P, q, s)
+    curved_iramis.task(P, q, tr, lam, False, e, w)
+    curved_step.error(e, target, e)
+    variable_map(P, tr, T)
+    curved_iramis.jacobian(P, q, tr, lam, False, C, 0, w)
+    times(C[ck.J : ck.J + 7], T, task_)
+    for j in range(CURVED_VAR):  # JT: the tip's rows and the RCM point's (X_c's rows 0-2, 4-6)
+        for i in range(3):
+            JT[i, j], JT[3 + i, j] = task_[i, j], task_[4 + i, j]
+    _, a, _, tip = curved_iramis.frame(P, q, tr, w)
+    pts[0, 0], pts[0, 1], pts[0, 2] = tip
+    point(P, q, tr, lam, pts[1])
+    pts[2, 0], pts[2, 1], pts[2, 2] = a
+    values = singular_rows(q, tr, T, qp)
+    return assemble(Q, contacts, K, lam, target, e, s, P[7:13], P[13:19], P[5], values, qp)
 
 
 @njit(cache=True)
@@ -148,15 +199,23 @@ def solve_servo_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: Floa
 
 @njit(cache=True)
 def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float,
-                    target: FloatArray, fail: FloatArray, qpa: tuple) -> int:  # fmt: skip
+                    target: FloatArray, fail: FloatArray, qpa: tuple,
+                    C: FloatArray | None) -> int:  # fmt: skip
     """The QP's solve of one loop iteration at joints q (`QpSolver.error`): its error into
     fail[18:24] and the actuators it was built at into fail[24:30]; returns DAQP's exit flag
     (1: optimal), the solution in qpa[2][X]. qpa = (Q, contacts, qp, res, cmd) (`qp_params.
     loop_qp`): with a servo (res (6,), the plant's slider resolution; cmd (6,), its last
     command) the QP is planned from the command as the plant rounds it, its error the plan's
     plus the command's lead (`lead_error`, fail[30:48] its scratch); without (res empty) it
-    is built at q."""
+    is built at q. A curved needle (C its work block, else None; no servo): the X_c error
+    into fail[18:25], the actuators into fail[25:31]."""
     Q, contacts, qp, res, cmd = qpa
+    if C is not None:
+        if res.shape[0] > 0:
+            raise ValueError("qp_kernels.iteration_error: a curved needle's QP has no servo")
+        e, s_qp = fail[18:25], fail[25:31]
+        rows = build_curved_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp, C)
+        return solve_assembled(Q, K, rows, e, qp)
     e, s_qp = fail[18:24], fail[24:30]
     if res.shape[0] == 0:
         return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp)
@@ -176,10 +235,12 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
 def step_joints(P: FloatArray, q: FloatArray, s: FloatArray, x: FloatArray, qn: FloatArray,
                 w: FloatArray) -> float:  # fmt: skip
     """The step of a solution x (`QpSolver.step`): joints q + (q(s + x SCALE) - q) into qn,
-    with the actuators s the QP was built at; returns d lambda. w (>= 6) is scratch."""
+    with the actuators s the QP was built at, x's first w - 1 of them moved (a straight
+    needle's L1..L5, a curved one's L1..L6); returns d lambda. w (>= 6) is scratch."""
+    moved = x.shape[0] - 1
     for i in range(6):
-        w[i] = s[i] + x[i] * SCALE if i < 5 else s[i]
+        w[i] = s[i] + x[i] * SCALE if i < moved else s[i]
     joints_from_actuators(P, w, qn)
     for i in range(6):
-        qn[i] = q[i] + (qn[i] - q[i]) if i < 5 else q[i]
-    return x[5] * SCALE / P[5]
+        qn[i] = q[i] + (qn[i] - q[i]) if i < moved else q[i]
+    return x[moved] * SCALE / P[5]

@@ -25,13 +25,14 @@ if TYPE_CHECKING:
 
 # Indices of Q: `QpLimits` fields in SI units, the solver's dt [s] and damping, the retina's
 # recovery per step [m], the tip's step bound tip_speed x dt [m] (0: none), the eye (HAS_EYE 1
-# or 0, retina radius [m], centre (3,) and trocar point (3,) [m]), the cost's row weights (6,).
+# or 0, retina radius [m], centre (3,) and trocar point (3,) [m]), the cost's row weights (6, or
+# 7 for a curved needle's X_c; a straight needle's seventh is unused).
 RCM_TOL, TRAVEL_MARGIN, RETINA_MARGIN, EYE_GAIN, PORT_ZONE, CONTACT_TOL = range(6)
 SINGULAR_FLOOR, SINGULAR_GAIN, DT, DAMPING, RETINA_RECOVERY, TIP_STEP = range(6, 12)
 HAS_EYE, RETINA_RADIUS, CENTER, PORT, WEIGHTS = 12, 13, 14, 17, 20
 # Extra limits the kernels hold, in the solver's order: N_EXTRA, then per limit a slot of
 # EXTRA_SLOT numbers, its kind (one of EXTRA_KINDS) and its packed parameters.
-N_EXTRA, EXTRA = 26, 27
+N_EXTRA, EXTRA = 27, 28
 BOX, DEPTH = 1.0, 2.0
 EXTRA_KINDS: dict[type, tuple[float, int]] = {WorkspaceBound: (BOX, BOX_PACKED),
                                               TissueDepthLimit: (DEPTH, DEPTH_PACKED)}  # fmt: skip
@@ -96,7 +97,7 @@ def qp_params(robot: RobotModel, solver: QpSolver) -> tuple[FloatArray, FloatArr
     Q[RETINA_RECOVERY] = lim.retina_recovery(solver.dt)
     Q[TIP_STEP] = 0.0 if lim.tip_speed is None else lim.tip_speed * solver.dt
     Q[SPEED:] = robot.speed[active]
-    Q[WEIGHTS : WEIGHTS + 6] = solver.weights
+    Q[WEIGHTS : WEIGHTS + len(solver.weights)] = solver.weights
     if eye is not None:
         Q[HAS_EYE], Q[RETINA_RADIUS] = 1.0, eye.retina_radius
         Q[CENTER : CENTER + 3], Q[PORT : PORT + 3] = eye.center, eye.port

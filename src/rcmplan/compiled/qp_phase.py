@@ -2,10 +2,11 @@
 behind the runner seam.
 
 Applies to a `QpSolver` itself (exact type: a subclass may change its step) with the DAQP back
-end and a straight needle, on a plant whose commands are reached exactly (the kinematic plant),
-for a robot the iRAM!S kernels reproduce (`runner.kernel_params`) and an eye whose retina is
-the kernels' sphere (`qp_params.spherical_eye`), when DAQP's C function can be called from
-compiled code (`cache.qp_loop`). Everything else runs on the reference path.
+end, on a plant whose commands are reached exactly (the kinematic plant), for a robot the
+iRAM!S kernels reproduce (`runner.kernel_params`) or iRAM!S holding a curved needle
+(`curved.curved_arrays`: method CURVED_QP, X_c's seven rows, the roll's actuator moved), and an
+eye whose retina is the kernels' sphere (`qp_params.spherical_eye`), when DAQP's C function can
+be called from compiled code (`cache.qp_loop`). Everything else runs on the reference path.
 
 The side effects are the reference loop's: records go to the controller's log, the plant and
 controller.lam end where `Controller.converge` leaves them, and a stop raises the reference
@@ -24,15 +25,18 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.curved import curved_arrays
 from rcmplan.compiled.phase import IntArray, run_in_blocks
 from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.records import (
+    CURVED_QP,
     DONE,
     FAIL_WIDTH,
     QP,
     QP_FAILED,
     loop_bounds,
     raise_stop,
+    record_width,
     robot_params,
     solver_arrays,
 )
@@ -42,6 +46,8 @@ from rcmplan.control.qp_problem import QPProblem, StepQP
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import InvalidInputError, QPError
 from rcmplan.robot import iramis_kernels
+from rcmplan.robot.curved_block import BLOCK_ROWS
+from rcmplan.robot.model import RobotModel
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -54,12 +60,11 @@ ITERATIONS_PER_TARGET = 40  # record buffer per target (the loop pauses when it 
 
 
 def applies(controller: Controller, solver: Solver) -> bool:
-    """Cheap checks: a QpSolver itself with DAQP and a straight needle, on a plant with exact
-    commands (the robot, the eye and DAQP's binding are checked in `run_if_ready`)."""
+    """Cheap checks: a QpSolver itself with DAQP, on a plant with exact commands (the robot,
+    the eye and DAQP's binding are checked in `run_if_ready`)."""
     return (
         type(solver) is QpSolver
         and solver.backend == "daqp"
-        and not solver.curved
         and bool(getattr(controller.plant, "exact_commands", False))
     )
 
@@ -70,44 +75,54 @@ def runs_compiled(solver: Solver, exact_commands: bool) -> bool:
     return (
         type(solver) is QpSolver
         and solver.backend == "daqp"
-        and not solver.curved
         and exact_commands
+        and (not solver.curved or curved_params(solver.robot) is not None)
         and fast_cache.qp_loop() is not None
         and qp_params(solver.robot, solver) is not None
     )
 
 
+def curved_params(robot: RobotModel) -> FloatArray | None:
+    """The kernels' P of iRAM!S holding a curved needle (`curved_iramis.params`), else None."""
+    arrays = curved_arrays(robot)
+    return None if arrays is None else arrays.P
+
+
 def run_if_ready(
-    controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int
-) -> bool:
+    controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int,
+    P: FloatArray,
+) -> bool:  # fmt: skip
     """Run the phase compiled if DAQP's binding is usable and the eye is the kernels'; False
-    (nothing done) otherwise. The caller has checked the robot and the mode."""
+    (nothing done) otherwise. The caller has checked the robot (its kernels' parameters P:
+    `runner.kernel_params`, or `curved_params` for a curved needle) and the mode."""
     loop = fast_cache.qp_loop()
     params = qp_params(controller.robot, solver)
     if loop is None or params is None:
         return False
-    run_qp_phase(controller, solver, targets, pid, sid, loop, params)
+    run_qp_phase(controller, solver, targets, pid, sid, loop, params, P)
     return True
 
 
 def run_qp_phase(
     controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int,
-    loop: Any, params: tuple[FloatArray, FloatArray],
+    loop: Any, params: tuple[FloatArray, FloatArray], P: FloatArray,
 ) -> None:  # fmt: skip
     """Algorithm 1 with the QP on each target in turn, compiled (see the module docstring)."""
-    robot, cfg = controller.robot, controller.settings
+    cfg, curved = controller.settings, solver.curved
     K, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
-    qpa = fast_cache.qp_kernels().loop_qp(params)
-    args = (robot_params(robot), QP, K, damping, tol, cfg.max_iterations, cfg.drift_correction,
-            loop_bounds(controller), qpa, None, targets)  # fmt: skip
+    qpa = fast_cache.qp_kernels().loop_qp(params, curved=curved)
+    args = (P, CURVED_QP if curved else QP, K, damping, tol, cfg.max_iterations,
+            cfg.drift_correction, loop_bounds(controller), qpa,
+            np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
 
     def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
             info: IntArray) -> int:  # fmt: skip
         return int(loop.run_targets(*args, k0, s, state, rec, irec, info, fail))
 
-    status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET)
+    status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET,
+                                 record_width(6, roll=curved))  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)
 
 

@@ -3,14 +3,17 @@ compiled QP step shares once its kinematics are computed (iRAM!S: `qp_kernels`, 
 `arm_qp_kernels`), and the solve with DAQP's C function (`daqp_c`).
 
 `assemble` writes the QP of `qp_problem.build_step` with the code the Python QP calls: the cost
-`cost.weighted_cost` on d X_ext / d x (`x_ext_jacobian`), the actuator bounds
+`cost.weighted_cost` on the task Jacobian the caller leaves in the buffers (d X_ext / d x,
+`cost.x_ext_jacobian`; a curved needle's d X_c / d x, 7 rows), the actuator bounds
 (`actuator_bounds`: travel, speed over dt, lambda in [0, 1]), then the rows G x <= h of the RCM
 box (`rcm_rows`), the retina barrier (`sphere_row`, `contact_floor`), the singular margin
 (`damper_rows`), the tip's speed (`speed_rows`) and the extra limits in the solver's order
 (`box_rows`, `sphere_row`), or the RCM as an equality A x = b when its tolerance is 0, last: the
 order DAQP receives them from `qp_backends`. Variables x = (ds[active], l dlambda) / SCALE, w of
 them; the kinematics arrive as JT (8, w) = (J_tip T, J_rcm T, the needle angles' rows times T)
-and the points (5, 3): tip, RCM point, needle axis (rows 3, 4 are scratch).
+and the points (5, 3): tip, RCM point, needle axis (rows 3, 4 are scratch). A target is X_ext
+(6,) or a curved needle's X_c (7,): its tip `x_ext_tip`'s or its first three entries, its
+trocar its last three.
 
 Settings travel as one float64 vector Q (`qp_params`), retina contact points as a (k, 3)
 array, and the buffers of one solve as the tuple `qp` of `buffers(w)`.
@@ -56,7 +59,7 @@ from rcmplan.compiled.qp_params import (
     TRAVEL_MARGIN,
     WEIGHTS,
 )
-from rcmplan.control.cost import synchronise, weighted_cost, x_ext_jacobian
+from rcmplan.control.cost import synchronise, weighted_cost
 from rcmplan.control.limits.actuators import actuator_bounds
 from rcmplan.control.limits.base import SCALE, SPEED_ACTIVE
 from rcmplan.control.limits.rcm import rcm_rows
@@ -72,15 +75,16 @@ MAX_ROWS = 4 + 1 + MAX_SINGULAR + 6 + 6 * MAX_EXTRA  # RCM box, retina, singular
 X = 10  # index of the solution x in `buffers()`
 
 
-def buffers(w: int) -> tuple:
+def buffers(w: int, k: int = 6) -> tuple:
     """The arrays one solve with w variables works in: the QP (H, f, A, upper, lower, sense),
-    the task Jacobian d X_ext / d x, T (w, w), the Jacobians J (6, w), scratch (6,); DAQP's x,
+    the task Jacobian (k, w) d X / d x (X_ext: k = 6; X_c: 7), T (w, w), the Jacobians J (6, w),
+    scratch (6,); DAQP's x,
     duals, problem, result and settings (`daqp_c.quadprog`); JT (8, w): J T's tip rows, RCM
     rows and the angle rows; the points (5, 3): tip, RCM, needle axis, target tip, the target's
     axis; N (2, 3) and the singular terms' gradients (MAX_SINGULAR, w), scratch of the rows."""
     rows = w + MAX_ROWS
     return (np.empty((w, w)), np.empty(w), np.zeros((MAX_ROWS, w)), np.empty(rows),
-            np.empty(rows), np.zeros(rows, dtype=np.int32), np.empty((6, w)), np.zeros((w, w)),
+            np.empty(rows), np.zeros(rows, dtype=np.int32), np.empty((k, w)), np.zeros((w, w)),
             np.empty((6, w)), np.empty(6), np.empty(w), np.empty(rows),
             np.zeros(PROBLEM_WORDS, dtype=np.int64), np.zeros(RESULT_WORDS, dtype=np.int64),
             default_settings(), np.empty((8, w)), np.empty((5, 3)), np.empty((2, 3)),
@@ -95,7 +99,10 @@ def retina_row(Q: FloatArray, contacts: FloatArray, pts: FloatArray, JT: FloatAr
     center = Q[CENTER : CENTER + 3]
     if Q[HAS_EYE] == 0.0 or radial_gap(Q[PORT : PORT + 3], Q[PORT_ZONE], tip) >= 0.0:
         return r
-    x_ext_tip(target, pts[4], tip_t)  # the loop has refused targets that fix no tip
+    if target.shape[0] == 7:  # X_c states its tip
+        tip_t[0], tip_t[1], tip_t[2] = target[0], target[1], target[2]
+    else:
+        x_ext_tip(target, pts[4], tip_t)  # the loop has refused targets that fix no tip
     radius = Q[RETINA_RADIUS]
     floor = contact_floor(Q[RETINA_MARGIN], radial_gap(center, radius, tip_t), tip_t, contacts,
                           Q[CONTACT_TOL])  # fmt: skip
@@ -122,21 +129,22 @@ def extra_rows(Q: FloatArray, pts: FloatArray, JT: FloatArray, A: FloatArray, h:
 def assemble(Q: FloatArray, contacts: FloatArray, K: FloatArray, lam: float,
              target: FloatArray, e: FloatArray, s: FloatArray, lower: FloatArray,
              upper: FloatArray, length: float, values: FloatArray, qp: tuple) -> int:  # fmt: skip
-    """The step's QP into the buffers (see the module docstring), from the X_ext error e (6,),
-    the active actuators s (w - 1,) with their travel [lower, upper], the needle length l [m],
+    """The step's QP into the buffers (see the module docstring), from the task's error e (k,)
+    and its Jacobian d X / d (x SCALE) in qp's task rows (k, w) (X_ext: 6; X_c: 7), the active
+    actuators s (w - 1,) with their travel [lower, upper], the needle length l [m],
     the singular terms' values (k,) with their gradients d value / d (x SCALE) in qp's
     gradient rows, and the kinematics in qp's JT and points. Returns the number of rows of A
     (inequalities first; an RCM equality last, marked in `sense`)."""
     H, f, A, up, lo, sense, task_ = qp[:7]
     JT, pts, N, grads = qp[15:]
-    nb = H.shape[0]
-    x_ext_jacobian(JT[:3], JT[6:8], JT[3:6], task_)
-    weighted_cost(task_, Q[WEIGHTS : WEIGHTS + 6], K, e, Q[DAMPING], H, f)
+    nb, k = H.shape[0], task_.shape[0]
+    weighted_cost(task_, Q[WEIGHTS : WEIGHTS + k], K, e, Q[DAMPING], H, f)
     actuator_bounds(s, lower, upper, Q[SPEED : SPEED + nb - 1], Q[TRAVEL_MARGIN], Q[DT], lam,
                     length, lo[:nb], up[:nb])  # fmt: skip
     h = up[nb:]
     tol = Q[RCM_TOL]
-    r = 0 if tol == 0.0 else rcm_rows(JT[3:6], pts[1], target[3:6], pts[2], tol, N, A, h, 0)
+    trocar = target[target.shape[0] - 3 :]
+    r = 0 if tol == 0.0 else rcm_rows(JT[3:6], pts[1], trocar, pts[2], tol, N, A, h, 0)
     r = retina_row(Q, contacts, pts, JT, target, A, h, r)
     r = damper_rows(grads[: values.shape[0]], values, Q[SINGULAR_FLOOR], Q[SINGULAR_GAIN], A,
                     h, r)  # fmt: skip
@@ -148,7 +156,7 @@ def assemble(Q: FloatArray, contacts: FloatArray, K: FloatArray, lam: float,
         if i >= nb:
             lo[i] = -INF
     if tol == 0.0:
-        end = rcm_rows(JT[3:6], pts[1], target[3:6], pts[2], 0.0, N, A, h, r)
+        end = rcm_rows(JT[3:6], pts[1], trocar, pts[2], 0.0, N, A, h, r)
         for i in range(nb + r, nb + end):
             lo[i], sense[i] = up[i], EQUALITY
         r = end
@@ -168,7 +176,7 @@ def full_speed(Q: FloatArray, x: FloatArray) -> bool:
 @njit(cache=True)
 def solve_assembled(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, qp: tuple) -> int:
     """Solve the QP `assemble` left in the buffers; returns DAQP's exit flag (1: optimal). The
-    solution is in qp[X]; e (6,), the X_ext error on entry, becomes the error a feasible step
+    solution is in qp[X]; e (k,), the task's error on entry, becomes the error a feasible step
     removes, J x* / K, unless an actuator moves at full speed (`QpSolver.error`)."""
     H, f, A, up, lo, sense, task_ = qp[:7]
     x, lam_d, problem, result, settings = qp[10:15]
@@ -176,7 +184,7 @@ def solve_assembled(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, qp: 
     flag = quadprog(H, f, A, up, lo, sense, nb, rows, x, lam_d, problem, result, settings)
     if flag != 1 or full_speed(Q, x):  # a step at full speed leaves the plain error
         return flag
-    for i in range(6):
+    for i in range(task_.shape[0]):
         acc = 0.0
         for j in range(nb):
             acc += (task_[i, j] * SCALE) * x[j]

@@ -15,11 +15,18 @@ import numpy as np
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
-from rcmplan.control.curved import CurvedDlsSolver, CurvedPinvSolver, CurvedPoseSolver
+from rcmplan.control.curved import (
+    CurvedDlsSolver,
+    CurvedPinvSolver,
+    CurvedPoseSolver,
+    LimitedPoseSolver,
+)
 from rcmplan.control.curved_step import CURVED as CURVED
 from rcmplan.control.curved_step import CURVED_DLS as CURVED_DLS
 from rcmplan.control.curved_step import CURVED_PINV as CURVED_PINV
 from rcmplan.control.curved_step import CURVED_POSE as CURVED_POSE
+from rcmplan.control.curved_step import CURVED_POSE_LIMITED as CURVED_POSE_LIMITED
+from rcmplan.control.curved_step import CURVED_QP as CURVED_QP
 from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.log import LogBuilder
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver, TipSolver
@@ -106,7 +113,13 @@ def iramis_method(solver: Solver, robot: RobotModel) -> tuple[int, FloatArray] |
     `method_code`'s solvers keep their K. The QP's limited free-space step (`LimitedTipSolver`)
     runs as TIP_LIMITED; its K (8,) carries what the step holds: each actuator's largest move
     per period (speed x dt, 6), the travel margin and the tip's largest move per axis and
-    period (tip speed x dt; 0: no tip speed bound)."""
+    period (tip speed x dt; 0: no tip speed bound). The curved QP's free-space step
+    (`LimitedPoseSolver`) runs as CURVED_POSE_LIMITED with K (15,): its gains (7,), then the
+    same bounds."""
+    if type(solver) is LimitedPoseSolver:
+        K = np.concatenate([solver.K, np.asarray(robot.speed, dtype=np.float64) * solver.dt,
+                            (solver.travel_margin, 0.0)])  # fmt: skip
+        return CURVED_POSE_LIMITED, K
     if type(solver) is LimitedTipSolver:
         tip = 0.0 if solver.tip_speed is None else solver.tip_speed * solver.dt
         K = np.append(np.asarray(robot.speed, dtype=np.float64) * solver.dt,

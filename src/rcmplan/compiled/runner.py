@@ -55,10 +55,10 @@ def fast_converge_phase(
     """Run Algorithm 1 on every target of a phase in compiled code, if it applies.
 
     Applies when the solver is a PinvSolver, DlsSolver or TipSolver, or a QpSolver on a serial
-    arm (the arm loop, `arm_phase`); a QpSolver on iRAM!S and the kinematic plant runs its own
-    compiled loop (`qp_phase`), on the dynamic MuJoCo plant with
-    the plant as its servo another (`qp_mujoco_phase`), a curved needle's solver its own
-    phases (`curved_phase`, on the kinematic plant). On a KinematicPlant, and on a dynamic
+    arm (the arm loop, `arm_phase`); a QpSolver on iRAM!S (with a straight or a curved needle)
+    and the kinematic plant runs its own compiled loop (`qp_phase`), on the dynamic MuJoCo
+    plant with the plant as its servo another (`qp_mujoco_phase`), a curved needle's solver
+    its own phases (`curved_phase`, on the kinematic plant). On a KinematicPlant, and on a dynamic
     MujocoPlant (physics through MuJoCo's C functions, `fast_mujoco`), the whole loop is
     compiled; on any other plant the plant steps in Python and each iteration's control work
     is one compiled call. Records go to controller.log, the plant and controller.lam end where the
@@ -74,9 +74,12 @@ def fast_converge_phase(
             return False
         return qp_mujoco_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
     if qp_phase.applies(controller, solver):  # the QP controller, on the kinematic plant
-        if kernel_params(controller.robot) is None:
+        curved = getattr(solver, "curved", False)
+        robot = controller.robot
+        P = qp_phase.curved_params(robot) if curved else kernel_params(robot)
+        if P is None:
             return False
-        return qp_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
+        return qp_phase.run_if_ready(controller, solver, targets, pid, sid, P)  # type: ignore[arg-type]
     exact = getattr(controller.plant, "exact_commands", False)
     physics = getattr(controller.plant, "compiled_physics", False)
     # The QP's free-space step (`LimitedTipSolver`) has no `method_code`: it runs compiled on

@@ -33,6 +33,10 @@ from rcmplan.robot.iramis_kernels import point, point_jacobian
 # (`rcmplan.compiled.records`)
 CURVED = 16
 CURVED_PINV, CURVED_DLS, CURVED_POSE = CURVED, CURVED + 1, CURVED + 2
+CURVED_QP = CURVED + 3  # the QP controller on a curved needle (`compiled.qp_kernels`)
+# The curved QP's free-space step (`LimitedPoseSolver`): CURVED_POSE's step scaled to hold the
+# actuators' speed and travel (the iRAM!S loop's `limit_step`)
+CURVED_POSE_LIMITED = CURVED + 4
 
 
 @njit(cache=True, inline="always")
