@@ -11,7 +11,7 @@ import pytest
 from rcmplan.exceptions import InvalidInputError, ScenarioError, UnreachableTargetError
 from rcmplan.job import run_scenario
 from rcmplan.robot.registry import make_robot
-from rcmplan.scene.curved_figures import needle_polyline, port_offset
+from rcmplan.scene.curved_figures import needle_polyline, needle_polylines, port_offset
 from rcmplan.scene.curved_procedure import entry_poses
 from rcmplan.scene.eye import default_eye
 from rcmplan.scene.procedures import Steps
@@ -55,6 +55,17 @@ def test_the_arc_passes_the_port_with_its_sagitta_only() -> None:
     assert np.ptp(each) > 0.0
     R, w = robot.needle.radius, eye.wall
     assert each.max() == pytest.approx(R - math.sqrt(R * R - w * w), rel=1e-3)
+
+
+@pytest.mark.parametrize("name", ["iramis", "ur5", "straight"])
+def test_the_needle_lines_of_many_poses_are_each_poses_own(name: str) -> None:
+    """A curved needle's lines come from its kernels' frames at once, another's one by one."""
+    base = make_robot("iramis" if name == "straight" else name)
+    robot = base if name == "straight" else load_scenario("curved").needle.fit(base)
+    joints = robot.home + np.random.default_rng(3).normal(0.0, 0.05, (40, len(robot.home)))
+    each = np.array([needle_polyline(robot, q) for q in joints])
+    np.testing.assert_allclose(needle_polylines(robot, joints), each, rtol=0, atol=1e-15)
+    assert each.shape[1] == (2 if name == "straight" else 202)
 
 
 def test_a_needle_on_the_axis_has_no_port_offset() -> None:

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan._validate import FloatArray, array, scalar, vector
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot import curved_arm, curved_iramis
 from rcmplan.robot.curved_block import BLOCK_ROWS, WIDTH, G, J
@@ -175,6 +175,24 @@ class CurvedTipRobot:
             self._key = key
         c = arrays.block_row()
         return self._x, self._work[c + J : c + J + WIDTH, : arrays.m + 1]
+
+    def needle_frames(self, Q: FloatArray) -> FloatArray:
+        """For each joints row of Q (R, n), from the kernels: the needle base p(0), the shaft's
+        end p(1), the shaft axis and the bend direction (the mount frame's z and x), (R, 4, 3)
+        in [m] (InvalidInputError for a straight needle or joints of another shape)."""
+        arrays = self.arrays
+        if arrays is None:
+            raise InvalidInputError("robot", self.name, "a robot holding a curved needle")
+        Q = np.ascontiguousarray(array("Q", Q, 2))
+        if Q.shape[1] != arrays.n:
+            raise InvalidInputError("Q", f"shape {Q.shape}", f"joints rows (R, {arrays.n})")
+        out = np.empty((Q.shape[0], 4, 3))
+        if arrays.P is not None:
+            curved_iramis.needle_frames(arrays.P, Q, out)
+        else:
+            A, ix = arrays.arm()
+            curved_arm.needle_frames(A, ix, np.empty(arrays.work_shape()), Q, out)
+        return out
 
     def _angular(self, q: FloatArray) -> FloatArray:
         """J_w over the active joints (3, m) from the kernels' work block."""

@@ -120,3 +120,17 @@ def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam
     frames(A, ix, q, W)
     task(A, ix[0], W, lam, pose, x)
     jacobian(A, ix, W, lam, pose)
+
+
+@njit(cache=True)
+def needle_frames(A: FloatArray, ix: IntArray, W: FloatArray, Q: FloatArray,
+                  out: FloatArray) -> None:  # fmt: skip
+    """For each joints row of Q (R, n): the needle base p(0), the shaft's end p(1), the shaft
+    axis a and the bend direction b into out[r] (4, 3); W is the work array."""
+    n = ix[0]
+    for r in range(Q.shape[0]):
+        frames(A, ix, Q[r], W)
+        o, a, b, _ = frame(A, n, W)
+        end = needle_point(A, n, W, 1.0)
+        for i in range(3):
+            out[r, 0, i], out[r, 1, i], out[r, 2, i], out[r, 3, i] = o[i], end[i], a[i], b[i]

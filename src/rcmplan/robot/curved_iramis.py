@@ -107,3 +107,16 @@ def task_jacobian(P: FloatArray, q: FloatArray, lam: float, pose: bool, x: Float
     tr, w = trig(q), np.empty(3)
     task(P, q, tr, lam, pose, x, w)
     jacobian(P, q, tr, lam, pose, C, 0, w)
+
+
+@njit(cache=True)
+def needle_frames(P: FloatArray, Q: FloatArray, out: FloatArray) -> None:
+    """For each joints row of Q (R, 6): the needle base p(0), the shaft's end p(1), the shaft
+    axis a and the bend direction b into out[r] (4, 3), [m] and unit vectors."""
+    w = np.empty(3)
+    for r in range(Q.shape[0]):
+        tr = trig(Q[r])
+        o, a, b, _ = frame(P, Q[r], tr, w)
+        point(P, Q[r], tr, 1.0, out[r, 1])
+        for i in range(3):
+            out[r, 0, i], out[r, 2, i], out[r, 3, i] = o[i], a[i], b[i]

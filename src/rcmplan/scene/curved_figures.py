@@ -49,20 +49,36 @@ def needle_polyline(robot: RobotModel, q: FloatArray, arc: FloatArray | None = N
 def port_offset(eye: Eye, polyline: FloatArray) -> FloatArray:
     """Largest distance in [m] from the insertion axis of the needle's points within the wall
     (0 if none is), of one polyline (N, 3) (a 0-d array) or of each of many (R, N, 3) (R,)."""
-    rel = np.asarray(polyline) - eye.port
-    x = rel @ eye.axis
-    radial = rel - x[..., None] * eye.axis
-    x0, x1, r0, r1 = x[..., :-1], x[..., 1:], radial[..., :-1, :], radial[..., 1:, :]
+    polyline = np.asarray(polyline)
+    lines = polyline.reshape(-1, *polyline.shape[-2:])
+    x = (lines - eye.port) @ eye.axis
+    x0, x1 = x[:, :-1], x[:, 1:]
     lo, hi = np.minimum(x0, x1), np.maximum(x0, x1)
-    inside = (hi >= 0.0) & (lo <= eye.wall)
+    line, seg = np.nonzero((hi >= 0.0) & (lo <= eye.wall))  # the segments within the wall
+    worst = np.zeros(lines.shape[0])
+    x0, x1, lo, hi = x0[line, seg], x1[line, seg], lo[line, seg], hi[line, seg]
+    p0, p1 = lines[line, seg] - eye.port, lines[line, seg + 1] - eye.port
+    r0, r1 = p0 - x0[:, None] * eye.axis, p1 - x1[:, None] * eye.axis
     flat = x1 == x0
     span = np.where(flat, 1.0, x1 - x0)
-    worst = np.zeros(x.shape[:-1])
     for xc in (np.maximum(lo, 0.0), np.minimum(hi, eye.wall)):
         t = np.where(flat, 0.0, (xc - x0) / span)
-        d = np.linalg.norm(r0 + t[..., None] * (r1 - r0), axis=-1)
-        worst = np.maximum(worst, np.max(np.where(inside, d, 0.0), axis=-1))
-    return worst
+        np.maximum.at(worst, line, np.linalg.norm(r0 + t[:, None] * (r1 - r0), axis=-1))
+    return worst.reshape(polyline.shape[:-2])
+
+
+def needle_polylines(robot: RobotModel, joints: FloatArray,
+                     arc: FloatArray | None = None) -> FloatArray:  # fmt: skip
+    """`needle_polyline` at each joints row (R, n), (R, N, 3): a curved needle's from its
+    kernels' needle frames (`CurvedTipRobot.needle_frames`: the arc's points (x, 0, z) in the
+    mount frame at p(0) + x b + z a), another robot's one row at a time."""
+    if not isinstance(robot, CurvedTipRobot) or robot.arrays is None:
+        return np.array([needle_polyline(robot, q, arc) for q in joints])
+    local = arc_points(robot) if arc is None else arc
+    F = robot.needle_frames(joints)
+    o, a, b = F[:, 0:1], F[:, 2:3], F[:, 3:4]
+    curve = o + local[None, :, 0:1] * b + local[None, :, 2:3] * a
+    return np.concatenate([F[:, 0:2], curve], axis=1)
 
 
 def port_offsets(robot: RobotModel, eye: Eye, log: RunLog) -> dict[str, float]:
@@ -73,7 +89,7 @@ def port_offsets(robot: RobotModel, eye: Eye, log: RunLog) -> dict[str, float]:
         rows = np.flatnonzero(log.phase == pid)
         if name in OUTSIDE_PHASES or rows.size == 0:
             continue
-        lines = np.array([needle_polyline(robot, log.joints[r], arc) for r in rows])
+        lines = needle_polylines(robot, log.joints[rows], arc)
         out[name] = float(port_offset(eye, lines).max())
     return out
 
