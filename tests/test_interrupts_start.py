@@ -62,3 +62,33 @@ def test_a_signal_while_the_handler_s_modules_load_waits_for_them_and_stops_the_
     assert doc == {"command": "inject", "status": "interrupted",
                    "message": "interrupted by SIGTERM before the run"}  # fmt: skip
     assert "rcmplan inject: interrupted by SIGTERM before the run" in done.stderr
+
+
+# Runs `rcmplan inject --out OUT` as the command, sending itself SIGINT as `interrupts.handled`
+# yields to its block: the handler runs at the next instruction, before the command's own code.
+AT_THE_BLOCK = """
+import os, signal, sys
+sys.argv = ["rcmplan", "inject", "--no-plots", "--out", sys.argv[1]]
+from rcmplan.cli import interrupts, main
+target, sent = interrupts.handled.__wrapped__.__code__, []
+def tracer(frame, event, arg):
+    if frame.f_code is target and event == "return" and not sent:
+        sent.append(1)
+        os.kill(os.getpid(), signal.SIGINT)
+    return tracer if frame.f_code is target else None
+sys.settrace(tracer)
+sys.exit(main())
+"""
+
+
+def test_a_signal_as_the_run_block_begins_stops_the_command_with_its_stop_file(
+    tmp_path: Path,
+) -> None:
+    done = subprocess.run([sys.executable, "-c", AT_THE_BLOCK, str(tmp_path)],
+                          env={**os.environ, "PYTHONPATH": SRC}, capture_output=True,
+                          text=True, timeout=300)  # fmt: skip
+    assert done.returncode == 130 and not our_tracebacks(done.stderr), done.stderr[-2000:]
+    doc = json.loads((tmp_path / "summary.json").read_text())
+    assert doc["status"] == "interrupted"
+    assert doc["message"] == "interrupted by SIGINT before the run"
+    assert "rcmplan inject: interrupted by SIGINT" in done.stderr

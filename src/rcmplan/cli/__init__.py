@@ -94,14 +94,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     words = sys.argv[1:] if argv is None else argv
     args = build_parser(modules_for(words)).parse_args(words)
-    with interrupts.handled():
-        return _run(args)
+    return _run(args)
 
 
 def _run(args: argparse.Namespace) -> int:
+    """Run the parsed command inside `interrupts.handled()`; the handling of an interrupt
+    encloses that block, so a signal at its first instruction is handled as any other."""
     try:
-        code: int = args.run(args)
-        sys.stdout.flush()
+        with interrupts.handled():
+            code: int = args.run(args)
+            sys.stdout.flush()
     except KeyboardInterrupt as exc:
         unanswered = not interrupts.answered()
         with interrupts.shielded():  # a second signal cannot cut the partial outputs or cleanup

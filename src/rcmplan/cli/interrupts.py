@@ -285,19 +285,24 @@ def answered() -> bool:
 def handled() -> Iterator[None]:
     """SIGTERM raises Terminated and SIGINT Interrupted (both KeyboardInterrupt) inside the
     block (main thread only). In the command's process the stage is "finished" after it;
-    called in-process, the previous handlers come back."""
+    called in-process, the previous handlers come back. An interrupt leaving the block is
+    the caller's to answer (`shielded()`); one the block swallowed ends the process."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     ours = _state.command is not None
     old = {} if ours else {s: signal.signal(s, _on_signal) for s in CAUGHT}
     _state.stage, _state.answered = "running", True
+    leaving = False  # an interrupt propagates out of the block
     try:
         yield
+    except KeyboardInterrupt:
+        leaving = True
+        raise
     finally:
         if ours:
             finished()
-            if not _state.answered:  # swallowed on its way: the signal ends the process now
+            if not _state.answered and not leaving:  # swallowed: the signal ends the process
                 from rcmplan._atomic import remove_unfinished
 
                 remove_unfinished()
