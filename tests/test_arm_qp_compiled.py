@@ -383,7 +383,7 @@ def test_the_arm_loop_refuses_the_qp_without_its_arrays(arm: SerialArm) -> None:
     assert args[10] is None
     target = extended_task(arm, arm.home, 0.5)[None, :]
     rec = np.empty((200, setup.width))  # room for a whole target (the loop pauses before)
-    with pytest.raises(ValueError, match="needs qpa"):
+    with pytest.raises(ValueError, match="need qpa"):
         fast_cache.arm_loop().run_arm_targets(
             *args, np.ascontiguousarray(arm.lower), np.ascontiguousarray(arm.upper), target, 0,
             arm.home.copy(), np.array([0.5, 0.0, 1e-3]), rec, np.empty((200, 2), dtype=np.int64),

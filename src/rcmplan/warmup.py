@@ -16,6 +16,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import arm_phase, curved_phase, qp_mujoco_phase, qp_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm, check_arm_targets
+from rcmplan.compiled.arm_qp import curved_qp_applies
 from rcmplan.compiled.curved import curved_arrays, screen
 from rcmplan.compiled.phase import run_phase_compiled, run_phase_on_plant
 from rcmplan.compiled.records import robot_params
@@ -174,8 +175,8 @@ def compile_curved_kernels() -> None:
     """Compile (or load from numba's cache) the curved needle's loops, steps and target screens
     with the argument types used here: the screen and each curved solver on one target (one
     step called from Python, one phase in the loop), on iRAM!S and on iRAM!S's DH chain as an
-    arm holding the needle (no robot package needed); on iRAM!S also the QP and its limited
-    free-space step."""
+    arm holding the needle (no robot package needed), the QP and its limited free-space step
+    included."""
     from rcmplan.control.curved import (
         CurvedDlsSolver,
         CurvedPinvSolver,
@@ -208,8 +209,7 @@ def compile_curved_kernels() -> None:
         arrays = curved_arrays(robot)
         if arrays is None:
             continue
-        if arrays.P is not None:
-            jobs.append((LimitedPoseSolver(), pose))
+        jobs.append((LimitedPoseSolver(), pose))
         screen(robot, arrays, x[None, :], np.ascontiguousarray(q, dtype=np.float64))
         for solver, target in jobs:
             solver.step(robot, q, 0.5, target, solver.error(robot, q, 0.5, target))  # from Python
@@ -220,11 +220,14 @@ def compile_curved_kernels() -> None:
                 curved_phase.run_iramis_phase(ctl, solver, target[None, :], pid, 0, arrays)
             else:
                 arm_phase.run_arm_phase_exact(ctl, solver, target[None, :], pid, 0, arrays)
+        qp = QpSolver(robot)
+        ctl = Controller(KinematicPlant(base), qp, robot=robot)
+        ctl.lam = 0.5
+        pid = ctl.log.phase_id("warm")
         if arrays.P is not None:
-            qp = QpSolver(robot)
-            ctl = Controller(KinematicPlant(base), qp, robot=robot)
-            ctl.lam = 0.5
-            qp_phase.run_if_ready(ctl, qp, x[None, :], ctl.log.phase_id("warm"), 0, arrays.P)
+            qp_phase.run_if_ready(ctl, qp, x[None, :], pid, 0, arrays.P)
+        elif curved_qp_applies(qp):
+            arm_phase.run_arm_phase_exact(ctl, qp, x[None, :], pid, 0, arrays)
 
 
 def compile_bscan_kernels() -> None:

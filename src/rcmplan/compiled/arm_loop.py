@@ -22,7 +22,9 @@ DAQP does not finish optimally stops the loop with QP_FAILED (DAQP's exit flag i
 A curved needle (method codes from CURVED on, the arrays of `rcmplan.compiled.curved`) takes the
 same loop: its error, step and tip come from `curved_arm`, the roll joint moves with the others
 (the curved needle's active joints), its rows have the roll error column
-(`record_columns(n, roll=True)`) and `fail` a 7-row error.
+(`record_columns(n, roll=True)`) and `fail` a 7-row error. Its QP (CURVED_QP) solves on X_c's
+rows (`arm_qp_kernels.solve_curved_arm_step`), its QP's free-space step (CURVED_POSE_LIMITED) is
+the whole-pose step limited as TIP_LIMITED limits the tip step (`limit_step`).
 """
 
 from __future__ import annotations
@@ -33,7 +35,11 @@ import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.arm_qp_kernels import solve_arm_step, solve_servo_step
+from rcmplan.compiled.arm_qp_kernels import (
+    solve_arm_step,
+    solve_curved_arm_step,
+    solve_servo_step,
+)
 from rcmplan.compiled.chain_kernels import (
     ROWS,
     IntArray,
@@ -50,6 +56,9 @@ from rcmplan.compiled.loop import converged, holds_rcm, keep_record, target_fram
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
+    CURVED_POSE,
+    CURVED_POSE_LIMITED,
+    CURVED_QP,
     DLS,
     DONE,
     NO_CONVERGENCE,
@@ -163,12 +172,14 @@ def arm_iterate(
     arrays (`arm_phase.qp_arrays`) for method QP, else None; C: for a curved needle's methods
     its work array (W itself), else None (numba leaves out the branches of a None argument,
     `loop.iterate`). `framed`: W already holds the frames of s."""
-    if (method == QP and qpa is None) or (method >= CURVED and C is None):
-        raise ValueError("arm_loop.arm_iterate: method QP needs qpa, a curved needle's method C")
+    qp = method in (QP, CURVED_QP)
+    if (qp and qpa is None) or (method >= CURVED) == (C is None):
+        raise ValueError("arm_loop.arm_iterate: QP methods need qpa, a curved needle's methods C")
     n, m = ix[0], ix[1]
     first = 2 + n  # the moving joints: the arm's active ones
     if C is not None and method >= CURVED:  # or the curved needle's (with the roll joint)
         first, m = curved_arm.active_span(ix)
+    cm = CURVED_POSE if method == CURVED_POSE_LIMITED else method  # the curved step's method
     e = fail[2 * n :]
     for i in range(n):
         fail[i] = s[i]
@@ -179,19 +190,23 @@ def arm_iterate(
         lam, now = closest_on_needle(A, n, W, trocar)
         if drift:
             state[0] = lam
-    if qpa is not None and method == QP:  # error and step from one solve (`ArmQpStep`)
-        travel, Q, contacts, qp, act, flag, servo = qpa
-        if servo.shape[0] > 0:
+    if qpa is not None and qp:  # error and step from one solve (`ArmQpStep`)
+        travel, Q, contacts, bufs, act, flag, servo = qpa
+        ne = 6
+        if C is not None:  # a curved needle's (no servo)
+            flag[0] = solve_curved_arm_step(A, ix, C, travel, Q, contacts, K, s, state[0],
+                                            target, act, e, d, bufs)  # fmt: skip
+            ne = 7
+        elif servo.shape[0] > 0:
             flag[0] = solve_servo_step(A, ix, W, travel, Q, contacts, K, s, state[0], target,
-                                       act, e, d, qp, servo)  # fmt: skip
+                                       act, e, d, bufs, servo)  # fmt: skip
         else:
             flag[0] = solve_arm_step(A, ix, W, travel, Q, contacts, K, s, state[0], target, act,
-                                     e, d, qp)  # fmt: skip
+                                     e, d, bufs)  # fmt: skip
         if flag[0] != 1:
             return QP_FAILED
-        ne = 6
     elif C is not None and method >= CURVED:
-        ne = curved_step.arm_task_error(A, ix, C, method, state[0], target, e)
+        ne = curved_step.arm_task_error(A, ix, C, cm, state[0], target, e)
     else:
         ne = task_error(A, ix, W, method, state[0], target, tip_t, pivot, e)
     if it > 0:
@@ -205,12 +220,16 @@ def arm_iterate(
         return NO_CONVERGENCE
     if is_singular(A, ix, W, bounds[0]):
         return SINGULAR
-    if C is not None and method >= CURVED:
-        curved_step.arm_step(A, ix, C, method, K, gain, damping, s, state[0], e, d)
-    elif method != QP:
+    if qp:
+        pass  # the solve's step
+    elif C is not None and method >= CURVED:
+        curved_step.arm_step(A, ix, C, cm, K, gain, damping, s, state[0], e, d)
+    else:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
     if method == TIP_LIMITED:
-        limit_step(K, ix, W, s, d)
+        limit_step(K, ix, W, s, d, first, m)
+    elif C is not None and method == CURVED_POSE_LIMITED:  # K: the gains (7,), the bounds
+        limit_step(K[7:], ix, W, s, d, first, m)
     for _ in range(STEP_TRIES if holds_rcm(method) and bounds[1] > 0.0 else 0):
         stepped(n, ix, first, m, s, d, fail)
         frames(A, ix, fail[n : 2 * n], W)  # W then holds the stepped frames
@@ -225,24 +244,26 @@ def arm_iterate(
 
 
 @njit(cache=True)
-def limit_step(K: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: FloatArray) -> None:
-    """`LimitedTipSolver.step` on an arm (its actuators are its joints s): the tip step d of
-    the m active joints scaled by the largest f in [0, 1] that keeps each one's move within
-    K[j] (speed x dt) and inside its travel [K[m + j], K[2m + j]] less the margin K[3m] (a
-    joint outside that band may only move back), and with a tip speed bound K[3m + 1] > 0
+def limit_step(K: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: FloatArray,
+               first: int, m: int) -> None:  # fmt: skip
+    """`LimitedTipSolver.step` on an arm (its actuators are its joints s), or
+    `LimitedPoseSolver.step` on a curved needle's whole-pose step: the step d of the m moving
+    joints ix[first:first + m] scaled by the largest f in [0, 1] that keeps each one's move
+    within K[j] (speed x dt) and inside its travel [K[m + j], K[2m + j]] less the margin K[3m]
+    (a joint outside that band may only move back), and with a tip speed bound K[3m + 1] > 0
     (tip speed x dt) each component of the tip's first-order step J_tip d (W's J rows, left
-    by the step) within it; d becomes (s + f ds) - s, ds = (s + d) - s
+    by the tip step) within it; d becomes (s + f ds) - s, ds = (s + d) - s
     (`limited_tip.step_fraction`, `tip_fraction`)."""
-    n, m = ix[0], ix[1]
+    n = ix[0]
     f = tip_fraction(W, 4 * (n + 1), d, m, K[3 * m + 1])
     s_active = np.empty(m)
     for j in range(m):
-        k = ix[2 + n + j]
+        k = ix[first + j]
         s_active[j] = s[k]
         d[j] = (s[k] + d[j]) - s[k]
     f = step_fraction(s_active, d[:m], K[:m], K[m : 2 * m], K[2 * m : 3 * m], K[3 * m], f)
     for j in range(m):
-        k = ix[2 + n + j]
+        k = ix[first + j]
         d[j] = (s[k] + f * d[j]) - s[k]
 
 

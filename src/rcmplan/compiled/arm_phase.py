@@ -8,7 +8,8 @@ kinematics the chain kernels reproduce (`arm.arm_arrays`), with a solver the ker
 TIP_LIMITED), or the QP controller where the arm's compiled QP step
 reproduces it (`arm_qp.arm_qp_applies`: one solve gives the iteration's error and step, in the
 same loop); `curved_phase` runs a curved needle on an arm through
-`run_arm_phase_exact` with the curved needle's arrays. The side effects are the reference
+`run_arm_phase_exact` with the curved needle's arrays (its QP as CURVED_QP, the QP's free-space
+`LimitedPoseSolver` as CURVED_POSE_LIMITED). The side effects are the reference
 loop's: records go to the controller's log, the plant and controller.lam end where
 `Controller.converge` leaves them, and a stop raises the reference exception with the partial
 log kept (`records.raise_arm_stop` repeats the failing check with the reference function: the
@@ -25,10 +26,12 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
-from rcmplan.compiled.arm_qp import arm_qp_applies, qp_arrays, servo_command
+from rcmplan.compiled.arm_qp import arm_qp_applies, curved_qp_applies, qp_arrays, servo_command
 from rcmplan.compiled.qp_phase import raise_qp_failure
 from rcmplan.compiled.records import (
     BLOCK,
+    CURVED_POSE_LIMITED,
+    CURVED_QP,
     DONE,
     NO_TIP,
     PAUSED,
@@ -43,11 +46,12 @@ from rcmplan.compiled.records import (
     record_width,
     solver_arrays,
 )
+from rcmplan.control.curved import LimitedPoseSolver
 from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 from rcmplan.robot.curved import CurvedArrays
-from rcmplan.robot.model import SerialArm
+from rcmplan.robot.model import RobotModel, SerialArm
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -57,23 +61,33 @@ ITERATIONS_PER_TARGET = 3  # on a kinematic plant: 150 records for the UR5 p3-p4
 
 def arm_code(controller: Controller, solver: Solver) -> int | None:
     """The arm loop's method code for the solver (`records.method_code`, or QP for a QpSolver
-    on the controller's robot that the compiled arm QP reproduces), else None."""
+    on the controller's robot that the compiled arm QP reproduces, CURVED_QP for a curved
+    needle's, `arm_qp.curved_qp_applies`), else None."""
     code = method_code(solver)
     if code is None and isinstance(solver, QpSolver) and solver.robot is controller.robot:
+        if solver.curved:
+            return CURVED_QP if curved_qp_applies(solver) else None
         return QP if arm_qp_applies(solver) else None
     if type(solver) is LimitedTipSolver:
         return TIP_LIMITED
+    if type(solver) is LimitedPoseSolver:
+        return CURVED_POSE_LIMITED
     return code
 
 
-def limited_K(robot: SerialArm, solver: LimitedTipSolver) -> FloatArray:
-    """What the arm loop's TIP_LIMITED step holds (`arm_loop.limit_step`): each active joint's
+def limited_K(robot: RobotModel, solver: LimitedTipSolver | LimitedPoseSolver) -> FloatArray:
+    """What the arm loop's limited steps hold (`arm_loop.limit_step`): each moving joint's
     largest move per period (speed x dt), its travel (lower, upper), the margin and the tip's
-    largest move per axis and period (tip speed x dt; 0: no tip speed bound)."""
+    largest move per axis and period (tip speed x dt; 0: no tip speed bound); for the curved
+    needle's whole-pose step (CURVED_POSE_LIMITED) after its gains (7,)."""
     active = list(robot.active)
-    tip = 0.0 if solver.tip_speed is None else solver.tip_speed * solver.dt
-    return np.concatenate([robot.speed[active] * solver.dt, robot.lower[active],
-                           robot.upper[active], [solver.travel_margin, tip]])  # fmt: skip
+    speed = getattr(solver, "tip_speed", None)
+    tip = 0.0 if speed is None else speed * solver.dt
+    bounds = np.concatenate([robot.speed[active] * solver.dt, robot.lower[active],
+                             robot.upper[active], [solver.travel_margin, tip]])  # fmt: skip
+    if isinstance(solver, LimitedPoseSolver):
+        return np.concatenate([np.asarray(solver.K, dtype=np.float64), bounds])
+    return bounds
 
 
 def applies(controller: Controller, solver: Solver) -> bool:
@@ -109,7 +123,7 @@ class _Setup:
         self.n, m = int(ix[0]), int(ix[1])
         code, (K, damping, tol) = arm_code(controller, solver), solver_arrays(solver)
         self.code, self.tol = int(code), tol  # type: ignore[arg-type]
-        if code == TIP_LIMITED:
+        if code in (TIP_LIMITED, CURVED_POSE_LIMITED):
             K = limited_K(controller.robot, solver)  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
         self.qpa = qp_arrays(solver, self.n, m)

@@ -24,6 +24,7 @@ import numpy as np
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
+from rcmplan.compiled.curved import curved_arrays
 from rcmplan.compiled.packed import pack
 from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.qp_phase import assembled_step
@@ -49,23 +50,38 @@ def arm_qp_applies(solver: object) -> bool:
     return qp_params(solver.robot, solver) is not None
 
 
+def curved_qp_applies(solver: object) -> bool:
+    """True for a curved needle's QpSolver the arm loop runs (method CURVED_QP): the DAQP back
+    end, a `CurvedTipRobot` itself holding the needle on an arm (`curved.curved_arrays`: an
+    arm's arrays), the settings the kernels hold (`qp_params`), no servo."""
+    if type(solver) is not QpSolver or solver.backend != "daqp" or not solver.curved:
+        return False
+    arrays = curved_arrays(solver.robot)
+    if arrays is None or arrays.P is not None or solver.servo is not None:
+        return False
+    return fast_cache.daqp_callable() and qp_params(solver.robot, solver) is not None
+
+
 def qp_arrays(solver: object, n: int, m: int) -> tuple | None:
     """What the arm QP's solve reads (`arm_loop.arm_iterate`'s qpa) for n joints, m active:
     travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are now), the
     solve's buffers (`qp_rows.buffers`), the active joints (m,), DAQP's exit flag (1,) and with
     a servo its array (`arm_qp_kernels.solve_servo_step`: the command, filled before each
     solve by `servo_command`, the resolution, scratch), else (0,). None for another solver."""
-    if not (isinstance(solver, QpSolver) and arm_qp_applies(solver)):
+    curved = isinstance(solver, QpSolver) and curved_qp_applies(solver)
+    if not (isinstance(solver, QpSolver) and (curved or arm_qp_applies(solver))):
         return None
     servo = np.zeros(0)
-    robot, active = solver.robot, list(solver.robot.active)
+    robot, active = solver.robot, list(solver.robot.active)  # a curved needle's: m_c of them
+    m = len(active)
     travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
     Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
     if solver.servo is not None:
         servo = np.zeros(3 * n + 12)
         res = getattr(solver.servo, "actuator_resolution", None)
         servo[n : 2 * n] = 0.0 if res is None else res
-    return travel, Q, contacts, buffers(m + 1), np.empty(m), np.zeros(1, dtype=np.int64), servo
+    bufs = buffers(m + 1, 7) if curved else buffers(m + 1)
+    return travel, Q, contacts, bufs, np.empty(m), np.zeros(1, dtype=np.int64), servo
 
 
 def servo_command(solver: object, qpa: tuple | None) -> None:

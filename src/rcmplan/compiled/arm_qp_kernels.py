@@ -31,8 +31,11 @@ from rcmplan.compiled.qp_rows import (
     solve_assembled,
     solve_planned,
 )
+from rcmplan.control import curved_step
 from rcmplan.control.cost import x_ext_jacobian
 from rcmplan.control.limits.base import SCALE
+from rcmplan.robot import curved_arm
+from rcmplan.robot import curved_block as ck
 from rcmplan.robot.chain_kinematics import (
     IntArray,
     angle_rows,
@@ -44,8 +47,8 @@ from rcmplan.robot.chain_kinematics import (
 )
 from rcmplan.robot.chain_singular import singular_terms
 
-__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step", "solve_packed",
-           "solve_servo_step", "step_arrays"]  # fmt: skip
+__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step",
+           "solve_curved_arm_step", "solve_packed", "solve_servo_step", "step_arrays"]  # fmt: skip
 
 
 @njit(cache=True)
@@ -146,6 +149,58 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
         k = ix[2 + n + j]
         d[j] = (plan[k] + x[j] * SCALE) - q[k]
     d[m] = x[m] * SCALE / A[5 * n + 12, 0]
+    return flag
+
+
+@njit(cache=True)
+def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
+                          Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
+                          lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
+                          d: FloatArray, qp: tuple) -> int:  # fmt: skip
+    """`solve_arm_step` for a curved needle on the arm (A, ix: `curved_arm.pack`'s arrays, W
+    its work array): variables the curved needle's m_c active joints and l dlambda, the cost
+    on X_c's rows J_c T (7, m_c + 1) (T: 1 / l for lambda), the tip the arc's end, the arm's
+    singular measure over its straight active joints (0 for a joint only the curved needle
+    moves, as `SerialArm.singular_terms`). e (7,) holds the X_c error, d (m_c + 1,) the
+    step."""
+    n, m = ix[0], ix[1]
+    first, mc = curved_arm.active_span(ix)
+    c = curved_arm.block_row(n)
+    task_, JT, pts, grads = qp[6], qp[15], qp[16], qp[18]
+    frames(A, ix, q, W)
+    for j in range(mc):
+        s[j] = q[ix[first + j]]
+    curved_arm.task(A, n, W, lam, False, e)
+    curved_step.error(e, target, e)
+    curved_arm.jacobian(A, ix, W, lam, False)
+    per_l = 1.0 / A[5 * n + 12, 0]  # T's lambda entry
+    for i in range(7):
+        for j in range(mc):
+            task_[i, j] = W[c + ck.J + i, j]
+        task_[i, mc] = W[c + ck.J + i, mc] * per_l
+    for j in range(mc + 1):  # JT: the tip's rows and the RCM point's (X_c's rows 0-2, 4-6)
+        for i in range(3):
+            JT[i, j], JT[3 + i, j] = task_[i, j], task_[4 + i, j]
+    pts[0, 0], pts[0, 1], pts[0, 2] = curved_arm.tip(A, n, W)
+    pts[1, 0], pts[1, 1], pts[1, 2] = needle_point(A, n, W, lam)
+    pts[2, 0], pts[2, 1], pts[2, 2] = needle_axis(A, n, W)
+    values = qp[9][:1]
+    values[0] = singular_terms(A, ix, W, grads[1])  # over the straight active joints
+    for j in range(mc + 1):
+        grads[0, j] = 0.0
+        for p in range(m):
+            if j < mc and ix[first + j] == ix[2 + n + p]:
+                grads[0, j] = grads[1, p]
+    rows = assemble(Q, contacts, K, lam, target, e, s, travel[0], travel[1], A[5 * n + 12, 0],
+                    values, qp)  # fmt: skip
+    flag = solve_assembled(Q, K, rows, e, qp)
+    if flag != 1:
+        return flag
+    x = qp[X]
+    for j in range(mc):  # `qp.joints_step`: the joints moved by x
+        k = ix[first + j]
+        d[j] = (q[k] + x[j] * SCALE) - q[k]
+    d[mc] = x[mc] * SCALE / A[5 * n + 12, 0]
     return flag
 
 

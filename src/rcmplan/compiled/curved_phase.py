@@ -5,9 +5,10 @@ the loop around the plant's period (`mujoco_loop.run_targets_on_mujoco`); each w
 needle's method codes.
 
 Applies to `CurvedPinvSolver`, `CurvedDlsSolver` and `CurvedPoseSolver` (exact types; the pose
-solver with at most six active joints) driving a robot `curved.curved_arrays` accepts, and to
-the curved QP's free-space step `LimitedPoseSolver` on iRAM!S and the kinematic plant (method
-CURVED_POSE_LIMITED, `records.iramis_method`; the QP's own phases: `qp_phase`). The side
+solver with at most six active joints) driving a robot `curved.curved_arrays` accepts, and on
+the kinematic plant to the curved QP's free-space step `LimitedPoseSolver` (method
+CURVED_POSE_LIMITED) and, on an arm, to the QP itself (CURVED_QP, `arm_qp.curved_qp_applies`;
+iRAM!S's QP phases: `qp_phase`). The side
 effects are the reference loop's: records (with the roll error) go to the controller's log, the
 plant and controller.lam end where `Controller.converge` leaves them, and a stop raises the
 reference exception with the partial log kept. Other plants take the Python loop.
@@ -22,6 +23,7 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
+from rcmplan.compiled.arm_qp import curved_qp_applies
 from rcmplan.compiled.curved import curved_arrays
 from rcmplan.compiled.phase import IntArray, run_in_blocks
 from rcmplan.compiled.records import (
@@ -37,6 +39,7 @@ from rcmplan.compiled.records import (
     solver_arrays,
 )
 from rcmplan.control.curved import POSE_JOINTS, LimitedPoseSolver
+from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 from rcmplan.robot.curved import CurvedArrays
 from rcmplan.robot.curved_block import BLOCK_ROWS
@@ -48,8 +51,12 @@ ITERATIONS_PER_TARGET = 4  # on the kinematic plant: 12,725 records / 9,768 targ
 
 
 def applies(controller: Controller, solver: Solver) -> bool:
-    """True for a curved needle's solver (whether the compiled path runs is `run_if_fast`'s)."""
-    return is_curved(method_code(solver)) or type(solver) is LimitedPoseSolver
+    """True for a curved needle's solver, its QP's free-space step, and its QP on an arm
+    (iRAM!S's: `qp_phase`); whether the compiled path runs is `run_if_fast`'s."""
+    if is_curved(method_code(solver)) or type(solver) is LimitedPoseSolver:
+        return True
+    arrays = curved_arrays(controller.robot)
+    return type(solver) is QpSolver and arrays is not None and arrays.P is None
 
 
 def run_if_fast(
@@ -62,10 +69,16 @@ def run_if_fast(
     arrays = curved_arrays(controller.robot)
     if arrays is None or (method_code(solver) == CURVED_POSE and arrays.m > POSE_JOINTS):
         return False
-    if type(solver) is LimitedPoseSolver:  # on iRAM!S and the kinematic plant
-        if arrays.P is None or not getattr(controller.plant, "exact_commands", False):
+    exact = bool(getattr(controller.plant, "exact_commands", False))
+    if type(solver) is LimitedPoseSolver or type(solver) is QpSolver:  # the kinematic plant
+        if not exact or (type(solver) is QpSolver and not curved_qp_applies(solver)):
             return False
-        run_iramis_phase(controller, solver, targets, pid, sid, arrays)
+        if type(solver) is LimitedPoseSolver and arrays.m > POSE_JOINTS:
+            return False
+        if arrays.P is not None:
+            run_iramis_phase(controller, solver, targets, pid, sid, arrays)
+        else:
+            arm_phase.run_arm_phase_exact(controller, solver, targets, pid, sid, arrays)
         return True
     if not getattr(controller.plant, "exact_commands", False):
         if arrays.P is None or not getattr(controller.plant, "compiled_physics", False):
