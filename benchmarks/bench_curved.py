@@ -10,9 +10,9 @@ injection on the compiled and the reference path.
   <= 1.3 x straight.
 - `rcmplan inject --scenario curved --no-plots [--robot ur5]` wall time, one process each,
   numba's cache warmed first.
-- The QP on the `curved` scenario (iRAM!S): `Controller.run` of the whole procedure (target
-  checks and motion, 37,290 iterations) in the compiled loop (`CURVED_QP`, its free phases
-  `CURVED_POSE_LIMITED`) against the Python loop (`ReferenceRunner`), in the same process.
+- The QP on the `curved` scenario (iRAM!S; the UR5 without --quick): `Controller.run` of the
+  whole procedure (target checks and motion) in the compiled loop (`CURVED_QP`, its free
+  phases `CURVED_POSE_LIMITED`) against the Python loop (`ReferenceRunner`), same process.
 """
 
 from __future__ import annotations
@@ -177,11 +177,11 @@ def inject_rows(name: str) -> list[dict[str, Any]]:
     return [row(figure, seconds, "s")]
 
 
-def qp_run_seconds(runner: Runner | None) -> tuple[float, int]:
-    """(wall time [s], records) of `Controller.run` on the `curved` scenario with the QP, on
-    the runner given (None: the default, compiled)."""
+def qp_run_seconds(name: str, runner: Runner | None) -> tuple[float, int]:
+    """(wall time [s], records) of `Controller.run` on the `curved` scenario with the QP on
+    robot `name`, on the runner given (None: the default, compiled)."""
     scenario = load_scenario("curved").with_method("qp")
-    robot = scenario.needle.fit(make_robot("iramis"))
+    robot = scenario.needle.fit(make_robot(name))
     plant = KinematicPlant(getattr(robot, "base", robot))
     plant.reset(robot.home_actuators)
     solver = make_solver("qp", scenario.method_settings, robot, eye=default_eye(robot))
@@ -192,12 +192,13 @@ def qp_run_seconds(runner: Runner | None) -> tuple[float, int]:
     return time.perf_counter() - t, len(log)
 
 
-def qp_rows() -> list[dict[str, Any]]:
+def qp_rows(name: str) -> list[dict[str, Any]]:
     """The curved QP's procedure, compiled (after a first run that compiles) and in Python."""
-    qp_run_seconds(None)
-    compiled, n = qp_run_seconds(None)
-    python, _ = qp_run_seconds(ReferenceRunner())
-    figure = f"iRAM!S curved needle, QP: `Controller.run` of the `curved` procedure ({n} records)"
+    qp_run_seconds(name, None)
+    compiled, n = qp_run_seconds(name, None)
+    python, _ = qp_run_seconds(name, ReferenceRunner())
+    figure = (f"{ROBOTS[name]} curved needle, QP: `Controller.run` of the `curved` procedure "
+              f"({n} records)")  # fmt: skip
     return [row(figure, compiled, "s", "the Python loop, same run", python)]
 
 
@@ -207,9 +208,8 @@ def rows() -> list[dict[str, Any]]:
     out: list[dict[str, Any]] = []
     for name in ROBOTS:
         out += step_rows(name)
-    out += qp_rows()
     for name in ("iramis",) if quick() else tuple(ROBOTS):
-        out += inject_rows(name)
+        out += qp_rows(name) + inject_rows(name)
     return out
 
 
