@@ -16,10 +16,12 @@ from rcmplan.control.log import ARRAY_FIELDS, LogBuilder, RunLog
 from rcmplan.control.runner import ReferenceRunner
 from rcmplan.control.targets import rcm_target, solve_pose
 from rcmplan.controller import Controller
+from rcmplan.job import run_scenario
 from rcmplan.robot.curved import CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.scene.scenario import load_scenario
 from rcmplan.sim import KinematicPlant
 
 SOLVER = CurvedPinvSolver(K=(1.0, 1.0, 1.0, 0.5, 1.0, 1.0, 1.0))
@@ -101,3 +103,17 @@ def test_records_and_logs_built_without_a_roll_error_hold_nan(robot: CurvedTipRo
     assert np.isnan(builder.finish().roll_error).all()
     arrays = {k: getattr(log, k) for k in row}
     assert np.isnan(RunLog(**arrays).roll_error).all()
+
+
+def test_a_log_without_records_has_the_robot_s_actuator_columns() -> None:
+    """A run refused before motion leaves an empty log: its actuator and joint columns are as
+    many as the controller's actuator labels, so figures indexed by the robot's joints read it
+    (the curved scenario on the Panda: joint 7 beyond travel at a lateral target)."""
+    builder = LogBuilder(actuator_labels=tuple(f"j{i}_rad" for i in range(7)))
+    log = builder.finish()
+    assert log.sliders.shape == (0, 7) and log.joints.shape == (0, 7)
+    assert LogBuilder().finish().sliders.shape == (0, 6)  # no labels: iRAM!S's six
+    sc = load_scenario("curved").with_robot("panda")
+    result = run_scenario(sc)
+    assert result.status == "unreachable_target"
+    assert result.summary()["limit_violations"]["travel"] == 0

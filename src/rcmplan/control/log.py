@@ -186,6 +186,13 @@ class LogBuilder:
     _blocks: dict[str, list] = field(default_factory=lambda: {k: [] for k in ARRAY_FIELDS})
     _n_blocks: int = 0
 
+    def _empty(self, k: str) -> np.ndarray:
+        """Field k with no records: a robot's width where the field has one per actuator."""
+        empty = _column(k, [], 0)
+        if k in WIDE and self.actuator_labels:
+            return empty.reshape(0, len(self.actuator_labels))
+        return empty
+
     def phase_id(self, name: str) -> int:
         """Register a phase name (in order of first use) and return its id."""
         if name not in self.phase_names:
@@ -248,10 +255,11 @@ class LogBuilder:
         return float(norms[held].max()) if held.any() else 0.0
 
     def finish(self) -> RunLog:
-        """The records so far as a RunLog."""
+        """The records so far as a RunLog (without any, its actuator and joint columns as many
+        as its actuator labels, when they are set)."""
         self._flush()
         arrays = {
-            k: np.concatenate(self._blocks[k]) if self._blocks[k] else _column(k, [], 0)
+            k: np.concatenate(self._blocks[k]) if self._blocks[k] else self._empty(k)
             for k in ARRAY_FIELDS
         }
         return RunLog(
