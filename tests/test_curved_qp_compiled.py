@@ -38,6 +38,7 @@ from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.sim import KinematicPlant
+from test_qp_compiled import assert_same_step, relative_gap
 
 from logcheck import assert_same_log
 from paths import use_path
@@ -72,12 +73,6 @@ def solvers(robot: CurvedTipRobot) -> list[QpSolver]:
     ]
 
 
-def relative_gap(a: np.ndarray, b: np.ndarray) -> float:
-    """max |a - b| over max |a| (0 for empty arrays)."""
-    assert a.shape == b.shape
-    return float(np.max(np.abs(a - b)) / max(np.max(np.abs(a)), 1e-300)) if a.size else 0.0
-
-
 def test_the_compiled_curved_step_equals_build_step_at_many_states(robot: CurvedTipRobot,
                                                                    rng) -> None:  # type: ignore[no-untyped-def]  # fmt: skip
     arrays = curved_arrays(robot)
@@ -101,12 +96,7 @@ def test_the_compiled_curved_step_equals_build_step_at_many_states(robot: Curved
                                        atol=1e-15)  # fmt: skip
             inp = StepInput(q, lam, target, e.copy(), solver.K, solver.damping, solver.dt,
                             solver.weights)  # fmt: skip
-            ref = build_step(robot, inp, solver.rows, solver.bounds)
-            for name in ("P", "q", "G", "h", "A", "b", "lb", "ub"):
-                gap = relative_gap(getattr(ref.problem, name), getattr(step.problem, name))
-                assert gap <= 1e-12, (name, gap)
-            assert relative_gap(ref.task, step.task) <= 1e-12
-            np.testing.assert_array_equal(ref.sliders, step.sliders)
+            assert_same_step(build_step(robot, inp, solver.rows, solver.bounds), step)
 
 
 def test_the_arm_s_compiled_curved_step_equals_the_python_qp(rng) -> None:  # type: ignore[no-untyped-def]

@@ -24,7 +24,7 @@ from rcmplan.control.phase import split_steps
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.qp_backends import solve
 from rcmplan.control.qp_limits import QpLimits
-from rcmplan.control.qp_problem import SCALE, StepInput, build_step
+from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
 from rcmplan.control.targets import rcm_target
 from rcmplan.controller import Controller
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, QPError
@@ -103,6 +103,16 @@ def relative_gap(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(a - b)) / max(np.max(np.abs(a)), 1e-300)) if a.size else 0.0
 
 
+def assert_same_step(ref: StepQP, step: StepQP) -> None:
+    """The compiled assembly's step equals the Python one: every array of the problem and
+    the task to 1e-12 relative, the actuators it was built at exactly."""
+    for name in ("P", "q", "G", "h", "A", "b", "lb", "ub"):
+        gap = relative_gap(getattr(ref.problem, name), getattr(step.problem, name))
+        assert gap <= 1e-12, (name, gap)
+    assert relative_gap(ref.task, step.task) <= 1e-12
+    np.testing.assert_array_equal(ref.sliders, step.sliders)
+
+
 def test_compiled_qp_equals_build_step_at_many_states(robot: Iramis, rng) -> None:  # type: ignore[no-untyped-def]
     for solver in solvers(robot):
         fast = FastQpStep(solver)
@@ -114,12 +124,7 @@ def test_compiled_qp_equals_build_step_at_many_states(robot: Iramis, rng) -> Non
             # cost's q is compared on the same error, everything else on the reference's.
             inp = StepInput(q, lam, target, fast.e.copy(), solver.K, solver.damping, solver.dt,
                             solver.weights)  # fmt: skip
-            ref = build_step(robot, inp, solver.rows, solver.bounds)
-            for name in ("P", "q", "G", "h", "A", "b", "lb", "ub"):
-                gap = relative_gap(getattr(ref.problem, name), getattr(step.problem, name))
-                assert gap <= 1e-12, (name, gap)
-            assert relative_gap(ref.task, step.task) <= 1e-12
-            np.testing.assert_array_equal(ref.sliders, step.sliders)
+            assert_same_step(build_step(robot, inp, solver.rows, solver.bounds), step)
 
 
 def test_compiled_step_solves_to_the_reference_solvers_step(robot: Iramis, rng) -> None:  # type: ignore[no-untyped-def]
