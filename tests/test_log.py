@@ -117,3 +117,5 @@ def test_a_log_without_records_has_the_robot_s_actuator_columns() -> None:
     result = run_scenario(sc)
     assert result.status == "unreachable_target"
     assert result.summary()["limit_violations"]["travel"] == 0
+    refused = run_scenario(sc.with_method("pinv-thesis"))  # before a controller exists
+    assert refused.status == "invalid_input" and refused.log.sliders.shape == (0, 7)

@@ -76,11 +76,7 @@ class Controller:
         self.settings = settings or LoopSettings()
         self._runner = runner
         self.lam = 1.0
-        self.log = LogBuilder()
-        units = self.robot.actuator_units
-        self.log.actuator_labels = tuple(
-            f"{n}_{u}" for n, u in zip(self.robot.actuator_names, units, strict=True)
-        )
+        self.log = LogBuilder.for_robot(self.robot)
         self.phase_times: dict[str, float] = {}
         # Per phase, the code that ran its motion: "compiled" (the runner ran it), "reference"
         # (the Python loop), or "mixed" (a phase name run more than once, on both).

@@ -83,7 +83,7 @@ def run_scenario(
             extra = curved_figures(robot, scenario, eye, log)
     except RcmplanError as exc:
         error = exc
-        log = exc.log if exc.log is not None else LogBuilder().finish()
+        log = exc.log if exc.log is not None else LogBuilder.for_robot(robot).finish()
     except BaseException as exc:  # an interrupt carries the records so far, as `result`
         ctl = controller
 

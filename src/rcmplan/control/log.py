@@ -186,6 +186,13 @@ class LogBuilder:
     _blocks: dict[str, list] = field(default_factory=lambda: {k: [] for k in ARRAY_FIELDS})
     _n_blocks: int = 0
 
+    @classmethod
+    def for_robot(cls, robot: Any) -> LogBuilder:
+        """A builder for a robot's records: its actuator labels "name_unit" (the log's
+        actuator and joint columns, also when it stays empty)."""
+        names, units = robot.actuator_names, robot.actuator_units
+        return cls(actuator_labels=tuple(f"{n}_{u}" for n, u in zip(names, units, strict=True)))
+
     def _empty(self, k: str) -> np.ndarray:
         """Field k with no records: a robot's width where the field has one per actuator."""
         empty = _column(k, [], 0)

@@ -158,10 +158,7 @@ class Episode:
         )  # a servo only on a plant that lags (MuJoCo)
         self.fast_step = servo.fast_period_step(self.solver)  # the compiled step where it applies
         self.tissue = TissueContact()
-        self.log = LogBuilder()
-        self.log.actuator_labels = tuple(
-            f"{n}_{u}" for n, u in zip(robot.actuator_names, robot.actuator_units, strict=True)
-        )
+        self.log = LogBuilder.for_robot(robot)
         self._pids = {p: self.log.phase_id(p) for p in PHASES}
         self._pid_of = np.array([self._pids[p] for p in PHASES], dtype=float)  # by PHASES index
         self._sid = self.log.solver_id(self.solver.name)

@@ -85,10 +85,7 @@ class Session:
         self.pipeline = Pipeline(cfg.make_filter(), MotionScaling(cfg.scale, R))
         allowed = eye.retina_radius - cfg.fixtures.retina_margin - guard
         self.targets = TargetMaker(eye.port, held, eye.center, allowed)
-        self.log = LogBuilder()
-        self.log.actuator_labels = tuple(
-            f"{n}_{u}" for n, u in zip(robot.actuator_names, robot.actuator_units, strict=True)
-        )
+        self.log = LogBuilder.for_robot(robot)
         self._pid = [self.log.phase_id(p) for p in PHASES]
         self._sid = self.log.solver_id(self.solver.name)
         self.trace = TraceBuilder()
