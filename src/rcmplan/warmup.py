@@ -171,12 +171,13 @@ def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:
         fast.problem(arm.home, 0.5, target)
 
 
-def compile_curved_kernels() -> None:
-    """Compile (or load from numba's cache) the curved needle's loops, steps and target screens
-    with the argument types used here: the screen and each curved solver on one target (one
-    step called from Python, one phase in the loop), on iRAM!S and on iRAM!S's DH chain as an
-    arm holding the needle (no robot package needed), the QP and its limited free-space step
-    included."""
+def compile_curved_kernels(on: tuple[str, ...] = ("iramis", "arm")) -> None:
+    """Compile (or load from numba's cache) the curved needle's loops, steps, target screens
+    and needle frames with the argument types used here: the screen and each curved solver on
+    one target (one step called from Python, one phase in the loop), the QP and its limited
+    free-space step included, on iRAM!S and (or, `on`) on iRAM!S's DH chain as an arm holding
+    the needle (no robot package needed). `scripts/check.sh` compiles the two in its two
+    compile processes."""
     from rcmplan.control.curved import (
         CurvedDlsSolver,
         CurvedPinvSolver,
@@ -197,7 +198,8 @@ def compile_curved_kernels() -> None:
     mount[2, 3] = -iramis.params.l6  # the needle runs along the tip frame's z up to its origin
     arm = SerialArm(JointChain.from_dh(iramis.chain), StraightNeedle(iramis.params.l6, mount),
                     iramis.home, name="warm", roll_joint=5)  # fmt: skip
-    for base in (iramis, arm):
+    bases: dict[str, Iramis | SerialArm] = {"iramis": iramis, "arm": arm}
+    for base in (bases[name] for name in on):
         robot = CurvedTipRobot(base, CurvedNeedle(base.needle_length))
         q = robot.home
         shaft = robot.needle_point(q, 0.5)
@@ -211,6 +213,7 @@ def compile_curved_kernels() -> None:
             continue
         jobs.append((LimitedPoseSolver(), pose))
         screen(robot, arrays, x[None, :], np.ascontiguousarray(q, dtype=np.float64))
+        robot.needle_frames(q[None, :])
         for solver, target in jobs:
             solver.step(robot, q, 0.5, target, solver.error(robot, q, 0.5, target))  # from Python
             ctl = Controller(KinematicPlant(base), solver, robot=robot)
