@@ -112,7 +112,7 @@ def test_the_arm_s_compiled_curved_step_equals_the_python_qp(rng) -> None:  # ty
     k, W = fast_cache.arm_qp_kernels(), np.empty(arrays.work_shape())
     solved = 0
     for solver in solvers(robot):
-        travel, Q, contacts, qp, s, _, _ = qp_arrays(solver, arrays.n, arrays.m)
+        travel, Q, contacts, qp, s, _, _ = qp_arrays(solver, arrays.n)
         K = np.ascontiguousarray(solver.K, dtype=np.float64)
         e, d = np.empty(7), np.empty(arrays.m + 1)
         for _ in range(30):

@@ -126,7 +126,7 @@ class _Setup:
         if code in (TIP_LIMITED, CURVED_POSE_LIMITED):
             K = limited_K(controller.robot, solver)  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
-        self.qpa = qp_arrays(solver, self.n, m)
+        self.qpa = qp_arrays(solver, self.n)
         if curved is None:
             self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
             self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)

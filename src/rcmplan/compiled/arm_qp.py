@@ -62,8 +62,9 @@ def curved_qp_applies(solver: object) -> bool:
     return fast_cache.daqp_callable() and qp_params(solver.robot, solver) is not None
 
 
-def qp_arrays(solver: object, n: int, m: int) -> tuple | None:
-    """What the arm QP's solve reads (`arm_loop.arm_iterate`'s qpa) for n joints, m active:
+def qp_arrays(solver: object, n: int) -> tuple | None:
+    """What the arm QP's solve reads (`arm_loop.arm_iterate`'s qpa) for n joints and the m
+    active joints of the solver's robot (a curved needle's robot: the roll among them):
     travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are now), the
     solve's buffers (`qp_rows.buffers`), the active joints (m,), DAQP's exit flag (1,) and with
     a servo its array (`arm_qp_kernels.solve_servo_step`: the command, filled before each
@@ -72,7 +73,7 @@ def qp_arrays(solver: object, n: int, m: int) -> tuple | None:
     if not (isinstance(solver, QpSolver) and (curved or arm_qp_applies(solver))):
         return None
     servo = np.zeros(0)
-    robot, active = solver.robot, list(solver.robot.active)  # a curved needle's: m_c of them
+    robot, active = solver.robot, list(solver.robot.active)
     m = len(active)
     travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
     Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
@@ -99,7 +100,7 @@ def step_buffers(solver: QpSolver, K: FloatArray) -> tuple:
     servo array and the QP's buffers (`qp_rows.buffers`)."""
     A, ix = arm_arrays(solver.robot)  # type: ignore[misc]
     n, m = int(ix[0]), int(ix[1])
-    arrays = qp_arrays(solver, n, m)
+    arrays = qp_arrays(solver, n)
     if arrays is None:
         raise InvalidInputError("solver", solver, "a QpSolver the compiled arm step runs "
                                 "(`arm_qp_applies`)")  # fmt: skip
