@@ -50,12 +50,17 @@ print("not stopped")
 """
 
 
+def run_driver(driver: str, out: Path, timeout: float) -> subprocess.CompletedProcess[str]:
+    """Run a driver script (its output folder its one argument) in a new Python process."""
+    return subprocess.run([sys.executable, "-c", driver, str(out)],
+                          env={**os.environ, "PYTHONPATH": SRC}, capture_output=True,
+                          text=True, timeout=timeout)  # fmt: skip
+
+
 def test_a_signal_while_the_handler_s_modules_load_waits_for_them_and_stops_the_command(
     tmp_path: Path,
 ) -> None:
-    done = subprocess.run([sys.executable, "-c", DRIVER, str(tmp_path)],
-                          env={**os.environ, "PYTHONPATH": SRC}, capture_output=True,
-                          text=True, timeout=120)  # fmt: skip
+    done = run_driver(DRIVER, tmp_path, 120)
     assert done.returncode == 143 and not our_tracebacks(done.stderr), done.stderr[-2000:]
     assert done.stdout == ""
     doc = json.loads((tmp_path / "summary.json").read_text())
@@ -84,9 +89,7 @@ sys.exit(main())
 def test_a_signal_as_the_run_block_begins_stops_the_command_with_its_stop_file(
     tmp_path: Path,
 ) -> None:
-    done = subprocess.run([sys.executable, "-c", AT_THE_BLOCK, str(tmp_path)],
-                          env={**os.environ, "PYTHONPATH": SRC}, capture_output=True,
-                          text=True, timeout=300)  # fmt: skip
+    done = run_driver(AT_THE_BLOCK, tmp_path, 300)
     assert done.returncode == 130 and not our_tracebacks(done.stderr), done.stderr[-2000:]
     doc = json.loads((tmp_path / "summary.json").read_text())
     assert doc["status"] == "interrupted"

@@ -32,7 +32,7 @@ from rcmplan.compiled.qp_rows import (
     solve_planned,
 )
 from rcmplan.control import curved_step
-from rcmplan.control.cost import x_ext_jacobian
+from rcmplan.control.cost import x_c_point_rows, x_ext_jacobian
 from rcmplan.control.limits.base import SCALE
 from rcmplan.robot import curved_arm
 from rcmplan.robot import curved_block as ck
@@ -178,9 +178,7 @@ def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
         for j in range(mc):
             task_[i, j] = W[c + ck.J + i, j]
         task_[i, mc] = W[c + ck.J + i, mc] * per_l
-    for j in range(mc + 1):  # JT: the tip's rows and the RCM point's (X_c's rows 0-2, 4-6)
-        for i in range(3):
-            JT[i, j], JT[3 + i, j] = task_[i, j], task_[4 + i, j]
+    x_c_point_rows(task_, JT)
     pts[0, 0], pts[0, 1], pts[0, 2] = curved_arm.tip(A, n, W)
     pts[1, 0], pts[1, 1], pts[1, 2] = needle_point(A, n, W, lam)
     pts[2, 0], pts[2, 1], pts[2, 2] = needle_axis(A, n, W)

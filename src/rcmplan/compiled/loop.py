@@ -72,7 +72,7 @@ from rcmplan.robot.iramis_kernels import (
     tip_jacobian,
     trig,
 )
-from rcmplan.robot.needle import axis_into, closest_point, x_ext_tip
+from rcmplan.robot.needle import axis_into, closest_point, target_tip_into, x_ext_tip
 
 
 @njit(cache=True)
@@ -417,12 +417,9 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
         put(tip_t, 0, target, 0, 3)
         return 0
     put(trocar, 0, target, target.shape[0] - 3, 3)
-    if target.shape[0] == 7:
-        put(tip_t, 0, target, 0, 3)
-        return 0
-    if not x_ext_tip(target, w, tip_t):
+    if not target_tip_into(target, w, tip_t):
         return -1
-    return 1 if is_pivot(tip_t, target) else 0
+    return 1 if target.shape[0] == 6 and is_pivot(tip_t, target) else 0
 
 
 @njit(cache=True)

@@ -24,7 +24,7 @@ from rcmplan.compiled.daqp_c import EQUALITY
 from rcmplan.compiled.kernels import task
 from rcmplan.compiled.qp_rows import X, assemble, lead_error, solve_assembled, solve_planned
 from rcmplan.control import curved_step
-from rcmplan.control.cost import x_ext_jacobian
+from rcmplan.control.cost import x_c_point_rows, x_ext_jacobian
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.limits.rows import times
 from rcmplan.robot import curved_block as ck
@@ -163,9 +163,7 @@ def build_curved_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: Flo
     variable_map(P, tr, T)
     curved_iramis.jacobian(P, q, tr, lam, False, C, 0, w)
     times(C[ck.J : ck.J + 7], T, task_)
-    for j in range(CURVED_VAR):  # JT: the tip's rows and the RCM point's (X_c's rows 0-2, 4-6)
-        for i in range(3):
-            JT[i, j], JT[3 + i, j] = task_[i, j], task_[4 + i, j]
+    x_c_point_rows(task_, JT)
     _, a, _, tip = curved_iramis.frame(P, q, tr, w)
     pts[0, 0], pts[0, 1], pts[0, 2] = tip
     point(P, q, tr, lam, pts[1])

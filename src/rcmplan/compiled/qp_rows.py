@@ -12,8 +12,8 @@ box (`rcm_rows`), the retina barrier (`sphere_row`, `contact_floor`), the singul
 order DAQP receives them from `qp_backends`. Variables x = (ds[active], l dlambda) / SCALE, w of
 them; the kinematics arrive as JT (8, w) = (J_tip T, J_rcm T, the needle angles' rows times T)
 and the points (5, 3): tip, RCM point, needle axis (rows 3, 4 are scratch). A target is X_ext
-(6,) or a curved needle's X_c (7,): its tip `x_ext_tip`'s or its first three entries, its
-trocar its last three.
+(6,) or a curved needle's X_c (7,): its tip `needle.target_tip_into`'s, its trocar its last
+three.
 
 Settings travel as one float64 vector Q (`qp_params`), retina contact points as a (k, 3)
 array, and the buffers of one solve as the tuple `qp` of `buffers(w)`.
@@ -67,7 +67,7 @@ from rcmplan.control.limits.retina import contact_floor
 from rcmplan.control.limits.rows import damper_rows, radial_gap, sphere_row
 from rcmplan.control.limits.tip_speed import speed_rows
 from rcmplan.control.limits.workspace import box_rows
-from rcmplan.robot.needle import x_ext_tip
+from rcmplan.robot.needle import target_tip_into
 
 MAX_SINGULAR = 2  # singular terms of a robot (iRAM!S: cos q1, cos q3; an arm: its measure)
 MAX_ROWS = 4 + 1 + MAX_SINGULAR + 6 + 6 * MAX_EXTRA  # RCM box, retina, singular, tip, extras
@@ -99,10 +99,7 @@ def retina_row(Q: FloatArray, contacts: FloatArray, pts: FloatArray, JT: FloatAr
     center = Q[CENTER : CENTER + 3]
     if Q[HAS_EYE] == 0.0 or radial_gap(Q[PORT : PORT + 3], Q[PORT_ZONE], tip) >= 0.0:
         return r
-    if target.shape[0] == 7:  # X_c states its tip
-        tip_t[0], tip_t[1], tip_t[2] = target[0], target[1], target[2]
-    else:
-        x_ext_tip(target, pts[4], tip_t)  # the loop has refused targets that fix no tip
+    target_tip_into(target, pts[4], tip_t)  # the loop has refused targets that fix no tip
     radius = Q[RETINA_RADIUS]
     floor = contact_floor(Q[RETINA_MARGIN], radial_gap(center, radius, tip_t), tip_t, contacts,
                           Q[CONTACT_TOL])  # fmt: skip

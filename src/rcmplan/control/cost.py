@@ -24,6 +24,16 @@ def x_ext_jacobian(JT_tip: FloatArray, JT_angles: FloatArray, JT_rcm: FloatArray
 
 
 @njit(cache=True)
+def x_c_point_rows(task: FloatArray, JT: FloatArray) -> None:
+    """The point rows of a curved needle's task d X_c / d (x SCALE) (7, w) into JT (6.., w):
+    the tip's (X_c's rows 0-2), then the RCM point's (rows 4-6), as the rows' kernels read
+    them (`x_ext_jacobian` builds X_ext's task from such rows)."""
+    for j in range(task.shape[1]):
+        for i in range(3):
+            JT[i, j], JT[3 + i, j] = task[i, j], task[4 + i, j]
+
+
+@njit(cache=True)
 def weighted_cost(task: FloatArray, weights: FloatArray, K: FloatArray, e: FloatArray,
                   damping: float, H: FloatArray, f: FloatArray) -> None:  # fmt: skip
     """H (w, w) and f (w,) of 1/2 |W (task x SCALE - K e)|^2 / SCALE^2 + 1/2 D^2 |x|^2 for a

@@ -145,6 +145,18 @@ def x_ext_tip(x: FloatArray, a: FloatArray, tip: FloatArray) -> bool:
 
 
 @njit(cache=True)
+def target_tip_into(target: FloatArray, a: FloatArray, tip: FloatArray) -> bool:
+    """The tip point an RCM target states into tip (3,): a curved needle's X_c (7,) its first
+    three entries, X_ext (6,) the one it implies (`x_ext_tip`, a (3,) receiving the axis);
+    False if X_ext's axis is perpendicular to x."""
+    if target.shape[0] == 7:
+        for i in range(3):
+            tip[i] = target[i]
+        return True
+    return x_ext_tip(target, a, tip)
+
+
+@njit(cache=True)
 def x_ext_tips(X: FloatArray, tips: FloatArray) -> int:
     """x_ext_tip of each row of X (N, 6) into the rows of tips (N, 3); returns the first row
     whose axis is perpendicular to x (its tip left unset), or -1 when every row has a tip."""
