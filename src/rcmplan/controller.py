@@ -28,13 +28,13 @@ from rcmplan.control.phase import (
     check_plan_size,
 )
 from rcmplan.control.plant import Plant
-from rcmplan.control.rcm_step import STEP_TRIES, step_scale
+from rcmplan.control.rcm_step import bounded_step
 from rcmplan.control.runner import Runner, registered_default
 from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, target_tip, target_tips
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmBoundError, RcmplanError
 from rcmplan.robot.model import RobotModel
-from rcmplan.robot.needle import closest_lambda, closest_point
+from rcmplan.robot.needle import closest_lambda
 
 NAN3 = np.full(3, np.nan)
 _COMPILED = CompiledRunner()  # every phase a kernel implements runs compiled
@@ -245,7 +245,7 @@ class Controller:
             robot.check_singularity(q, cfg.singular_threshold)
             dq, dlam = solver.step(robot, q, self.lam, target, e)
             if rcm and cfg.rcm_tolerance is not None:
-                dq, dlam = self._bounded_step(q, dq, dlam, trocar, cfg.rcm_tolerance)
+                dq, dlam = bounded_step(robot, q, dq, dlam, trocar, cfg.rcm_tolerance)
             q_new = q.copy()
             q_new[active] += dq
             self.lam += dlam
@@ -257,26 +257,6 @@ class Controller:
             tol,
             where=f"phase {self.log.phase_names[pid]!r} step {step}",
         )
-
-    def _bounded_step(
-        self, q: FloatArray, dq: FloatArray, dlam: float, trocar: FloatArray, bound: float
-    ) -> tuple[FloatArray, float]:
-        """The step (dq, dlam) shortened until the needle passes within `bound` [m] of the
-        trocar after it, or no farther than before it (`rcm_step.step_scale`)."""
-        active, now = list(self.robot.active), self._rcm_distance(q, trocar)
-        for _ in range(STEP_TRIES):
-            x = q.copy()
-            x[active] += dq
-            f = step_scale(self._rcm_distance(x, trocar), now, bound)
-            if f == 1.0:
-                break
-            dq, dlam = dq * f, dlam * f
-        return dq, dlam
-
-    def _rcm_distance(self, q: FloatArray, trocar: FloatArray) -> float:
-        """Distance in [m] from the trocar to the needle (its closest point) at joints q."""
-        base, end = self.robot.needle_point(q, 0.0), self.robot.needle_point(q, 1.0)
-        return float(closest_point(base, end, trocar)[1])
 
     def _record(
         self, s: FloatArray, q: FloatArray, base: FloatArray, end: FloatArray,

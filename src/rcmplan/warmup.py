@@ -83,8 +83,10 @@ def compile_iramis_kernels() -> None:
 
 def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
     """The QP in the compiled iRAM!S loop (the loop is one for every method; this runs its QP
-    branch and loads DAQP's binding), on a 20 um move about the trocar; nothing if DAQP's C
-    solver cannot be called from compiled code (`cache.qp_loop`)."""
+    branch and loads DAQP's binding), on a 20 um move about the trocar, and its step one period
+    at a time (`qp_period.period_step`); nothing if DAQP's C solver cannot be called from
+    compiled code (`cache.qp_loop`)."""
+    from rcmplan.compiled.qp_period import period_step
     from rcmplan.control.qp import QpSolver
     from rcmplan.control.targets import rcm_target
 
@@ -95,6 +97,7 @@ def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
     ctl = Controller(KinematicPlant(robot), solver)
     ctl.lam = 1.0 - 8e-3 / robot.params.l6
     qp_phase.run_if_ready(ctl, solver, targets, ctl.log.phase_id("warm"), 0, robot_params(robot))
+    period_step(solver)  # the step one period at a time (teleoperation), built on a first step
 
 
 def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -> None:
@@ -160,14 +163,14 @@ def compile_arm_kernels() -> None:
 
 
 def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:
-    """The arm's compiled QP step (`arm_qp`), one solve and one assembly; nothing if DAQP's C
+    """The arm's compiled QP step (`arm_qp`), one step and one assembly; nothing if DAQP's C
     solver cannot be called from compiled code (`cache.daqp_callable`)."""
     from rcmplan.compiled.arm_qp import arm_qp_step
     from rcmplan.control.qp import QpSolver
 
     fast = arm_qp_step(QpSolver(arm))
     if fast is not None:
-        fast.solve(arm.home, 0.5, target)
+        fast.step(arm, arm.home, 0.5, target, fast.e)  # the solve and the RCM box's hold
         fast.problem(arm.home, 0.5, target)
 
 

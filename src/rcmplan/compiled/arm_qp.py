@@ -135,6 +135,8 @@ class ArmQpStep:
         self.n, self.m = int(self.ix[0]), int(self.ix[1])
         self.qpa = (self.travel, self.Q, self.contacts, self.qp, self.s, None, self.servo)
         self._key, self._checked, self._flag = b"", b"", 0
+        self._loop = fast_cache.arm_loop()  # the RCM box held on the true kinematics
+        self._fail, self._flags = np.empty(2 * self.n), np.zeros(1, dtype=np.int64)
 
     def tolerance(self) -> FloatArray:
         """The solver's tolerance per X_ext component."""
@@ -205,6 +207,8 @@ class ArmQpStep:
             self._checked = key
         if self._solve(key, q, lam, target) != 1:
             return self.solver.step(robot, q, lam, target, error)
+        if self._loop.held_packed(self.F, self.Z, q, float(lam), target, self._fail, self._flags):
+            self._key = b""  # the buffers hold a narrower box's solve, or a shortened step
         return self.d[: self.m].copy(), float(self.d[self.m])
 
 

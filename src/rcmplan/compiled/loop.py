@@ -34,6 +34,7 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import jacobian_a, njit, solve_augmented, task
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
+from rcmplan.compiled.qp_params import RCM_TOL
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
@@ -57,7 +58,7 @@ from rcmplan.compiled.records import (
 from rcmplan.control import curved_step
 from rcmplan.control.dls_task import dls_error, is_pivot
 from rcmplan.control.limited_tip import step_fraction, tip_fraction
-from rcmplan.control.rcm_step import STEP_TRIES, step_scale
+from rcmplan.control.rcm_step import BOX_TRIES, STEP_TRIES, box_margin, step_scale
 from rcmplan.linalg import damped
 from rcmplan.robot import curved_iramis
 from rcmplan.robot.curved_block import BLOCK_ROWS, B, S
@@ -284,7 +285,8 @@ def iterate(
         return SINGULAR
     if qpa is not None and qp:  # a curved needle's QP moves the roll q5 too
         moved = 6 if method >= CURVED else 5
-        return qp_step(P, q, moved, qpa[2][X], trocar, bounds, state, fail, info, w, d)
+        return qp_step(P, K, q, tr, target, trocar, moved, bounds, state, fail, qpa, C, info, w,
+                       d)  # fmt: skip
     moved = 5
     if C is not None and method >= CURVED:
         curved_step.iramis_step(P, cm, K, damping, q, tr, state[0], e, C, d, f)
@@ -339,26 +341,88 @@ def limit_step(
 
 
 @njit(cache=True)
-def qp_step(
-    P: FloatArray, q: FloatArray, moved: int, x: FloatArray, trocar: FloatArray,
-    bounds: FloatArray, state: FloatArray, fail: FloatArray, info: np.ndarray, w: FloatArray,
-    d: FloatArray,
-) -> int:  # fmt: skip
-    """The step of the QP's solution x, from joints q (`QpSolver.step`), moving joints
-    0..moved-1: built at the actuators after the error in fail (`qp_kernels.iteration_error`),
-    bounded from the RCM tolerance (d (moved + 1,) the step in joints and lambda), lambda
-    moved in state[0], the joints and sliders commanded in fail[6:12] and fail[12:18];
-    returns STEPPED or a stop code (`command_status`)."""
-    qn, sn, s_qp = fail[6:12], fail[12:18], fail[19 + moved : 25 + moved]
-    dlam = step_joints(P, q, s_qp, x, qn, w)
-    for i in range(moved):  # the step in joints and lambda, bounded from the RCM tolerance
+def hold_box(
+    P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
+    trocar: FloatArray, moved: int, fail: FloatArray, qpa: tuple, C: FloatArray | None,
+    w: FloatArray,
+) -> None:  # fmt: skip
+    """The QP's RCM box on the true kinematics (`QpSolver.step`, `rcm_step.box_margin`): while
+    the solution in qpa leaves the needle beyond the box's tolerance (and farther than at q),
+    solve again (`iteration_error`) with the box narrowed, at most BOX_TRIES times; a solve
+    that fails is repeated with the last box that solved. The error in fail is then the last
+    solve's. w (6,) is scratch; the stepped joints go through fail[6:12]."""
+    Q, x = qpa[0], qpa[2][X]
+    tol = Q[RCM_TOL]
+    if tol == 0.0:
+        return
+    qn, s_qp = fail[6:12], fail[19 + moved : 25 + moved]
+    now, margin = rcm_distance(P, q, trocar, w), 0.0
+    for _ in range(BOX_TRIES):
+        step_joints(P, q, s_qp, x, qn, w)
+        narrower = box_margin(rcm_distance(P, qn, trocar, w), now, tol, margin)
+        if narrower == 0.0 or narrower == margin:
+            return
+        Q[RCM_TOL] = tol - narrower
+        flag = iteration_error(P, K, q, tr, lam, target, fail, qpa, C)
+        if flag != 1:
+            Q[RCM_TOL] = tol - margin
+            iteration_error(P, K, q, tr, lam, target, fail, qpa, C)
+        Q[RCM_TOL] = tol
+        if flag != 1:
+            return
+        margin = narrower
+
+
+@njit(cache=True)
+def held_step(
+    P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
+    trocar: FloatArray, moved: int, fail: FloatArray, qpa: tuple, C: FloatArray | None,
+    w: FloatArray, d: FloatArray,
+) -> float:  # fmt: skip
+    """`QpSolver.step` after the loop's solve at joints q (`qp_kernels.iteration_error`), moving
+    joints 0..moved-1: the RCM box held on the true kinematics (`hold_box`), the step d
+    (moved + 1,) in joints and lambda, shortened from the QP's RCM tolerance; the stepped
+    joints in fail[6:12]. Returns the factor applied (1.0: the solution's step as it is)."""
+    hold_box(P, K, q, tr, lam, target, trocar, moved, fail, qpa, C, w)
+    qn, s_qp = fail[6:12], fail[19 + moved : 25 + moved]
+    d[moved] = step_joints(P, q, s_qp, qpa[2][X], qn, w)
+    for i in range(moved):
         d[i] = qn[i] - q[i]
-    d[moved] = dlam
-    if bound_rcm_step(P, q, d, moved, trocar, bounds[1], w, qn) != 1.0:
+    return bound_rcm_step(P, q, d, moved, trocar, qpa[0][RCM_TOL], w, qn)
+
+
+@njit(cache=True)
+def period_step(P: FloatArray, K: FloatArray, q: FloatArray, lam: float, target: FloatArray,
+                fail: FloatArray, qpa: tuple, w: FloatArray, d: FloatArray) -> int:  # fmt: skip
+    """`QpSolver.step` at joints q, lambda towards the X_ext target (6,) as the loop takes it
+    (`iteration_error`, `held_step`), for a caller that steps one period at a time
+    (`qp_period.period_step`); returns DAQP's exit flag, the step in d (6,) when 1. fail
+    (`records.FAIL_WIDTH`,) and w (6,) are scratch."""
+    for i in range(6):
+        fail[i] = q[i]
+    tr = trig(q)
+    flag = iteration_error(P, K, fail[0:6], tr, lam, target, fail, qpa, None)
+    if flag == 1:
+        held_step(P, K, fail[0:6], tr, lam, target, target[3:6], 5, fail, qpa, None, w, d)
+    return flag
+
+
+@njit(cache=True)
+def qp_step(
+    P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, target: FloatArray,
+    trocar: FloatArray, moved: int, bounds: FloatArray, state: FloatArray, fail: FloatArray,
+    qpa: tuple, C: FloatArray | None, info: np.ndarray, w: FloatArray, d: FloatArray,
+) -> int:  # fmt: skip
+    """The loop's QP step from joints q after its solve (`held_step`), then shortened from the
+    loop's RCM tolerance; lambda moved in state[0], the joints and sliders commanded in
+    fail[6:12] and fail[12:18]; returns STEPPED or a stop code (`command_status`)."""
+    qn, sn, s_qp = fail[6:12], fail[12:18], fail[19 + moved : 25 + moved]
+    f = held_step(P, K, q, tr, state[0], target, trocar, moved, fail, qpa, C, w, d)
+    if f * bound_rcm_step(P, q, d, moved, trocar, bounds[1], w, qn) != 1.0:
         for i in range(moved):
             qn[i] = q[i] + d[i]
     else:
-        step_joints(P, q, s_qp, x, qn, w)  # qn as the QP's step left it
+        step_joints(P, q, s_qp, qpa[2][X], qn, w)  # qn as the QP's step left it
     state[0] += d[moved]
     return command_status(P, qn, sn, info)
 

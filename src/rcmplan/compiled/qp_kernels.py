@@ -202,11 +202,11 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
     """The QP's solve of one loop iteration at joints q (`QpSolver.error`): its error into
     fail[18:24] and the actuators it was built at into fail[24:30]; returns DAQP's exit flag
     (1: optimal), the solution in qpa[2][X]. qpa = (Q, contacts, qp, res, cmd) (`qp_params.
-    loop_qp`): with a servo (res (6,), the plant's slider resolution; cmd (6,), its last
-    command) the QP is planned from the command as the plant rounds it, its error the plan's
-    plus the command's lead (`lead_error`, fail[30:48] its scratch); without (res empty) it
-    is built at q. A curved needle (C its work block, else None; no servo): the X_c error
-    into fail[18:25], the actuators into fail[25:31]."""
+    loop_qp`): with a servo (res (6,), the plant's slider resolution, 0 where it has none;
+    cmd (6,), its last command) the QP is planned from the command as the plant rounds it,
+    its error the plan's plus the command's lead (`lead_error`, fail[30:48] its scratch);
+    without (res empty) it is built at q. A curved needle (C its work block, else None; no
+    servo): the X_c error into fail[18:25], the actuators into fail[25:31]."""
     Q, contacts, qp, res, cmd = qpa
     if C is not None:
         if res.shape[0] > 0:
@@ -219,7 +219,7 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
         return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp)
     e_plan, q_plan, x_now = fail[30:36], fail[36:42], fail[42:48]
     for i in range(6):  # the command as the plant rounds it (`QpSolver.planned_joints`)
-        x_now[i] = np.rint(cmd[i] / res[i]) * res[i]
+        x_now[i] = cmd[i] if res[i] == 0.0 else np.rint(cmd[i] / res[i]) * res[i]
     joints_from_actuators(P, x_now, q_plan)
     flag = solve_servo_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,
                             e_plan, qp)  # fmt: skip

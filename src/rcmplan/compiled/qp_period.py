@@ -3,9 +3,10 @@ period towards a target that moves (teleoperation), where the controller's phase
 (`qp_phase`) does not apply.
 
 `period_step` returns a function (q, lam, target) -> dq that equals `QpSolver.step` to rounding
-(the same QP assembled and solved in compiled code: `FastQpStep` on iRAM!S, `arm_qp.ArmQpStep`
-on a serial arm; the joints recovered exactly from the actuator step as the reference does),
-or None where the compiled step does not apply. A solve that fails in compiled code is
+(the same QP assembled and solved in compiled code, its RCM box held on the true kinematics
+as the loop holds it: `loop.period_step` on iRAM!S, `arm_qp.ArmQpStep` on a serial arm; the
+joints recovered exactly from the actuator step as the reference does), or None where the
+compiled step does not apply. A solve that fails in compiled code is
 repeated on the reference path, which raises its own QPError (or, at the edge of DAQP's
 tolerances, returns its step).
 """
@@ -15,15 +16,17 @@ from __future__ import annotations
 import contextlib
 from collections.abc import Callable
 
+import numpy as np
+
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm_qp import ArmQpStep, arm_qp_applies
-from rcmplan.compiled.qp_params import qp_params
-from rcmplan.compiled.qp_phase import FastQpStep
+from rcmplan.compiled.qp_params import pack_extras, qp_params
+from rcmplan.compiled.records import FAIL_WIDTH, robot_params
 from rcmplan.compiled.runner import kernel_params
 from rcmplan.control.augmented import extended_task
-from rcmplan.control.qp import QpSolver, joints_step
-from rcmplan.exceptions import QPError, RcmplanError
+from rcmplan.control.qp import QpSolver
+from rcmplan.exceptions import RcmplanError
 
 StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 
@@ -34,35 +37,44 @@ def period_step(solver: QpSolver) -> StepFunction | None:
     (`qp_params`: up to `MAX_EXTRA` workspace boxes and tissue-depth limits as extra limits),
     DAQP's C binding unusable. With a servo (the dynamic MuJoCo plants) the step is
     planned from the plant's last command as the reference plans it (`QpSolver.planned_joints`,
-    the cost synchronised: `FastQpStep`)."""
+    the cost synchronised: `qp_kernels.iteration_error`)."""
     if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
         return None
     robot = solver.robot
     if arm_qp_applies(solver):  # with a servo too (`arm_qp_kernels.solve_servo_step`)
         return _arm_period_step(solver)
-    if kernel_params(robot) is None or fast_cache.qp_loop() is None:
+    loop = fast_cache.qp_loop() if kernel_params(robot) is not None else None
+    params = None if loop is None else qp_params(robot, solver)
+    if loop is None or params is None:
         return None
-    if qp_params(robot, solver) is None:
-        return None
-    fast = FastQpStep(solver)
+    P, K = robot_params(robot), np.ascontiguousarray(solver.K, dtype=np.float64)
+    servo = solver.servo  # its command rounded to its resolution as `planned_joints` does
+    res = getattr(servo, "actuator_resolution", None)
+    res = np.zeros(6) if res is None else np.array(res, dtype=np.float64)
+    qpa = fast_cache.qp_kernels().loop_qp(params, *(() if servo is None else (res, np.zeros(6))))
+    cmd = qpa[4]
+    fail, w, d = np.empty(FAIL_WIDTH), np.empty(6), np.empty(6)
+
+    def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
+        q = np.ascontiguousarray(q, dtype=np.float64)
+        target = np.ascontiguousarray(target, dtype=np.float64)
+        if servo is not None:
+            cmd[:] = servo.command
+        if solver.extra_limits:  # a moving limit's parameters as they are now
+            pack_extras(solver, qpa[0])
+        if loop.period_step(P, K, q, float(lam), target, fail, qpa, w, d) != 1:
+            e = solver.task_error(robot, q, lam, target)
+            return solver.step(robot, q, lam, target, e)[0]
+        return d[:5].copy()
+
     # Load the compiled code now (numba's cache, the first call's dispatch), and the reference
     # step a failed solve falls back to (its first call imports and builds what it needs:
     # about 45 ms), so a loop paced at 1 kHz pays for neither in a period.
     home = robot.home
     target = extended_task(robot, home, 1.0)
-    with contextlib.suppress(QPError):
-        fast.solve(home, 1.0, target)
     with contextlib.suppress(RcmplanError):
+        step(home, 1.0, target)
         solver.step(robot, home, 1.0, target, solver.task_error(robot, home, 1.0, target))
-
-    def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
-        try:
-            x, _ = fast.solve(solver.planned_joints(robot, q), lam, target)
-        except QPError:
-            e = solver.task_error(robot, q, lam, target)
-            return solver.step(robot, q, lam, target, e)[0]
-        return joints_step(robot, fast.s, x, q)[0]
-
     return step
 
 
@@ -72,7 +84,7 @@ def _arm_period_step(solver: QpSolver) -> StepFunction:
     home = robot.home
     target = extended_task(robot, home, 1.0)
     with contextlib.suppress(RcmplanError):  # the reference step a failed solve falls back to
-        fast.solve(home, 1.0, target)
+        fast.step(robot, home, 1.0, target, fast.e)  # the solve and the RCM box's hold
         solver.step(robot, home, 1.0, target, solver.task_error(robot, home, 1.0, target))
 
     def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:

@@ -2,16 +2,17 @@
 runs every period from one planned target to the last one planned (a subretinal episode: from
 one iOCT estimate's arrival to the next, `subretinal.episode_blocks`).
 
-Each period does what `Episode.period` does, in the same order: joints from the sliders (the PCJMs),
-lambda of the needle point closest to the period's trocar (drift correction; the distance is the RCM
-deviation; the trocar moves with the eye when the eye moves), the depth limit's floor and centre
-written into the QP's parameters Q (the floor at `floor_at`, the centre `FLOOR_AT` before it; -1: no
-depth limit), the X_ext error at this state, the QP built and solved (`qp_kernels.solve_step`), the
-step read from its solution (`qp_kernels.step_joints`), the sliders of the stepped joints with the
-plant's travel rule (`loop.command_status`, the kernel `Iramis.check_actuators` calls), the record
+Each period does what `Episode.period` does, in the same order: joints from the sliders (the
+PCJMs), lambda of the needle point closest to the period's trocar (drift correction; the
+distance is the RCM deviation; the trocar moves with the eye when the eye moves), the depth
+limit's floor and centre written into the QP's parameters Q (the floor at `floor_at`, the
+centre `FLOOR_AT` before it; -1: no depth limit), the X_ext error at this state, the QP's step
+as the loop takes it (`loop.period_step`: built and solved, the RCM box held on the true
+kinematics), the sliders of the stepped joints with the plant's travel rule
+(`loop.command_status`, the kernel `Iramis.check_actuators` calls), the record
 (`records.REC_COLUMNS`, `loop.record`) and the plant's move (the kinematic plant reaches the
-command). The RCM bound is checked last, after the period's record and move, as `Episode.period`
-raises after them.
+command). The RCM bound is checked last, after the period's record and move, as
+`Episode.period` raises after them.
 
 The kernel stops instead of raising: QP_FAILED (DAQP's exit flag in info[1]), BAD_JOINTS or
 SLIDER_LIMIT (the slider in info[2]) before the period's record and move, RCM_BOUND after
@@ -25,9 +26,8 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import njit, task
-from rcmplan.compiled.loop import command_status, put, record
-from rcmplan.compiled.qp_kernels import X, solve_step, step_joints
-from rcmplan.compiled.records import DONE, QP_FAILED, STEPPED
+from rcmplan.compiled.loop import command_status, period_step, put, record
+from rcmplan.compiled.records import DONE, FAIL_WIDTH, QP_FAILED, STEPPED
 from rcmplan.control.limits.tissue_depth import FLOOR_AT
 from rcmplan.robot.iramis_kernels import joints_from_actuators, point, trig
 from rcmplan.robot.needle import closest_point
@@ -48,8 +48,9 @@ def run_periods(
     Q[floor_at] and its centre centers[j] (3,) [m] before it. s ends at the last period's command;
     rec[j] (35,) and deviation[j] [m] hold each period's record and RCM deviation. Returns
     DONE or a stop code (info as in the module docstring)."""
-    q, qn, sn, s_qp = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-    e, e_qp, w = np.empty(6), np.empty(6), np.empty(6)
+    q, qn, sn, d = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+    e, w, fail = np.empty(6), np.empty(6), np.empty(FAIL_WIDTH)
+    qpa = (Q, contacts, qp, np.empty(0), np.empty(0))  # `qp_kernels.loop_qp`: no servo
     for j in range(t.shape[0]):
         info[0] = j
         joints_from_actuators(P, s, q)
@@ -64,11 +65,12 @@ def run_periods(
         task(P, q, tr, lam, e)
         for i in range(6):
             e[i] = targets[j, i] - e[i]
-        flag = solve_step(P, Q, contacts, K, q, tr, lam, targets[j], s_qp, e_qp, qp)
+        flag = period_step(P, K, q, lam, targets[j], fail, qpa, w, d)
         if flag != 1:
             info[1] = flag
             return QP_FAILED
-        step_joints(P, q, s_qp, qp[X], qn, w)
+        for i in range(6):
+            qn[i] = q[i] + d[i] if i < 5 else q[i]
         status = command_status(P, qn, sn, info)
         if status != STEPPED:
             return status

@@ -48,15 +48,16 @@ from rcmplan.control.curved import task_error as curved_error
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.limited_tip import LimitedTipSolver
-from rcmplan.control.limits import Limit
+from rcmplan.control.limits import Limit, RcmLimit
 from rcmplan.control.limits.base import SPEED_ACTIVE
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_checks import check_qp_args
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, CostTerm, StepInput, StepQP, build_step
+from rcmplan.control.rcm_step import BOX_TRIES, bounded_step, box_margin, needle_distance
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import checked_target, solve_pose, target_tip
-from rcmplan.exceptions import UnreachableTargetError
+from rcmplan.exceptions import QPError, UnreachableTargetError
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 
@@ -184,8 +185,28 @@ class QpSolver:
         """The QP's step: joint increments recovered exactly from the actuator increments
         (with a servo: from the measured joints q to the planned command)."""
         target, q = checked_target(target, self.target_width), _joints(robot, q)
-        step, result = self._solve(robot, self.planned_joints(robot, q), lam, target)
-        return joints_step(robot, step.sliders, result.x, q)
+        plan = self.planned_joints(robot, q)
+        step, result = self._solve(robot, plan, lam, target)
+        dq, dlam = joints_step(robot, step.sliders, result.x, q)
+        tol = self.limits.rcm_tolerance
+        if tol == 0.0:  # an equality: no box to hold
+            return dq, dlam
+        # The RCM box on the true kinematics (`rcm_step`: solved again with a narrower box).
+        trocar, active = target[-3:], list(robot.active)
+        now, margin = needle_distance(robot, q, trocar), 0.0
+        for _ in range(BOX_TRIES):
+            x = q.copy()
+            x[active] += dq
+            narrower = box_margin(needle_distance(robot, x, trocar), now, tol, margin)
+            if narrower in (0.0, margin):
+                break
+            try:
+                step, result = self._solve(robot, plan, lam, target, tol - narrower)
+            except QPError:
+                break  # the last step that solved stands
+            dq, dlam = joints_step(robot, step.sliders, result.x, q)
+            margin = narrower
+        return bounded_step(robot, q, dq, dlam, trocar, tol)  # a second-order part beyond it
 
     def free_solver(self) -> LimitedTipSolver | LimitedPoseSolver:
         """The free-space solver that holds this QP's actuator travel and speed outside the eye
@@ -219,21 +240,30 @@ class QpSolver:
         return np.asarray(target - extended_task(robot, q, lam), dtype=float)
 
     def _solve(
-        self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray
+        self,
+        robot: RobotModel,
+        q: FloatArray,
+        lam: float,
+        target: FloatArray,
+        rcm_box: float | None = None,
     ) -> tuple[StepQP, QpResult]:
-        """Build and solve this state's QP once; `error` and `step` share the result."""
+        """Build and solve this state's QP once; `error` and `step` share the result. With
+        `rcm_box` [m], the QP with its RCM box narrowed to that half-width, solved anew and not
+        kept (`step`)."""
         key = np.concatenate([q, [lam], target]).tobytes()
-        if self.last is not None and key == self._key:
+        if rcm_box is None and self.last is not None and key == self._key:
             return self.last
         e = self.task_error(robot, q, lam, target)
-        self._planned_error = e
         inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.weights)
-        step = build_step(robot, inp, self.rows, self.bounds, self.objectives)
+        rows = self.rows if rcm_box is None else (RcmLimit(rcm_box), *self.rows[1:])
+        step = build_step(robot, inp, rows, self.bounds, self.objectives)
         if self.servo is not None:
             step = synchronised_step(robot, step, self.dt)
         result = solve(step.problem, self.backend)
-        self.last, self._key = (step, result), key
-        return self.last
+        if rcm_box is None:
+            self._planned_error = e
+            self.last, self._key = (step, result), key
+        return step, result
 
     def check_target(self, target: FloatArray, pose: bool = True) -> FloatArray:
         """Refuse a target no feasible motion reaches, before moving towards it; return it as

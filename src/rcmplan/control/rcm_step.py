@@ -10,18 +10,32 @@ again, at most STEP_TRIES times, and a step that leaves it no farther than it wa
 per target where a robot turns the needle through long levers, instead of needing smaller
 target steps from the plan.
 
-`step_scale` is the one rule; the compiled loops call it in compiled code and the Python loop
-calls it as it is (a numba kernel).
+The QP holds the RCM inside its own box (`QpLimits.rcm_tolerance`), linearised at the step's
+start, so the same second-order part can carry the needle past the box by up to that part's
+size: shrinking the step does not help there (the box's edge is where the QP puts the needle,
+whatever the step's length). So the QP's step is checked on the true kinematics, and a step
+that leaves the needle beyond the box (and farther than it was) is solved again with the box
+narrowed by a margin that grows with the excess (`box_margin`), at most BOX_TRIES times;
+the last step that solved is kept, and the loop's own bound above then applies to it.
+
+`step_scale` and `box_margin` are the two rules; the compiled loops call them in compiled code
+and the Python loop and `QpSolver.step` call them as they are (numba kernels).
 """
 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from numba import njit
 
+from rcmplan._validate import FloatArray
+from rcmplan.robot.needle import closest_point
+
 STEP_TRIES = 4  # the scaled step is tried again at most this many times
 SHRINK_FLOOR = 0.1  # no single try shrinks a step by more than this factor
+BOX_TRIES = 3  # the QP is solved again with a narrower RCM box at most this many times
+BOX_GROWTH = 1.25  # the margin grows by this multiple of the excess over the box
 
 
 @njit(cache=True)
@@ -32,3 +46,41 @@ def step_scale(after: float, before: float, bound: float) -> float:
     if after <= bound or after <= before:
         return 1.0
     return max(SHRINK_FLOOR, 0.9 * math.sqrt(bound / after))
+
+
+@njit(cache=True)
+def box_margin(after: float, before: float, tol: float, margin: float) -> float:
+    """0.0 if a QP step whose RCM box (half-width `tol` [m], narrowed by `margin` [m]) leaves
+    the needle within `tol` of the trocar (`after` [m]), or no farther than `before` [m];
+    else the margin for the next solve: margin + BOX_GROWTH (after - tol), at most tol (the
+    box then an equality). A result equal to `margin` means no narrower box is left."""
+    if after <= tol or after <= before:
+        return 0.0
+    return min(tol, margin + BOX_GROWTH * (after - tol))
+
+
+def needle_distance(robot: Any, q: FloatArray, trocar: FloatArray) -> float:
+    """Distance in [m] from the trocar to the needle (its shaft's closest point) at joints q,
+    on any robot model (the compiled loops: `loop.rcm_distance`, `arm_loop.closest_on_needle`)."""
+    base, end = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
+    return float(closest_point(base, end, trocar)[1])
+
+
+def bounded_step(
+    robot: Any, q: FloatArray, dq: FloatArray, dlam: float, trocar: FloatArray, bound: float
+) -> tuple[FloatArray, float]:
+    """The step (dq over the robot's active joints, dlam) shortened until the needle passes
+    within `bound` [m] of the trocar after it, or no farther than before it (`step_scale`);
+    bound <= 0: the step as it is (the compiled loops: `loop.bound_rcm_step`, `arm_loop.
+    bound_step`)."""
+    if not bound > 0.0:
+        return dq, dlam
+    active, now = list(robot.active), needle_distance(robot, q, trocar)
+    for _ in range(STEP_TRIES):
+        x = q.copy()
+        x[active] += dq
+        f = step_scale(needle_distance(robot, x, trocar), now, bound)
+        if f == 1.0:
+            break
+        dq, dlam = dq * f, dlam * f
+    return dq, dlam
