@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from rcmplan.control.phase import LoopSettings
-from rcmplan.control.rcm_step import SHRINK_FLOOR, step_scale
+from rcmplan.control.rcm_step import BOX_GROWTH, SHRINK_FLOOR, box_margin, step_scale
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import load_scenario
@@ -38,6 +38,26 @@ def test_a_step_beyond_the_bound_is_scaled_so_a_second_order_deviation_lands_und
 def test_a_far_deviation_shrinks_the_step_by_at_most_the_floor_per_try() -> None:
     assert step_scale(1.0, 0.0, 0.8 * UM) == SHRINK_FLOOR
     assert step_scale(float("nan"), 0.0, 0.8 * UM) == SHRINK_FLOOR
+
+
+def test_a_qp_step_inside_its_box_or_no_farther_than_before_needs_no_margin() -> None:
+    assert box_margin(0.5 * UM, 0.0, 0.5 * UM, 0.0) == 0.0
+    assert box_margin(0.7 * UM, 0.9 * UM, 0.5 * UM, 0.0) == 0.0
+    assert box_margin(0.4 * UM, 0.0, 0.5 * UM, 0.1 * UM) == 0.0  # held after a narrower solve
+
+
+def test_a_qp_step_beyond_its_box_narrows_the_box_by_more_than_the_excess() -> None:
+    first = box_margin(0.6 * UM, 0.0, 0.5 * UM, 0.0)
+    assert first == pytest.approx(BOX_GROWTH * 0.1 * UM) and first > 0.1 * UM
+    assert box_margin(0.52 * UM, 0.0, 0.5 * UM, first) == pytest.approx(
+        first + BOX_GROWTH * 0.02 * UM
+    )
+
+
+def test_the_box_margin_stops_at_the_tolerance_an_equality() -> None:
+    assert box_margin(2.0 * UM, 0.0, 0.5 * UM, 0.0) == 0.5 * UM
+    assert box_margin(0.7 * UM, 0.0, 0.5 * UM, 0.5 * UM) == 0.5 * UM  # no narrower box left
+    assert box_margin(float("nan"), 0.0, 0.5 * UM, 0.0) == 0.5 * UM
 
 
 def test_the_loop_settings_refuse_a_tolerance_that_is_not_positive() -> None:
