@@ -30,6 +30,7 @@ servo has arrived.
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from typing import Any, ClassVar
 
@@ -183,7 +184,8 @@ class QpSolver:
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """The QP's step: joint increments recovered exactly from the actuator increments
-        (with a servo: from the measured joints q to the planned command)."""
+        (with a servo: from the measured joints q to the planned command), its RCM box held on
+        the true kinematics (`rcm_step`: solved again with a narrower box, then shortened)."""
         target, q = checked_target(target, self.target_width), _joints(robot, q)
         plan = self.planned_joints(robot, q)
         step, result = self._solve(robot, plan, lam, target)
@@ -193,12 +195,18 @@ class QpSolver:
             return dq, dlam
         # The RCM box on the true kinematics (`rcm_step`: solved again with a narrower box).
         trocar, active = target[-3:], list(robot.active)
-        now, margin = needle_distance(robot, q, trocar), 0.0
+        now, margin = math.nan, 0.0  # the distance before the step, measured if needed
         for _ in range(BOX_TRIES):
             x = q.copy()
             x[active] += dq
-            narrower = box_margin(needle_distance(robot, x, trocar), now, tol, margin)
-            if narrower in (0.0, margin):
+            after = needle_distance(robot, x, trocar)
+            if after <= tol:
+                return dq, dlam
+            now = needle_distance(robot, q, trocar) if math.isnan(now) else now
+            narrower = box_margin(after, now, tol, margin)
+            if narrower == 0.0:
+                return dq, dlam
+            if narrower == margin:
                 break
             try:
                 step, result = self._solve(robot, plan, lam, target, tol - narrower)

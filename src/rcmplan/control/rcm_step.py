@@ -75,11 +75,15 @@ def bounded_step(
     bound_step`)."""
     if not bound > 0.0:
         return dq, dlam
-    active, now = list(robot.active), needle_distance(robot, q, trocar)
+    active, now = list(robot.active), math.nan  # the distance before, measured if needed
     for _ in range(STEP_TRIES):
         x = q.copy()
         x[active] += dq
-        f = step_scale(needle_distance(robot, x, trocar), now, bound)
+        after = needle_distance(robot, x, trocar)
+        if after <= bound:
+            break
+        now = needle_distance(robot, q, trocar) if math.isnan(now) else now
+        f = step_scale(after, now, bound)
         if f == 1.0:
             break
         dq, dlam = dq * f, dlam * f
