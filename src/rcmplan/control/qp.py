@@ -253,22 +253,22 @@ class QpSolver:
         q: FloatArray,
         lam: float,
         target: FloatArray,
-        rcm_box: float | None = None,
+        rcm_tolerance: float | None = None,
     ) -> tuple[StepQP, QpResult]:
         """Build and solve this state's QP once; `error` and `step` share the result. With
-        `rcm_box` [m], the QP with its RCM box narrowed to that half-width, solved anew and not
-        kept (`step`)."""
+        `rcm_tolerance` [m] in place of the limits' (a narrower box, `step`), solved anew and
+        not kept."""
         key = np.concatenate([q, [lam], target]).tobytes()
-        if rcm_box is None and self.last is not None and key == self._key:
+        if rcm_tolerance is None and self.last is not None and key == self._key:
             return self.last
         e = self.task_error(robot, q, lam, target)
         inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.weights)
-        rows = self.rows if rcm_box is None else (RcmLimit(rcm_box), *self.rows[1:])
+        rows = self.rows if rcm_tolerance is None else (RcmLimit(rcm_tolerance), *self.rows[1:])
         step = build_step(robot, inp, rows, self.bounds, self.objectives)
         if self.servo is not None:
             step = synchronised_step(robot, step, self.dt)
         result = solve(step.problem, self.backend)
-        if rcm_box is None:
+        if rcm_tolerance is None:
             self._planned_error = e
             self.last, self._key = (step, result), key
         return step, result

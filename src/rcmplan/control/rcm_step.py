@@ -15,8 +15,10 @@ start, so the same second-order part can carry the needle past the box by up to 
 size: shrinking the step does not help there (the box's edge is where the QP puts the needle,
 whatever the step's length). So the QP's step is checked on the true kinematics, and a step
 that leaves the needle beyond the box (and farther than it was) is solved again with the box
-narrowed by a margin that grows with the excess (`box_margin`), at most BOX_TRIES times;
-the last step that solved is kept, and the loop's own bound above then applies to it.
+narrowed by a margin that grows with the excess (`box_margin`), at most BOX_TRIES times; the
+last step that solved is kept, and if even the narrowest box leaves it beyond (a step whose
+second-order part alone exceeds the tolerance) it is shortened against the QP's tolerance by
+the rule above (`bounded_step`), before the loop's own bound applies to it.
 
 `step_scale` and `box_margin` are the two rules; the compiled loops call them in compiled code
 and the Python loop and `QpSolver.step` call them as they are (numba kernels).
@@ -50,10 +52,10 @@ def step_scale(after: float, before: float, bound: float) -> float:
 
 @njit(cache=True)
 def box_margin(after: float, before: float, tol: float, margin: float) -> float:
-    """0.0 if a QP step whose RCM box (half-width `tol` [m], narrowed by `margin` [m]) leaves
-    the needle within `tol` of the trocar (`after` [m]), or no farther than `before` [m];
-    else the margin for the next solve: margin + BOX_GROWTH (after - tol), at most tol (the
-    box then an equality). A result equal to `margin` means no narrower box is left."""
+    """0.0 if a QP step solved with the RCM tolerance `tol` [m] less `margin` [m] leaves the
+    needle within `tol` of the trocar (`after` [m]), or no farther than `before` [m]; else
+    the margin for the next solve: margin + BOX_GROWTH (after - tol), at most tol (the box
+    then an equality). A result equal to `margin` means no narrower box is left."""
     if after <= tol or after <= before:
         return 0.0
     return min(tol, margin + BOX_GROWTH * (after - tol))
