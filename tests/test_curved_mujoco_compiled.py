@@ -1,10 +1,11 @@
 """A curved needle on the dynamic MuJoCo plant runs in the compiled loop around the plant's period
-(`compiled/mujoco_loop.py`) with the Python loop's log and plant state: X_c phases (pinv, DLS)
-and whole-pose phases, the records with their roll error."""
+(`compiled/mujoco_loop.py`) with the Python loop's log and plant state: X_c phases (pinv, DLS,
+the QP planned from the plant's command) and whole-pose phases (the QP's limited ones), the
+records with their roll error."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numba  # noqa: F401  (the `fast` extra: without it these tests fail, they do not skip)
 import numpy as np
@@ -21,10 +22,11 @@ from rcmplan.control.curved import (
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.log import RunLog
 from rcmplan.control.phase import LoopSettings
+from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver, Tolerance
 from rcmplan.control.tasks import stack_value
 from rcmplan.controller import Controller
-from rcmplan.robot.curved import curved_robot
+from rcmplan.robot.curved import CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points
@@ -46,9 +48,11 @@ def compiled_default() -> Iterator[None]:
     use_path(None)
 
 
-def run(path: str, solver: Solver) -> tuple[RunLog, MujocoPlant, Controller]:
+def run(path: str, solver: Solver | Callable[[MujocoPlant, CurvedTipRobot], QpSolver]
+        ) -> tuple[RunLog, MujocoPlant, Controller]:  # fmt: skip
     """From a pose with the tip at p3 and the shaft through the trocar: the tip 0.2 mm aside
-    with the roll turned 2 mrad (X_c targets), then the whole needle 0.1 mm along x (poses)."""
+    with the roll turned 2 mrad (X_c targets), then the whole needle 0.1 mm along x (poses).
+    `solver`: a solver, or the QP made for the plant (its servo), with its own free step."""
     base = make_robot("iramis")
     robot = curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.25))
     eye = default_eye(robot)
@@ -61,15 +65,24 @@ def run(path: str, solver: Solver) -> tuple[RunLog, MujocoPlant, Controller]:
     use_path(path)
     plant = MujocoPlant(base, mode="dynamic")
     plant.reset(robot.actuators_from_joints(start.q))
-    free = CurvedPoseSolver(tol=TOLERANCE)
+    if callable(solver):
+        solver = solver(plant, robot)
+    free = solver.free_solver() if isinstance(solver, QpSolver) else CurvedPoseSolver(tol=TOLERANCE)
     ctl = Controller(plant, solver, free, settings=LoopSettings(max_iterations=2000), robot=robot)
     ctl.lam = start.lam
     return ctl.run(phases), plant, ctl
 
 
+def curved_qp(plant: MujocoPlant, robot: CurvedTipRobot) -> QpSolver:
+    """The QP on iRAM!S holding the curved needle, the plant its servo (its steps planned from
+    the plant's last command: `qp_mujoco_phase`, method CURVED_QP); its free steps the limited
+    whole-pose steps (`LimitedPoseSolver`)."""
+    return QpSolver(robot, default_eye(robot), tol=TOLERANCE, servo=plant)
+
+
 @pytest.mark.parametrize(
-    "solver", [CurvedPinvSolver(tol=TOLERANCE), CurvedDlsSolver(tol=TOLERANCE)],
-    ids=lambda s: s.name,
+    "solver", [CurvedPinvSolver(tol=TOLERANCE), CurvedDlsSolver(tol=TOLERANCE), curved_qp],
+    ids=["pinv", "dls", "qp"],
 )  # fmt: skip
 def test_a_curved_needle_on_mujoco_runs_compiled_with_the_python_loops_log(solver) -> None:
     ref, ref_plant, ref_ctl = run("off", solver)

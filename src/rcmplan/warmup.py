@@ -124,7 +124,8 @@ def _compile_qp_mujoco_loop(robot: Iramis, targets: FloatArray) -> None:
     solver = QpSolver(robot, servo=plant)
     ctl = Controller(plant, solver, settings=LoopSettings(max_iterations=1000))
     ctl.lam = 1.0 - 8e-3 / robot.params.l6
-    qp_mujoco_phase.run_if_ready(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0)
+    qp_mujoco_phase.run_if_ready(ctl, solver, targets[:1], ctl.log.phase_id("warm"), 0,
+                                 robot_params(robot))  # fmt: skip
 
 
 class _SteppedPlant(KinematicPlant):

@@ -142,9 +142,11 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
     if flag != 1:
         return flag
     frames(A, ix, q, W)
-    task_at(A, n, W, lam, now)  # X_ext at the measured joints
+    task_at(A, n, W, lam, now)  # X_ext at the measured joints, then its error
+    for i in range(6):
+        now[i] = target[i] - now[i]
     x = qp[X]
-    lead_error(Q, x, target, now, e_plan, e)
+    lead_error(Q, x, now, e_plan, e)
     for j in range(m):  # `qp.joints_step` from q
         k = ix[2 + n + j]
         d[j] = (plan[k] + x[j] * SCALE) - q[k]

@@ -64,27 +64,22 @@ def run_if_fast(
 ) -> bool:
     """Run the phase compiled for a `CurvedTipRobot` itself: on a plant that reaches its
     commands exactly (iRAM!S's loop or the arm loop) or, on iRAM!S, around the dynamic MuJoCo
-    plant's compiled period (`mujoco_loop.run_phase_on_mujoco`); False (nothing done)
-    otherwise."""
+    plant's compiled period (`mujoco_loop.run_phase_on_mujoco`, the QP's limited free step
+    among them); False (nothing done) otherwise."""
     arrays = curved_arrays(controller.robot)
     if arrays is None or (method_code(solver) == CURVED_POSE and arrays.m > POSE_JOINTS):
         return False
-    exact = bool(getattr(controller.plant, "exact_commands", False))
-    if type(solver) is LimitedPoseSolver or type(solver) is QpSolver:  # the kinematic plant
-        if not exact or (type(solver) is QpSolver and not curved_qp_applies(solver)):
-            return False
-        if type(solver) is LimitedPoseSolver and arrays.m > POSE_JOINTS:
-            return False
-        if arrays.P is not None:
-            run_iramis_phase(controller, solver, targets, pid, sid, arrays)
-        else:
-            arm_phase.run_arm_phase_exact(controller, solver, targets, pid, sid, arrays)
-        return True
+    if type(solver) is LimitedPoseSolver and arrays.m > POSE_JOINTS:
+        return False
     if not getattr(controller.plant, "exact_commands", False):
         if arrays.P is None or not getattr(controller.plant, "compiled_physics", False):
             return False
+        if type(solver) is QpSolver:  # iRAM!S's QP runs its own loops (`runner`)
+            return False
         closed = fast_cache.closed_loop()
         return bool(closed.run_phase_on_mujoco(controller, solver, targets, pid, sid, P=arrays.P))
+    if type(solver) is QpSolver and not curved_qp_applies(solver):
+        return False
     if arrays.P is not None:
         run_iramis_phase(controller, solver, targets, pid, sid, arrays)
     else:

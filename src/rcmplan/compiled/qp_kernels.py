@@ -71,8 +71,8 @@ def loop_qp(
     """The QP's arrays as the iRAM!S loop reads them (`loop.iterate`'s qpa, None for the other
     methods): (Q, contacts, `buffers(curved)`, res, cmd). params: `qp_params.qp_params`'s
     (Q, contacts); res (6,) the plant's slider resolution and cmd (6,) its last command when
-    the plant is the QP's servo (`QpSolver.servo`; a straight needle's only), the same array
-    the loop commands through."""
+    the plant is the QP's servo (`QpSolver.servo`), the same array the loop commands
+    through."""
     Q, contacts = params
     return (Q, contacts, buffers(curved), np.zeros(0) if res is None else res,
             np.zeros(6) if cmd is None else cmd)  # fmt: skip
@@ -200,32 +200,43 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
                     target: FloatArray, fail: FloatArray, qpa: tuple,
                     C: FloatArray | None) -> int:  # fmt: skip
     """The QP's solve of one loop iteration at joints q (`QpSolver.error`): its error into
-    fail[18:24] and the actuators it was built at into fail[24:30]; returns DAQP's exit flag
-    (1: optimal), the solution in qpa[2][X]. qpa = (Q, contacts, qp, res, cmd) (`qp_params.
-    loop_qp`): with a servo (res (6,), the plant's slider resolution, 0 where it has none;
-    cmd (6,), its last command) the QP is planned from the command as the plant rounds it,
-    its error the plan's plus the command's lead (`lead_error`, fail[30:48] its scratch);
-    without (res empty) it is built at q. A curved needle (C its work block, else None; no
-    servo): the X_c error into fail[18:25], the actuators into fail[25:31]."""
+    fail[18:18 + k] and the actuators it was built at into fail[18 + k:24 + k], k the task's
+    rows (X_ext's 6; a curved needle's X_c, 7, C its work block, else None); returns DAQP's
+    exit flag (1: optimal), the solution in qpa[2][X]. qpa = (Q, contacts, qp, res, cmd)
+    (`qp_params.loop_qp`): with a servo (res (6,), the plant's slider resolution, 0 where it
+    has none; cmd (6,), its last command) the QP is planned from the command as the plant
+    rounds it, its error the plan's plus the command's lead (`lead_error`; the plan's error,
+    joints and the error at q after the actuators, fail[24 + k:37 + 2k]); without (res empty)
+    it is built at q."""
     Q, contacts, qp, res, cmd = qpa
-    if C is not None:
-        if res.shape[0] > 0:
-            raise ValueError("qp_kernels.iteration_error: a curved needle's QP has no servo")
-        e, s_qp = fail[18:25], fail[25:31]
+    k = 6 if C is None else 7  # the task's rows: X_ext's, or a curved needle's X_c
+    e, s_qp = fail[18 : 18 + k], fail[18 + k : 24 + k]
+    if res.shape[0] == 0:
+        if C is None:
+            return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp)
         rows = build_curved_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp, C)
         return solve_assembled(Q, K, rows, e, qp)
-    e, s_qp = fail[18:24], fail[24:30]
-    if res.shape[0] == 0:
-        return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp)
-    e_plan, q_plan, x_now = fail[30:36], fail[36:42], fail[42:48]
+    e_plan, q_plan = fail[24 + k : 24 + 2 * k], fail[24 + 2 * k : 30 + 2 * k]
+    now = fail[30 + 2 * k : 37 + 2 * k]
     for i in range(6):  # the command as the plant rounds it (`QpSolver.planned_joints`)
-        x_now[i] = cmd[i] if res[i] == 0.0 else np.rint(cmd[i] / res[i]) * res[i]
-    joints_from_actuators(P, x_now, q_plan)
-    flag = solve_servo_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,
-                            e_plan, qp)  # fmt: skip
-    if flag == 1:
-        task(P, q, tr, lam, x_now)  # X_ext at the measured joints
-        lead_error(Q, qp[X], target, x_now, e_plan, e)
+        now[i] = cmd[i] if res[i] == 0.0 else np.rint(cmd[i] / res[i]) * res[i]
+    joints_from_actuators(P, now[:6], q_plan)
+    if C is None:
+        flag = solve_servo_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,
+                                e_plan, qp)  # fmt: skip
+    else:
+        rows = build_curved_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,
+                                 qp, C)  # fmt: skip
+        flag = solve_planned(Q, K, rows, e, e_plan, qp)
+    if flag == 1:  # the task's error at the measured joints
+        if C is None:
+            task(P, q, tr, lam, now[:6])
+            for i in range(6):
+                now[i] = target[i] - now[i]
+        else:
+            curved_iramis.task(P, q, tr, lam, False, now, qp[16][3])
+            curved_step.error(now, target, now)
+        lead_error(Q, qp[X], now[:k], e_plan, e)
     return flag
 
 

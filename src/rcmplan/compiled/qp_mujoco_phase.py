@@ -1,9 +1,10 @@
 """The QP controller's phases on the dynamic MuJoCo plant in the compiled loop around it
 (`mujoco_loop.run_targets_on_mujoco` with method QP), behind the runner seam.
 
-Applies to a `QpSolver` itself (exact type) with the DAQP back end, a straight needle, and the
-controller's plant as its servo (`QpSolver.servo`: steps planned from the plant's last command
-rounded to its `actuator_resolution`), on a plant whose period runs in compiled code
+Applies to a `QpSolver` itself (exact type) with the DAQP back end, on iRAM!S with a straight
+needle or a curved one (method CURVED_QP), with the controller's
+plant as its servo (`QpSolver.servo`: steps planned from the plant's last command rounded to
+its `actuator_resolution`), on a plant whose period runs in compiled code
 (`compiled_physics`), for a robot the iRAM!S kernels reproduce, an eye and limits the kernels
 reproduce (`qp_params`), when DAQP's and MuJoCo's C functions can be called from compiled code.
 Everything else runs on the reference path.
@@ -25,9 +26,17 @@ from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.phase import IntArray
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import raise_qp_stop
-from rcmplan.compiled.records import FAIL_WIDTH, QP, loop_bounds, robot_params, solver_arrays
+from rcmplan.compiled.records import (
+    CURVED_QP,
+    FAIL_WIDTH,
+    QP,
+    loop_bounds,
+    record_width,
+    solver_arrays,
+)
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
+from rcmplan.robot.curved_block import BLOCK_ROWS
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -35,14 +44,13 @@ if TYPE_CHECKING:
 
 
 def applies(controller: Controller, solver: Solver) -> bool:
-    """Cheap checks: a QpSolver itself with DAQP and a straight needle whose servo is the
-    controller's plant, a plant that rounds commands to a resolution and whose period runs
-    compiled (the robot, the eye and the C bindings are checked in `run_if_ready`)."""
+    """Cheap checks: a QpSolver itself with DAQP whose servo is the controller's plant, a plant
+    that rounds commands to a resolution and whose period runs compiled (the robot, the eye
+    and the C bindings are checked in `run_if_ready`)."""
     plant = controller.plant
     return (
         type(solver) is QpSolver
         and solver.backend == "daqp"
-        and not solver.curved
         and solver.servo is plant
         and getattr(plant, "actuator_resolution", None) is not None
         and bool(getattr(plant, "compiled_physics", False))
@@ -50,11 +58,13 @@ def applies(controller: Controller, solver: Solver) -> bool:
 
 
 def run_if_ready(
-    controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int
-) -> bool:
+    controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int,
+    P: FloatArray,
+) -> bool:  # fmt: skip
     """Run the phase compiled if DAQP's and MuJoCo's C functions are usable and the eye and
-    limits are the kernels'; False (nothing done) otherwise. The caller has checked the
-    robot."""
+    limits are the kernels'; False (nothing done) otherwise. The caller has checked the robot
+    (P: the kernels' parameters, `runner.kernel_params`, or a curved needle's,
+    `qp_phase.curved_params`)."""
     from rcmplan.sim.mujoco.compiled import plant_arrays
 
     params = qp_params(controller.robot, solver)
@@ -63,26 +73,27 @@ def run_if_ready(
     arrays = plant_arrays(controller.plant)
     if arrays is None:
         return False
-    run_qp_phase_on_mujoco(controller, solver, targets, pid, sid, params, arrays)
+    run_qp_phase_on_mujoco(controller, solver, targets, pid, sid, params, arrays, P)
     return True
 
 
 def run_qp_phase_on_mujoco(
     controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int,
-    params: tuple[FloatArray, FloatArray], arrays: Any,
+    params: tuple[FloatArray, FloatArray], arrays: Any, P: FloatArray,
 ) -> None:  # fmt: skip
     """Algorithm 1 with the QP on each target in turn on the MuJoCo plant, compiled (see the
-    module docstring)."""
+    module docstring); P: as `run_if_ready`'s."""
     plant = cast("MujocoPlant", controller.plant)
-    robot, cfg = controller.robot, controller.settings
+    cfg, curved = controller.settings, solver.curved
     loop = fast_cache.closed_loop()
     K, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     res = np.ascontiguousarray(plant.actuator_resolution, dtype=np.float64)
     s, cmd = np.empty(6), np.array(plant.command, dtype=np.float64)
-    qpa = fast_cache.qp_kernels().loop_qp(params, res, cmd)
-    head = (robot_params(robot), QP, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, loop_bounds(controller), qpa, None, targets)  # fmt: skip
+    qpa = fast_cache.qp_kernels().loop_qp(params, res, cmd, curved=curved)
+    head = (P, CURVED_QP if curved else QP, K, damping, tol, cfg.max_iterations,
+            cfg.drift_correction, loop_bounds(controller), qpa,
+            np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
     fail = np.empty(FAIL_WIDTH)
     tail = (fail, arrays.slider_qpos, *arrays.args())
 
@@ -91,5 +102,6 @@ def run_qp_phase_on_mujoco(
         return int(loop.run_targets_on_mujoco(*head, k0, it0, s, cmd, state, rec, irec, info,
                                               *tail))  # fmt: skip
 
-    status, info = loop.run_in_blocks_on_mujoco(controller, cmd, pid, sid, run)
+    status, info = loop.run_in_blocks_on_mujoco(controller, cmd, pid, sid, run,
+                                                record_width(6, roll=curved))  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)

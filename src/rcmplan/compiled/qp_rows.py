@@ -193,10 +193,10 @@ def solve_assembled(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, qp: 
 def solve_planned(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, e_plan: FloatArray,
                   qp: tuple) -> int:  # fmt: skip
     """`solve_assembled` for a step built at a servo's planned command (`QpSolver`'s `servo`):
-    e (6,), the X_ext error at the plan, kept in e_plan (6,), the cost synchronised to the
-    actuators' speed window (`cost.synchronise`, `qp.synchronised_step`); returns DAQP's exit
-    flag."""
-    for i in range(6):
+    e (k,), the task's error at the plan (X_ext's or X_c's), kept in e_plan (k,), the cost
+    synchronised to the actuators' speed window (`cost.synchronise`, `qp.synchronised_step`);
+    returns DAQP's exit flag."""
+    for i in range(e.shape[0]):
         e_plan[i] = e[i]
     nb = qp[0].shape[0]
     synchronise(qp[0], qp[1], Q[SPEED : SPEED + nb - 1] * Q[DT] / SCALE)
@@ -204,12 +204,11 @@ def solve_planned(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, e_plan
 
 
 @njit(cache=True)
-def lead_error(Q: FloatArray, x: FloatArray, target: FloatArray, now: FloatArray,
-               e_plan: FloatArray, e: FloatArray) -> None:  # fmt: skip
-    """`QpSolver.error` with a servo, from a `solve_planned` solution x: e (6,) plus the
-    command's lead (the X_ext error at the measured joints, whose X_ext is now (6,), less the
-    one at the plan, e_plan), or that error itself when an actuator moves at full speed."""
+def lead_error(Q: FloatArray, x: FloatArray, now: FloatArray, e_plan: FloatArray,
+               e: FloatArray) -> None:  # fmt: skip
+    """`QpSolver.error` with a servo, from a `solve_planned` solution x: e (k,) plus the
+    command's lead (the task's error at the measured joints, now (k,), less the one at the
+    plan, e_plan), or that error itself when an actuator moves at full speed."""
     limited = full_speed(Q, x)
-    for i in range(6):
-        err = target[i] - now[i]
-        e[i] = err if limited else e[i] + (err - e_plan[i])
+    for i in range(e.shape[0]):
+        e[i] = now[i] if limited else e[i] + (now[i] - e_plan[i])

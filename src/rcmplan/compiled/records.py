@@ -58,7 +58,7 @@ REC_WIDTH = 35
 VECTORS = tuple(k for k, (a, b) in REC_COLUMNS.items() if b - a > 1)
 # fail of the iRAM!S loop: (q, q_new, s_new, error (6,), or (7,) curved); the QP's actuators
 # s_qp and a servo's scratch after the error (`loop.iterate`)
-FAIL_WIDTH = 48
+FAIL_WIDTH = 51
 
 
 def record_columns(n: int, roll: bool = False) -> dict[str, tuple[int, int]]:

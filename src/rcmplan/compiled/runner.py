@@ -69,16 +69,15 @@ def fast_converge_phase(
         return curved_phase.run_if_fast(controller, solver, targets, pid, sid)
     if arm_phase.applies(controller, solver):  # any serial arm, on any plant
         return arm_phase.run_if_fast(controller, solver, targets, pid, sid)
-    if qp_mujoco_phase.applies(controller, solver):  # the QP, on the dynamic MuJoCo plant
-        if kernel_params(controller.robot) is None:
-            return False
-        return qp_mujoco_phase.run_if_ready(controller, solver, targets, pid, sid)  # type: ignore[arg-type]
-    if qp_phase.applies(controller, solver):  # the QP controller, on the kinematic plant
+    dynamic = qp_mujoco_phase.applies(controller, solver)  # the QP on the dynamic MuJoCo plant
+    if dynamic or qp_phase.applies(controller, solver):  # or on the kinematic plant
         curved = getattr(solver, "curved", False)
         robot = controller.robot
         P = qp_phase.curved_params(robot) if curved else kernel_params(robot)
         if P is None:
             return False
+        if dynamic:
+            return qp_mujoco_phase.run_if_ready(controller, solver, targets, pid, sid, P)  # type: ignore[arg-type]
         return qp_phase.run_if_ready(controller, solver, targets, pid, sid, P)  # type: ignore[arg-type]
     exact = getattr(controller.plant, "exact_commands", False)
     physics = getattr(controller.plant, "compiled_physics", False)
