@@ -2,10 +2,10 @@
 (`mujoco_loop.run_targets_on_mujoco` with method QP), behind the runner seam.
 
 Applies to a `QpSolver` itself (exact type) with the DAQP back end, on iRAM!S with a straight
-needle or a curved one (method CURVED_QP), with the controller's
-plant as its servo (`QpSolver.servo`: steps planned from the plant's last command rounded to
-its `actuator_resolution`), on a plant whose period runs in compiled code
-(`compiled_physics`), for a robot the iRAM!S kernels reproduce, an eye and limits the kernels
+needle or a curved one (method CURVED_QP), with the controller's plant as its servo
+(`QpSolver.servo`: steps planned from the plant's last command rounded to its
+`actuator_resolution`), on a plant whose period runs in compiled code (`compiled_physics`),
+for a robot the iRAM!S kernels reproduce, an eye and limits the kernels
 reproduce (`qp_params`), when DAQP's and MuJoCo's C functions can be called from compiled code.
 Everything else runs on the reference path.
 
