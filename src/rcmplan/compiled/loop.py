@@ -345,23 +345,31 @@ def hold_box(
     P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
     trocar: FloatArray, moved: int, fail: FloatArray, qpa: tuple, C: FloatArray | None,
     w: FloatArray,
-) -> None:  # fmt: skip
+) -> bool:  # fmt: skip
     """The QP's RCM box on the true kinematics (`QpSolver.step`, `rcm_step.box_margin`): while
-    the solution in qpa leaves the needle beyond the box's tolerance (and farther than at q),
-    solve again (`iteration_error`) with the box narrowed, at most BOX_TRIES times; a solve
-    that fails is repeated with the last box that solved. The error in fail is then the last
-    solve's. w (6,) is scratch; the stepped joints go through fail[6:12]."""
+    the solution in qpa leaves the needle beyond the box's tolerance (and farther than at q,
+    measured only then), solve again (`iteration_error`) with the box narrowed, at most
+    BOX_TRIES times; a solve that fails is repeated with the last box that solved. The error
+    in fail is then the last solve's. Returns True if the solution in qpa holds the box (or
+    there is none: an equality), False if its step is still to be shortened. w (6,) is
+    scratch; the stepped joints go through fail[6:12]."""
     Q, x = qpa[0], qpa[2][X]
     tol = Q[RCM_TOL]
     if tol == 0.0:
-        return
+        return True
     qn, s_qp = fail[6:12], fail[19 + moved : 25 + moved]
-    now, margin = rcm_distance(P, q, trocar, w), 0.0
+    now, margin = math.nan, 0.0
     for _ in range(BOX_TRIES):
         step_joints(P, q, s_qp, x, qn, w)
-        narrower = box_margin(rcm_distance(P, qn, trocar, w), now, tol, margin)
-        if narrower == 0.0 or narrower == margin:
-            return
+        after = rcm_distance(P, qn, trocar, w)
+        if after <= tol:
+            return True
+        now = rcm_distance(P, q, trocar, w) if math.isnan(now) else now
+        narrower = box_margin(after, now, tol, margin)
+        if narrower == 0.0:
+            return True
+        if narrower == margin:
+            return False
         Q[RCM_TOL] = tol - narrower
         flag = iteration_error(P, K, q, tr, lam, target, fail, qpa, C)
         if flag != 1:
@@ -369,8 +377,9 @@ def hold_box(
             iteration_error(P, K, q, tr, lam, target, fail, qpa, C)
         Q[RCM_TOL] = tol
         if flag != 1:
-            return
+            return False
         margin = narrower
+    return False
 
 
 @njit(cache=True)
@@ -381,14 +390,15 @@ def held_step(
 ) -> float:  # fmt: skip
     """`QpSolver.step` after the loop's solve at joints q (`qp_kernels.iteration_error`), moving
     joints 0..moved-1: the RCM box held on the true kinematics (`hold_box`), the step d
-    (moved + 1,) in joints and lambda, shortened from the QP's RCM tolerance; the stepped
-    joints in fail[6:12]. Returns the factor applied (1.0: the solution's step as it is)."""
-    hold_box(P, K, q, tr, lam, target, trocar, moved, fail, qpa, C, w)
+    (moved + 1,) in joints and lambda, shortened from the QP's RCM tolerance if the box is
+    still not held; the stepped joints in fail[6:12]. Returns the factor applied (1.0: the
+    solution's step as it is)."""
+    held = hold_box(P, K, q, tr, lam, target, trocar, moved, fail, qpa, C, w)
     qn, s_qp = fail[6:12], fail[19 + moved : 25 + moved]
     d[moved] = step_joints(P, q, s_qp, qpa[2][X], qn, w)
     for i in range(moved):
         d[i] = qn[i] - q[i]
-    return bound_rcm_step(P, q, d, moved, trocar, qpa[0][RCM_TOL], w, qn)
+    return 1.0 if held else bound_rcm_step(P, q, d, moved, trocar, qpa[0][RCM_TOL], w, qn)
 
 
 @njit(cache=True)
