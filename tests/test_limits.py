@@ -137,3 +137,24 @@ def test_the_settings_build_limits_that_hold_their_values() -> None:
     assert retina.recovery == max(1e-6, 0.4 * 0.02 * 1e-3)
     assert singular == SingularMargin(0.3, 0.5) and speed == TipSpeed(0.02)
     assert [type(x) for x in QpLimits().rows(None, 1e-3)] == [RcmLimit, SingularMargin]
+
+
+@pytest.mark.parametrize("gain", [0.1, 0.5, 1.0])
+def test_a_damper_approaches_its_floor_at_its_gain_and_returns_past_it_at_once(gain) -> None:
+    """value + grad x >= floor + (1 - gain)(value - floor) above the floor; past it the row asks
+    for the whole way back (at most `recovery`), so a second-order loss each step (a point
+    sliding along a sphere) stays within one step's loss instead of settling at loss / gain."""
+    from rcmplan.control.limits.rows import SCALE as ROW_SCALE
+    from rcmplan.control.limits.rows import damper_bound
+
+    floor, recovery = 2.0e-4, 1e-6
+    # -grad x <= h: the value may fall by at most h * SCALE this step
+    assert damper_bound(floor + 8e-6, floor, gain, recovery) * ROW_SCALE == pytest.approx(
+        gain * 8e-6, rel=1e-12
+    )
+    assert damper_bound(floor - 4e-9, floor, gain, recovery) * ROW_SCALE == pytest.approx(
+        -4e-9, rel=1e-12
+    )
+    assert damper_bound(floor - 5e-6, floor, gain, recovery) * ROW_SCALE == pytest.approx(
+        -recovery, rel=1e-12
+    )

@@ -23,10 +23,12 @@ def damper_bound(value: float, floor: float, gain: float, recovery: float) -> fl
     """h of the row -grad x <= h that keeps value + grad x SCALE >= floor, approached at `gain`.
 
     value_next - floor >= (1 - gain)(value - floor) to first order; past the floor, the value
-    must not get worse and recovers by up to `recovery` per step.
+    returns to it in one step, by up to `recovery`. (Returning at `gain` would let a second-order
+    loss each step, such as a point sliding along a sphere, settle at loss / gain past the
+    floor; returning at once it stays within one step's loss.)
     """
     gap = value - floor
-    need = -gain * gap if gap >= 0.0 else min(-gain * gap, recovery)
+    need = -gain * gap if gap >= 0.0 else min(-gap, recovery)
     return -need / SCALE
 
 
