@@ -49,9 +49,10 @@ def faults(out: Path, command: str, code: int, sig: int, err: str = "", late: bo
     """Every way the run in `out` of `command`, sent `sig` and ended with exit `code` (stderr
     `err`; `late`: its exit had begun before the signal), broke the promise; [] if none."""
     found = [f"traceback: {t}" for t in our_tracebacks(err)]
-    if code == 0 and not late:
-        found.append("ignored: exit 0 after a signal sent before the process's exit began")
-    elif code not in (0, -sig, 128 + sig):
+    ended = code in (0, 1)  # the run's own exit: 1 after a run that is not ok (limit_violated)
+    if ended and not late:
+        found.append(f"ignored: exit {code} after a signal sent before the process's exit began")
+    elif not ended and code not in (-sig, 128 + sig):
         found.append(f"wrong exit {code}")
     try:
         doc = json.loads((out / "summary.json").read_text())
@@ -63,6 +64,8 @@ def faults(out: Path, command: str, code: int, sig: int, err: str = "", late: bo
         found.append(f"status {status!r} ({message!r}) after exit {code}")
     if not stopped and status == "interrupted":
         found.append(f"status 'interrupted' after exit {code}")
+    if ended and late and (code == 1) != (status != "ok"):  # the run's own exit, for its status
+        found.append(f"status {status!r} after exit {code}")
     found += [f"records: {f}" for f in RECORDS.get(command, run_log)(out, doc)]
     found += [f"temporary file {p.name}" for p in out.rglob("*") if ".tmp" in p.name]
     return found

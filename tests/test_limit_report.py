@@ -190,3 +190,25 @@ def test_the_curved_needles_rcm_count_follows_its_rcm_deviation_not_the_chord_to
     v = violations(broken, result.robot, result.scenario.eye(result.robot))
     assert v.counts["rcm"] == len(rows)
     assert v.worst["rcm"] == pytest.approx(broken.max_rcm_deviation() - tol)
+
+
+# --- the bounds a run states, checked on its measured log ---------------------------------------
+
+
+def test_broken_bounds_names_the_qps_limits_for_the_qp_and_the_loop_tolerance_for_all() -> None:
+    from rcmplan.analysis.limits import broken_bounds
+
+    counts = {"limit_violations": {"travel": 0, "speed": 804, "rcm": 0, "retina": 12}}
+    qp, pinv = load_scenario("default").with_method("qp"), load_scenario("default")
+    assert pinv.loop.rcm_tolerance == pytest.approx(0.8e-6)
+    assert broken_bounds(pinv, counts, 0.462e-6) == ""  # pinv holds no QP limit
+    assert broken_bounds(qp, counts, 0.5e-6) == (
+        "the measured motion on the kinematic plant broke the QP's limits (speed in 804 "
+        "records, retina in 12 records)"
+    )
+    assert broken_bounds(qp, {"limit_violations": dict.fromkeys(counts, 0)}, 0.5e-6) == ""
+    beyond = broken_bounds(pinv.with_plant("mujoco"), counts, 1.2e-6)
+    assert beyond == ("the measured motion on the mujoco plant broke the loop's RCM tolerance "
+                      "0.800 um (max RCM deviation 1.20 um)")  # fmt: skip
+    assert broken_bounds(pinv, counts, 0.8e-6) == ""  # at the tolerance: held
+    assert broken_bounds(pinv, counts, None) == ""  # no record inside the eye

@@ -58,7 +58,13 @@ def test_the_exit_code_the_status_and_the_stderr_must_agree(tmp_path: Path) -> N
     assert kinds(ok, "inject", code=-TERM) == []
     assert kinds(ok, "inject", code=0, late=True) == []
     assert kinds(ok, "inject", code=0) == ["ignored"]
-    assert kinds(ok, "inject", code=1) == ["wrong exit"]
+    assert kinds(ok, "inject", code=1) == ["ignored"]
+    assert kinds(ok, "inject", code=1, late=True) == ["status"]  # exit 1 beside "ok"
+    assert kinds(ok, "inject", code=2) == ["wrong exit"]
+    broke = {"status": "limit_violated", "message": "the measured motion ...", "iterations": 2}
+    beyond = folder(tmp_path / "beyond", broke, 2)
+    assert kinds(beyond, "inject", code=1, late=True) == []  # a finished run's own exit 1
+    assert kinds(beyond, "inject", code=0, late=True) == ["status"]
     assert kinds(ok, "inject") == ["status"]  # exit 143 beside a finished run's summary
     wrong_signal = {"status": "interrupted", "message": "interrupted by SIGINT before the run"}
     assert kinds(folder(tmp_path / "sigint", wrong_signal), "inject") == ["status"]

@@ -2,11 +2,14 @@
 
 `run_scenario` never loses work: when a run stops early it returns the partial log with
 `status` set to the error's status code, `message` to its text (and keeps the exception in
-`error`). An interrupted run (KeyboardInterrupt, or the CLI's SIGTERM) re-raises the interrupt
-with the partial result attached as `result`, status "interrupted", once its controller exists;
-interrupted before (placing the eye, building the plant and the solver), it has no record to
-measure, and the interrupt goes on without a result, at once (measuring would place the eye
-again, and loading the compiled kernels that needs can take a second).
+`error`). A run that finishes with a measured motion beyond a bound it states (the QP's limits,
+the loop's RCM tolerance: `analysis.limits.broken_bounds`) has status "limit_violated" and a
+message naming them, not "ok". An interrupted run (KeyboardInterrupt, or the CLI's SIGTERM)
+re-raises the interrupt with the partial result attached as `result`, status "interrupted",
+once its controller exists; interrupted before (placing the eye, building the plant and the
+solver), it has no record to measure, and the interrupt goes on without a result, at once
+(measuring would place the eye again, and loading the compiled kernels that needs can take a
+second).
 """
 
 from __future__ import annotations
@@ -17,8 +20,8 @@ from typing import Any
 
 from rcmplan._signals import raise_interrupt
 from rcmplan._validate import instance
-from rcmplan.analysis.limits import limit_figures
-from rcmplan.analysis.metrics import phase_metrics
+from rcmplan.analysis.limits import broken_bounds, limit_figures
+from rcmplan.analysis.metrics import overall, phase_metrics
 from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.methods import make_free_solver, make_solver
@@ -107,10 +110,15 @@ def _result(
     times = controller.phase_times if controller is not None else {}
     paths = controller.phase_paths if controller is not None else {}
     tracking = limit_figures(scenario, robot, log)
+    phases = phase_metrics(log, times)
+    if status == "ok":  # finished: within the bounds it states, or "limit_violated"
+        broken = broken_bounds(scenario, tracking, overall(phases)["max_rcm_deviation_m"])
+        if broken:
+            status, message = "limit_violated", broken
     return RunResult(
         scenario=scenario,
         log=log,
-        phases=phase_metrics(log, times),
+        phases=phases,
         status=status,
         wall_time_s=time.perf_counter() - start,
         robot=robot,

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from rcmplan.analysis.units import fmt
 from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.log import RunLog
 from rcmplan.control.qp_limits import QpLimits
@@ -256,6 +257,28 @@ def limit_gaps(
 
 
 MAX_LISTED = 20  # limited waypoints listed by name in a summary (all are counted)
+LOOP_SLACK = 1e-12  # [m]: the loop's RCM tolerance is checked on the true kinematics (rounding)
+
+
+def broken_bounds(scenario: Scenario, figures: dict[str, Any], max_rcm: float | None) -> str:
+    """What the measured run breaks of the bounds it states, on one line ("" for nothing): with
+    the QP, its limits (`limit_violations`, every kind: the QP holds each); with any method,
+    the loop's RCM tolerance (`LoopSettings.rcm_tolerance`, the needle's largest distance from
+    the trocar a step may leave) against `max_rcm` [m], the run's max RCM deviation inside the
+    eye. On the kinematic plant the bounds hold on every shipped scenario; on a plant with
+    dynamics they hold on the commands, and the measured needle lags them."""
+    parts = []
+    counts = figures.get("limit_violations") or {}
+    broken = [f"{kind} in {n:,} records" for kind, n in counts.items() if n]
+    if scenario.method == "qp" and broken:
+        parts.append(f"the QP's limits ({', '.join(broken)})")
+    tol = scenario.loop.rcm_tolerance
+    if tol is not None and max_rcm is not None and max_rcm > tol + LOOP_SLACK:
+        parts.append(f"the loop's RCM tolerance {fmt(tol, 'um', with_unit=True)} (max RCM "
+                     f"deviation {fmt(max_rcm, 'um', with_unit=True)})")  # fmt: skip
+    if not parts:
+        return ""
+    return f"the measured motion on the {scenario.plant} plant broke " + " and ".join(parts)
 
 
 def limit_figures(scenario: Scenario, robot: RobotModel, log: RunLog) -> dict[str, Any]:

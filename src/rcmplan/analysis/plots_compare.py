@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from rcmplan.analysis import style
+from rcmplan.analysis.result import FINISHED
 from rcmplan.analysis.style import BLUE, UM, VERMILLION
 from rcmplan.analysis.units import fmt
 
@@ -33,7 +34,7 @@ def method_comparison(rows: Sequence[dict[str, Any]], path: Path) -> Path:
     from matplotlib.ticker import FuncFormatter
 
     names = [r["method"] for r in rows]
-    failed = [r["status"] != "ok" for r in rows]
+    failed = [r["status"] not in FINISHED for r in rows]
     fig, axes = plt.subplots(1, len(PANELS), figsize=(12, 3.9))
     fig.subplots_adjust(left=0.05, right=0.99, top=0.84, bottom=0.2, wspace=0.3)
     x = np.arange(len(rows))
@@ -71,6 +72,9 @@ def _log_axis(ax: Any, low: float) -> None:
 
 def comparison_title(rows: Sequence[dict[str, Any]]) -> str:
     """The chart title, naming every method that did not finish and its error."""
-    bad = [f"{r['method']} ({failure_kind(r['status'])})" for r in rows if r["status"] != "ok"]
+    bad = [f"{r['method']} ({failure_kind(r['status'])})" for r in rows
+           if r["status"] not in FINISHED]  # fmt: skip
+    broke = [r["method"] for r in rows if r["status"] == "limit_violated"]
     title = "Methods on the same procedure"
-    return title + (f"; did not finish: {', '.join(bad)}" if bad else "")
+    title += f"; did not finish: {', '.join(bad)}" if bad else ""
+    return title + (f"; beyond their bounds: {', '.join(broke)}" if broke else "")

@@ -13,6 +13,10 @@ from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.model import RobotModel
 from rcmplan.scene.scenario import Scenario
 
+# The statuses of a run that went through every phase: within its bounds ("ok"), or with its
+# measured motion beyond one (`analysis.limits.broken_bounds`).
+FINISHED = ("ok", "limit_violated")
+
 
 @dataclass
 class RunResult:
@@ -22,8 +26,10 @@ class RunResult:
         scenario: The scenario that ran.
         log: The run log (partial when the run stopped early).
         phases: Metrics per phase.
-        status: "ok", "interrupted" (SIGINT, SIGTERM) or the `status` of the error that stopped
-            the run ("rcm_bound_exceeded", "unreachable_target", "no_convergence", ...).
+        status: "ok", "limit_violated" (every phase ran, but the measured motion broke a
+            bound the run states: `message` names it), "interrupted" (SIGINT, SIGTERM) or the
+            `status` of the error that stopped the run ("rcm_bound_exceeded",
+            "unreachable_target", "no_convergence", ...).
         message: Why the run stopped, on one line ("" for a finished run).
         error: The exception that stopped the run, if any.
         wall_time_s: Wall time of the whole run (planning, control, measuring) in [s].
@@ -41,8 +47,13 @@ class RunResult:
 
     @property
     def ok(self) -> bool:
-        """True when the run finished every phase."""
+        """True when the run finished every phase within the bounds it states."""
         return self.status == "ok"
+
+    @property
+    def finished(self) -> bool:
+        """True when the run went through every phase (status "ok" or "limit_violated")."""
+        return self.status in FINISHED
 
     def summary(self) -> dict[str, Any]:
         """The summary.json contract: scenario, method, plant, status, phases, overall figures."""

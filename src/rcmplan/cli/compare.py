@@ -12,6 +12,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rcmplan.analysis.result import FINISHED
 from rcmplan.cli import interrupts
 from rcmplan.cli.common import add_run_options, scenario_from_args
 from rcmplan.cli.output import one_line, print_json
@@ -139,9 +140,12 @@ def run(args: argparse.Namespace) -> int:
     else:
         print_table(rows, path)
         print(f"outputs in {out}/")
-    failed = [r["method"] for r in rows if r["status"] != "ok"]
+    failed = [r["method"] for r in rows if r["status"] not in FINISHED]
+    broke = [r["method"] for r in rows if r["status"] == "limit_violated"]
     if failed:
         print(f"rcmplan compare: methods that did not finish: {', '.join(failed)}",
               file=sys.stderr)  # fmt: skip
-        return 1
-    return 0
+    if broke:
+        print(f"rcmplan compare: methods whose measured motion broke a bound they state: "
+              f"{', '.join(broke)} (each row's message)", file=sys.stderr)  # fmt: skip
+    return 1 if failed or broke else 0

@@ -64,8 +64,9 @@ def scenario_for(args: argparse.Namespace) -> Scenario:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run the scenario, write the outputs, print the summary; exit 1 if the run stopped early,
-    2 if its plan was refused before any motion.
+    """Run the scenario, write the outputs, print the summary; exit 1 if the run stopped early
+    or broke a bound it states (status "limit_violated"), 2 if its plan was refused before any
+    motion.
 
     Interrupted (SIGINT, SIGTERM) at any point, it writes what it has with status
     "interrupted" and re-raises the interrupt (the exit code is the CLI's, 130 or 143).
@@ -98,9 +99,11 @@ def run(args: argparse.Namespace) -> int:
             where = f"while writing the outputs (the run ended with status {result.status!r})"
         write_stopped(out, args, "interrupted", interrupted_message(exc, where), result)
         raise
-    refused = not result.ok and len(result.log) == 0  # the plan's checks, before any motion
+    refused = not result.finished and len(result.log) == 0  # the plan's checks, before motion
     failure = None
-    if not result.ok:
+    if result.status == "limit_violated":
+        failure = f"limit_violated: {result.message}"
+    elif not result.ok:
         failure = f"{'refused before motion' if refused else 'run stopped early'}: {result.message}"
     return finish(args, out, summary_json(result), lambda: print_summary(result), failure,
                   2 if refused else 1)  # fmt: skip

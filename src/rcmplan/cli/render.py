@@ -81,9 +81,11 @@ def run_scenario_of(args: argparse.Namespace, robot: Iramis, out: Path) -> tuple
         scenario = scenario.with_method(args.method)
     result = run_scenario(scenario)
     write_summary(result, out)
-    if not result.ok:
+    if not result.finished:
         print(f"rcmplan render: run stopped early ({result.message}); animating the partial "
               "log", file=sys.stderr)  # fmt: skip
+    elif not result.ok:
+        print(f"rcmplan render: {result.status}: {result.message}", file=sys.stderr)
     eye = scenario.eye(robot)
     return result, phantom_of(eye, scenario.points(eye))
 
