@@ -101,6 +101,21 @@ def drawn(monkeypatch) -> Iterator[list[Any]]:
         style.plt().close(fig)
 
 
+def test_a_method_beyond_its_bounds_keeps_its_bars_and_is_named_in_the_title(drawn) -> None:
+    """limit_violated: every phase ran, so its figures are drawn; the title names it."""
+    ok = {"max_rcm_deviation_m": 4e-7, "iterations": 10, "wall_time_s": 0.01,
+          "wall_time_per_iteration_s": 1e-3}  # fmt: skip
+    rows = [{"method": "pinv", "status": "ok", **ok},
+            {"method": "qp", "status": "limit_violated", **ok, "max_rcm_deviation_m": 1.77e-6},
+            {"method": "dls", "status": "no_convergence", **ok}]  # fmt: skip
+    method_comparison(rows, Path("unused.png"))
+    rcm_panel = drawn[0].axes[0]
+    heights = [bar.get_height() for bar in rcm_panel.patches]
+    assert heights[:2] == pytest.approx([0.4, 1.77]) and np.isnan(heights[2])
+    title = drawn[0]._suptitle.get_text()
+    assert title.endswith("did not finish: dls (no_convergence); beyond their bounds: qp")
+
+
 def run_figures(result: RunResult, figs: list[Any], tmp: Path) -> dict[str, Any]:
     """The three run figures of `write_figures`, drawn, by name."""
     eye, log = result.scenario.eye(result.robot), result.log
