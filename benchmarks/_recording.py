@@ -22,11 +22,18 @@ class RecordingQp(QpSolver):
         self.problems: list[QPProblem] = []
 
     def _solve(
-        self, robot: Any, q: FloatArray, lam: float, target: FloatArray
+        self,
+        robot: Any,
+        q: FloatArray,
+        lam: float,
+        target: FloatArray,
+        rcm_tolerance: float | None = None,
     ) -> tuple[StepQP, QpResult]:
+        """The solver's solve; a state's first solve with the limits' own RCM box is kept (a
+        narrower box's solve, `QpSolver.step`'s hold of the box, is not a new state)."""
         before = self.last
-        out = super()._solve(robot, q, lam, target)
-        if out is not before:
+        out = super()._solve(robot, q, lam, target, rcm_tolerance)
+        if rcm_tolerance is None and out is not before:
             self.states.append(np.concatenate([q, [lam], target]))
             self.problems.append(out[0].problem)
         return out

@@ -7,7 +7,10 @@ Run alone: python benchmarks/bench_qp_step.py [--states N]  (or: python benchmar
   `QpSolver` (build_step in Python + daqp.solve), timed per state, against the compiled step
   (`qp_kernels.solve_step`: assembly in numba, DAQP's C function called directly), timed over
   batches of BATCH consecutive states inside compiled code (what the compiled loop pays), and
-  once per call from Python (`FastQpStep.solve`, which adds the call from Python).
+  once per call from Python (`FastQpStep.solve`, which adds the call from Python), and the
+  step one period at a time that teleoperation and the subretinal episode call from Python
+  (`qp_period.period_step`: the solve, the RCM box held, the joints' step) against the
+  reference `QpSolver.step`.
 - The whole default injection with `--method qp`: `wall_time_s` of `rcmplan inject` in a new
   process (numba's cache warmed first), and the compiled loop's time per iteration in this
   process.
@@ -100,6 +103,31 @@ def python_call_s(fast: FastQpStep, states: FloatArray) -> FloatArray:
     return times
 
 
+def period_step_s(solver: QpSolver, states: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Time [s] per state of the QP's step one period at a time from Python: the compiled
+    `qp_period.period_step` (what teleoperation and the subretinal episode call: the solve, the
+    RCM box held on the true kinematics, the joints' step) and the reference `QpSolver.step`
+    with its task error (its one-state cache cleared)."""
+    from rcmplan.compiled.qp_period import period_step
+
+    step = period_step(solver)
+    if step is None:
+        raise RuntimeError("the compiled period step does not apply to the recorded solver")
+    robot, fast, ref = solver.robot, np.empty(len(states)), np.empty(len(states))
+    for i, x in enumerate(states):  # each path over every state in turn (not interleaved)
+        q, lam, target = x[:6], float(x[6]), x[7:]
+        t = time.perf_counter()
+        step(q, lam, target)
+        fast[i] = time.perf_counter() - t
+    for i, x in enumerate(states):
+        q, lam, target = x[:6], float(x[6]), x[7:]
+        solver.last = None
+        t = time.perf_counter()
+        solver.step(robot, q, lam, target, solver.task_error(robot, q, lam, target))
+        ref[i] = time.perf_counter() - t
+    return fast, ref
+
+
 def step_rows(n_states: int) -> list[dict[str, Any]]:
     """The QP step, reference against compiled, at states of the default injection."""
     states, solver = record_states()
@@ -111,12 +139,16 @@ def step_rows(n_states: int) -> list[dict[str, Any]]:
     runs = np.concatenate([states[s : s + 64] for s in starts])
     comp = 1e6 * statistics.median(compiled_step_s(fast, runs))
     call = 1e6 * statistics.median(python_call_s(fast, picked))
+    period, period_ref = (1e6 * np.median(t) for t in period_step_s(solver, picked))
     tag = f"default injection, {len(runs)} of {len(states)} recorded states"
     return [
         row(f"QP step (assembly + DAQP solve), compiled, median over batches of {BATCH}; {tag}",
             comp, "us", "reference Python (build_step + daqp.solve)", ref, "<= 30 us"),
         row(f"QP step called from Python (FastQpStep.solve), median; {n_states} states", call,
             "us", "reference Python (build_step + daqp.solve)", ref),
+        row(f"QP step one period at a time from Python (qp_period.period_step: solve, RCM box "
+            f"held, joints' step), median; {n_states} states", float(period), "us",
+            "reference Python (QpSolver.task_error + step)", float(period_ref), "<= 10 us"),
     ]  # fmt: skip
 
 
