@@ -203,12 +203,21 @@ def test_broken_bounds_names_the_qps_limits_for_the_qp_and_the_loop_tolerance_fo
     assert pinv.loop.rcm_tolerance == pytest.approx(0.8e-6)
     assert broken_bounds(pinv, counts, 0.462e-6) == ""  # pinv holds no QP limit
     assert broken_bounds(qp, counts, 0.5e-6) == (
-        "the measured motion on the kinematic plant broke the QP's limits (speed in 804 "
-        "records, retina in 12 records)"
+        "records beyond the QP's limits: speed 804, retina 12 (measured on the kinematic plant)"
     )
     assert broken_bounds(qp, {"limit_violations": dict.fromkeys(counts, 0)}, 0.5e-6) == ""
     beyond = broken_bounds(pinv.with_plant("mujoco"), counts, 1.2e-6)
-    assert beyond == ("the measured motion on the mujoco plant broke the loop's RCM tolerance "
-                      "0.800 um (max RCM deviation 1.20 um)")  # fmt: skip
+    assert beyond == ("max RCM deviation 1.20 um above the loop's RCM tolerance 0.800 um "
+                      "(measured on the mujoco plant)")  # fmt: skip
     assert broken_bounds(pinv, counts, 0.8e-6) == ""  # at the tolerance: held
     assert broken_bounds(pinv, counts, None) == ""  # no record inside the eye
+
+
+def test_compare_names_limit_violated_before_the_bounds_in_its_status_column() -> None:
+    from rcmplan.cli.compare import status_cell
+
+    assert status_cell({"status": "ok", "message": ""}) == "ok"
+    broke = {"status": "limit_violated", "message": "records beyond the QP's limits: rcm 3"}
+    assert status_cell(broke) == "limit_violated: records beyond the QP's limits: rcm 3"
+    stopped = {"status": "no_convergence", "message": "ConvergenceError: " + "x" * 200}
+    assert status_cell(stopped) == ("ConvergenceError: " + "x" * 200)[:100]

@@ -88,6 +88,6 @@ def test_inject_exits_1_naming_the_bound_the_measured_motion_broke(tmp_path: Pat
     assert (out / "log.npz").exists() and (out / "log.csv").exists()
     err = capsys.readouterr().err
     assert (
-        "limit_violated: the measured motion on the mujoco plant broke the loop's RCM "
-        "tolerance 0.800 um" in err
+        "limit_violated: max RCM deviation 1.20 um above the loop's RCM tolerance 0.800 um "
+        "(measured on the mujoco plant)" in err
     )

@@ -61,7 +61,7 @@ def test_the_exit_code_the_status_and_the_stderr_must_agree(tmp_path: Path) -> N
     assert kinds(ok, "inject", code=1) == ["ignored"]
     assert kinds(ok, "inject", code=1, late=True) == ["status"]  # exit 1 beside "ok"
     assert kinds(ok, "inject", code=2) == ["wrong exit"]
-    broke = {"status": "limit_violated", "message": "the measured motion ...", "iterations": 2}
+    broke = {"status": "limit_violated", "message": "max RCM deviation ...", "iterations": 2}
     beyond = folder(tmp_path / "beyond", broke, 2)
     assert kinds(beyond, "inject", code=1, late=True) == []  # a finished run's own exit 1
     assert kinds(beyond, "inject", code=0, late=True) == ["status"]

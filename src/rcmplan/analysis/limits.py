@@ -269,16 +269,16 @@ def broken_bounds(scenario: Scenario, figures: dict[str, Any], max_rcm: float | 
     dynamics they hold on the commands, and the measured needle lags them."""
     parts = []
     counts = figures.get("limit_violations") or {}
-    broken = [f"{kind} in {n:,} records" for kind, n in counts.items() if n]
+    broken = [f"{kind} {n:,}" for kind, n in counts.items() if n]
     if scenario.method == "qp" and broken:
-        parts.append(f"the QP's limits ({', '.join(broken)})")
+        parts.append(f"records beyond the QP's limits: {', '.join(broken)}")
     tol = scenario.loop.rcm_tolerance
     if tol is not None and max_rcm is not None and max_rcm > tol + LOOP_SLACK:
-        parts.append(f"the loop's RCM tolerance {fmt(tol, 'um', with_unit=True)} (max RCM "
-                     f"deviation {fmt(max_rcm, 'um', with_unit=True)})")  # fmt: skip
+        parts.append(f"max RCM deviation {fmt(max_rcm, 'um', with_unit=True)} above the loop's "
+                     f"RCM tolerance {fmt(tol, 'um', with_unit=True)}")  # fmt: skip
     if not parts:
         return ""
-    return f"the measured motion on the {scenario.plant} plant broke " + " and ".join(parts)
+    return "; ".join(parts) + f" (measured on the {scenario.plant} plant)"
 
 
 def limit_figures(scenario: Scenario, robot: RobotModel, log: RunLog) -> dict[str, Any]:

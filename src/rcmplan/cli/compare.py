@@ -90,12 +90,21 @@ def print_table(rows: list[dict[str, Any]], path: str) -> None:
         [r["method"], fmt(r["max_rcm_deviation_m"], "um"), fmt(r["max_tip_error_m"], "um"),
          f"{r['iterations']:,}", fmt(r["wall_time_s"], "ms"),
          fmt(r["wall_time_per_iteration_s"], "us"), path_cell(r),
-         one_line(r["message"] or r["status"])[:60]]
+         status_cell(r)]
         for r in rows
     ]  # fmt: skip
     print(table(HEAD, body))
     print(f"execution path: {path}; wall times from the second of "
           "two runs in this process")  # fmt: skip
+
+
+def status_cell(row: dict[str, Any]) -> str:
+    """The table's status column: "ok", the error that stopped the run, or "limit_violated"
+    and the bounds the measured motion broke; at most 100 characters."""
+    text = row["message"] or row["status"]
+    if row["status"] == "limit_violated":
+        text = f"limit_violated: {text}"
+    return one_line(text)[:100]
 
 
 def path_cell(row: dict[str, Any]) -> str:
