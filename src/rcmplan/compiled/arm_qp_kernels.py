@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.packed import int32s, ints, mat, vec
+from rcmplan.compiled.packed import ints, mat, vec
 from rcmplan.compiled.qp_rows import (
     X,
     assemble,
@@ -30,6 +30,7 @@ from rcmplan.compiled.qp_rows import (
     lead_error,
     solve_assembled,
     solve_planned,
+    views,
 )
 from rcmplan.control import curved_step
 from rcmplan.control.cost import x_c_point_rows, x_ext_jacobian
@@ -209,10 +210,7 @@ def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
 def step_arrays(F: FloatArray, Z: IntArray) -> tuple:
     """Views of the arrays `packed.pack` holds in F and Z, in `arm_qp.step_buffers`' order:
     (A, ix, W, travel, Q, contacts, K, s, e, d, servo, qp), qp the tuple of `buffers`."""
-    qp = (mat(F, Z, 11), vec(F, Z, 12), mat(F, Z, 13), vec(F, Z, 14), vec(F, Z, 15),
-          int32s(Z, 16), mat(F, Z, 17), mat(F, Z, 18), mat(F, Z, 19), vec(F, Z, 20),
-          vec(F, Z, 21), vec(F, Z, 22), ints(Z, 23), ints(Z, 24), vec(F, Z, 25), mat(F, Z, 26),
-          mat(F, Z, 27), mat(F, Z, 28), mat(F, Z, 29))  # fmt: skip
+    qp = views(F, Z, 11)
     return (mat(F, Z, 0), ints(Z, 1), mat(F, Z, 2), mat(F, Z, 3), vec(F, Z, 4), mat(F, Z, 5),
             vec(F, Z, 6), vec(F, Z, 7), vec(F, Z, 8), vec(F, Z, 9), vec(F, Z, 10), qp)  # fmt: skip
 

@@ -33,8 +33,10 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import jacobian_a, njit, solve_augmented, task
+from rcmplan.compiled.packed import mat, vec
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
 from rcmplan.compiled.qp_params import RCM_TOL
+from rcmplan.compiled.qp_rows import views
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
@@ -415,6 +417,24 @@ def period_step(P: FloatArray, K: FloatArray, q: FloatArray, lam: float, target:
     if flag == 1:
         held_step(P, K, fail[0:6], tr, lam, target, target[3:6], 5, fail, qpa, None, w, d)
     return flag
+
+
+# Inlined into period_packed, as `arm_qp_kernels.step_arrays` into the arm's step.
+@njit(cache=True, inline="always")
+def period_arrays(F: FloatArray, Z: np.ndarray) -> tuple:
+    """Views of the arrays `packed.pack` holds in F and Z, in `qp_period.period_buffers`'
+    order: (P, K, fail, qpa, w, d), qpa as `qp_kernels.loop_qp` makes it."""
+    qpa = (vec(F, Z, 5), mat(F, Z, 6), views(F, Z, 7), vec(F, Z, 26), vec(F, Z, 27))
+    return vec(F, Z, 0), vec(F, Z, 1), vec(F, Z, 2), qpa, vec(F, Z, 3), vec(F, Z, 4)
+
+
+@njit(cache=True)
+def period_packed(F: FloatArray, Z: np.ndarray, q: FloatArray, lam: float,
+                  target: FloatArray) -> int:  # fmt: skip
+    """`period_step` on the arrays packed in F and Z (`period_arrays`): a call from Python
+    passes two buffers instead of some thirty arrays (`packed`)."""
+    P, K, fail, qpa, w, d = period_arrays(F, Z)
+    return period_step(P, K, q, lam, target, fail, qpa, w, d)
 
 
 @njit(cache=True)

@@ -21,12 +21,15 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm_qp import ArmQpStep, arm_qp_applies
+from rcmplan.compiled.packed import pack
 from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.records import FAIL_WIDTH, robot_params
 from rcmplan.compiled.runner import kernel_params
 from rcmplan.control.augmented import extended_task
 from rcmplan.control.qp import QpSolver
 from rcmplan.exceptions import RcmplanError
+from rcmplan.robot.chain_kinematics import IntArray
+from rcmplan.robot.model import RobotModel
 
 StepFunction = Callable[[FloatArray, float, FloatArray], FloatArray]
 
@@ -47,13 +50,9 @@ def period_step(solver: QpSolver) -> StepFunction | None:
     params = None if loop is None else qp_params(robot, solver)
     if loop is None or params is None:
         return None
-    P, K = robot_params(robot), np.ascontiguousarray(solver.K, dtype=np.float64)
-    servo = solver.servo  # its command rounded to its resolution as `planned_joints` does
-    res = getattr(servo, "actuator_resolution", None)
-    res = np.zeros(6) if res is None else np.array(res, dtype=np.float64)
-    qpa = fast_cache.qp_kernels().loop_qp(params, *(() if servo is None else (res, np.zeros(6))))
-    cmd = qpa[4]
-    fail, w, d = np.empty(FAIL_WIDTH), np.empty(6), np.empty(6)
+    F, Z = period_buffers(robot, solver, params)
+    _, _, _, (Q, _, _, _, cmd), _, d = loop.period_arrays(F, Z)  # views of F: written below
+    servo, period_packed, d5 = solver.servo, loop.period_packed, d[:5]
 
     def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
         q = np.ascontiguousarray(q, dtype=np.float64)
@@ -61,11 +60,11 @@ def period_step(solver: QpSolver) -> StepFunction | None:
         if servo is not None:
             cmd[:] = servo.command
         if solver.extra_limits:  # a moving limit's parameters as they are now
-            pack_extras(solver, qpa[0])
-        if loop.period_step(P, K, q, float(lam), target, fail, qpa, w, d) != 1:
+            pack_extras(solver, Q)
+        if period_packed(F, Z, q, float(lam), target) != 1:
             e = solver.task_error(robot, q, lam, target)
             return solver.step(robot, q, lam, target, e)[0]
-        return d[:5].copy()
+        return d5.copy()
 
     # Load the compiled code now (numba's cache, the first call's dispatch), and the reference
     # step a failed solve falls back to (its first call imports and builds what it needs:
@@ -76,6 +75,21 @@ def period_step(solver: QpSolver) -> StepFunction | None:
         step(home, 1.0, target)
         solver.step(robot, home, 1.0, target, solver.task_error(robot, home, 1.0, target))
     return step
+
+
+def period_buffers(
+    robot: RobotModel, solver: QpSolver, params: tuple
+) -> tuple[FloatArray, IntArray]:
+    """(F, Z): the arrays of `loop.period_step` packed (`packed.pack`) in `loop.period_arrays`'
+    order: P, K, fail, w, d, then qpa (`qp_kernels.loop_qp`: Q, contacts, the solve's buffers,
+    the servo's slider resolution (none without a servo) and its last command)."""
+    P, K = robot_params(robot), np.ascontiguousarray(solver.K, dtype=np.float64)
+    res = getattr(solver.servo, "actuator_resolution", None)  # `planned_joints` rounds to it
+    res = np.zeros(6) if res is None else np.array(res, dtype=np.float64)
+    args = () if solver.servo is None else (res, np.zeros(6))
+    Q, contacts, bufs, res, cmd = fast_cache.qp_kernels().loop_qp(params, *args)
+    fail, w, d = np.zeros(FAIL_WIDTH), np.zeros(6), np.zeros(6)
+    return pack((P, K, fail, w, d, Q, contacts, *bufs, res, cmd))
 
 
 def _arm_period_step(solver: QpSolver) -> StepFunction:

@@ -33,6 +33,7 @@ from rcmplan.compiled.daqp_c import (
     default_settings,
     quadprog,
 )
+from rcmplan.compiled.packed import int32s, ints, mat, vec
 from rcmplan.compiled.qp_params import (
     BOX,
     CENTER,
@@ -89,6 +90,16 @@ def buffers(w: int, k: int = 6) -> tuple:
             np.zeros(PROBLEM_WORDS, dtype=np.int64), np.zeros(RESULT_WORDS, dtype=np.int64),
             default_settings(), np.empty((8, w)), np.empty((5, 3)), np.empty((2, 3)),
             np.empty((MAX_SINGULAR, w)))  # fmt: skip
+
+
+@njit(cache=True, inline="always")
+def views(F: FloatArray, Z: np.ndarray, k: int) -> tuple:
+    """`buffers`' arrays as views of the buffers `packed.pack` made, from its array k on."""
+    return (mat(F, Z, k), vec(F, Z, k + 1), mat(F, Z, k + 2), vec(F, Z, k + 3),
+            vec(F, Z, k + 4), int32s(Z, k + 5), mat(F, Z, k + 6), mat(F, Z, k + 7),
+            mat(F, Z, k + 8), vec(F, Z, k + 9), vec(F, Z, k + 10), vec(F, Z, k + 11),
+            ints(Z, k + 12), ints(Z, k + 13), vec(F, Z, k + 14), mat(F, Z, k + 15),
+            mat(F, Z, k + 16), mat(F, Z, k + 17), mat(F, Z, k + 18))  # fmt: skip
 
 
 @njit(cache=True)
