@@ -1,5 +1,6 @@
-"""Generated scenario files (about 1,600 per run, seeded): each loads as a valid Scenario or
-raises a typed rcmplan error with a one-line message, never a generic Python error."""
+"""Generated scenario files (600 per run, seeded; 1,600 with RCMPLAN_HEAVY_TESTS=1): each
+loads as a valid Scenario or raises a typed rcmplan error with a one-line message, never a
+generic Python error."""
 
 from __future__ import annotations
 
@@ -12,13 +13,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from heavy import cases
 from rcmplan.exceptions import InvalidInputError, PlanTooLargeError, RcmplanError, ScenarioError
 from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.scenario import Scenario, load_scenario
 from rcmplan.scene.schema import SCHEMA
 
 SETTINGS = settings(
-    max_examples=800, derandomize=True, database=None, deadline=None,
+    max_examples=cases(300, 800), derandomize=True, database=None, deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
 )  # fmt: skip
 KEYS = [(sec, key) for sec, keys in SCHEMA.items() for key in keys] + [
