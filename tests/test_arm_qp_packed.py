@@ -24,14 +24,16 @@ def test_pack_gives_every_array_back_as_a_view_of_its_buffer() -> None:
     arrays = [rng.normal(size=(5, 3)), np.arange(7, dtype=np.int64), rng.normal(size=4),
               np.array([3, -1, 2], dtype=np.int32), np.zeros((0, 3)), rng.normal(size=(2, 7)),
               np.zeros(0), np.array([-5, 6], dtype=np.int32)]  # fmt: skip
-    F, Z = packed.pack(arrays)
+    F, Z, python_views = packed.pack(arrays)
     views = [packed.mat(F, Z, 0), packed.ints(Z, 1), packed.vec(F, Z, 2), packed.int32s(Z, 3),
              packed.mat(F, Z, 4), packed.mat(F, Z, 5), packed.vec(F, Z, 6),
              packed.int32s(Z, 7)]  # fmt: skip
-    for a, v in zip(arrays, views, strict=True):
+    for a, v, p in zip(arrays, views, python_views, strict=True):
         assert v.dtype == a.dtype and v.shape == a.shape and v.flags.c_contiguous
         np.testing.assert_array_equal(v, a)
-        if v.size:
+        assert p.dtype == v.dtype and p.shape == v.shape and p.flags.c_contiguous
+        if v.size:  # pack's own views are the memory compiled code reads
+            assert p.ctypes.data == v.ctypes.data
             assert v.ctypes.data % 64 == 0  # each array from a 64-byte boundary
     for v in views:  # distinct memory: writing one array leaves every other as it was
         v[...] = 9

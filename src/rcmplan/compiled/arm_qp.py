@@ -129,9 +129,9 @@ class ArmQpStep:
         self.kind: SolverKind = solver.kind
         self._k = fast_cache.arm_qp_kernels()
         K = np.array(solver.K, dtype=np.float64)
-        self.F, self.Z = pack(step_buffers(solver, K))
+        self.F, self.Z, views = pack(step_buffers(solver, K))  # `step_arrays`' order
         (self.A, self.ix, self.W, self.travel, self.Q, self.contacts, self.K, self.s, self.e,
-         self.d, self.servo, self.qp) = self._k.step_arrays(self.F, self.Z)  # fmt: skip
+         self.d, self.servo), self.qp = views[:11], tuple(views[11:])  # fmt: skip
         self.n, self.m = int(self.ix[0]), int(self.ix[1])
         self.qpa = (self.travel, self.Q, self.contacts, self.qp, self.s, None, self.servo)
         self._key, self._checked, self._flag = b"", b"", 0

@@ -5,10 +5,10 @@ settings, the QP's buffers) number about thirty.
 
 `pack` copies float64 arrays into one float64 buffer F, int64 and int32 arrays into one int64
 buffer Z (integers), each from a 64-byte boundary; Z's head holds, per array in the order
-given, its start (in words of its buffer), rows and columns (0 columns: a vector). Compiled
-code gets the arrays back as views (`vec`, `mat`, `ints`, `int32s`: no copy, no allocation;
-inlined into the caller), so Python, the kernels and DAQP's C code all work in the buffers'
-memory.
+given, its start (in words of its buffer), rows and columns (0 columns: a vector). Python gets
+the arrays back from `pack` itself, as views of the buffers; compiled code as views too (`vec`,
+`mat`, `ints`, `int32s`: no copy, no allocation; inlined into the caller), so Python, the
+kernels and DAQP's C code all work in the buffers' memory.
 """
 
 from __future__ import annotations
@@ -38,9 +38,10 @@ def _aligned(words: int, dtype: type) -> np.ndarray:
     return raw[skip : skip + words]
 
 
-def pack(arrays: Sequence[np.ndarray]) -> tuple[FloatArray, IntArray]:
-    """(F, Z) holding copies of `arrays` (float64 vectors and matrices, int64 and int32
-    vectors), in the layout of the module docstring."""
+def pack(arrays: Sequence[np.ndarray]) -> tuple[FloatArray, IntArray, list[np.ndarray]]:
+    """(F, Z, views): F and Z holding copies of `arrays` (float64 vectors and matrices, int64
+    and int32 vectors) in the layout of the module docstring, and each array's copy as a view
+    of its buffer, in the order given."""
     spans = []
     f_used, i_used = 0, _words(HEAD * len(arrays))
     for a in arrays:
@@ -56,15 +57,18 @@ def pack(arrays: Sequence[np.ndarray]) -> tuple[FloatArray, IntArray]:
             spans.append(i_used)
             i_used += words
     F, Z = _aligned(f_used, np.float64), _aligned(i_used, np.int64)
+    views: list[np.ndarray] = []
     for k, (a, start) in enumerate(zip(arrays, spans, strict=True)):
         Z[HEAD * k : HEAD * k + HEAD] = start, a.shape[0], a.shape[1] if a.ndim == 2 else 0
         if a.dtype == np.float64:
-            F[start : start + a.size] = a.ravel()
+            view = F[start : start + a.size].reshape(a.shape)
         elif a.dtype == np.int64:
-            Z[start : start + a.size] = a.ravel()
+            view = Z[start : start + a.size]
         else:
-            Z[start : start + (a.size + 1) // 2].view(np.int32)[: a.size] = a
-    return F, Z
+            view = Z[start : start + (a.size + 1) // 2].view(np.int32)[: a.size]
+        view[...] = a
+        views.append(view)
+    return F, Z, views
 
 
 @njit(cache=True, inline="always")

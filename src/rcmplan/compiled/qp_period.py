@@ -50,8 +50,8 @@ def period_step(solver: QpSolver) -> StepFunction | None:
     params = None if loop is None else qp_params(robot, solver)
     if loop is None or params is None:
         return None
-    F, Z = period_buffers(robot, solver, params)
-    _, _, _, (Q, _, _, _, cmd), _, d = loop.period_arrays(F, Z)  # views of F: written below
+    F, Z, views = period_buffers(robot, solver, params)
+    Q, cmd, d = views[5], views[-1], views[4]  # views of F (`period_buffers`): written below
     servo, period_packed, d5 = solver.servo, loop.period_packed, d[:5]
 
     def step(q: FloatArray, lam: float, target: FloatArray) -> FloatArray:
@@ -79,10 +79,10 @@ def period_step(solver: QpSolver) -> StepFunction | None:
 
 def period_buffers(
     robot: RobotModel, solver: QpSolver, params: tuple
-) -> tuple[FloatArray, IntArray]:
-    """(F, Z): the arrays of `loop.period_step` packed (`packed.pack`) in `loop.period_arrays`'
-    order: P, K, fail, w, d, then qpa (`qp_kernels.loop_qp`: Q, contacts, the solve's buffers,
-    the servo's slider resolution (none without a servo) and its last command)."""
+) -> tuple[FloatArray, IntArray, list[np.ndarray]]:
+    """`packed.pack` of the arrays of `loop.period_step` in `loop.period_arrays`' order: P, K,
+    fail, w, d, then qpa (`qp_kernels.loop_qp`: Q, contacts, the solve's buffers, the servo's
+    slider resolution (none without a servo) and its last command)."""
     P, K = robot_params(robot), np.ascontiguousarray(solver.K, dtype=np.float64)
     res = getattr(solver.servo, "actuator_resolution", None)  # `planned_joints` rounds to it
     res = np.zeros(6) if res is None else np.array(res, dtype=np.float64)
