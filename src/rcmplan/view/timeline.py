@@ -80,10 +80,9 @@ class Timeline:
             now = time.perf_counter()
             if self.playing:
                 t = self.slider.value + (now - last) * self.speed_factor()
-                if t >= self.times[-1]:
-                    t = self.times[-1]
+                self.seek(min(t, self.times[-1]))
+                if t >= self.times[-1]:  # paused once the last record is shown, not before
                     self.toggle()
-                self.seek(t)
             last = now
 
     def close(self) -> None:
