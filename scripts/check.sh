@@ -58,14 +58,14 @@ esac
 
 # numba compiles each kernel on its first call and caches it (`rcmplan.compiled.cache`). On a
 # fresh clone that compile is most of the suite's CPU time, and two pytest workers would each
-# compile the same kernels: so the kernels compile first, in two processes at once (iRAM!S's
-# and its curved needle's: 81 + 45 s of CPU in one measurement; the arms', their curved
-# needle's and the iOCT B-scan's: 64 + 44 + 8 s), while ruff and mypy run, and the test
-# workers load them.
+# compile the same kernels: so every loop's kernels compile first, in two processes at once
+# (iRAM!S's and its curved needle's, on the kinematic and MuJoCo plants: 248 s of CPU in one
+# measurement; the arms', their curved needle's, the subretinal episode's QP periods and the
+# iOCT B-scan's: 200 s), while ruff and mypy run, and the test workers load them.
 trap 'kill $(jobs -p) 2>/dev/null || true' EXIT  # no compile left running if a check fails
 python -c "from rcmplan.warmup import compile_iramis_kernels as i, compile_curved_kernels as c; i(); c(('iramis',))" &
 iramis_kernels=$!
-python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_bscan_kernels as b, compile_curved_kernels as c; a(); c(('arm',)); b()" &
+python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_subretinal_kernels as b, compile_curved_kernels as c; a(); c(('arm',)); b()" &
 arm_kernels=$!
 python -m ruff check src tests benchmarks
 python -m ruff format --check src tests benchmarks

@@ -9,6 +9,7 @@ controllers (the runners only receive them).
 from __future__ import annotations
 
 import importlib.util
+from typing import Any
 
 import numpy as np
 
@@ -42,7 +43,7 @@ def compile_kernels() -> None:
     compile_iramis_kernels()
     compile_arm_kernels()
     compile_curved_kernels()
-    compile_bscan_kernels()
+    compile_subretinal_kernels()
 
 
 def compile_iramis_kernels() -> None:
@@ -164,8 +165,9 @@ def compile_arm_kernels() -> None:
 
 
 def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:
-    """The arm's compiled QP step (`arm_qp`), one step and one assembly; nothing if DAQP's C
-    solver cannot be called from compiled code (`cache.daqp_callable`)."""
+    """The arm's compiled QP step (`arm_qp`), one step and one assembly, and one phase of the
+    arm loop with the QP; nothing if DAQP's C solver cannot be called from compiled code
+    (`cache.daqp_callable`)."""
     from rcmplan.compiled.arm_qp import arm_qp_step
     from rcmplan.control.qp import QpSolver
 
@@ -173,6 +175,11 @@ def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:
     if fast is not None:
         fast.step(arm, arm.home, 0.5, target, fast.e)  # the solve and the RCM box's hold
         fast.problem(arm.home, 0.5, target)
+        solver = QpSolver(arm)  # and the QP in the arm loop, whole phases and per iteration
+        for run in (arm_phase.run_arm_phase_exact, arm_phase.run_arm_phase):
+            ctl = Controller(KinematicPlant(arm), solver)
+            ctl.lam = 0.5
+            run(ctl, solver, target[None, :], ctl.log.phase_id("warm"), 0)
 
 
 def compile_curved_kernels(on: tuple[str, ...] = ("iramis", "arm")) -> None:
@@ -233,8 +240,41 @@ def compile_curved_kernels(on: tuple[str, ...] = ("iramis", "arm")) -> None:
         pid = ctl.log.phase_id("warm")
         if arrays.P is not None:
             qp_phase.run_if_ready(ctl, qp, x[None, :], pid, 0, arrays.P)
+            if isinstance(base, Iramis) and importlib.util.find_spec("mujoco") is not None:
+                _compile_curved_mujoco(robot, base, arrays, x)
         elif curved_qp_applies(qp):
             arm_phase.run_arm_phase_exact(ctl, qp, x[None, :], pid, 0, arrays)
+
+
+def _compile_curved_mujoco(robot: Any, base: Iramis, arrays: Any, x: FloatArray) -> None:
+    """A curved needle's loops around the dynamic MuJoCo plant: pinv, and the QP planned from
+    the servo's last command, on one target."""
+    from rcmplan.control.curved import CurvedPinvSolver
+    from rcmplan.control.qp import QpSolver
+    from rcmplan.sim.mujoco.plant import MujocoPlant
+
+    settings = LoopSettings(max_iterations=1000)
+    plant = MujocoPlant(base, mode="dynamic")
+    pinv = CurvedPinvSolver()
+    ctl = Controller(plant, pinv, settings=settings, robot=robot)
+    ctl.lam = 0.5
+    curved_phase.run_if_fast(ctl, pinv, x[None, :], ctl.log.phase_id("warm"), 0)
+    plant = MujocoPlant(base, mode="dynamic")
+    qp = QpSolver(robot, servo=plant)
+    ctl = Controller(plant, qp, settings=settings, robot=robot)
+    ctl.lam = 0.5
+    qp_mujoco_phase.run_if_ready(ctl, qp, x[None, :], ctl.log.phase_id("warm"), 0, arrays.P)
+
+
+def compile_subretinal_kernels() -> None:
+    """Compile (or load from numba's cache) the subretinal episode's compiled block of QP
+    periods (`qp_periods`), on a short episode, and the iOCT B-scan's kernels."""
+    from rcmplan.subretinal.episode import run_episode
+    from rcmplan.subretinal.episode_settings import EpisodeSettings
+
+    run_episode(EpisodeSettings(hold_s=0.2, hover_s=0.1, start_height_m=200e-6,
+                                advance_speed_m_s=0.5e-3, settle_s=0.05))  # fmt: skip
+    compile_bscan_kernels()
 
 
 def compile_bscan_kernels() -> None:
