@@ -9,7 +9,6 @@ controllers (the runners only receive them).
 from __future__ import annotations
 
 import importlib.util
-from typing import Any
 
 import numpy as np
 
@@ -28,6 +27,7 @@ from rcmplan.control.targets import rcm_target
 from rcmplan.control.tasks import JacobianVariant
 from rcmplan.controller import Controller
 from rcmplan.robot.chain import JointChain
+from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
@@ -197,7 +197,6 @@ def compile_curved_kernels(on: tuple[str, ...] = ("iramis", "arm")) -> None:
     )
     from rcmplan.control.qp import QpSolver
     from rcmplan.robot.chain import JointChain
-    from rcmplan.robot.curved import CurvedTipRobot
     from rcmplan.robot.curved_needle import CurvedNeedle
     from rcmplan.robot.iramis import Iramis
     from rcmplan.robot.model import SerialArm
@@ -241,14 +240,16 @@ def compile_curved_kernels(on: tuple[str, ...] = ("iramis", "arm")) -> None:
         if arrays.P is not None:
             qp_phase.run_if_ready(ctl, qp, x[None, :], pid, 0, arrays.P)
             if isinstance(base, Iramis) and importlib.util.find_spec("mujoco") is not None:
-                _compile_curved_mujoco(robot, base, arrays, x)
+                _compile_curved_mujoco(robot, base, arrays.P, x)
         elif curved_qp_applies(qp):
             arm_phase.run_arm_phase_exact(ctl, qp, x[None, :], pid, 0, arrays)
 
 
-def _compile_curved_mujoco(robot: Any, base: Iramis, arrays: Any, x: FloatArray) -> None:
+def _compile_curved_mujoco(
+    robot: CurvedTipRobot, base: Iramis, P: FloatArray, x: FloatArray
+) -> None:
     """A curved needle's loops around the dynamic MuJoCo plant: pinv, and the QP planned from
-    the servo's last command, on one target."""
+    the servo's last command, on one target (P: the kernels' parameters with the arc)."""
     from rcmplan.control.curved import CurvedPinvSolver
     from rcmplan.control.qp import QpSolver
     from rcmplan.sim.mujoco.plant import MujocoPlant
@@ -263,7 +264,7 @@ def _compile_curved_mujoco(robot: Any, base: Iramis, arrays: Any, x: FloatArray)
     qp = QpSolver(robot, servo=plant)
     ctl = Controller(plant, qp, settings=settings, robot=robot)
     ctl.lam = 0.5
-    qp_mujoco_phase.run_if_ready(ctl, qp, x[None, :], ctl.log.phase_id("warm"), 0, arrays.P)
+    qp_mujoco_phase.run_if_ready(ctl, qp, x[None, :], ctl.log.phase_id("warm"), 0, P)
 
 
 def compile_subretinal_kernels() -> None:
