@@ -55,6 +55,7 @@ from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.scene.scenario import load_scenario
 from rcmplan.sim import KinematicPlant
+from rcmplan.sim.mujoco.compiled import exact_plant
 from rcmplan.warmup import compile_kernels
 
 ROBOTS = {"iramis": "iRAM!S", "ur5": "UR5"}
@@ -107,13 +108,13 @@ def kernel_run(problem: Problem) -> Any:
         rec, fail = np.empty((cap, width)), np.empty(FAIL_WIDTH)
         bounds = np.array([robot.singular_threshold, LoopSettings().rcm_tolerance])
         C = np.empty((BLOCK_ROWS, 7)) if arrays is not None else None  # the curved block
-        head = (P, code, K, damping, tol, 100, True, bounds, None, C, targets, 0)
+        head = (P, code, K, damping, tol, 100, True, bounds, None, C, targets, 0, 0)
         kernel = fast_cache.loop_kernels().run_targets
 
         def once() -> tuple[float, int]:
             s, state = s0.copy(), np.array([problem.lam0, 0.0, 1e-3])
             t = time.perf_counter()
-            kernel(*head, s, state, rec, irec, info[:3], fail)
+            kernel(*head, s, np.empty(6), state, rec, irec, info[:3], fail, exact_plant())
             return time.perf_counter() - t, int(info[0])
 
         return once

@@ -33,6 +33,7 @@ from rcmplan.compiled.runner import FastIramis
 from rcmplan.control import extended_task, rcm_target, solve_pose
 from rcmplan.control.phase import LoopSettings
 from rcmplan.scene.eye import default_eye
+from rcmplan.sim.mujoco.compiled import exact_plant
 
 SEED = 20180507
 
@@ -106,7 +107,7 @@ class CompiledSolve:
         self, robot: Iramis, method: int, x0: np.ndarray, rcm_tolerance: float | None = None,
         max_iterations: int = 100,
     ) -> None:  # fmt: skip
-        self.run = fast_cache.loop_kernels().run_targets
+        self.run, self.plant = fast_cache.loop_kernels().run_targets, exact_plant()
         self.s0 = robot.actuators_from_joints(np.array([*x0[:5], 0.0]))
         self.state0 = np.array([x0[5], 0.0, 1e-3])
         self.rec = np.empty((max_iterations + 1, 35))
@@ -119,8 +120,9 @@ class CompiledSolve:
 
     def __call__(self, target: np.ndarray) -> int:
         """Solve; returns the iterations (raises if the loop stopped early)."""
-        status = self.run(*self.args, target, 0, self.s0.copy(), self.state0.copy(), self.rec,
-                          self.irec, self.info, self.fail)  # fmt: skip
+        status = self.run(*self.args, target, 0, 0, self.s0.copy(), np.empty(6),
+                          self.state0.copy(), self.rec, self.irec, self.info, self.fail,
+                          self.plant)  # fmt: skip
         if status != 0:
             raise RuntimeError(f"compiled solve stopped with status {status}")
         return int(self.info[0])

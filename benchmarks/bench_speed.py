@@ -28,6 +28,7 @@ from rcmplan.controller import Controller
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection, spiral
 from rcmplan.sim import KinematicPlant
+from rcmplan.sim.mujoco.compiled import exact_plant
 
 SEED = 20180507
 
@@ -82,12 +83,14 @@ def loop_rows() -> list[dict[str, Any]]:
         None,
         targets,
         0,
+        0,
     )
-    s0 = robot.actuators_from_joints(pose.q)
+    s0, plant = robot.actuators_from_joints(pose.q), exact_plant()
 
     def once() -> float:
         t = time.perf_counter()
-        loop.run_targets(*args, s0.copy(), np.array([pose.lam, 0.0, 1e-3]), rec, irec, info, fail)
+        state = np.array([pose.lam, 0.0, 1e-3])
+        loop.run_targets(*args, s0.copy(), np.empty(6), state, rec, irec, info, fail, plant)
         return time.perf_counter() - t
 
     once()

@@ -33,6 +33,7 @@ from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection, spiral
 from rcmplan.sim import KinematicPlant
+from rcmplan.sim.mujoco.compiled import exact_plant
 
 from conftest import random_joints
 from logcheck import assert_same_log as same_log
@@ -249,9 +250,9 @@ def test_the_loop_refuses_a_method_without_the_arrays_it_reads(robot: Iramis, co
     target = np.r_[x0[:3], 0.0, x0[3:]] if code.startswith("CURVED") else x0
     C = np.empty((BLOCK_ROWS, 7)) if code in ("CURVED_QP", "PINV") else None
     args = (robot_params(robot), getattr(records, code), np.ones(7), 0.0, np.full(7, 1e-8), 10,
-            True, np.array([0.1, 0.0]), None, C, target[None, :], 0,
-            robot.home_actuators.copy(), np.array([1.0, 0.0, 1e-3]), np.empty((20, 36)),
-            np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
-            np.empty(records.FAIL_WIDTH))  # fmt: skip
+            True, np.array([0.1, 0.0]), None, C, target[None, :], 0, 0,
+            robot.home_actuators.copy(), np.empty(6), np.array([1.0, 0.0, 1e-3]),
+            np.empty((20, 36)), np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
+            np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip
     with pytest.raises(ValueError, match="need qpa, a curved needle's methods C"):
         fast_cache.loop_kernels().run_targets(*args)

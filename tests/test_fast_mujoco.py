@@ -6,7 +6,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterator
 from typing import Any
 
-import numba  # noqa: F401  (the `fast` extra, likewise)
+import numba  # the `fast` extra, likewise (these tests fail without it, they do not skip)
 import numpy as np
 import pytest
 
@@ -167,3 +167,12 @@ def test_library_path_finds_the_loaded_mujoco_library() -> None:
     assert path is not None and path.exists()
     addresses = compiled.function_addresses(mujoco)
     assert addresses is not None and all(a > 0 for a in addresses)
+
+
+def test_one_compiled_loop_serves_both_plants() -> None:
+    """The kinematic plant's loop argument (`exact_plant`) has the numba types of a dynamic
+    MuJoCo plant's (`PlantArrays.loop_args`), so the one loop compiles once for both plants;
+    a changed array type in either would compile a second loop (and fail here)."""
+    arrays = compiled.plant_arrays(MujocoPlant(Iramis(), mode="dynamic"))
+    assert arrays is not None
+    assert numba.typeof(compiled.exact_plant()) == numba.typeof(arrays.loop_args())

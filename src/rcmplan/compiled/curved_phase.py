@@ -1,7 +1,7 @@
 """One phase of Algorithm 1 with a curved needle, compiled: on a plant that reaches its commands
 exactly (the kinematic plant), iRAM!S through the iRAM!S loop (`loop.run_targets`), an arm
 through the arm loop (`arm_loop.run_arm_targets`); on the dynamic MuJoCo plant, iRAM!S through
-the loop around the plant's period (`mujoco_loop.run_targets_on_mujoco`); each with the curved
+the same loop around the plant's period (`mujoco_loop.run_phase_on_mujoco`); each with the curved
 needle's method codes.
 
 Applies to `CurvedPinvSolver`, `CurvedDlsSolver` and `CurvedPoseSolver` (exact types; the pose
@@ -25,7 +25,7 @@ from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm_qp import curved_qp_applies
 from rcmplan.compiled.curved import curved_arrays
-from rcmplan.compiled.phase import IntArray, run_in_blocks
+from rcmplan.compiled.phase import loop_runner, run_in_blocks
 from rcmplan.compiled.records import (
     CURVED_POSE,
     DONE,
@@ -93,7 +93,6 @@ def run_iramis_phase(
 ) -> None:  # fmt: skip
     """Algorithm 1 on each target in turn in the iRAM!S loop, with iRAM!S holding the curved
     needle (`arrays.P`); the plant ends at the last command with its time advanced."""
-    loop = fast_cache.loop_kernels()
     cfg = controller.settings
     _, damping, tol = solver_arrays(solver)
     method = iramis_method(solver, controller.robot)
@@ -102,14 +101,10 @@ def run_iramis_phase(
     code, K = method
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
-    args = (arrays.P, code, K, damping, tol, cfg.max_iterations,
+    head = (arrays.P, code, K, damping, tol, cfg.max_iterations,
             cfg.drift_correction, loop_bounds(controller), None,
             np.empty((BLOCK_ROWS, 7)), targets)  # fmt: skip
-
-    def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
-            info: IntArray) -> int:  # fmt: skip
-        return int(loop.run_targets(*args, k0, s, state, rec, irec, info, fail))
-
+    run = loop_runner(head, fail)
     status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET + 1,
                                  record_width(6, roll=True))  # fmt: skip
     if status != DONE:

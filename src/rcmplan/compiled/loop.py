@@ -1,10 +1,13 @@
-"""Algorithm 1 on the kinematic plant, compiled: the loop of `Controller.converge` over a phase.
+"""Algorithm 1 compiled: the loop of `Controller.converge` over a phase, on either plant.
 
-Each iteration does what the reference loop does with a `KinematicPlant`, in the same order:
-read sliders, joints through the PCJMs, drift correction (lambda of the needle point closest to
-the trocar), task error, record (from the second iteration on), per-component tolerance check,
-iteration cap, singularity check, step, sliders from joints, travel check, command and advance
-(the sliders reach the command, time moves on by dt).
+Each iteration does what the reference loop does, in the same order: read sliders, joints
+through the PCJMs, drift correction (lambda of the needle point closest to the trocar), task
+error, record (from the second iteration on), per-component tolerance check, iteration cap,
+singularity check, step, sliders from joints, travel check, command and advance. One loop
+serves both plants (`run_targets`' plant argument): on the kinematic plant the sliders reach
+the command and time moves on by dt; on the dynamic MuJoCo plant the loop reads the simulated
+sliders each period and runs the plant's period towards the command in compiled code
+(`sim.mujoco.compiled.advance`).
 
 The kernel stops with a status code instead of raising; `rcmplan.compiled.runner` turns the code
 into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
@@ -49,6 +52,7 @@ from rcmplan.compiled.records import (
     NO_TIP,
     PAUSED,
     PINV_THESIS,
+    PLANT_STOPPED,
     QP,
     QP_FAILED,
     SINGULAR,
@@ -76,6 +80,7 @@ from rcmplan.robot.iramis_kernels import (
     trig,
 )
 from rcmplan.robot.needle import axis_into, closest_point, target_tip_into, x_ext_tip
+from rcmplan.sim.mujoco.compiled import OK, advance
 
 
 @njit(cache=True)
@@ -520,29 +525,41 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
 def run_targets(
     P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
     drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
-    targets: FloatArray, k0: int, s: FloatArray,
+    targets: FloatArray, k0: int, it0: int, s: FloatArray, cmd: FloatArray,
     state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
+    plant: tuple,
 ) -> int:  # fmt: skip
-    """Algorithm 1 on targets[k0:] from sliders s, on the kinematic plant; returns a status.
+    """Algorithm 1 on targets[k0:] (from iteration it0 of target k0); returns a status.
 
-    state = (lambda, time [s], dt [s]) is updated in place, as is s. On return info holds
-    (records written, target index reached, slider index for SLIDER_LIMIT or DAQP's exit flag
-    for QP_FAILED) and fail holds (q (6), q_new (6), s_new (6), error (6), or (7) for a curved
-    needle, ...) of the last iteration (`iterate`).
-    PAUSED means the record buffer could not hold another target: call again from info[1].
+    plant: the dynamic MuJoCo plant's arrays (`PlantArrays.loop_args`): each period the loop
+    reads its sliders into s and runs its physics towards the command (`advance`), or, with
+    model address 0 (`exact_plant`), the kinematic plant: s reaches each command exactly.
+    state = (lambda, time [s], dt [s]) is updated in place, as is s; cmd (6,) holds the last
+    command (for the QP on MuJoCo the same array as qpa's cmd: `qp_kernels.loop_qp`). On
+    return info holds (records written, target index reached, slider index for SLIDER_LIMIT,
+    DAQP's exit flag for QP_FAILED or the plant's check for PLANT_STOPPED) and fail holds (q
+    (6), q_new (6), s_new (6), error (6), or (7) for a curved needle, ...) of the last
+    iteration (`iterate`). PAUSED means the record block rec is full: call again from target
+    info[1], iteration info[2].
     """
-    w, d, f = np.empty(6), np.empty(7), np.empty(7)
+    w, d, f, v = np.empty(6), np.empty(7), np.empty(7), np.empty((4, 6))
     J = np.empty((BLOCK_ROWS, 7))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
-    n, cap = 0, rec.shape[0]
+    slider_qpos, fns, model, data, substeps, dt, steps, speed, ramp, gap2 = plant[:10]
+    act, ctrl, qpos, qvel, xpos, warn, act_idx, servo, feedforward, slot, pin = plant[10:]
+    n = 0
     for k in range(k0, targets.shape[0]):
         info[0], info[1] = n, k
-        if n + max_it > cap:
-            return PAUSED
         kind = target_frame(targets[k], holds_rcm(method), w, tip_t, trocar)
         if kind < 0:
             return NO_TIP
-        for it in range(max_it + 1):
+        for it in range(it0 if k == k0 else 0, max_it + 1):
+            if n == rec.shape[0]:
+                info[0], info[1], info[2] = n, k, it
+                return PAUSED
+            if model != 0:  # the dynamic plant's measured sliders
+                for i in range(6):
+                    s[i] = qpos[slider_qpos[i]]
             status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds, qpa,
                                          C, targets[k], kind == 1, tip_t, trocar, s, state, k,
                                          it, n, rec, irec, fail, info, w, d, f, J)  # fmt: skip
@@ -550,8 +567,18 @@ def run_targets(
                 break
             if status != STEPPED:
                 return status
-            put(s, 0, fail, 12, 6)  # the kinematic plant reaches the command
+            put(cmd, 0, fail, 12, 6)
+            code = OK
+            if model == 0:  # the kinematic plant reaches the command
+                put(s, 0, fail, 12, 6)
+            else:
+                code = advance(cmd, v, fns, model, data, substeps, dt, steps, speed, ramp, gap2,
+                               act, ctrl, qpos, qvel, xpos, warn, act_idx, servo,
+                               feedforward, slot, pin)  # fmt: skip
             state[1] += state[2]
+            if code != OK:
+                info[1], info[2] = k, code
+                return PLANT_STOPPED
     info[0], info[1] = n, targets.shape[0]
     return DONE
 

@@ -9,7 +9,7 @@ raises the same exception with the same message.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -34,6 +34,7 @@ from rcmplan.compiled.records import (
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import RcmplanError
 from rcmplan.robot.curved_block import BLOCK_ROWS
+from rcmplan.sim.mujoco.compiled import exact_plant
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -45,7 +46,6 @@ def run_phase_compiled(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> None:
     """Algorithm 1 on each target in turn, compiled; see the module docstring."""
-    loop = fast_cache.loop_kernels()
     robot, cfg = controller.robot, controller.settings
     method = iramis_method(solver, robot)
     if method is None:
@@ -55,43 +55,60 @@ def run_phase_compiled(
     bounds = loop_bounds(controller)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
-    args = (robot_params(robot), code, K, damping, tol, cfg.max_iterations,
+    head = (robot_params(robot), code, K, damping, tol, cfg.max_iterations,
             cfg.drift_correction, bounds, None, None, targets)  # fmt: skip
-
-    def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
-            info: IntArray) -> int:  # fmt: skip
-        return int(loop.run_targets(*args, k0, s, state, rec, irec, info, fail))
-
-    status, info = run_in_blocks(controller, targets, pid, sid, run)
+    status, info = run_in_blocks(controller, targets, pid, sid, loop_runner(head, fail))
     if status != DONE:
         where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
         m = solver.tolerance().shape[0]
         raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
 
 
-BlockRunner = Callable[[int, FloatArray, FloatArray, FloatArray, IntArray, IntArray], int]
+# The compiled loop on one phase's targets, run(k0, it0, s, cmd, state, rec, irec, info) ->
+# status: the protocol of `loop.run_targets` after its head (`loop_runner`)
+BlockRunner = Callable[
+    [int, int, FloatArray, FloatArray, FloatArray, FloatArray, IntArray, IntArray], int
+]
+
+
+def loop_runner(
+    head: tuple[Any, ...], fail: FloatArray, plant: tuple[Any, ...] | None = None
+) -> BlockRunner:
+    """The compiled loop `loop.run_targets` on head = (P, method, K, damping, tol, max_it,
+    drift, bounds, qpa, C, targets), its last iteration in fail; plant: the dynamic MuJoCo
+    plant's arrays (`PlantArrays.loop_args`), by default the kinematic plant's
+    (`exact_plant`). Both plants run the one compiled loop."""
+    loop = fast_cache.loop_kernels()
+    args = exact_plant() if plant is None else plant
+
+    def run(k0: int, it0: int, s: FloatArray, cmd: FloatArray, state: FloatArray,
+            rec: FloatArray, irec: IntArray, info: IntArray) -> int:  # fmt: skip
+        return int(loop.run_targets(*head, k0, it0, s, cmd, state, rec, irec, info, fail, args))
+
+    return run
 
 
 def run_in_blocks(
     controller: Controller, targets: FloatArray, pid: int, sid: int, run: BlockRunner,
     per_target: int = 4, width: int = 35,
 ) -> tuple[int, IntArray]:  # fmt: skip
-    """Call a compiled phase loop `run(k0, s, state, rec, irec, info)` on the kinematic plant
-    (the `loop.run_targets` protocol) until it stops pausing, its records appended to the
-    log; the plant ends at the last command with its time advanced and controller.lam holds
-    the last lambda. Returns (status, info); the record buffer holds `per_target` records per
-    target (a full buffer pauses the loop, which is then resumed) of `width` columns."""
+    """Call the compiled loop `run` (`loop_runner`) on the kinematic plant until it stops
+    pausing, its records appended to the log; the plant ends at the last command with its
+    time advanced and controller.lam holds the last lambda. Returns (status, info); the record
+    buffer holds `per_target` records per target (a full buffer pauses the loop, which is
+    then resumed) of `width` columns."""
     plant, cfg = controller.plant, controller.settings
     s = plant.read_actuators()
+    cmd = s.copy()
     state = np.array([controller.lam, plant.time, plant.dt])
     cap = per_target * targets.shape[0] + cfg.max_iterations
     rec, irec = np.empty((cap, width)), np.empty((cap, 2), dtype=np.int64)
     info = np.zeros(3, dtype=np.int64)
-    status, k0 = PAUSED, 0
+    status, k0, it0 = PAUSED, 0, 0
     while status == PAUSED:
-        status = run(k0, s, state, rec, irec, info)
+        status = run(k0, it0, s, cmd, state, rec, irec, info)
         append_records(controller.log, rec, irec, int(info[0]), pid, sid)
-        k0 = int(info[1])
+        k0, it0 = int(info[1]), int(info[2])
     plant.command_actuators(s)
     plant.advance()
     plant.time = float(state[1])

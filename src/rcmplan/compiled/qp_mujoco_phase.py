@@ -1,5 +1,5 @@
 """The QP controller's phases on the dynamic MuJoCo plant in the compiled loop around it
-(`mujoco_loop.run_targets_on_mujoco` with method QP), behind the runner seam.
+(`loop.run_targets` with method QP and the plant's arrays), behind the runner seam.
 
 Applies to a `QpSolver` itself (exact type) with the DAQP back end, on iRAM!S with a straight
 needle or a curved one (method CURVED_QP), with the controller's plant as its servo
@@ -23,7 +23,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.phase import IntArray
+from rcmplan.compiled.phase import loop_runner
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import raise_qp_stop
 from rcmplan.compiled.records import (
@@ -89,19 +89,13 @@ def run_qp_phase_on_mujoco(
     K, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     res = np.ascontiguousarray(plant.actuator_resolution, dtype=np.float64)
-    s, cmd = np.empty(6), np.array(plant.command, dtype=np.float64)
+    cmd = np.array(plant.command, dtype=np.float64)
     qpa = fast_cache.qp_kernels().loop_qp(params, res, cmd, curved=curved)
     head = (P, CURVED_QP if curved else QP, K, damping, tol, cfg.max_iterations,
             cfg.drift_correction, loop_bounds(controller), qpa,
             np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
     fail = np.empty(FAIL_WIDTH)
-    tail = (fail, arrays.slider_qpos, *arrays.args())
-
-    def run(k0: int, it0: int, state: FloatArray, rec: FloatArray, irec: IntArray,
-            info: IntArray) -> int:  # fmt: skip
-        return int(loop.run_targets_on_mujoco(*head, k0, it0, s, cmd, state, rec, irec, info,
-                                              *tail))  # fmt: skip
-
+    run = loop_runner(head, fail, arrays.loop_args())
     status, info = loop.run_in_blocks_on_mujoco(controller, cmd, pid, sid, run,
                                                 record_width(6, roll=curved))  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)

@@ -19,14 +19,14 @@ phase through `QpSolver.check_targets` before any motion (planned phases: before
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.curved import curved_arrays
-from rcmplan.compiled.phase import IntArray, run_in_blocks
+from rcmplan.compiled.phase import IntArray, loop_runner, run_in_blocks
 from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.records import (
     CURVED_QP,
@@ -95,17 +95,16 @@ def run_if_ready(
     """Run the phase compiled if DAQP's binding is usable and the eye is the kernels'; False
     (nothing done) otherwise. The caller has checked the robot (its kernels' parameters P:
     `runner.kernel_params`, or `curved_params` for a curved needle) and the mode."""
-    loop = fast_cache.qp_loop()
     params = qp_params(controller.robot, solver)
-    if loop is None or params is None:
+    if fast_cache.qp_loop() is None or params is None:
         return False
-    run_qp_phase(controller, solver, targets, pid, sid, loop, params, P)
+    run_qp_phase(controller, solver, targets, pid, sid, params, P)
     return True
 
 
 def run_qp_phase(
     controller: Controller, solver: QpSolver, targets: FloatArray, pid: int, sid: int,
-    loop: Any, params: tuple[FloatArray, FloatArray], P: FloatArray,
+    params: tuple[FloatArray, FloatArray], P: FloatArray,
 ) -> None:  # fmt: skip
     """Algorithm 1 with the QP on each target in turn, compiled (see the module docstring)."""
     cfg, curved = controller.settings, solver.curved
@@ -113,14 +112,10 @@ def run_qp_phase(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
     qpa = fast_cache.qp_kernels().loop_qp(params, curved=curved)
-    args = (P, CURVED_QP if curved else QP, K, damping, tol, cfg.max_iterations,
+    head = (P, CURVED_QP if curved else QP, K, damping, tol, cfg.max_iterations,
             cfg.drift_correction, loop_bounds(controller), qpa,
             np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
-
-    def run(k0: int, s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray,
-            info: IntArray) -> int:  # fmt: skip
-        return int(loop.run_targets(*args, k0, s, state, rec, irec, info, fail))
-
+    run = loop_runner(head, fail)
     status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET,
                                  record_width(6, roll=curved))  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)

@@ -115,6 +115,21 @@ class PlantArrays:
                 self.xpos, self.warn, self.act_idx, self.servo, self.feedforward, self.slot,
                 self.pin)  # fmt: skip
 
+    def loop_args(self) -> tuple[Any, ...]:
+        """The plant argument of the compiled loop (`loop.run_targets`): the slider indices,
+        then `args`."""
+        return (self.slider_qpos, *self.args())
+
+
+def exact_plant() -> tuple[Any, ...]:
+    """The compiled loop's plant argument for the kinematic plant, which reaches each command
+    exactly: model address 0 and empty arrays, of the types `PlantArrays.loop_args` has (one
+    compiled loop serves both plants)."""
+    i, f = np.empty(0, dtype=np.intp), np.empty(0)
+    warn = np.zeros(4, dtype=np.int32)[::2]  # mjData's warning counts: a strided view
+    return (i, i, 0, 0, 0, 0.0, f, f, 0.0, 0.0, f, f, f, f, np.empty((0, 3)), warn, i, i, i, i,
+            i)  # fmt: skip
+
 
 def plant_arrays(plant: Any) -> PlantArrays | None:
     """The arrays of a dynamic `MujocoPlant`, or None if its C functions cannot be found."""
