@@ -34,6 +34,7 @@ if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
 fi
 
 python -m pip install -q --disable-pip-version-check -e ".[all,video,dev]"
+echo "check.sh: install done at $SECONDS s"
 
 export MUJOCO_GL="${MUJOCO_GL:-egl}"
 
@@ -62,17 +63,21 @@ esac
 # (iRAM!S's and its curved needle's, on the kinematic and MuJoCo plants: 248 s of CPU in one
 # measurement; the arms', their curved needle's, the subretinal episode's QP periods and the
 # iOCT B-scan's: 200 s), while ruff and mypy run, and the test workers load them.
+# Each stage prints its wall time, measured from the start of this script.
 trap 'kill $(jobs -p) 2>/dev/null || true' EXIT  # no compile left running if a check fails
-python -c "from rcmplan.warmup import compile_iramis_kernels as i, compile_curved_kernels as c; i(); c(('iramis',))" &
+took() { echo "check.sh: $1 done at $SECONDS s"; }
+{ python -c "from rcmplan.warmup import compile_iramis_kernels as i, compile_curved_kernels as c; i(); c(('iramis',))" && took "iRAM!S kernels"; } &
 iramis_kernels=$!
-python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_subretinal_kernels as b, compile_curved_kernels as c; a(); c(('arm',)); b()" &
+{ python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_subretinal_kernels as b, compile_curved_kernels as c; a(); c(('arm',)); b()" && took "arm and subretinal kernels"; } &
 arm_kernels=$!
 python -m ruff check src tests benchmarks
 python -m ruff format --check src tests benchmarks
 python -m mypy
+took "ruff and mypy"
 wait "$iramis_kernels"
 wait "$arm_kernels"
 
 # One pytest worker per core, at most 4 (pytest-xdist).
 workers="$(python -c 'import os; print(min(4, len(os.sched_getaffinity(0))))')"
 python -m pytest -q -n "$workers"
+took "pytest"
