@@ -12,6 +12,7 @@ import pytest
 
 from rcmplan import Iramis
 from rcmplan.compiled import mujoco_loop as fm
+from rcmplan.compiled import phase
 from rcmplan.control import (
     DlsSolver,
     Phase,
@@ -123,7 +124,7 @@ def test_compiled_loop_equals_the_per_iteration_path(
 
 def test_full_record_blocks_resume_where_they_paused(monkeypatch: pytest.MonkeyPatch) -> None:
     ref, ref_plant, _, _ = run(True, monkeypatch, PinvSolver())
-    monkeypatch.setattr(fm, "CAPACITY", 7)  # pause every 7 records, mid-target
+    monkeypatch.setattr(phase, "CAPACITY", 7)  # pause every 7 records, mid-target
     got, plant, _, _ = run(False, monkeypatch, PinvSolver())
     assert_identical(ref, got)
     assert_same_plant(ref_plant, plant)

@@ -230,7 +230,7 @@ def compile_curved_kernels(on: tuple[str, ...] = ("iramis", "arm")) -> None:
             ctl.lam = 0.5
             pid = ctl.log.phase_id("warm")
             if arrays.P is not None:
-                curved_phase.run_iramis_phase(ctl, solver, target[None, :], pid, 0, arrays)
+                run_phase_compiled(ctl, solver, target[None, :], pid, 0, arrays.P)
             else:
                 arm_phase.run_arm_phase_exact(ctl, solver, target[None, :], pid, 0, arrays)
         qp = QpSolver(robot)

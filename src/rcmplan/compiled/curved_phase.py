@@ -18,31 +18,20 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm_qp import curved_qp_applies
 from rcmplan.compiled.curved import curved_arrays
-from rcmplan.compiled.phase import loop_runner, run_in_blocks
+from rcmplan.compiled.phase import run_phase_compiled
 from rcmplan.compiled.records import (
     CURVED_POSE,
-    DONE,
-    FAIL_WIDTH,
-    iramis_method,
     is_curved,
-    loop_bounds,
     method_code,
-    raise_stop,
-    record_width,
-    solver_arrays,
 )
 from rcmplan.control.curved import POSE_JOINTS, LimitedPoseSolver
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
-from rcmplan.robot.curved import CurvedArrays
-from rcmplan.robot.curved_block import BLOCK_ROWS
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -81,33 +70,8 @@ def run_if_fast(
     if type(solver) is QpSolver and not curved_qp_applies(solver):
         return False
     if arrays.P is not None:
-        run_iramis_phase(controller, solver, targets, pid, sid, arrays)
+        run_phase_compiled(controller, solver, targets, pid, sid, arrays.P,
+                           per_target=ITERATIONS_PER_TARGET + 1)  # fmt: skip
     else:
         arm_phase.run_arm_phase_exact(controller, solver, targets, pid, sid, arrays)
     return True
-
-
-def run_iramis_phase(
-    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int,
-    arrays: CurvedArrays,
-) -> None:  # fmt: skip
-    """Algorithm 1 on each target in turn in the iRAM!S loop, with iRAM!S holding the curved
-    needle (`arrays.P`); the plant ends at the last command with its time advanced."""
-    cfg = controller.settings
-    _, damping, tol = solver_arrays(solver)
-    method = iramis_method(solver, controller.robot)
-    if method is None:
-        raise ValueError(f"the iRAM!S loop does not run solver {solver.name!r}")
-    code, K = method
-    targets = np.ascontiguousarray(targets, dtype=np.float64)
-    fail = np.empty(FAIL_WIDTH)
-    head = (arrays.P, code, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, loop_bounds(controller), None,
-            np.empty((BLOCK_ROWS, 7)), targets)  # fmt: skip
-    run = loop_runner(head, fail)
-    status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET + 1,
-                                 record_width(6, roll=True))  # fmt: skip
-    if status != DONE:
-        k = int(info[1])
-        where = f"phase {controller.log.phase_names[pid]!r} step {k}"
-        raise_stop(controller, status, k, targets, fail, tol, where)

@@ -1,7 +1,8 @@
 """One phase of Algorithm 1 through the compiled loop, with the reference loop's side effects.
 
-Records go to the controller's log, the kinematic plant ends at the last slider command with
-its time advanced, controller.lam holds the last lambda, and an early stop raises what
+Records go to the controller's log, the plant ends at the last slider command with its time
+advanced (the kinematic plant, or the dynamic MuJoCo plant whose periods the loop runs),
+controller.lam holds the last lambda, and an early stop raises what
 `Controller.converge` raises: the failing check is repeated with the reference function, which
 raises the same exception with the same message.
 """
@@ -9,7 +10,7 @@ raises the same exception with the same message.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 from numpy.typing import NDArray
@@ -22,42 +23,58 @@ from rcmplan.compiled.records import (
     FAIL_WIDTH,
     NO_TIP,
     PAUSED,
+    PLANT_STOPPED,
+    REC_WIDTH,
     STEPPED,
     append_records,
     iramis_method,
+    is_curved,
     loop_bounds,
     method_code,
     raise_stop,
+    record_width,
     robot_params,
     solver_arrays,
 )
 from rcmplan.control.solvers import Solver
-from rcmplan.exceptions import RcmplanError
+from rcmplan.exceptions import RcmplanError, SimulationError
 from rcmplan.robot.curved_block import BLOCK_ROWS
-from rcmplan.sim.mujoco.compiled import exact_plant
+from rcmplan.sim.mujoco.compiled import PlantArrays, exact_plant
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
+    from rcmplan.sim.mujoco.plant import MujocoPlant
 
 IntArray = NDArray[np.int64]
 
 
 def run_phase_compiled(
-    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
-) -> None:
-    """Algorithm 1 on each target in turn, compiled; see the module docstring."""
+    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int,
+    P: FloatArray | None = None, plant: PlantArrays | None = None, per_target: int = 4,
+) -> None:  # fmt: skip
+    """Algorithm 1 on each target in turn in the compiled iRAM!S loop; see the module docstring.
+
+    P: the kernels' parameters (default: iRAM!S's own; a curved needle's carry its arc,
+    `curved_iramis.params`, and its records the roll error). plant: the dynamic MuJoCo plant's
+    arrays (`sim.mujoco.compiled.plant_arrays`), whose periods the loop then runs; default the
+    kinematic plant. per_target: records per target in a block on the kinematic plant.
+    """
     robot, cfg = controller.robot, controller.settings
     method = iramis_method(solver, robot)
     if method is None:
         raise ValueError(f"the iRAM!S loop does not run solver {solver.name!r}")
     code, K = method
+    curved = is_curved(code)
     _, damping, tol = solver_arrays(solver)
-    bounds = loop_bounds(controller)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
-    head = (robot_params(robot), code, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, bounds, None, None, targets)  # fmt: skip
-    status, info = run_in_blocks(controller, targets, pid, sid, loop_runner(head, fail))
+    head = (robot_params(robot) if P is None else P, code, K, damping, tol, cfg.max_iterations,
+            cfg.drift_correction, loop_bounds(controller), None,
+            np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
+    run = loop_runner(head, fail, None if plant is None else plant.loop_args())
+    cmd = None if plant is None else cast("MujocoPlant", controller.plant).command
+    status, info = run_in_blocks(controller, targets, pid, sid, run, per_target,
+                                 record_width(6, roll=curved), cmd)  # fmt: skip
     if status != DONE:
         where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
         m = solver.tolerance().shape[0]
@@ -88,31 +105,50 @@ def loop_runner(
     return run
 
 
+# Records per block on the dynamic MuJoCo plant. Python answers a signal only between blocks, so
+# a block is short: 1,024 control periods of the default injection take about 0.15 s (53,989 in
+# 8.0 s of wall time; a 32,768-record block held an interrupt for seconds); a block costs one
+# call and one append.
+CAPACITY = 1 << 10
+
+
 def run_in_blocks(
     controller: Controller, targets: FloatArray, pid: int, sid: int, run: BlockRunner,
-    per_target: int = 4, width: int = 35,
+    per_target: int = 4, width: int = REC_WIDTH, cmd: FloatArray | None = None,
 ) -> tuple[int, IntArray]:  # fmt: skip
-    """Call the compiled loop `run` (`loop_runner`) on the kinematic plant until it stops
-    pausing, its records appended to the log; the plant ends at the last command with its
-    time advanced and controller.lam holds the last lambda. Returns (status, info); the record
-    buffer holds `per_target` records per target (a full buffer pauses the loop, which is
-    then resumed) of `width` columns."""
-    plant, cfg = controller.plant, controller.settings
-    s = plant.read_actuators()
-    cmd = s.copy()
+    """Call the compiled loop `run` (`loop_runner`) until it stops pausing, each block of
+    records (`width` columns) appended to the log. Returns (status, info).
+
+    cmd: the dynamic MuJoCo plant's command (6,), which the loop writes as it runs the plant's
+    periods (blocks of CAPACITY records); None: the kinematic plant, whose sliders the loop
+    moves to each command (blocks of `per_target` records per target). Either plant ends at
+    the last command and time (the kinematic one advanced to it), controller.lam holds the
+    last lambda, and a failed period of the dynamic plant (PLANT_STOPPED) raises the plant's
+    SimulationError.
+    """
+    plant, kinematic = controller.plant, cmd is None
+    s = plant.read_actuators() if kinematic else np.empty(6)
+    cmd = s.copy() if cmd is None else cmd
     state = np.array([controller.lam, plant.time, plant.dt])
-    cap = per_target * targets.shape[0] + cfg.max_iterations
+    cap = per_target * targets.shape[0] + controller.settings.max_iterations
+    cap = cap if kinematic else CAPACITY
     rec, irec = np.empty((cap, width)), np.empty((cap, 2), dtype=np.int64)
     info = np.zeros(3, dtype=np.int64)
     status, k0, it0 = PAUSED, 0, 0
-    while status == PAUSED:
-        status = run(k0, it0, s, cmd, state, rec, irec, info)
-        append_records(controller.log, rec, irec, int(info[0]), pid, sid)
-        k0, it0 = int(info[1]), int(info[2])
-    plant.command_actuators(s)
-    plant.advance()
-    plant.time = float(state[1])
-    controller.lam = float(state[0])
+    try:
+        while status == PAUSED:
+            status = run(k0, it0, s, cmd, state, rec, irec, info)
+            append_records(controller.log, rec, irec, int(info[0]), pid, sid)
+            k0, it0 = int(info[1]), int(info[2])
+    finally:
+        plant.command_actuators(cmd)
+        if kinematic:
+            plant.advance()
+        plant.time = float(state[1])
+        controller.lam = float(state[0])
+    if status == PLANT_STOPPED:
+        cast("MujocoPlant", plant).check()  # raises the plant's own SimulationError
+        raise SimulationError(f"the plant stopped (check {int(info[2])}) at t = {plant.time} s")
     return status, info
 
 

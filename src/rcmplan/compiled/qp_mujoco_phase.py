@@ -23,7 +23,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.phase import loop_runner
+from rcmplan.compiled.phase import loop_runner, run_in_blocks
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import raise_qp_stop
 from rcmplan.compiled.records import (
@@ -85,7 +85,6 @@ def run_qp_phase_on_mujoco(
     module docstring); P: as `run_if_ready`'s."""
     plant = cast("MujocoPlant", controller.plant)
     cfg, curved = controller.settings, solver.curved
-    loop = fast_cache.closed_loop()
     K, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     res = np.ascontiguousarray(plant.actuator_resolution, dtype=np.float64)
@@ -96,6 +95,6 @@ def run_qp_phase_on_mujoco(
             np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
     fail = np.empty(FAIL_WIDTH)
     run = loop_runner(head, fail, arrays.loop_args())
-    status, info = loop.run_in_blocks_on_mujoco(controller, cmd, pid, sid, run,
-                                                record_width(6, roll=curved))  # fmt: skip
+    status, info = run_in_blocks(controller, targets, pid, sid, run,
+                                 width=record_width(6, roll=curved), cmd=cmd)  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)
