@@ -59,26 +59,47 @@ def run_phase_compiled(
     arrays (`sim.mujoco.compiled.plant_arrays`), whose periods the loop then runs; default the
     kinematic plant. per_target: records per target in a block on the kinematic plant.
     """
-    robot, cfg = controller.robot, controller.settings
-    method = iramis_method(solver, robot)
+    method = iramis_method(solver, controller.robot)
     if method is None:
         raise ValueError(f"the iRAM!S loop does not run solver {solver.name!r}")
-    code, K = method
-    curved = is_curved(code)
-    _, damping, tol = solver_arrays(solver)
-    targets = np.ascontiguousarray(targets, dtype=np.float64)
-    fail = np.empty(FAIL_WIDTH)
-    head = (robot_params(robot) if P is None else P, code, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, loop_bounds(controller), None,
-            np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
-    run = loop_runner(head, fail, None if plant is None else plant.loop_args())
-    cmd = None if plant is None else cast("MujocoPlant", controller.plant).command
-    status, info = run_in_blocks(controller, targets, pid, sid, run, per_target,
-                                 record_width(6, roll=curved), cmd)  # fmt: skip
+    P = robot_params(controller.robot) if P is None else P
+    status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid, method, P,
+                                             plant=plant, per_target=per_target)  # fmt: skip
     if status != DONE:
         where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
         m = solver.tolerance().shape[0]
         raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
+
+
+def run_phase_loop(
+    controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int,
+    method: tuple[int, FloatArray], P: FloatArray, qpa: tuple[Any, ...] | None = None,
+    plant: PlantArrays | None = None, cmd: FloatArray | None = None, per_target: int = 4,
+) -> tuple[int, IntArray, FloatArray, FloatArray]:  # fmt: skip
+    """The compiled iRAM!S loop (`loop.run_targets`) on a phase's targets, every driver's
+    (`run_phase_compiled`, the QP's `qp_phase` and `qp_mujoco_phase`); returns (status, info,
+    fail, tolerance) for the caller to raise the stop its reference loop raises.
+
+    method: (code, K) (`records.iramis_method`, or the QP's code with its K); P: the kernels'
+    parameters; qpa: the QP's arrays (`qp_kernels.loop_qp`) for its methods, else None. plant:
+    the dynamic MuJoCo plant's arrays, whose periods the loop runs with the command array cmd
+    (default the plant's own, `MujocoPlant.command`); None: the kinematic plant. per_target:
+    records per target in a block on the kinematic plant.
+    """
+    code, K = method
+    curved, cfg = is_curved(code), controller.settings
+    _, damping, tol = solver_arrays(solver)
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    fail = np.empty(FAIL_WIDTH)
+    head = (P, code, K, damping, tol, cfg.max_iterations, cfg.drift_correction,
+            loop_bounds(controller), qpa, np.empty((BLOCK_ROWS, 7)) if curved else None,
+            targets)  # fmt: skip
+    run = loop_runner(head, fail, None if plant is None else plant.loop_args())
+    if plant is not None and cmd is None:
+        cmd = cast("MujocoPlant", controller.plant).command
+    status, info = run_in_blocks(controller, targets, pid, sid, run, per_target,
+                                 record_width(6, roll=curved), cmd)  # fmt: skip
+    return status, info, fail, tol
 
 
 # The compiled loop on one phase's targets, run(k0, it0, s, cmd, state, rec, irec, info) ->

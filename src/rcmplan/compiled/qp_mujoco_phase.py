@@ -23,20 +23,16 @@ import numpy as np
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.phase import loop_runner, run_in_blocks
+from rcmplan.compiled.phase import run_phase_loop
 from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.qp_phase import raise_qp_stop
 from rcmplan.compiled.records import (
     CURVED_QP,
-    FAIL_WIDTH,
     QP,
-    loop_bounds,
-    record_width,
     solver_arrays,
 )
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
-from rcmplan.robot.curved_block import BLOCK_ROWS
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -84,17 +80,11 @@ def run_qp_phase_on_mujoco(
     """Algorithm 1 with the QP on each target in turn on the MuJoCo plant, compiled (see the
     module docstring); P: as `run_if_ready`'s."""
     plant = cast("MujocoPlant", controller.plant)
-    cfg, curved = controller.settings, solver.curved
-    K, damping, tol = solver_arrays(solver)
-    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    curved = solver.curved
     res = np.ascontiguousarray(plant.actuator_resolution, dtype=np.float64)
-    cmd = np.array(plant.command, dtype=np.float64)
+    cmd = np.array(plant.command, dtype=np.float64)  # the loop writes it, the QP plans from it
     qpa = fast_cache.qp_kernels().loop_qp(params, res, cmd, curved=curved)
-    head = (P, CURVED_QP if curved else QP, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, loop_bounds(controller), qpa,
-            np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
-    fail = np.empty(FAIL_WIDTH)
-    run = loop_runner(head, fail, arrays.loop_args())
-    status, info = run_in_blocks(controller, targets, pid, sid, run,
-                                 width=record_width(6, roll=curved), cmd=cmd)  # fmt: skip
+    method = (CURVED_QP if curved else QP, solver_arrays(solver)[0])
+    status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid, method, P,
+                                             qpa, arrays, cmd)  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)

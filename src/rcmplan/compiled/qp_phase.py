@@ -26,17 +26,14 @@ import numpy as np
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.curved import curved_arrays
-from rcmplan.compiled.phase import IntArray, loop_runner, run_in_blocks
+from rcmplan.compiled.phase import IntArray, run_phase_loop
 from rcmplan.compiled.qp_params import pack_extras, qp_params
 from rcmplan.compiled.records import (
     CURVED_QP,
     DONE,
-    FAIL_WIDTH,
     QP,
     QP_FAILED,
-    loop_bounds,
     raise_stop,
-    record_width,
     robot_params,
     solver_arrays,
 )
@@ -46,7 +43,6 @@ from rcmplan.control.qp_problem import QPProblem, StepQP
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import InvalidInputError, QPError
 from rcmplan.robot import iramis_kernels
-from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.robot.model import RobotModel
 
 if TYPE_CHECKING:
@@ -107,17 +103,11 @@ def run_qp_phase(
     params: tuple[FloatArray, FloatArray], P: FloatArray,
 ) -> None:  # fmt: skip
     """Algorithm 1 with the QP on each target in turn, compiled (see the module docstring)."""
-    cfg, curved = controller.settings, solver.curved
-    K, damping, tol = solver_arrays(solver)
-    targets = np.ascontiguousarray(targets, dtype=np.float64)
-    fail = np.empty(FAIL_WIDTH)
+    curved = solver.curved
     qpa = fast_cache.qp_kernels().loop_qp(params, curved=curved)
-    head = (P, CURVED_QP if curved else QP, K, damping, tol, cfg.max_iterations,
-            cfg.drift_correction, loop_bounds(controller), qpa,
-            np.empty((BLOCK_ROWS, 7)) if curved else None, targets)  # fmt: skip
-    run = loop_runner(head, fail)
-    status, info = run_in_blocks(controller, targets, pid, sid, run, ITERATIONS_PER_TARGET,
-                                 record_width(6, roll=curved))  # fmt: skip
+    method = (CURVED_QP if curved else QP, solver_arrays(solver)[0])
+    status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid, method, P,
+                                             qpa, per_target=ITERATIONS_PER_TARGET)  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)
 
 
