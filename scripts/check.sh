@@ -60,9 +60,9 @@ esac
 # numba compiles each kernel on its first call and caches it (`rcmplan.compiled.cache`). On a
 # fresh clone that compile is most of the suite's CPU time, and two pytest workers would each
 # compile the same kernels: so every loop's kernels compile first, in two processes at once
-# (iRAM!S's and its curved needle's, on the kinematic and MuJoCo plants: 248 s of CPU in one
-# measurement; the arms', their curved needle's, the subretinal episode's QP periods and the
-# iOCT B-scan's: 200 s), while ruff and mypy run, and the test workers load them.
+# (iRAM!S's and its curved needle's, on both plants through one loop; the arms', their curved
+# needle's, the subretinal episode's QP periods and the iOCT B-scan's: 209 and 207 s side by
+# side in one measurement), while ruff and mypy run, and the test workers load them.
 # Each stage prints its wall time, measured from the start of this script.
 trap 'kill $(jobs -p) 2>/dev/null || true' EXIT  # no compile left running if a check fails
 took() { echo "check.sh: $1 done at $SECONDS s"; }
