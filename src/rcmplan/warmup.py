@@ -103,7 +103,10 @@ def _compile_qp_loop(robot: Iramis, trocar: FloatArray) -> None:
 
 def _compile_mujoco_loop(robot: Iramis, jobs: list[tuple[Solver, FloatArray]]) -> None:
     """The compiled loop around the dynamic MuJoCo plant, on a short move per solver (up to
-    0.5 mm: with the reference's 30 ms ramp it takes more than the default 100 periods)."""
+    0.5 mm: with the reference's 30 ms ramp it takes more than the default 100 periods). The
+    loop is the kinematic plant's, given the plant's arrays: this loads what the runs above
+    compiled (0.4 s in one measurement) and would compile it again only if the arrays' types
+    differed from `exact_plant`'s."""
     from rcmplan.sim.mujoco.plant import MujocoPlant
 
     loop = fast_cache.closed_loop()

@@ -151,8 +151,10 @@ def run_in_blocks(
     s = plant.read_actuators() if kinematic else np.empty(6)
     cmd = s.copy() if cmd is None else cmd
     state = np.array([controller.lam, plant.time, plant.dt])
-    cap = per_target * targets.shape[0] + controller.settings.max_iterations
-    cap = cap if kinematic else CAPACITY
+    if kinematic:
+        cap = per_target * targets.shape[0] + controller.settings.max_iterations
+    else:
+        cap = CAPACITY
     rec, irec = np.empty((cap, width)), np.empty((cap, 2), dtype=np.int64)
     info = np.zeros(3, dtype=np.int64)
     status, k0, it0 = PAUSED, 0, 0

@@ -25,12 +25,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.phase import run_phase_loop
 from rcmplan.compiled.qp_params import qp_params
-from rcmplan.compiled.qp_phase import raise_qp_stop
-from rcmplan.compiled.records import (
-    CURVED_QP,
-    QP,
-    solver_arrays,
-)
+from rcmplan.compiled.qp_phase import qp_method, raise_qp_stop
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 
@@ -80,11 +75,9 @@ def run_qp_phase_on_mujoco(
     """Algorithm 1 with the QP on each target in turn on the MuJoCo plant, compiled (see the
     module docstring); P: as `run_if_ready`'s."""
     plant = cast("MujocoPlant", controller.plant)
-    curved = solver.curved
     res = np.ascontiguousarray(plant.actuator_resolution, dtype=np.float64)
     cmd = np.array(plant.command, dtype=np.float64)  # the loop writes it, the QP plans from it
-    qpa = fast_cache.qp_kernels().loop_qp(params, res, cmd, curved=curved)
-    method = (CURVED_QP if curved else QP, solver_arrays(solver)[0])
-    status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid, method, P,
-                                             qpa, arrays, cmd)  # fmt: skip
+    qpa = fast_cache.qp_kernels().loop_qp(params, res, cmd, curved=solver.curved)
+    status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid,
+                                             qp_method(solver), P, qpa, arrays, cmd)  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)

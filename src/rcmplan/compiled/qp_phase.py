@@ -103,12 +103,17 @@ def run_qp_phase(
     params: tuple[FloatArray, FloatArray], P: FloatArray,
 ) -> None:  # fmt: skip
     """Algorithm 1 with the QP on each target in turn, compiled (see the module docstring)."""
-    curved = solver.curved
-    qpa = fast_cache.qp_kernels().loop_qp(params, curved=curved)
-    method = (CURVED_QP if curved else QP, solver_arrays(solver)[0])
-    status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid, method, P,
-                                             qpa, per_target=ITERATIONS_PER_TARGET)  # fmt: skip
+    qpa = fast_cache.qp_kernels().loop_qp(params, curved=solver.curved)
+    status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid,
+                                             qp_method(solver), P, qpa,
+                                             per_target=ITERATIONS_PER_TARGET)  # fmt: skip
     raise_qp_stop(controller, solver, status, info, targets, fail, tol, pid)
+
+
+def qp_method(solver: QpSolver) -> tuple[int, FloatArray]:
+    """(method code, K) of the QP in the compiled loop, as `records.iramis_method` gives the
+    other solvers': QP, or CURVED_QP for a curved needle."""
+    return CURVED_QP if solver.curved else QP, solver_arrays(solver)[0]
 
 
 def raise_qp_stop(
