@@ -13,9 +13,9 @@ target. Times are medians per call from Python (`_common.per_call`).
   against the rcmplan chain to 1e-10 first.
 - Loop per iteration: the p3-p4 phase of the default injection from p3 (50 targets, about 150
   records) on the kinematic plant with `PinvSolver`, per record (one record per control step
-  taken), median over repeats. "kernel": `arm_loop.run_arm_targets` alone, the whole Algorithm 1
+  taken), median over repeats. "kernel": `algorithm.run_targets` alone, the whole Algorithm 1
   loop in numba (the <= 1.5 us floor is for the 7-DOF arm); "phase": the same through
-  `arm_phase.run_arm_phase_exact` from Python (setup, log, plant state); both against the
+  `arm_phase.run_arm_phase_compiled` from Python (setup, log, plant state); both against the
   reference loop (`Controller.converge` per target, no target check).
 - Phase per record: the UR5's p3-p4 phase through `Controller.run` (`Controller.phase_times`:
   planning, the loop and the RCM bound check; its fixed targets are checked before the phases,
@@ -45,6 +45,7 @@ from rcmplan.robot.shipped import robot_chain, robot_file, shipped_arm
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
+from rcmplan.sim.mujoco.compiled import exact_plant
 
 SEED = 20180507
 ARMS = {"panda": ("Panda (7 joints)", "panda_link8"), "ur5": ("UR5 (6 joints)", "tool0")}
@@ -187,19 +188,19 @@ def loop_rows(name: str) -> list[dict[str, Any]]:
             ctl.converge(ctl.solver, target, pid, 0, k)
 
     def exact(ctl: Controller, pid: int) -> None:
-        arm_phase.run_arm_phase_exact(ctl, ctl.solver, targets, pid, 0)
+        arm_phase.run_arm_phase_compiled(ctl, ctl.solver, targets, pid, 0)
 
     ctl = controller()
     setup = arm_phase._Setup(ctl, ctl.solver)
     rec = np.empty((4 * len(targets) + 100, 2 * arm.chain.n + 23))
-    irec, info = np.empty((rec.shape[0], 2), dtype=np.int64), np.zeros(4, dtype=np.int64)
-    bounds = (np.ascontiguousarray(arm.lower), np.ascontiguousarray(arm.upper), targets, 0)
-    kernel = fast_cache.arm_loop().run_arm_targets
+    irec, info = np.empty((rec.shape[0], 2), dtype=np.int64), np.zeros(3, dtype=np.int64)
+    head, plant = setup.head(targets), exact_plant()
+    kernel = fast_cache.algorithm().run_targets
 
     def kernel_run() -> tuple[float, int]:
         s, state = q0.copy(), np.array([ctl.lam, 0.0, 1e-3])
         t = time.perf_counter()
-        kernel(*setup.args, *bounds, s, state, rec, irec, info, setup.fail, setup.W, setup.d)
+        kernel(*head, 0, 0, s, s.copy(), state, rec, irec, info, setup.fail, plant)
         return time.perf_counter() - t, int(info[0])
 
     ref_us = median_us(lambda: loop(reference), 5 if many else 2)

@@ -109,7 +109,7 @@ def kernel_run(problem: Problem) -> Any:
         bounds = np.array([robot.singular_threshold, LoopSettings().rcm_tolerance])
         C = np.empty((BLOCK_ROWS, 7)) if arrays is not None else None  # the curved block
         head = (P, code, K, damping, tol, 100, True, bounds, None, C, targets, 0, 0)
-        kernel = fast_cache.loop_kernels().run_targets
+        kernel = fast_cache.algorithm().run_targets
 
         def once() -> tuple[float, int]:
             s, state = s0.copy(), np.array([problem.lam0, 0.0, 1e-3])
@@ -120,13 +120,13 @@ def kernel_run(problem: Problem) -> Any:
         return once
     setup = arm_phase._Setup(ctl, solver, arrays)
     rec = np.empty((cap, setup.width))
-    bounds = (np.ascontiguousarray(robot.lower), np.ascontiguousarray(robot.upper), targets, 0)
-    kernel = fast_cache.arm_loop().run_arm_targets
+    arm_head, kernel = setup.head(targets), fast_cache.algorithm().run_targets
 
     def once_arm() -> tuple[float, int]:
         s, state = s0.copy(), np.array([problem.lam0, 0.0, 1e-3])
         t = time.perf_counter()
-        kernel(*setup.args, *bounds, s, state, rec, irec, info, setup.fail, setup.W, setup.d)
+        kernel(*arm_head, 0, 0, s, s.copy(), state, rec, irec, info[:3], setup.fail,
+               exact_plant())  # fmt: skip
         return time.perf_counter() - t, int(info[0])
 
     return once_arm

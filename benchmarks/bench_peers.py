@@ -107,7 +107,7 @@ class CompiledSolve:
         self, robot: Iramis, method: int, x0: np.ndarray, rcm_tolerance: float | None = None,
         max_iterations: int = 100,
     ) -> None:  # fmt: skip
-        self.run, self.plant = fast_cache.loop_kernels().run_targets, exact_plant()
+        self.run, self.plant = fast_cache.algorithm().run_targets, exact_plant()
         self.s0 = robot.actuators_from_joints(np.array([*x0[:5], 0.0]))
         self.state0 = np.array([x0[5], 0.0, 1e-3])
         self.rec = np.empty((max_iterations + 1, 35))

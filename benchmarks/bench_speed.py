@@ -65,7 +65,7 @@ def loop_rows() -> list[dict[str, Any]]:
     eye = default_eye(robot)
     targets = np.ascontiguousarray(spiral(robot, eye, default_points(eye))[4].targets)
     pose = solve_pose(robot, targets[0])
-    loop = fast_cache.loop_kernels()
+    loop = fast_cache.algorithm()
     cap = 4 * len(targets) + 100
     rec, irec = np.empty((cap, 35)), np.empty((cap, 2), dtype=np.int64)
     info, fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)

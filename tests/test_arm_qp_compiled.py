@@ -31,6 +31,7 @@ from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.scene.procedures import injection
 from rcmplan.sim import KinematicPlant
+from rcmplan.sim.mujoco.compiled import exact_plant
 
 from logcheck import assert_same_log
 from paths import use_path
@@ -383,14 +384,14 @@ def test_the_arm_loop_refuses_the_qp_without_its_arrays(arm: SerialArm) -> None:
 
     ctl = Controller(KinematicPlant(arm), PinvSolver())
     setup = arm_phase._Setup(ctl, ctl.solver)
-    args = list(setup.args)
-    args[2] = QP  # the method code; qpa (args[10]) is None for the pinv solver
-    assert args[10] is None
     target = extended_task(arm, arm.home, 0.5)[None, :]
-    rec = np.empty((200, setup.width))  # room for a whole target (the loop pauses before)
+    head = list(setup.head(target))
+    head[1] = QP  # the method code; qpa (head[8]) is None for the pinv solver
+    assert head[8] is None
+    n = arm.chain.n
     with pytest.raises(ValueError, match="need qpa"):
-        fast_cache.arm_loop().run_arm_targets(
-            *args, np.ascontiguousarray(arm.lower), np.ascontiguousarray(arm.upper), target, 0,
-            arm.home.copy(), np.array([0.5, 0.0, 1e-3]), rec, np.empty((200, 2), dtype=np.int64),
-            np.zeros(4, dtype=np.int64), setup.fail, setup.W, setup.d,
+        fast_cache.algorithm().run_targets(
+            *head, 0, 0, arm.home.copy(), np.empty(n), np.array([0.5, 0.0, 1e-3]),
+            np.empty((20, setup.width)), np.empty((20, 2), dtype=np.int64),
+            np.zeros(3, dtype=np.int64), setup.fail, exact_plant(),
         )  # fmt: skip

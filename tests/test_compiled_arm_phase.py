@@ -104,7 +104,7 @@ def assert_same_plant(ctl: Controller, ref: Controller) -> None:
 
 def test_the_kinematic_plant_runs_the_whole_loop_compiled(ur5: SerialArm, monkeypatch) -> None:
     calls: list[str] = []
-    monkeypatch.setattr(arm_phase, "run_arm_phase_exact", lambda *a: calls.append("exact"))
+    monkeypatch.setattr(arm_phase, "run_arm_phase_compiled", lambda *a: calls.append("exact"))
     monkeypatch.setattr(arm_phase, "run_arm_phase", lambda *a: calls.append("per-iteration"))
     phase, q0 = injection_phase(ur5, "p3-p4")
     run("on", ur5, PinvSolver(), phase, q0)

@@ -30,6 +30,7 @@ from rcmplan.robot.curved import CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points
+from rcmplan.sim.mujoco.arm_plant import ArmPlant
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.plant import MujocoPlant
 
@@ -48,12 +49,13 @@ def compiled_default() -> Iterator[None]:
     use_path(None)
 
 
-def run(path: str, solver: Solver | Callable[[MujocoPlant, CurvedTipRobot], QpSolver]
-        ) -> tuple[RunLog, MujocoPlant, Controller]:  # fmt: skip
+def run(path: str, solver: Solver | Callable[[MujocoPlant, CurvedTipRobot], QpSolver],
+        base_name: str = "iramis") -> tuple[RunLog, MujocoPlant | ArmPlant, Controller]:  # fmt: skip
     """From a pose with the tip at p3 and the shaft through the trocar: the tip 0.2 mm aside
     with the roll turned 2 mrad (X_c targets), then the whole needle 0.1 mm along x (poses).
-    `solver`: a solver, or the QP made for the plant (its servo), with its own free step."""
-    base = make_robot("iramis")
+    `solver`: a solver, or the QP made for the plant (its servo), with its own free step.
+    base_name: the robot holding the needle (an arm: on its `ArmPlant`)."""
+    base = make_robot(base_name)
     robot = curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.25))
     eye = default_eye(robot)
     start = solve_curved_pose(robot, np.array([*default_points(eye).p3, 0.0, *eye.port]))
@@ -63,7 +65,7 @@ def run(path: str, solver: Solver | Callable[[MujocoPlant, CurvedTipRobot], QpSo
               Phase("along", interpolate(pose0, pose0 + [1e-4, 0, 0, 0, 1e-4, 0, 0], 4),
                     kind="free")]  # fmt: skip
     use_path(path)
-    plant = MujocoPlant(base, mode="dynamic")
+    plant = MujocoPlant(base, mode="dynamic") if base_name == "iramis" else ArmPlant(base)
     plant.reset(robot.actuators_from_joints(start.q))
     if callable(solver):
         solver = solver(plant, robot)
@@ -91,6 +93,26 @@ def test_a_curved_needle_on_mujoco_runs_compiled_with_the_python_loops_log(solve
     assert ctl.phase_paths == {"aside": "compiled", "along": "compiled"}
     assert_same_log(ref, got, TOL_M, nonempty=True)
     assert np.isfinite(got.roll_error).all()  # every record states its roll error
+    np.testing.assert_allclose(plant.data.qpos, ref_plant.data.qpos, rtol=0, atol=TOL_M)
+    np.testing.assert_allclose(plant.command, ref_plant.command, rtol=0, atol=TOL_M)
+    assert plant.time == pytest.approx(ref_plant.time, abs=1e-12)
+    assert ctl.lam == pytest.approx(ref_ctl.lam, abs=TOL_M)
+
+
+@pytest.mark.parametrize(
+    "solver", [CurvedPinvSolver(tol=TOLERANCE), CurvedDlsSolver(tol=TOLERANCE)], ids=["pinv", "dls"]
+)  # fmt: skip
+def test_a_curved_needle_on_an_arms_mujoco_plant_runs_compiled_with_the_python_loops_log(
+    solver: Solver,
+) -> None:
+    """The same on the UR5's dynamic plant: the arm's iteration in the one compiled loop, which
+    runs the `ArmPlant`'s period (`arm_phase.run_arm_phase_compiled`)."""
+    ref, ref_plant, ref_ctl = run("off", solver, "ur5")
+    got, plant, ctl = run("on", solver, "ur5")
+    assert ref_ctl.phase_paths == {"aside": "reference", "along": "reference"}
+    assert ctl.phase_paths == {"aside": "compiled", "along": "compiled"}
+    assert_same_log(ref, got, TOL_M, nonempty=True)
+    assert np.isfinite(got.roll_error).all()
     np.testing.assert_allclose(plant.data.qpos, ref_plant.data.qpos, rtol=0, atol=TOL_M)
     np.testing.assert_allclose(plant.command, ref_plant.command, rtol=0, atol=TOL_M)
     assert plant.time == pytest.approx(ref_plant.time, abs=1e-12)

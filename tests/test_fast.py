@@ -255,4 +255,4 @@ def test_the_loop_refuses_a_method_without_the_arrays_it_reads(robot: Iramis, co
             np.empty((20, 36)), np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
             np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip
     with pytest.raises(ValueError, match="need qpa, a curved needle's methods C"):
-        fast_cache.loop_kernels().run_targets(*args)
+        fast_cache.algorithm().run_targets(*args)

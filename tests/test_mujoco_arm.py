@@ -117,7 +117,7 @@ def test_the_registry_builds_the_arm_plant_for_arms_and_the_iramis_plant_for_ira
         plant = make_plant(name, ur5)
         assert isinstance(plant, ArmPlant)
         assert plant.name == f"mujoco-{mode}" and plant.robot is ur5
-        assert not plant.exact_commands and not plant.compiled_physics
+        assert not plant.exact_commands and plant.compiled_physics == (mode == "dynamic")
     assert isinstance(make_plant("mujoco-kinematic", Iramis()), MujocoPlant)
 
 
@@ -137,6 +137,49 @@ def test_dynamic_mode_holds_the_rcm_within_10_um_while_aligning_and_inserting(
     (align, insert), _ = run_short_injection(ArmPlant(ur5, mode="dynamic"))
     assert 0.0 < align <= 10 * UM
     assert 0.0 < insert <= 10 * UM
+
+
+def run_dynamic(robot: SerialArm, method: str, whole: bool) -> tuple[Controller, np.ndarray]:
+    """Approach, align and insert of the default injection on the dynamic plant with `method`
+    (the QP planned from the plant's command), the whole loop compiled or (whole False) one
+    compiled iteration per period with the plant stepping in Python; returns the controller
+    and every logged array stacked."""
+    from rcmplan.compiled import arm_phase
+
+    plant = ArmPlant(robot, mode="dynamic")
+    plant.reset(robot.home_actuators)
+    eye = default_eye(robot)
+    solver = make_solver(method, robot=robot, plant=plant, eye=eye, dt=plant.dt)
+    ctl = Controller(plant, solver)
+
+    def per_period(*args: object) -> None:
+        raise AssertionError("a phase left the whole compiled loop")
+
+    with pytest.MonkeyPatch.context() as m:
+        if whole:
+            m.setattr(arm_phase, "run_arm_phase", per_period)
+        else:
+            m.setattr(arm_phase, "whole_loop", lambda *a: False)
+        log = ctl.run(injection(robot, eye, default_points(eye))[:3])
+    rows = [np.asarray(getattr(log, k), dtype=float).reshape(len(log), -1)
+            for k in ("time", "sliders", "joints", "lam", "tip", "rcm", "error")]  # fmt: skip
+    return ctl, np.hstack(rows)
+
+
+@pytest.mark.parametrize("method", ["pinv", "qp"])
+def test_the_whole_loop_around_the_dynamic_plant_gives_the_per_period_log(
+    ur5: SerialArm, method: str
+) -> None:
+    """The whole phase compiled around the dynamic plant (`algorithm.run_targets` running
+    MuJoCo's period, `sim.mujoco.compiled.advance`) gives the records, joints, lambda and time
+    of one compiled iteration per period with the plant stepping in Python, bit for bit."""
+    whole, a = run_dynamic(ur5, method, whole=True)
+    stepped, b = run_dynamic(ur5, method, whole=False)
+    assert a.shape[0] > 300 and a.shape == b.shape
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(whole.plant.read_actuators(), stepped.plant.read_actuators())
+    np.testing.assert_array_equal(whole.plant.command, stepped.plant.command)
+    assert (whole.lam, whole.plant.time) == (stepped.lam, stepped.plant.time)
 
 
 def test_a_lower_servo_bandwidth_breaks_the_rcm_bound(ur5: SerialArm) -> None:

@@ -160,7 +160,7 @@ def compile_arm_kernels() -> None:
         (TipSolver(), tip[None, :] + 1e-5),
     ]  # fmt: skip
     for solver, targets in jobs:
-        for run in (arm_phase.run_arm_phase_exact, arm_phase.run_arm_phase):
+        for run in (arm_phase.run_arm_phase_compiled, arm_phase.run_arm_phase):
             ctl = Controller(KinematicPlant(arm), solver)
             ctl.lam = 0.5
             run(ctl, solver, targets, ctl.log.phase_id("warm"), 0)
@@ -179,7 +179,7 @@ def _compile_arm_qp(arm: SerialArm, target: FloatArray) -> None:
         fast.step(arm, arm.home, 0.5, target, fast.e)  # the solve and the RCM box's hold
         fast.problem(arm.home, 0.5, target)
         solver = QpSolver(arm)  # and the QP in the arm loop, whole phases and per iteration
-        for run in (arm_phase.run_arm_phase_exact, arm_phase.run_arm_phase):
+        for run in (arm_phase.run_arm_phase_compiled, arm_phase.run_arm_phase):
             ctl = Controller(KinematicPlant(arm), solver)
             ctl.lam = 0.5
             run(ctl, solver, target[None, :], ctl.log.phase_id("warm"), 0)
@@ -235,7 +235,7 @@ def compile_curved_kernels(on: tuple[str, ...] = ("iramis", "arm")) -> None:
             if arrays.P is not None:
                 run_phase_compiled(ctl, solver, target[None, :], pid, 0, arrays.P)
             else:
-                arm_phase.run_arm_phase_exact(ctl, solver, target[None, :], pid, 0, arrays)
+                arm_phase.run_arm_phase_compiled(ctl, solver, target[None, :], pid, 0, arrays)
         qp = QpSolver(robot)
         ctl = Controller(KinematicPlant(base), qp, robot=robot)
         ctl.lam = 0.5
@@ -245,7 +245,7 @@ def compile_curved_kernels(on: tuple[str, ...] = ("iramis", "arm")) -> None:
             if isinstance(base, Iramis) and importlib.util.find_spec("mujoco") is not None:
                 _compile_curved_mujoco(robot, base, arrays.P, x)
         elif curved_qp_applies(qp):
-            arm_phase.run_arm_phase_exact(ctl, qp, x[None, :], pid, 0, arrays)
+            arm_phase.run_arm_phase_compiled(ctl, qp, x[None, :], pid, 0, arrays)
 
 
 def _compile_curved_mujoco(

@@ -1,14 +1,14 @@
-"""Algorithm 1 for a serial arm, compiled: one iteration (`arm_iterate`), and a whole phase on a
-plant that reaches its commands exactly (`run_arm_targets`).
+"""Algorithm 1's iteration on a serial arm, compiled: `arm_iterate`.
 
 An iteration does what `Controller.converge` does between reading the plant and commanding it,
 in the same order, from the joints q = s (an arm's actuators are its joints): frames (once),
 drift correction (lambda of the needle point closest to the trocar), the solver's task error,
 the record (from the second iteration on), the per-component tolerance check, the iteration
 cap, the singularity check (`chain_kernels.is_singular`) and the solver's step, every quantity
-read from the frames of that one pass. `run_arm_targets` adds what the kinematic plant does:
-the command's checks (finite, within travel) and the joints reaching it, time moving on by dt.
-Other plants step in Python around `arm_iterate` (`rcmplan.compiled.arm_phase`). Imports numba.
+read from the frames of that one pass; `command_status` then checks the command (finite,
+within travel) as the plant would. The loop over a phase's targets, on either plant, is
+`algorithm.run_targets` (one loop for every robot); a plant stepping in Python calls
+`arm_iterate` once per period (`rcmplan.compiled.arm_phase`). Imports numba.
 
 Records go to preallocated rows in the `records.record_columns(n)` layout: time [s],
 sliders (n,), joints (n,), lambda, tip, rcm, trocar, base, target tip (3 each) [m], error (6,)
@@ -53,7 +53,7 @@ from rcmplan.compiled.chain_kernels import (
     needle_point,
     pinv_solve,
 )
-from rcmplan.compiled.loop import converged, holds_rcm, keep_record, target_frame, tip_only
+from rcmplan.compiled.loop import converged, holds_rcm, tip_only
 from rcmplan.compiled.qp_params import RCM_TOL
 from rcmplan.compiled.records import (
     BAD_JOINTS,
@@ -64,8 +64,6 @@ from rcmplan.compiled.records import (
     DLS,
     DONE,
     NO_CONVERGENCE,
-    NO_TIP,
-    PAUSED,
     PINV_THESIS,
     QP,
     QP_FAILED,
@@ -160,7 +158,7 @@ def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray,
         pinv_solve(A, ix, W, s, K, gain, e, d)
 
 
-@njit(cache=True, inline="always")  # inlined into run_arm_targets: a call costs ~0.2 us
+@njit(cache=True, inline="always")  # inlined into `algorithm.run_targets`: a call costs ~0.2 us
 def arm_iterate(
     A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
     tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
@@ -378,49 +376,3 @@ def command_status(fail: FloatArray, n: int, lower: FloatArray, upper: FloatArra
             info[2] = i
             return SLIDER_LIMIT
     return STEPPED
-
-
-@njit(cache=True)
-def run_arm_targets(
-    A: FloatArray, ix: IntArray, method: int, K: FloatArray, gain: float, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
-    C: FloatArray | None, lower: FloatArray, upper: FloatArray, targets: FloatArray, k0: int,
-    s: FloatArray, state: FloatArray, rec: FloatArray, irec: IntArray, info: IntArray,
-    fail: FloatArray, W: FloatArray, d: FloatArray,
-) -> int:  # fmt: skip
-    """Algorithm 1 on targets[k0:] from joints s, on a plant that reaches every command
-    exactly; returns a status.
-
-    s and state = (lambda, time [s], dt [s]) are updated in place. On return info holds
-    (records written, target index reached, joint index for SLIDER_LIMIT, steps taken) and
-    fail holds (q (n,), q_new (n,), error (6,)) of the last iteration. PAUSED means the record
-    buffer could not hold another target: call again from info[1].
-    """
-    n = ix[0]
-    w, tip_t, trocar = np.empty(6), np.empty(3), np.full(3, np.nan)
-    count, cap = 0, rec.shape[0]
-    for k in range(k0, targets.shape[0]):
-        info[0], info[1] = count, k
-        if count + max_it > cap:
-            return PAUSED
-        target = targets[k]
-        kind = target_frame(target, holds_rcm(method), w, tip_t, trocar)
-        if kind < 0:
-            return NO_TIP
-        for it in range(max_it + 1):  # the first reuses the last target's final frames
-            status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa,
-                                 C, target, kind == 1, tip_t, trocar, s, state, it, rec[count],
-                                 fail, W, d, it == 0 and k > k0)  # fmt: skip
-            count = keep_record(status, k, it, count, irec, info)
-            if status == DONE:
-                break
-            if status == STEPPED:
-                status = command_status(fail, n, lower, upper, info)
-            if status != STEPPED:
-                return status
-            for i in range(n):  # the plant reaches the command
-                s[i] = fail[n + i]
-            state[1] += state[2]
-            info[3] += 1
-    info[0], info[1] = count, targets.shape[0]
-    return DONE

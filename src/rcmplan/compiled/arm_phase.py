@@ -1,6 +1,8 @@
-"""One phase of Algorithm 1 for a serial arm, compiled: the whole loop on a plant that reaches
-its commands exactly (`exact_commands`, the kinematic plant: `arm_loop.run_arm_targets`), else
-one compiled call per iteration with the plant stepping in Python (`arm_loop.arm_iterate`).
+"""One phase of Algorithm 1 for a serial arm, compiled: the whole loop (`algorithm.run_targets`,
+the one loop of every robot) on a plant that reaches its commands exactly (`exact_commands`, the
+kinematic plant) or on the dynamic MuJoCo `ArmPlant`, whose periods the loop runs
+(`compiled_physics`); else one compiled call per iteration with the plant stepping in Python
+(`arm_loop.arm_iterate`).
 
 Applies to a `SerialArm` itself (exact type: a subclass may change its actuator map) whose
 kinematics the chain kernels reproduce (`arm.arm_arrays`), with a solver the kernels implement
@@ -8,7 +10,7 @@ kinematics the chain kernels reproduce (`arm.arm_arrays`), with a solver the ker
 TIP_LIMITED), or the QP controller where the arm's compiled QP step
 reproduces it (`arm_qp.arm_qp_applies`: one solve gives the iteration's error and step, in the
 same loop); `curved_phase` runs a curved needle on an arm through
-`run_arm_phase_exact` with the curved needle's arrays (its QP as CURVED_QP, the QP's free-space
+`run_arm_phase_compiled` with the curved needle's arrays (its QP as CURVED_QP, the QP's free-space
 `LimitedPoseSolver` as CURVED_POSE_LIMITED). The side effects are the reference
 loop's: records go to the controller's log, the plant and controller.lam end where
 `Controller.converge` leaves them, and a stop raises the reference exception with the partial
@@ -19,7 +21,7 @@ solver itself, `qp_phase.raise_qp_failure`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -27,6 +29,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
 from rcmplan.compiled.arm_qp import arm_qp_applies, curved_qp_applies, qp_arrays, servo_command
+from rcmplan.compiled.phase import loop_runner, run_in_blocks
 from rcmplan.compiled.qp_phase import raise_qp_failure
 from rcmplan.compiled.records import (
     BLOCK,
@@ -34,7 +37,6 @@ from rcmplan.compiled.records import (
     CURVED_QP,
     DONE,
     NO_TIP,
-    PAUSED,
     QP,
     QP_FAILED,
     STEPPED,
@@ -55,6 +57,7 @@ from rcmplan.robot.model import RobotModel, SerialArm
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
+    from rcmplan.sim.mujoco.compiled import PlantArrays
 
 ITERATIONS_PER_TARGET = 3  # on a kinematic plant: 150 records for the UR5 p3-p4 phase's 50 targets
 
@@ -99,16 +102,36 @@ def applies(controller: Controller, solver: Solver) -> bool:
 def run_if_fast(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
-    """Run the phase compiled if the kernels reproduce the arm (the whole loop compiled on a
-    plant with `exact_commands`); False (nothing done) otherwise."""
+    """Run the phase compiled if the kernels reproduce the arm: the whole loop on a plant
+    with `exact_commands` or on the dynamic MuJoCo plant (`compiled_physics`, a QP's servo
+    being that plant), else one compiled call per iteration; False (nothing done)
+    otherwise."""
     if arm_arrays(controller.robot) is None:
         return False
-    servo = isinstance(solver, QpSolver) and solver.servo is not None  # its command, each step
-    if getattr(controller.plant, "exact_commands", False) and not servo:
-        run_arm_phase_exact(controller, solver, targets, pid, sid)
+    if whole_loop(controller, solver):
+        run_arm_phase_compiled(controller, solver, targets, pid, sid)
     else:
         run_arm_phase(controller, solver, targets, pid, sid)
     return True
+
+
+def whole_loop(controller: Controller, solver: Solver) -> bool:
+    """True if the whole phase runs in the compiled loop: on a plant that reaches its
+    commands exactly, or on a dynamic MuJoCo plant whose period runs compiled (`plant_arrays`
+    finds MuJoCo's C functions); a QP planned from a servo only if that servo is the plant."""
+    plant = controller.plant
+    servo = getattr(solver, "servo", None)
+    if servo is not None and servo is not plant:
+        return False
+    if getattr(plant, "exact_commands", False):
+        return True
+    return bool(getattr(plant, "compiled_physics", False)) and _plant_arrays(plant) is not None
+
+
+def _plant_arrays(plant: object) -> PlantArrays | None:
+    from rcmplan.sim.mujoco.compiled import plant_arrays  # the dynamic MuJoCo plant only
+
+    return plant_arrays(plant)
 
 
 class _Setup:
@@ -136,7 +159,16 @@ class _Setup:
         self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
                      bool(cfg.drift_correction), loop_bounds(controller), self.qpa,
                      None if curved is None else self.W)  # fmt: skip
-        self.width = record_width(self.n, roll=curved is not None)
+        robot = controller.robot
+        lower = np.ascontiguousarray(robot.lower, dtype=np.float64)
+        upper = np.ascontiguousarray(robot.upper, dtype=np.float64)
+        self.model = (A, ix, gain, lower, upper, self.W, self.d)  # `algorithm.run_targets`'
+        self.roll = curved is not None
+        self.width = record_width(self.n, roll=self.roll)
+
+    def head(self, targets: FloatArray) -> tuple[Any, ...]:
+        """The compiled loop's arguments before the resume point (`phase.loop_runner`)."""
+        return (self.model, *self.args[2:4], *self.args[5:], targets)
 
     def stop(self, controller: Controller, solver: Solver, status: int, target: FloatArray,
              where: str) -> None:  # fmt: skip
@@ -153,39 +185,28 @@ def _where(controller: Controller, pid: int, k: int) -> str:
     return f"phase {controller.log.phase_names[pid]!r} step {k}"
 
 
-def run_arm_phase_exact(
+def run_arm_phase_compiled(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int,
     curved: CurvedArrays | None = None,
 ) -> None:  # fmt: skip
-    """Algorithm 1 on each target in turn, the whole loop compiled, on a plant whose commands
-    are reached exactly: the plant ends at the last command with its time advanced by dt per
-    step, as the reference loop leaves it. `curved`: the arrays of a curved needle on the
-    arm (`rcmplan.compiled.curved`)."""
-    plant, cfg, run = controller.plant, controller.settings, fast_cache.arm_loop().run_arm_targets
+    """Algorithm 1 on each target in turn, the whole loop compiled (`algorithm.run_targets`),
+    on a plant whose commands are reached exactly or on the dynamic MuJoCo plant, whose periods
+    the loop runs: the plant ends at the last command with its time advanced by dt per step,
+    as the reference loop leaves it. `curved`: the arrays of a curved needle on the arm
+    (`rcmplan.compiled.curved`)."""
     setup = _Setup(controller, solver, curved)
-    robot = controller.robot
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
-    state = np.array([controller.lam, plant.time, plant.dt], dtype=np.float64)
-    cap = (ITERATIONS_PER_TARGET + 1) * targets.shape[0] + cfg.max_iterations
-    rec = np.empty((min(cap, 4 * BLOCK + cfg.max_iterations), setup.width))
-    irec = np.empty((rec.shape[0], 2), dtype=np.int64)
-    info = np.zeros(4, dtype=np.int64)
-    lower = np.ascontiguousarray(robot.lower, dtype=np.float64)
-    upper = np.ascontiguousarray(robot.upper, dtype=np.float64)
-    status, k0 = PAUSED, 0
-    try:
-        while status == PAUSED:
-            status = run(*setup.args, lower, upper, targets, k0, s, state, rec, irec, info,
-                         setup.fail, setup.W, setup.d)  # fmt: skip
-            append_rows(controller.log, rec, irec, int(info[0]), setup.n, pid, sid)
-            k0 = int(info[1])
-    finally:
-        if info[3] > 0:  # the plant where the reference loop leaves it
-            plant.command_actuators(robot.actuators_from_joints(s))
-            plant.advance()
-            plant.time = float(state[1])
-        controller.lam = float(state[0])
+    exact = getattr(controller.plant, "exact_commands", False)
+    arrays = None if exact else _plant_arrays(controller.plant)
+    run = loop_runner(setup.head(targets), setup.fail, None if arrays is None else
+                      arrays.loop_args())  # fmt: skip
+    cmd = None
+    if setup.qpa is not None and setup.qpa[-1].shape[0] > 0:  # the QP plans from the command
+        servo_command(solver, setup.qpa)
+        cmd = setup.qpa[-1][: setup.n]
+    status, info = run_in_blocks(controller, targets, pid, sid, run,
+                                 ITERATIONS_PER_TARGET + 1, setup.roll, cmd,
+                                 dynamic=arrays is not None)  # fmt: skip
     if status != DONE:
         k = int(info[1])
         setup.stop(controller, solver, status, targets[k], _where(controller, pid, k))

@@ -53,6 +53,11 @@ def chain_kernels() -> ModuleType:
     return _load("chain_kernels")
 
 
+def algorithm() -> ModuleType:
+    """Algorithm 1's loop over a phase, for every robot and both plants (`algorithm`)."""
+    return _load("algorithm")
+
+
 def arm_loop() -> ModuleType:
     """Algorithm 1 for a serial arm compiled (`arm_loop`)."""
     return _load("arm_loop")

@@ -1,8 +1,8 @@
-"""One phase of Algorithm 1 with a curved needle, compiled: on a plant that reaches its commands
-exactly (the kinematic plant), iRAM!S through the iRAM!S loop (`loop.run_targets`), an arm
-through the arm loop (`arm_loop.run_arm_targets`); on the dynamic MuJoCo plant, iRAM!S through
-the same loop around the plant's period (`mujoco_loop.run_phase_on_mujoco`); each with the curved
-needle's method codes.
+"""One phase of Algorithm 1 with a curved needle, compiled, in the one loop of every robot
+(`algorithm.run_targets`): on a plant that reaches its commands exactly (the kinematic plant)
+or on the dynamic MuJoCo plant, whose periods the loop runs, iRAM!S (`phase.run_phase_compiled`,
+`mujoco_loop.run_phase_on_mujoco`) and an arm (`arm_phase.run_arm_phase_compiled`), each with
+the curved needle's method codes.
 
 Applies to `CurvedPinvSolver`, `CurvedDlsSolver` and `CurvedPoseSolver` (exact types; the pose
 solver with at most six active joints) driving a robot `curved.curved_arrays` accepts, and on
@@ -52,26 +52,27 @@ def run_if_fast(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> bool:
     """Run the phase compiled for a `CurvedTipRobot` itself: on a plant that reaches its
-    commands exactly (iRAM!S's loop or the arm loop) or, on iRAM!S, around the dynamic MuJoCo
-    plant's compiled period (`mujoco_loop.run_phase_on_mujoco`, the QP's limited free step
-    among them); False (nothing done) otherwise."""
+    commands exactly or around the dynamic MuJoCo plant's compiled period (iRAM!S's QP's
+    limited free step among them; an arm's QP too); False (nothing done) otherwise."""
     arrays = curved_arrays(controller.robot)
     if arrays is None or (method_code(solver) == CURVED_POSE and arrays.m > POSE_JOINTS):
         return False
     if type(solver) is LimitedPoseSolver and arrays.m > POSE_JOINTS:
         return False
+    if type(solver) is QpSolver and arrays.P is None and not curved_qp_applies(solver):
+        return False
+    if arrays.P is None:  # an arm
+        if not arm_phase.whole_loop(controller, solver):
+            return False
+        arm_phase.run_arm_phase_compiled(controller, solver, targets, pid, sid, arrays)
+        return True
     if not getattr(controller.plant, "exact_commands", False):
-        if arrays.P is None or not getattr(controller.plant, "compiled_physics", False):
+        if not getattr(controller.plant, "compiled_physics", False):
             return False
         if type(solver) is QpSolver:  # iRAM!S's QP runs its own loops (`runner`)
             return False
         closed = fast_cache.closed_loop()
         return bool(closed.run_phase_on_mujoco(controller, solver, targets, pid, sid, P=arrays.P))
-    if type(solver) is QpSolver and not curved_qp_applies(solver):
-        return False
-    if arrays.P is not None:
-        run_phase_compiled(controller, solver, targets, pid, sid, arrays.P,
-                           per_target=ITERATIONS_PER_TARGET + 1)  # fmt: skip
-    else:
-        arm_phase.run_arm_phase_exact(controller, solver, targets, pid, sid, arrays)
+    run_phase_compiled(controller, solver, targets, pid, sid, arrays.P,
+                       per_target=ITERATIONS_PER_TARGET + 1)  # fmt: skip
     return True

@@ -1,13 +1,11 @@
-"""Algorithm 1 compiled: the loop of `Controller.converge` over a phase, on either plant.
+"""Algorithm 1's iteration on iRAM!S, compiled: `iterate`, as `Controller.converge` does it.
 
-Each iteration does what the reference loop does, in the same order: read sliders, joints
+Each iteration does what the reference loop does, in the same order: joints from the sliders
 through the PCJMs, drift correction (lambda of the needle point closest to the trocar), task
 error, record (from the second iteration on), per-component tolerance check, iteration cap,
-singularity check, step, sliders from joints, travel check, command and advance. One loop
-serves both plants (`run_targets`' plant argument): on the kinematic plant the sliders reach
-the command and time moves on by dt; on the dynamic MuJoCo plant the loop reads the simulated
-sliders each period and runs the plant's period towards the command in compiled code
-(`sim.mujoco.compiled.advance`).
+singularity check, step, sliders from joints and travel check. The loop over a phase's targets,
+reading and commanding either plant, is `algorithm.run_targets` (one loop for every robot);
+a plant stepping in Python calls `iterate` once per period (`phase.run_phase_on_plant`).
 
 The kernel stops with a status code instead of raising; `rcmplan.compiled.runner` turns the code
 into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
@@ -49,10 +47,7 @@ from rcmplan.compiled.records import (
     DLS,
     DONE,
     NO_CONVERGENCE,
-    NO_TIP,
-    PAUSED,
     PINV_THESIS,
-    PLANT_STOPPED,
     QP,
     QP_FAILED,
     SINGULAR,
@@ -67,7 +62,7 @@ from rcmplan.control.limited_tip import step_fraction, tip_fraction
 from rcmplan.control.rcm_step import BOX_TRIES, STEP_TRIES, box_margin, step_scale
 from rcmplan.linalg import damped
 from rcmplan.robot import curved_iramis
-from rcmplan.robot.curved_block import BLOCK_ROWS, B, S
+from rcmplan.robot.curved_block import B, S
 from rcmplan.robot.iramis_kernels import (
     actuators_from_joints,
     first_beyond_travel,
@@ -80,7 +75,6 @@ from rcmplan.robot.iramis_kernels import (
     trig,
 )
 from rcmplan.robot.needle import axis_into, closest_point, target_tip_into, x_ext_tip
-from rcmplan.sim.mujoco.compiled import OK, advance
 
 
 @njit(cache=True)
@@ -474,26 +468,6 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
     return STEPPED
 
 
-# `iterate` and `iterate_recorded` are inlined into the two phase loops: compiled as functions
-# of their own each would optimise the whole tree below it once more (numba links a callee's
-# code into its caller's module and optimises that again). A first default run's compile:
-# 57.2-61.0 s of CPU before, 42.4-57.6 s after, median 49.9 (docs/benchmarks.md).
-@njit(cache=True, inline="always")
-def iterate_recorded(
-    P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
-    target: FloatArray, pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray,
-    state: FloatArray, k: int, it: int, n: int,
-    rec: FloatArray, irec: np.ndarray, fail: FloatArray, info: np.ndarray, w: FloatArray,
-    d: FloatArray, f: FloatArray, J: FloatArray,
-) -> tuple[int, int]:  # fmt: skip
-    """`iterate` on target k, its record kept in rec[n], irec[n] from the second iteration on;
-    returns (status, records written), the count also in info[0]."""
-    status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, C, target, pivot,
-                     tip_t, trocar, s, state, it, rec[n], fail, info, w, d, f, J)  # fmt: skip
-    return status, keep_record(status, k, it, n, irec, info)
-
-
 @njit(cache=True)
 def keep_record(status: int, k: int, it: int, n: int, irec: np.ndarray, info: np.ndarray) -> int:
     """Keep the record of iteration it of target k, written in row n: from the second
@@ -519,68 +493,6 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
     if not target_tip_into(target, w, tip_t):
         return -1
     return 1 if target.shape[0] == 6 and is_pivot(tip_t, target) else 0
-
-
-@njit(cache=True)
-def run_targets(
-    P: FloatArray, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
-    targets: FloatArray, k0: int, it0: int, s: FloatArray, cmd: FloatArray,
-    state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
-    plant: tuple,
-) -> int:  # fmt: skip
-    """Algorithm 1 on targets[k0:] (from iteration it0 of target k0); returns a status.
-
-    plant: the dynamic MuJoCo plant's arrays (`PlantArrays.loop_args`): each period the loop
-    reads its sliders into s and runs its physics towards the command (`advance`), or, with
-    model address 0 (`exact_plant`), the kinematic plant: s reaches each command exactly.
-    state = (lambda, time [s], dt [s]) is updated in place, as is s; cmd (6,) holds the last
-    command (for the QP on MuJoCo the same array as qpa's cmd: `qp_kernels.loop_qp`). On
-    return info holds (records written, target index reached, slider index for SLIDER_LIMIT,
-    DAQP's exit flag for QP_FAILED or the plant's check for PLANT_STOPPED) and fail holds (q
-    (6), q_new (6), s_new (6), error (6), or (7) for a curved needle, ...) of the last
-    iteration (`iterate`). PAUSED means the record block rec is full: call again from target
-    info[1], iteration info[2].
-    """
-    w, d, f, v = np.empty(6), np.empty(7), np.empty(7), np.empty((4, 6))
-    J = np.empty((BLOCK_ROWS, 7))
-    trocar, tip_t = np.full(3, np.nan), np.empty(3)
-    slider_qpos, fns, model, data, substeps, dt, steps, speed, ramp, gap2 = plant[:10]
-    act, ctrl, qpos, qvel, xpos, warn, act_idx, servo, feedforward, slot, pin = plant[10:]
-    n = 0
-    for k in range(k0, targets.shape[0]):
-        info[0], info[1] = n, k
-        kind = target_frame(targets[k], holds_rcm(method), w, tip_t, trocar)
-        if kind < 0:
-            return NO_TIP
-        for it in range(it0 if k == k0 else 0, max_it + 1):
-            if n == rec.shape[0]:
-                info[0], info[1], info[2] = n, k, it
-                return PAUSED
-            if model != 0:  # the dynamic plant's measured sliders
-                for i in range(6):
-                    s[i] = qpos[slider_qpos[i]]
-            status, n = iterate_recorded(P, method, K, damping, tol, max_it, drift, bounds, qpa,
-                                         C, targets[k], kind == 1, tip_t, trocar, s, state, k,
-                                         it, n, rec, irec, fail, info, w, d, f, J)  # fmt: skip
-            if status == DONE:
-                break
-            if status != STEPPED:
-                return status
-            put(cmd, 0, fail, 12, 6)
-            code = OK
-            if model == 0:  # the kinematic plant reaches the command
-                put(s, 0, fail, 12, 6)
-            else:
-                code = advance(cmd, v, fns, model, data, substeps, dt, steps, speed, ramp, gap2,
-                               act, ctrl, qpos, qvel, xpos, warn, act_idx, servo,
-                               feedforward, slot, pin)  # fmt: skip
-            state[1] += state[2]
-            if code != OK:
-                info[1], info[2] = k, code
-                return PLANT_STOPPED
-    info[0], info[1] = n, targets.shape[0]
-    return DONE
 
 
 @njit(cache=True)

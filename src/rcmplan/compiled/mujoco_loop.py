@@ -1,14 +1,15 @@
 """Algorithm 1 closed around the dynamic MuJoCo plant, all in compiled code.
 
-The phase runs in the one compiled loop (`loop.run_targets`, through `phase.run_phase_compiled`)
-given the plant's arrays: each control period it reads the simulated sliders, runs one iteration
-of Algorithm 1 (`loop.iterate`; the QP's planned from the plant's last command, the plant being
-its servo) and, when it steps, runs the plant's period (`sim.mujoco.compiled.advance`: the
-physics steps through MuJoCo's C functions). Python is back only between record blocks and at
-the end, so a period costs the physics and about a microsecond more. The log, the plant's state
-and the stops equal those of the per-iteration path (`phase.run_phase_on_plant`);
-tests/test_fast_mujoco.py checks it bit for bit, and tests/test_qp_mujoco_compiled.py the QP's
-against the Python QP on the same plant. Needs MuJoCo (the `sim` extra).
+The phase runs in the one compiled loop (`algorithm.run_targets`, through
+`phase.run_phase_compiled`) given the plant's arrays: each control period it reads the
+simulated sliders, runs one iteration of Algorithm 1 (`loop.iterate`; the QP's planned from the
+plant's last command, the plant being its servo) and, when it steps, runs the plant's period
+(`sim.mujoco.compiled.advance`: the physics steps through MuJoCo's C functions). Python is back
+only between record blocks and at the end, so a period costs the physics and about a
+microsecond more. The log, the plant's state and the stops equal those of the per-iteration
+path (`phase.run_phase_on_plant`); tests/test_fast_mujoco.py checks it bit for bit, and
+tests/test_qp_mujoco_compiled.py the QP's against the Python QP on the same plant.
+Needs MuJoCo (the `sim` extra).
 """
 
 from __future__ import annotations

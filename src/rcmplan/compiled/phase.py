@@ -1,7 +1,10 @@
 """One phase of Algorithm 1 through the compiled loop, with the reference loop's side effects.
 
-Records go to the controller's log, the plant ends at the last slider command with its time
-advanced (the kinematic plant, or the dynamic MuJoCo plant whose periods the loop runs),
+`run_in_blocks` drives the one compiled loop (`algorithm.run_targets`) for every robot:
+iRAM!S's phases here (`run_phase_compiled`) and in the QP's drivers (`qp_phase`,
+`qp_mujoco_phase`), a serial arm's in `arm_phase`. Records go to the controller's log, the plant
+ends at the last command with its time advanced (the kinematic plant, or the dynamic MuJoCo
+plant whose periods the loop runs),
 controller.lam holds the last lambda, and an early stop raises what
 `Controller.converge` raises: the failing check is repeated with the reference function, which
 raises the same exception with the same message.
@@ -24,9 +27,8 @@ from rcmplan.compiled.records import (
     NO_TIP,
     PAUSED,
     PLANT_STOPPED,
-    REC_WIDTH,
     STEPPED,
-    append_records,
+    append_rows,
     iramis_method,
     is_curved,
     loop_bounds,
@@ -76,14 +78,14 @@ def run_phase_loop(
     method: tuple[int, FloatArray], P: FloatArray, qpa: tuple[Any, ...] | None = None,
     plant: PlantArrays | None = None, cmd: FloatArray | None = None, per_target: int = 4,
 ) -> tuple[int, IntArray, FloatArray, FloatArray]:  # fmt: skip
-    """The compiled iRAM!S loop (`loop.run_targets`) on a phase's targets, every driver's
+    """The compiled loop (`algorithm.run_targets`) on iRAM!S, for a phase's targets, every driver's
     (`run_phase_compiled`, the QP's `qp_phase` and `qp_mujoco_phase`); returns (status, info,
     fail, tolerance) for the caller to raise the stop its reference loop raises.
 
     method: (code, K) (`records.iramis_method`, or the QP's code with its K); P: the kernels'
     parameters; qpa: the QP's arrays (`qp_kernels.loop_qp`) for its methods, else None. plant:
     the dynamic MuJoCo plant's arrays, whose periods the loop runs with the command array cmd
-    (default the plant's own, `MujocoPlant.command`); None: the kinematic plant. per_target:
+    (default a copy of the plant's command, `run_in_blocks`); None: the kinematic plant. per_target:
     records per target in a block on the kinematic plant.
     """
     code, K = method
@@ -95,15 +97,13 @@ def run_phase_loop(
             loop_bounds(controller), qpa, np.empty((BLOCK_ROWS, 7)) if curved else None,
             targets)  # fmt: skip
     run = loop_runner(head, fail, None if plant is None else plant.loop_args())
-    if plant is not None and cmd is None:
-        cmd = cast("MujocoPlant", controller.plant).command
-    status, info = run_in_blocks(controller, targets, pid, sid, run, per_target,
-                                 record_width(6, roll=curved), cmd)  # fmt: skip
+    status, info = run_in_blocks(controller, targets, pid, sid, run, per_target, curved, cmd,
+                                 dynamic=plant is not None)  # fmt: skip
     return status, info, fail, tol
 
 
 # The compiled loop on one phase's targets, run(k0, it0, s, cmd, state, rec, irec, info) ->
-# status: the protocol of `loop.run_targets` after its head (`loop_runner`)
+# status: the protocol of `algorithm.run_targets` after its head (`loop_runner`)
 BlockRunner = Callable[
     [int, int, FloatArray, FloatArray, FloatArray, FloatArray, IntArray, IntArray], int
 ]
@@ -112,11 +112,11 @@ BlockRunner = Callable[
 def loop_runner(
     head: tuple[Any, ...], fail: FloatArray, plant: tuple[Any, ...] | None = None
 ) -> BlockRunner:
-    """The compiled loop `loop.run_targets` on head = (P, method, K, damping, tol, max_it,
-    drift, bounds, qpa, C, targets), its last iteration in fail; plant: the dynamic MuJoCo
-    plant's arrays (`PlantArrays.loop_args`), by default the kinematic plant's
-    (`exact_plant`). Both plants run the one compiled loop."""
-    loop = fast_cache.loop_kernels()
+    """The compiled loop `algorithm.run_targets` on head = (model, method, K, damping, tol,
+    max_it, drift, bounds, qpa, C, targets), its last iteration in fail; plant: the dynamic
+    MuJoCo plant's arrays (`PlantArrays.loop_args`), by default the kinematic plant's
+    (`exact_plant`). Every robot and both plants run the one compiled loop."""
+    loop = fast_cache.algorithm()
     args = exact_plant() if plant is None else plant
 
     def run(k0: int, it0: int, s: FloatArray, cmd: FloatArray, state: FloatArray,
@@ -135,37 +135,44 @@ CAPACITY = 1 << 10
 
 def run_in_blocks(
     controller: Controller, targets: FloatArray, pid: int, sid: int, run: BlockRunner,
-    per_target: int = 4, width: int = REC_WIDTH, cmd: FloatArray | None = None,
+    per_target: int = 4, roll: bool = False, cmd: FloatArray | None = None,
+    dynamic: bool = False,
 ) -> tuple[int, IntArray]:  # fmt: skip
     """Call the compiled loop `run` (`loop_runner`) until it stops pausing, each block of
-    records (`width` columns) appended to the log. Returns (status, info).
+    records (`records.record_columns` of the plant's actuators, with the roll error column
+    for a curved needle: `roll`) appended to the log. Returns (status, info).
 
-    cmd: the dynamic MuJoCo plant's command (6,), which the loop writes as it runs the plant's
-    periods (blocks of CAPACITY records); None: the kinematic plant, whose sliders the loop
-    moves to each command (blocks of `per_target` records per target). Either plant ends at
-    the last command and time (the kinematic one advanced to it), controller.lam holds the
-    last lambda, and a failed period of the dynamic plant (PLANT_STOPPED) raises the plant's
-    SimulationError.
+    dynamic: the plant is the dynamic MuJoCo plant whose periods the loop runs (blocks of
+    CAPACITY records); else the kinematic plant, whose actuators the loop moves to each command
+    (blocks of `per_target` records per target). cmd: the array the loop writes each command
+    into (a QP planned from its servo passes the servo's command array; default the plant's
+    command, or a copy of its actuators). Either plant ends at the last command and time (the
+    kinematic one advanced to it), controller.lam holds the last lambda, and a failed period
+    of the dynamic plant (PLANT_STOPPED) raises the plant's SimulationError.
     """
-    plant, kinematic = controller.plant, cmd is None
-    s = plant.read_actuators() if kinematic else np.empty(6)
-    cmd = s.copy() if cmd is None else cmd
+    plant = controller.plant
+    s = np.array(plant.read_actuators(), dtype=np.float64)
+    if cmd is None:
+        cmd = (
+            np.array(cast("MujocoPlant", plant).command, dtype=np.float64) if dynamic else s.copy()
+        )
     state = np.array([controller.lam, plant.time, plant.dt])
-    if kinematic:
-        cap = per_target * targets.shape[0] + controller.settings.max_iterations
-    else:
+    if dynamic:
         cap = CAPACITY
-    rec, irec = np.empty((cap, width)), np.empty((cap, 2), dtype=np.int64)
+    else:
+        cap = per_target * targets.shape[0] + controller.settings.max_iterations
+    n = s.shape[0]
+    rec, irec = np.empty((cap, record_width(n, roll))), np.empty((cap, 2), dtype=np.int64)
     info = np.zeros(3, dtype=np.int64)
     status, k0, it0 = PAUSED, 0, 0
     try:
         while status == PAUSED:
             status = run(k0, it0, s, cmd, state, rec, irec, info)
-            append_records(controller.log, rec, irec, int(info[0]), pid, sid)
+            append_rows(controller.log, rec, irec, int(info[0]), n, pid, sid)
             k0, it0 = int(info[1]), int(info[2])
     finally:
         plant.command_actuators(cmd)
-        if kinematic:
+        if not dynamic:
             plant.advance()
         plant.time = float(state[1])
         controller.lam = float(state[0])
@@ -206,23 +213,23 @@ def run_phase_on_plant(
                 irec[n] = k, it
                 n += 1
                 if n == BLOCK:
-                    append_records(controller.log, rec, irec, n, pid, sid)
+                    append_rows(controller.log, rec, irec, n, 6, pid, sid)
                     n = 0
             if status == STEPPED:
                 plant.command_actuators(fail[12:18].copy())
                 try:
                     plant.advance()
                 except RcmplanError:  # the partial log keeps every record so far
-                    append_records(controller.log, rec, irec, n, pid, sid)
+                    append_rows(controller.log, rec, irec, n, 6, pid, sid)
                     controller.lam = float(state[0])
                     raise
                 continue
             controller.lam = float(state[0])
             if status != DONE:
-                append_records(controller.log, rec, irec, n, pid, sid)
+                append_rows(controller.log, rec, irec, n, 6, pid, sid)
                 where = f"phase {controller.log.phase_names[pid]!r} step {k}"
                 m = solver.tolerance().shape[0]
                 raise_stop(controller, status, k, targets, fail, tol[:m], where)
             break
-    append_records(controller.log, rec, irec, n, pid, sid)
+    append_rows(controller.log, rec, irec, n, 6, pid, sid)
     controller.lam = float(state[0])

@@ -1,5 +1,5 @@
 """The QP controller's phases on the dynamic MuJoCo plant in the compiled loop around it
-(`loop.run_targets` with method QP and the plant's arrays), behind the runner seam.
+(`algorithm.run_targets` with method QP and the plant's arrays), behind the runner seam.
 
 Applies to a `QpSolver` itself (exact type) with the DAQP back end, on iRAM!S with a straight
 needle or a curved one (method CURVED_QP), with the controller's plant as its servo

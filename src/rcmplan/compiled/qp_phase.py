@@ -1,5 +1,5 @@
-"""The QP controller's phases in the compiled iRAM!S loop (`loop.run_targets` with method QP),
-behind the runner seam.
+"""The QP controller's phases on iRAM!S in the compiled loop (`algorithm.run_targets`, method
+QP), behind the runner seam.
 
 Applies to a `QpSolver` itself (exact type: a subclass may change its step) with the DAQP back
 end, on a plant whose commands are reached exactly (the kinematic plant), for a robot the

@@ -63,8 +63,8 @@ class ArmPlant:
         self.mj = mujoco_module()
         self.robot = robot
         self.mode, self.name = mode, f"mujoco-{mode}"
-        self.exact_commands = False  # capabilities: the compiled runner drives iRAM!S only
-        self.compiled_physics = False
+        self.exact_commands = False  # capabilities: the compiled loop runs its dynamic period
+        self.compiled_physics = mode == "dynamic"
         self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
         physics_dt = scalar("physics_dt", physics_dt, 0.0, dt, low_open=True)
         self.substeps = round(dt / physics_dt)

@@ -1,14 +1,15 @@
-"""The dynamic MuJoCo plant's control period in compiled code.
+"""The dynamic MuJoCo plants' control period in compiled code.
 
-`advance` is `MujocoPlant.advance` in dynamic mode, operation for operation: the quantised
-command, the synchronised reference velocity within speed and acceleration
-(`actuators.velocity_into`, the kernel the Python plants call too), the servo and
-feed-forward controls, the physics steps, the kinematics and the checks (NaN, MuJoCo
-warnings, loop-closure gap). MuJoCo's own `mj_step` and `mj_kinematics` are called from the
-compiled code through their C addresses, so a closed control loop on the MuJoCo plant runs
-without returning to Python between periods (`rcmplan.compiled.mujoco_loop`).
-tests/test_fast_mujoco.py checks that it gives the same log, to the last bit, as the Python
-plant.
+`advance` is `advance` of a dynamic `MujocoPlant` (iRAM!S's sliders) or `ArmPlant` (an arm's
+joints), operation for operation: the quantised command (clipped to travel, the arm's), the
+synchronised reference velocity within speed and acceleration (`actuators.velocity_into`,
+the kernel the Python plants call too; the arm's without the acceleration bound), the servo
+and feed-forward controls, the physics steps, the kinematics and the checks (NaN, MuJoCo
+warnings, loop-closure gap: iRAM!S's PCJMs). MuJoCo's own `mj_step` and `mj_kinematics` are
+called from the compiled code through their C addresses, so a closed control loop on the
+MuJoCo plant runs without returning to Python between periods (`rcmplan.compiled.algorithm`).
+tests/test_fast_mujoco.py and tests/test_mujoco_arm.py check that it gives the same log, to
+the last bit, as the Python plants.
 
 The C addresses come from the shared library the `mujoco` package loaded; they are arguments,
 not constants, so numba's cache stays valid across processes.
@@ -80,8 +81,11 @@ class PlantArrays:
     Attributes:
         fns: Addresses (mj_step, mj_kinematics); model, data: of the plant's MjModel/MjData.
         substeps: Physics steps per control period; dt: the control period [s].
-        steps, speed: Slider resolution and speed (6,); ramp: the reference's time from rest to
-            full speed [s] (`PiezoParameters.ramp_time`); gap2: the loop-gap limit squared [m^2].
+        steps, speed: Actuator resolution and speed (n,); ramp: the reference's time from rest
+            to full speed [s] (`PiezoParameters.ramp_time`; 0 for an arm); gap2: the loop-gap
+            limit squared [m^2] (no loops on an arm: `slot` and `pin` empty).
+        lower, upper: The quantised command's clip (n,): an arm's travel, +-inf on iRAM!S
+            (whose plant does not clip).
         act, ctrl, qpos, qvel, xpos, warn: Views of mjData's arrays (MuJoCo writes into them).
         act_idx, servo, feedforward, slider_qpos, slot, pin: Index arrays into those views.
     """
@@ -95,6 +99,8 @@ class PlantArrays:
     speed: FloatArray
     ramp: float
     gap2: float
+    lower: FloatArray
+    upper: FloatArray
     act: FloatArray
     ctrl: FloatArray
     qpos: FloatArray
@@ -111,13 +117,13 @@ class PlantArrays:
     def args(self) -> tuple[Any, ...]:
         """The arguments of `advance` after the command, in order."""
         return (self.fns, self.model, self.data, self.substeps, self.dt, self.steps,
-                self.speed, self.ramp, self.gap2, self.act, self.ctrl, self.qpos, self.qvel,
-                self.xpos, self.warn, self.act_idx, self.servo, self.feedforward, self.slot,
-                self.pin)  # fmt: skip
+                self.speed, self.ramp, self.gap2, self.lower, self.upper, self.act, self.ctrl,
+                self.qpos, self.qvel, self.xpos, self.warn, self.act_idx, self.servo,
+                self.feedforward, self.slot, self.pin)  # fmt: skip
 
     def loop_args(self) -> tuple[Any, ...]:
-        """The plant argument of the compiled loop (`loop.run_targets`): the slider indices,
-        then `args`."""
+        """The plant argument of the compiled loop (`algorithm.run_targets`): the indices of
+        the actuators' positions in qpos, then `args`."""
         return (self.slider_qpos, *self.args())
 
 
@@ -127,43 +133,55 @@ def exact_plant() -> tuple[Any, ...]:
     compiled loop serves both plants)."""
     i, f = np.empty(0, dtype=np.intp), np.empty(0)
     warn = np.zeros(4, dtype=np.int32)[::2]  # mjData's warning counts: a strided view
-    return (i, i, 0, 0, 0, 0.0, f, f, 0.0, 0.0, f, f, f, f, np.empty((0, 3)), warn, i, i, i, i,
-            i)  # fmt: skip
+    return (i, i, 0, 0, 0, 0.0, f, f, 0.0, 0.0, f, f, f, f, f, f, np.empty((0, 3)), warn, i, i, i,
+            i, i)  # fmt: skip
 
 
 def plant_arrays(plant: Any) -> PlantArrays | None:
-    """The arrays of a dynamic `MujocoPlant`, or None if its C functions cannot be found."""
+    """The arrays of a dynamic `MujocoPlant` or `ArmPlant`, or None if MuJoCo's C functions
+    cannot be found."""
     fns = function_addresses(plant.mj)
     if fns is None or not all(fns):
         return None
     d, ids = plant.data, plant._ids
+    arm = not hasattr(plant, "index")  # an ArmPlant: no loops, no ramp, the command clipped
+    n = plant._steps.shape[0]
 
     def idx(a: Any) -> NDArray[np.intp]:
         return np.ascontiguousarray(a, dtype=np.intp)
 
+    def arr(a: Any) -> FloatArray:
+        return np.ascontiguousarray(a, dtype=np.float64)
+
+    none = idx(np.empty(0))
     return PlantArrays(
         fns=np.array(fns, dtype=np.intp), model=int(plant.model._address),
         data=int(d._address), substeps=int(plant.substeps), dt=float(plant.dt),
-        steps=np.ascontiguousarray(plant._steps, dtype=np.float64),
-        speed=np.ascontiguousarray(plant._speed, dtype=np.float64), ramp=float(plant._ramp),
-        gap2=float(plant.gap_limit) ** 2, act=d.act, ctrl=d.ctrl, qpos=d.qpos, qvel=d.qvel,
-        xpos=d.site_xpos, warn=d.warning.number, act_idx=idx(ids.act), servo=idx(ids.servo),
-        feedforward=idx(ids.feedforward), slider_qpos=idx(ids.slider_qpos),
-        slot=idx(plant.index.slot_array), pin=idx(plant.index.pin_array),
+        steps=arr(plant._steps), speed=arr(plant._speed),
+        ramp=0.0 if arm else float(plant._ramp),
+        gap2=0.0 if arm else float(plant.gap_limit) ** 2,
+        lower=arr(plant._lower if arm else np.full(n, -np.inf)),
+        upper=arr(plant._upper if arm else np.full(n, np.inf)),
+        act=d.act, ctrl=d.ctrl, qpos=d.qpos, qvel=d.qvel, xpos=d.site_xpos,
+        warn=d.warning.number, act_idx=idx(ids.act), servo=idx(ids.servo),
+        feedforward=idx(ids.feedforward), slider_qpos=idx(ids.qpos if arm else ids.slider_qpos),
+        slot=none if arm else idx(plant.index.slot_array),
+        pin=none if arm else idx(plant.index.pin_array),
     )  # fmt: skip
 
 
 @njit(cache=True)
 def reference_velocity(
     cmd: FloatArray, v: FloatArray, dt: float, steps: FloatArray, speed: FloatArray,
-    ramp: float, act: FloatArray, act_idx: NDArray[np.intp], ctrl: FloatArray,
-    servo: NDArray[np.intp],
+    ramp: float, lower: FloatArray, upper: FloatArray, act: FloatArray,
+    act_idx: NDArray[np.intp], ctrl: FloatArray, servo: NDArray[np.intp],
 ) -> None:  # fmt: skip
-    """v[0] (6,) = `actuators.velocity_into` towards the quantised command cmd from the servo
-    references act[act_idx], moving at the last period's ctrl[servo]; v (4, 6): the velocity,
-    then the quantised command, the references and the last velocities."""
-    for i in range(6):
-        v[1, i] = np.rint(cmd[i] / steps[i]) * steps[i]
+    """v[0] (n,) = `actuators.velocity_into` towards the quantised command cmd (n,), clipped
+    to [lower, upper], from the servo references act[act_idx], moving at the last period's
+    ctrl[servo]; v (4, n): the velocity, then the quantised command, the references and the
+    last velocities."""
+    for i in range(cmd.shape[0]):
+        v[1, i] = min(max(np.rint(cmd[i] / steps[i]) * steps[i], lower[i]), upper[i])
         v[2, i] = act[act_idx[i]]
         v[3, i] = ctrl[servo[i]]
     velocity_into(v[1], v[2], v[3], dt, speed, ramp, v[0])
@@ -173,14 +191,15 @@ def reference_velocity(
 def advance(
     cmd: FloatArray, v: FloatArray, fns: NDArray[np.intp], model: int, data: int,
     substeps: int, dt: float, steps: FloatArray, speed: FloatArray, ramp: float, gap2: float,
-    act: FloatArray, ctrl: FloatArray, qpos: FloatArray, qvel: FloatArray, xpos: FloatArray,
+    lower: FloatArray, upper: FloatArray, act: FloatArray, ctrl: FloatArray, qpos: FloatArray,
+    qvel: FloatArray, xpos: FloatArray,
     warn: NDArray[np.int32], act_idx: NDArray[np.intp], servo: NDArray[np.intp],
     feedforward: NDArray[np.intp], slot: NDArray[np.intp], pin: NDArray[np.intp],
 ) -> int:  # fmt: skip
-    """One control period of the dynamic plant towards the command cmd (6,); v (4, 6) is
+    """One control period of the dynamic plant towards the command cmd (n,); v (4, n) is
     scratch. Returns OK or the first failing check (DIVERGED, WARNED, GAP)."""
-    reference_velocity(cmd, v, dt, steps, speed, ramp, act, act_idx, ctrl, servo)
-    for i in range(6):
+    reference_velocity(cmd, v, dt, steps, speed, ramp, lower, upper, act, act_idx, ctrl, servo)
+    for i in range(cmd.shape[0]):
         ctrl[servo[i]] = v[0, i]
         ctrl[feedforward[i]] = v[0, i]
     for _ in range(substeps):

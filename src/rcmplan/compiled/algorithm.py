@@ -1,0 +1,179 @@
+"""Algorithm 1 over a phase's targets, compiled: one loop for every robot and both plants.
+
+`run_targets` is the loop of `Controller.converge` over a phase: for each target, iterations
+until every error is within tolerance, each one reading the plant, running one iteration of the
+robot's kernels and, when it steps, commanding the plant. The robot comes as its kernel arrays,
+`model`:
+
+- iRAM!S: the closed forms' parameter vector P (`records.robot_params`; a curved needle's carry
+  its arc), iterated by `loop.iterate` (the PCJM sliders are its actuators);
+- a serial arm: the tuple (A, ix, posture gain, lower, upper, W, d) of its chain arrays
+  (`arm.arm_arrays`, or a curved needle's), its joints' travel and its work arrays
+  (`arm_phase._Setup`), iterated by `arm_loop.arm_iterate` (its joints are its actuators).
+
+numba compiles the loop once per robot family (`iterate_model` picks the iteration by the
+model's type), so each family's loop holds only its own kinematics; the loop itself, its
+pausing, its records and its plants are written once.
+
+plant: the dynamic MuJoCo plant's arrays (`PlantArrays.loop_args`, iRAM!S's `MujocoPlant` or an
+arm's `ArmPlant`): each period the loop reads the simulated actuators and runs the plant's
+period towards the command (`sim.mujoco.compiled.advance`); or, with model address 0
+(`exact_plant`), the kinematic plant: the actuators reach each command exactly and time moves
+on by dt.
+
+The loop stops with a status code (`records`) instead of raising; the Python drivers
+(`phase.run_in_blocks`) turn it into the reference exception. Records go to preallocated rows
+in the `records.record_columns(n)` layout, `irec` (cap, 2) with (target, iteration).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numba import types
+from numba.extending import overload
+
+from rcmplan._validate import FloatArray
+from rcmplan.compiled.arm_loop import arm_iterate, command_status
+from rcmplan.compiled.kernels import njit
+from rcmplan.compiled.loop import holds_rcm, iterate, keep_record, put, target_frame
+from rcmplan.compiled.records import DONE, NO_TIP, PAUSED, PLANT_STOPPED, STEPPED
+from rcmplan.robot.curved_block import BLOCK_ROWS
+from rcmplan.sim.mujoco.compiled import OK, advance
+
+
+def model_work(model: Any) -> Any:
+    """The work arrays of the model's iteration, made once per loop call (compiled code only:
+    numba picks the implementation below by the model's type)."""
+    raise TypeError("algorithm.model_work is called from compiled code only")
+
+
+def iterate_model(model: Any, work: Any, method: int, K: FloatArray, damping: float,
+                  tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: Any,
+                  C: Any, target: FloatArray, pivot: bool, tip_t: FloatArray,
+                  trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
+                  row: FloatArray, fail: FloatArray, info: np.ndarray,
+                  framed: bool) -> tuple[int, int]:  # fmt: skip
+    """One iteration of the model's family from actuators s; returns (status, where the command
+    starts in fail). STEPPED: the command is checked (finite, within travel). framed: the
+    arm's work array holds the frames of s (the last target's final iteration). Compiled code
+    only: numba picks the implementation below by the model's type."""
+    raise TypeError("algorithm.iterate_model is called from compiled code only")
+
+
+@overload(model_work, inline="always")
+def _model_work(model: Any) -> Any:
+    if isinstance(model, types.Array):  # iRAM!S: `loop.iterate`'s scratch and work block
+
+        def iramis(model: Any) -> Any:
+            return np.empty(6), np.empty(7), np.empty(7), np.empty((BLOCK_ROWS, 7))
+
+        return iramis
+
+    def arm(model: Any) -> Any:  # an arm's work arrays come with its model
+        return ()
+
+    return arm
+
+
+# Not inlined: numba prunes the branches of a None argument (qpa, C) in the function whose
+# argument it is, which the implementation then is.
+@overload(iterate_model)
+def _iterate_model(model: Any, work: Any, method: Any, K: Any, damping: Any, tol: Any,
+                   max_it: Any, drift: Any, bounds: Any, qpa: Any, C: Any, target: Any,
+                   pivot: Any, tip_t: Any, trocar: Any, s: Any, state: Any, it: Any, row: Any,
+                   fail: Any, info: Any, framed: Any) -> Any:  # fmt: skip
+    if isinstance(model, types.Array):
+
+        def iramis(model: Any, work: Any, method: Any, K: Any, damping: Any, tol: Any,
+                   max_it: Any, drift: Any, bounds: Any, qpa: Any, C: Any, target: Any,
+                   pivot: Any, tip_t: Any, trocar: Any, s: Any, state: Any, it: Any, row: Any,
+                   fail: Any, info: Any, framed: Any) -> Any:  # fmt: skip
+            w, d, f, J = work
+            status = iterate(model, method, K, damping, tol, max_it, drift, bounds, qpa, C,
+                             target, pivot, tip_t, trocar, s, state, it, row, fail, info, w, d,
+                             f, J)  # fmt: skip
+            return status, 12  # fail = (q, q_new, s_new, ...)
+
+        return iramis
+
+    def arm(model: Any, work: Any, method: Any, K: Any, damping: Any, tol: Any, max_it: Any,
+            drift: Any, bounds: Any, qpa: Any, C: Any, target: Any, pivot: Any, tip_t: Any,
+            trocar: Any, s: Any, state: Any, it: Any, row: Any, fail: Any, info: Any,
+            framed: Any) -> Any:  # fmt: skip
+        A, ix, gain, lower, upper, W, d = model
+        n = ix[0]
+        status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa, C,
+                             target, pivot, tip_t, trocar, s, state, it, row, fail, W, d,
+                             framed)  # fmt: skip
+        if status == STEPPED:
+            status = command_status(fail, n, lower, upper, info)
+        return status, n  # fail = (q, q_new, ...): the joints are the actuators
+
+    return arm
+
+
+@njit(cache=True)
+def run_targets(
+    model: Any, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
+    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
+    targets: FloatArray, k0: int, it0: int, s: FloatArray, cmd: FloatArray,
+    state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
+    plant: tuple,
+) -> int:  # fmt: skip
+    """Algorithm 1 on targets[k0:] (from iteration it0 of target k0); returns a status.
+
+    model: the robot's kernel arrays (see the module docstring); method, K, damping, tol:
+    the solver's code and constants (`records.solver_arrays`); bounds: (singularity threshold,
+    RCM bound [m]); qpa: the QP's arrays for its methods, else None; C: a curved needle's work
+    block for its methods, else None (numba leaves out the branches of an argument that is
+    None). s (n,) and state = (lambda, time [s], dt [s]) are updated in place; cmd (n,) holds
+    the last command (for a QP planned from its servo, the servo's command array). On return
+    info holds (records written, target index reached, actuator index for SLIDER_LIMIT, DAQP's
+    exit flag for iRAM!S's QP_FAILED or the plant's check for PLANT_STOPPED) and fail the last
+    iteration's joints, command and error. PAUSED means the record block rec is full: call
+    again from target info[1], iteration info[2].
+    """
+    na = s.shape[0]
+    work, w, v = model_work(model), np.empty(6), np.empty((4, na))
+    trocar, tip_t = np.full(3, np.nan), np.empty(3)
+    reads, fns, address, data, substeps, dt, steps, speed, ramp, gap2 = plant[:10]
+    lower, upper, act, ctrl, qpos, qvel, xpos, warn, act_idx, servo = plant[10:20]
+    feedforward, slot, pin = plant[20:]
+    n = 0
+    for k in range(k0, targets.shape[0]):
+        info[0], info[1] = n, k
+        kind = target_frame(targets[k], holds_rcm(method), w, tip_t, trocar)
+        if kind < 0:
+            return NO_TIP
+        for it in range(it0 if k == k0 else 0, max_it + 1):
+            if n == rec.shape[0]:
+                info[0], info[1], info[2] = n, k, it
+                return PAUSED
+            if address != 0:  # the dynamic plant's measured actuators
+                for i in range(na):
+                    s[i] = qpos[reads[i]]
+            status, at = iterate_model(model, work, method, K, damping, tol, max_it, drift,
+                                       bounds, qpa, C, targets[k], kind == 1, tip_t, trocar, s,
+                                       state, it, rec[n], fail, info,
+                                       it == 0 and k > k0)  # fmt: skip
+            n = keep_record(status, k, it, n, irec, info)
+            if status == DONE:
+                break
+            if status != STEPPED:
+                return status
+            put(cmd, 0, fail, at, na)
+            code = OK
+            if address == 0:  # the kinematic plant reaches the command
+                put(s, 0, fail, at, na)
+            else:
+                code = advance(cmd, v, fns, address, data, substeps, dt, steps, speed, ramp,
+                               gap2, lower, upper, act, ctrl, qpos, qvel, xpos, warn, act_idx,
+                               servo, feedforward, slot, pin)  # fmt: skip
+            state[1] += state[2]
+            if code != OK:
+                info[1], info[2] = k, code
+                return PLANT_STOPPED
+    info[0], info[1] = n, targets.shape[0]
+    return DONE
