@@ -21,6 +21,9 @@ period towards the command (`sim.mujoco.compiled.advance`); or, with model addre
 (`exact_plant`), the kinematic plant: the actuators reach each command exactly and time moves
 on by dt.
 
+A plant that steps in Python (a user's own, MuJoCo's kinematic mode) runs the same iteration
+once per period (`iteration`, driven by `phase.run_phase_per_period`).
+
 The loop stops with a status code (`records`) instead of raising; the Python drivers
 (`phase.run_in_blocks`) turn it into the reference exception. Records go to preallocated rows
 in the `records.record_columns(n)` layout, `irec` (cap, 2) with (target, iteration).
@@ -112,6 +115,21 @@ def _iterate_model(model: Any, work: Any, method: Any, K: Any, damping: Any, tol
         return status, n  # fail = (q, q_new, ...): the joints are the actuators
 
     return arm
+
+
+@njit(cache=True)
+def iteration(
+    model: Any, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
+    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
+    target: FloatArray, pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray,
+    state: FloatArray, it: int, row: FloatArray, fail: FloatArray, info: np.ndarray,
+) -> tuple[int, int]:  # fmt: skip
+    """One iteration of the model's family from actuators s, for a plant stepping in Python
+    (`phase.run_phase_per_period`): `iterate_model` with the arguments of `run_targets`;
+    returns (status, where the command starts in fail)."""
+    return iterate_model(model, model_work(model), method, K, damping, tol, max_it, drift,
+                         bounds, qpa, C, target, pivot, tip_t, trocar, s, state, it, row, fail,
+                         info, False)  # fmt: skip
 
 
 @njit(cache=True)

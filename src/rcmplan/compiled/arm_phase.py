@@ -29,19 +29,15 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import arm_arrays
 from rcmplan.compiled.arm_qp import arm_qp_applies, curved_qp_applies, qp_arrays, servo_command
-from rcmplan.compiled.phase import loop_runner, run_in_blocks
+from rcmplan.compiled.phase import loop_runner, run_in_blocks, run_phase_per_period
 from rcmplan.compiled.qp_phase import raise_qp_failure
 from rcmplan.compiled.records import (
-    BLOCK,
     CURVED_POSE_LIMITED,
     CURVED_QP,
     DONE,
-    NO_TIP,
     QP,
     QP_FAILED,
-    STEPPED,
     TIP_LIMITED,
-    append_rows,
     loop_bounds,
     method_code,
     raise_arm_stop,
@@ -212,62 +208,16 @@ def run_arm_phase_compiled(
         setup.stop(controller, solver, status, targets[k], _where(controller, pid, k))
 
 
-class _Buffer:
-    """Record rows waiting for the log."""
-
-    def __init__(self, controller: Controller, n: int, pid: int, sid: int) -> None:
-        self.log, self.n, self.pid, self.sid = controller.log, n, pid, sid
-        self.rec = np.empty((BLOCK, record_width(n)))
-        self.irec = np.empty((BLOCK, 2), dtype=np.int64)
-        self.count = 0
-
-    def keep(self, k: int, it: int) -> None:
-        """Keep the row just written, for target k, iteration it."""
-        self.irec[self.count] = k, it
-        self.count += 1
-        if self.count == BLOCK:
-            self.flush()
-
-    def flush(self) -> None:
-        append_rows(self.log, self.rec, self.irec, self.count, self.n, self.pid, self.sid)
-        self.count = 0
-
-
 def run_arm_phase(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> None:
     """Algorithm 1 on each target in turn on any plant: the plant steps in Python, each
-    iteration's control work is one compiled call."""
-    robot, plant, cfg = controller.robot, controller.plant, controller.settings
-    iterate, loop = fast_cache.arm_loop().arm_iterate, fast_cache.loop_kernels()
-    frame, holds_rcm = loop.target_frame, loop.holds_rcm
+    iteration one compiled call (`phase.run_phase_per_period`)."""
     setup = _Setup(controller, solver)
-    n, fail = setup.n, setup.fail
-    state = np.array([controller.lam, plant.time, plant.dt], dtype=np.float64)
-    w, tip_t, trocar = np.empty(6), np.empty(3), np.full(3, np.nan)
-    buf = _Buffer(controller, n, pid, sid)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    try:
-        for k in range(targets.shape[0]):
-            where = _where(controller, pid, k)
-            kind = frame(targets[k], holds_rcm(setup.code), w, tip_t, trocar)
-            if kind < 0:
-                setup.stop(controller, solver, NO_TIP, targets[k], where)
-            pivot = bool(kind == 1)
-            for it in range(cfg.max_iterations + 1):
-                state[1] = plant.time
-                s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
-                servo_command(solver, setup.qpa)
-                status = iterate(*setup.args, targets[k], pivot, tip_t, trocar, s, state, it,
-                                 buf.rec[buf.count], fail, setup.W, setup.d)  # fmt: skip
-                if it > 0 and status != QP_FAILED:
-                    buf.keep(k, it)
-                controller.lam = float(state[0])
-                if status == DONE:
-                    break
-                if status != STEPPED:
-                    setup.stop(controller, solver, status, targets[k], where)
-                plant.command_actuators(robot.actuators_from_joints(fail[n : 2 * n].copy()))
-                plant.advance()
-    finally:  # also on a stop: the partial log keeps every record so far
-        buf.flush()
+
+    def stop(status: int, k: int) -> None:
+        setup.stop(controller, solver, status, targets[k], _where(controller, pid, k))
+
+    run_phase_per_period(controller, targets, pid, sid, setup.head(targets)[:-1], setup.fail,
+                         stop, before=lambda: servo_command(solver, setup.qpa))  # fmt: skip

@@ -27,6 +27,7 @@ from rcmplan.compiled.records import (
     NO_TIP,
     PAUSED,
     PLANT_STOPPED,
+    QP_FAILED,
     STEPPED,
     append_rows,
     iramis_method,
@@ -39,7 +40,7 @@ from rcmplan.compiled.records import (
     solver_arrays,
 )
 from rcmplan.control.solvers import Solver
-from rcmplan.exceptions import RcmplanError, SimulationError
+from rcmplan.exceptions import SimulationError
 from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.sim.mujoco.compiled import PlantArrays, exact_plant
 
@@ -185,51 +186,69 @@ def run_in_blocks(
 def run_phase_on_plant(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int
 ) -> None:
-    """Algorithm 1 on each target with any plant: the plant steps in Python, each iteration's
-    kinematics, error, record and step in one compiled call (`loop.iterate`)."""
-    loop = fast_cache.loop_kernels()
-    robot, plant, cfg = controller.robot, controller.plant, controller.settings
+    """Algorithm 1 on iRAM!S with any plant: the plant steps in Python, each iteration one
+    compiled call (`run_phase_per_period`)."""
     code = method_code(solver)
+    if code is None:
+        raise ValueError(f"the iRAM!S iteration does not run solver {solver.name!r}")
+    cfg = controller.settings
     K, damping, tol = solver_arrays(solver)
-    bounds = loop_bounds(controller)
-    P, state = robot_params(robot), np.array([controller.lam, plant.time, plant.dt])
-    rec, irec = np.empty((BLOCK, 35)), np.empty((BLOCK, 2), dtype=np.int64)
-    info, fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)
-    w, d, f, J = np.empty(6), np.empty(7), np.empty(7), np.empty((BLOCK_ROWS, 7))
-    tip_t, trocar = np.empty(3), np.full(3, np.nan)
+    head = (robot_params(controller.robot), code, K, damping, tol, cfg.max_iterations,
+            cfg.drift_correction, loop_bounds(controller), None, None)  # fmt: skip
+    fail, m = np.empty(FAIL_WIDTH), solver.tolerance().shape[0]
+
+    def stop(status: int, k: int) -> None:
+        where = f"phase {controller.log.phase_names[pid]!r} step {k}"
+        raise_stop(controller, status, k, targets, fail, tol[:m], where)
+
+    run_phase_per_period(controller, targets, pid, sid, head, fail, stop)
+
+
+def run_phase_per_period(
+    controller: Controller, targets: FloatArray, pid: int, sid: int, head: tuple[Any, ...],
+    fail: FloatArray, stop: Callable[[int, int], None], roll: bool = False,
+    before: Callable[[], None] | None = None,
+) -> None:  # fmt: skip
+    """Algorithm 1 on each target with a plant stepping in Python: each period reads the
+    plant, runs one compiled iteration (`algorithm.iteration` on head = (model, method, K,
+    damping, tol, max_it, drift, bounds, qpa, C), its last iteration in fail) and commands
+    and advances the plant. Records go to the log in blocks (with the roll error column:
+    `roll`), also when a stop or the plant raises; controller.lam follows each iteration; a
+    stop status calls stop(status, target index), which raises the reference exception.
+    before: called before each iteration (a QP planned from its servo's command)."""
+    alg, loop = fast_cache.algorithm(), fast_cache.loop_kernels()
+    plant, max_it, code = controller.plant, controller.settings.max_iterations, head[1]
+    n = np.asarray(plant.read_actuators()).shape[0]
+    state = np.array([controller.lam, plant.time, plant.dt])
+    rec, irec = np.empty((BLOCK, record_width(n, roll))), np.empty((BLOCK, 2), dtype=np.int64)
+    info = np.zeros(3, dtype=np.int64)
+    w, tip_t, trocar = np.empty(6), np.empty(3), np.full(3, np.nan)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
-    n = 0
-    for k in range(targets.shape[0]):
-        kind = loop.target_frame(targets[k], code != 3, w, tip_t, trocar)
-        for it in range(cfg.max_iterations + 1):
-            status = NO_TIP if kind < 0 else STEPPED
-            if kind >= 0:
+    count = 0
+    try:
+        for k in range(targets.shape[0]):
+            kind = loop.target_frame(targets[k], loop.holds_rcm(code), w, tip_t, trocar)
+            if kind < 0:
+                stop(NO_TIP, k)
+            for it in range(max_it + 1):
                 state[1] = plant.time
-                status = loop.iterate(P, code, K, damping, tol, cfg.max_iterations,
-                                      cfg.drift_correction, bounds, None, None, targets[k],
-                                      kind == 1, tip_t, trocar, plant.read_actuators(), state,
-                                      it, rec[n], fail, info, w, d, f, J)  # fmt: skip
-            if it > 0 and kind >= 0:
-                irec[n] = k, it
-                n += 1
-                if n == BLOCK:
-                    append_rows(controller.log, rec, irec, n, 6, pid, sid)
-                    n = 0
-            if status == STEPPED:
-                plant.command_actuators(fail[12:18].copy())
-                try:
-                    plant.advance()
-                except RcmplanError:  # the partial log keeps every record so far
-                    append_rows(controller.log, rec, irec, n, 6, pid, sid)
-                    controller.lam = float(state[0])
-                    raise
-                continue
-            controller.lam = float(state[0])
-            if status != DONE:
-                append_rows(controller.log, rec, irec, n, 6, pid, sid)
-                where = f"phase {controller.log.phase_names[pid]!r} step {k}"
-                m = solver.tolerance().shape[0]
-                raise_stop(controller, status, k, targets, fail, tol[:m], where)
-            break
-    append_rows(controller.log, rec, irec, n, 6, pid, sid)
-    controller.lam = float(state[0])
+                s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
+                if before is not None:
+                    before()
+                status, at = alg.iteration(*head, targets[k], kind == 1, tip_t, trocar, s, state,
+                                           it, rec[count], fail, info)  # fmt: skip
+                if it > 0 and status != QP_FAILED:
+                    irec[count] = k, it
+                    count += 1
+                    if count == BLOCK:
+                        append_rows(controller.log, rec, irec, count, n, pid, sid)
+                        count = 0
+                controller.lam = float(state[0])
+                if status == DONE:
+                    break
+                if status != STEPPED:
+                    stop(status, k)
+                plant.command_actuators(fail[at : at + n].copy())
+                plant.advance()
+    finally:  # also on a stop: the partial log keeps every record so far
+        append_rows(controller.log, rec, irec, count, n, pid, sid)
