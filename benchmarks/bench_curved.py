@@ -108,7 +108,7 @@ def kernel_run(problem: Problem) -> Any:
         rec, fail = np.empty((cap, width)), np.empty(FAIL_WIDTH)
         bounds = np.array([robot.singular_threshold, LoopSettings().rcm_tolerance])
         C = np.empty((BLOCK_ROWS, 7)) if arrays is not None else None  # the curved block
-        head = (P, code, K, damping, tol, 100, True, bounds, None, C, targets, 0, 0)
+        head = (P, None, code, K, damping, tol, 100, True, bounds, None, C, targets, 0, 0)
         kernel = fast_cache.algorithm().run_targets
 
         def once() -> tuple[float, int]:

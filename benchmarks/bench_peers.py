@@ -115,7 +115,7 @@ class CompiledSolve:
         self.info, self.fail = np.zeros(3, dtype=np.int64), np.empty(FAIL_WIDTH)
         tol = np.full(6, 1e-8)
         bounds = np.array([0.1, rcm_tolerance or 0.0])  # singular floor; step bound (0: none)
-        self.args = (robot_params(robot), method, np.ones(6), 0.0, tol, max_iterations,
+        self.args = (robot_params(robot), None, method, np.ones(6), 0.0, tol, max_iterations,
                      method != 3, bounds, None, None)  # fmt: skip
 
     def __call__(self, target: np.ndarray) -> int:

@@ -72,6 +72,7 @@ def loop_rows() -> list[dict[str, Any]]:
     bounds = np.array([0.1, LoopSettings().rcm_tolerance])  # singular floor, RCM step bound
     args = (
         robot_params(robot),
+        None,
         0,
         np.ones(6),
         0.0,

@@ -386,8 +386,8 @@ def test_the_arm_loop_refuses_the_qp_without_its_arrays(arm: SerialArm) -> None:
     setup = arm_phase._Setup(ctl, ctl.solver)
     target = extended_task(arm, arm.home, 0.5)[None, :]
     head = list(setup.head(target))
-    head[1] = QP  # the method code; qpa (head[8]) is None for the pinv solver
-    assert head[8] is None
+    head[2] = QP  # the method code; qpa (head[9]) is None for the pinv solver
+    assert head[9] is None
     n = arm.chain.n
     with pytest.raises(ValueError, match="need qpa"):
         fast_cache.algorithm().run_targets(

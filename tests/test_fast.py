@@ -249,7 +249,7 @@ def test_the_loop_refuses_a_method_without_the_arrays_it_reads(robot: Iramis, co
     x0 = extended_task(robot, robot.home, 1.0)
     target = np.r_[x0[:3], 0.0, x0[3:]] if code.startswith("CURVED") else x0
     C = np.empty((BLOCK_ROWS, 7)) if code in ("CURVED_QP", "PINV") else None
-    args = (robot_params(robot), getattr(records, code), np.ones(7), 0.0, np.full(7, 1e-8), 10,
+    args = (robot_params(robot), None, getattr(records, code), np.ones(7), 0.0, np.full(7, 1e-8), 10,
             True, np.array([0.1, 0.0]), None, C, target[None, :], 0, 0,
             robot.home_actuators.copy(), np.empty(6), np.array([1.0, 0.0, 1e-3]),
             np.empty((20, 36)), np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),

@@ -3,26 +3,26 @@
 `run_targets` is the loop of `Controller.converge` over a phase: for each target, iterations
 until every error is within tolerance, each one reading the plant, running one iteration of the
 robot's kernels and, when it steps, commanding the plant. The robot comes as its kernel arrays,
-`model`:
+in one of two arguments, the other None:
 
-- iRAM!S: the closed forms' parameter vector P (`records.robot_params`; a curved needle's carry
+- P: iRAM!S's closed forms' parameter vector (`records.robot_params`; a curved needle's carry
   its arc), iterated by `loop.iterate` (the PCJM sliders are its actuators);
-- a serial arm: the tuple (A, ix, posture gain, lower, upper, W, d) of its chain arrays
+- arm: a serial arm's tuple (A, ix, posture gain, lower, upper, W, d) of its chain arrays
   (`arm.arm_arrays`, or a curved needle's), its joints' travel and its work arrays
   (`arm_phase._Setup`), iterated by `arm_loop.arm_iterate` (its joints are its actuators).
 
-numba compiles the loop once per robot family (`iterate_model` picks the iteration by the
-model's type), so each family's loop holds only its own kinematics; the loop itself, its
-pausing, its records and its plants are written once.
+numba leaves out the branches of an argument that is None, so each robot family's loop
+compiles with its own kinematics only (as the QP's and the curved needle's arrays, qpa and C,
+leave out their methods' code); the loop itself, its pausing, its records and its plants are
+written once. Both iterations are inlined into it (`iterate_robot`): a compiled function of
+its own would have its whole callee tree optimised once more in every caller.
 
 plant: the dynamic MuJoCo plant's arrays (`PlantArrays.loop_args`, iRAM!S's `MujocoPlant` or an
 arm's `ArmPlant`): each period the loop reads the simulated actuators and runs the plant's
 period towards the command (`sim.mujoco.compiled.advance`); or, with model address 0
 (`exact_plant`), the kinematic plant: the actuators reach each command exactly and time moves
-on by dt.
-
-A plant that steps in Python (a user's own, MuJoCo's kinematic mode) runs the same iteration
-once per period (`iteration`, driven by `phase.run_phase_per_period`).
+on by dt. A plant that steps in Python (a user's own, MuJoCo's kinematic mode) runs the same
+iteration once per period (`iteration`, driven by `phase.run_phase_per_period`).
 
 The loop stops with a status code (`records`) instead of raising; the Python drivers
 (`phase.run_in_blocks`) turn it into the reference exception. Records go to preallocated rows
@@ -31,11 +31,7 @@ in the `records.record_columns(n)` layout, `irec` (cap, 2) with (target, iterati
 
 from __future__ import annotations
 
-from typing import Any
-
 import numpy as np
-from numba import types
-from numba.extending import overload
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.arm_loop import arm_iterate, command_status
@@ -46,115 +42,81 @@ from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.sim.mujoco.compiled import OK, advance
 
 
-def model_work(model: Any) -> Any:
-    """The work arrays of the model's iteration, made once per loop call (compiled code only:
-    numba picks the implementation below by the model's type)."""
-    raise TypeError("algorithm.model_work is called from compiled code only")
+@njit(cache=True, inline="always")
+def iterate_robot(
+    P: FloatArray | None, arm: tuple | None, method: int, K: FloatArray, damping: float,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
+    C: FloatArray | None, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
+    fail: FloatArray, info: np.ndarray, work: tuple, framed: bool,
+) -> tuple[int, int]:  # fmt: skip
+    """One iteration of the robot's family from actuators s; returns (status, where the
+    command starts in fail). STEPPED: the command is checked (finite, within travel). work:
+    iRAM!S's scratch and work block (w, d, f, J); framed: the arm's work array holds the frames
+    of s (the last target's final iteration)."""
+    if P is not None:  # iRAM!S (numba prunes a branch whose argument is None)
+        w, d, f, J = work
+        status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, C, target,
+                         pivot, tip_t, trocar, s, state, it, row, fail, info, w, d, f,
+                         J)  # fmt: skip
+        return status, 12  # fail = (q, q_new, s_new, ...)
+    if arm is None:
+        raise ValueError("algorithm.iterate_robot: give iRAM!S's P or an arm's arrays")
+    A, ix, gain, lower, upper, W, dq = arm
+    n = ix[0]
+    status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa, C,
+                         target, pivot, tip_t, trocar, s, state, it, row, fail, W, dq,
+                         framed)  # fmt: skip
+    if status == STEPPED:
+        status = command_status(fail, n, lower, upper, info)
+    return status, n  # fail = (q, q_new, ...): the joints are the actuators
 
 
-def iterate_model(model: Any, work: Any, method: int, K: FloatArray, damping: float,
-                  tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: Any,
-                  C: Any, target: FloatArray, pivot: bool, tip_t: FloatArray,
-                  trocar: FloatArray, s: FloatArray, state: FloatArray, it: int,
-                  row: FloatArray, fail: FloatArray, info: np.ndarray,
-                  framed: bool) -> tuple[int, int]:  # fmt: skip
-    """One iteration of the model's family from actuators s; returns (status, where the command
-    starts in fail). STEPPED: the command is checked (finite, within travel). framed: the
-    arm's work array holds the frames of s (the last target's final iteration). Compiled code
-    only: numba picks the implementation below by the model's type."""
-    raise TypeError("algorithm.iterate_model is called from compiled code only")
-
-
-@overload(model_work, inline="always")
-def _model_work(model: Any) -> Any:
-    if isinstance(model, types.Array):  # iRAM!S: `loop.iterate`'s scratch and work block
-
-        def iramis(model: Any) -> Any:
-            return np.empty(6), np.empty(7), np.empty(7), np.empty((BLOCK_ROWS, 7))
-
-        return iramis
-
-    def arm(model: Any) -> Any:  # an arm's work arrays come with its model
-        return ()
-
-    return arm
-
-
-# Not inlined: numba prunes the branches of a None argument (qpa, C) in the function whose
-# argument it is, which the implementation then is.
-@overload(iterate_model)
-def _iterate_model(model: Any, work: Any, method: Any, K: Any, damping: Any, tol: Any,
-                   max_it: Any, drift: Any, bounds: Any, qpa: Any, C: Any, target: Any,
-                   pivot: Any, tip_t: Any, trocar: Any, s: Any, state: Any, it: Any, row: Any,
-                   fail: Any, info: Any, framed: Any) -> Any:  # fmt: skip
-    if isinstance(model, types.Array):
-
-        def iramis(model: Any, work: Any, method: Any, K: Any, damping: Any, tol: Any,
-                   max_it: Any, drift: Any, bounds: Any, qpa: Any, C: Any, target: Any,
-                   pivot: Any, tip_t: Any, trocar: Any, s: Any, state: Any, it: Any, row: Any,
-                   fail: Any, info: Any, framed: Any) -> Any:  # fmt: skip
-            w, d, f, J = work
-            status = iterate(model, method, K, damping, tol, max_it, drift, bounds, qpa, C,
-                             target, pivot, tip_t, trocar, s, state, it, row, fail, info, w, d,
-                             f, J)  # fmt: skip
-            return status, 12  # fail = (q, q_new, s_new, ...)
-
-        return iramis
-
-    def arm(model: Any, work: Any, method: Any, K: Any, damping: Any, tol: Any, max_it: Any,
-            drift: Any, bounds: Any, qpa: Any, C: Any, target: Any, pivot: Any, tip_t: Any,
-            trocar: Any, s: Any, state: Any, it: Any, row: Any, fail: Any, info: Any,
-            framed: Any) -> Any:  # fmt: skip
-        A, ix, gain, lower, upper, W, d = model
-        n = ix[0]
-        status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa, C,
-                             target, pivot, tip_t, trocar, s, state, it, row, fail, W, d,
-                             framed)  # fmt: skip
-        if status == STEPPED:
-            status = command_status(fail, n, lower, upper, info)
-        return status, n  # fail = (q, q_new, ...): the joints are the actuators
-
-    return arm
+@njit(cache=True)
+def work_arrays() -> tuple:
+    """iRAM!S's iteration's scratch and work block (w, d, f, J), made once per loop call."""
+    return np.empty(6), np.empty(7), np.empty(7), np.empty((BLOCK_ROWS, 7))
 
 
 @njit(cache=True)
 def iteration(
-    model: Any, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
-    target: FloatArray, pivot: bool, tip_t: FloatArray, trocar: FloatArray, s: FloatArray,
-    state: FloatArray, it: int, row: FloatArray, fail: FloatArray, info: np.ndarray,
+    P: FloatArray | None, arm: tuple | None, method: int, K: FloatArray, damping: float,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
+    C: FloatArray | None, target: FloatArray, pivot: bool, tip_t: FloatArray,
+    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
+    fail: FloatArray, info: np.ndarray,
 ) -> tuple[int, int]:  # fmt: skip
-    """One iteration of the model's family from actuators s, for a plant stepping in Python
-    (`phase.run_phase_per_period`): `iterate_model` with the arguments of `run_targets`;
+    """One iteration of the robot's family from actuators s, for a plant stepping in Python
+    (`phase.run_phase_per_period`): `iterate_robot` with the arguments of `run_targets`;
     returns (status, where the command starts in fail)."""
-    return iterate_model(model, model_work(model), method, K, damping, tol, max_it, drift,
-                         bounds, qpa, C, target, pivot, tip_t, trocar, s, state, it, row, fail,
-                         info, False)  # fmt: skip
+    return iterate_robot(P, arm, method, K, damping, tol, max_it, drift, bounds, qpa, C, target,
+                         pivot, tip_t, trocar, s, state, it, row, fail, info, work_arrays(),
+                         False)  # fmt: skip
 
 
 @njit(cache=True)
 def run_targets(
-    model: Any, method: int, K: FloatArray, damping: float, tol: FloatArray, max_it: int,
-    drift: bool, bounds: FloatArray, qpa: tuple | None, C: FloatArray | None,
-    targets: FloatArray, k0: int, it0: int, s: FloatArray, cmd: FloatArray,
-    state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray, fail: FloatArray,
-    plant: tuple,
+    P: FloatArray | None, arm: tuple | None, method: int, K: FloatArray, damping: float,
+    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
+    C: FloatArray | None, targets: FloatArray, k0: int, it0: int, s: FloatArray,
+    cmd: FloatArray, state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray,
+    fail: FloatArray, plant: tuple,
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] (from iteration it0 of target k0); returns a status.
 
-    model: the robot's kernel arrays (see the module docstring); method, K, damping, tol:
-    the solver's code and constants (`records.solver_arrays`); bounds: (singularity threshold,
-    RCM bound [m]); qpa: the QP's arrays for its methods, else None; C: a curved needle's work
-    block for its methods, else None (numba leaves out the branches of an argument that is
-    None). s (n,) and state = (lambda, time [s], dt [s]) are updated in place; cmd (n,) holds
-    the last command (for a QP planned from its servo, the servo's command array). On return
-    info holds (records written, target index reached, actuator index for SLIDER_LIMIT, DAQP's
-    exit flag for iRAM!S's QP_FAILED or the plant's check for PLANT_STOPPED) and fail the last
-    iteration's joints, command and error. PAUSED means the record block rec is full: call
-    again from target info[1], iteration info[2].
+    P, arm: the robot's kernel arrays, one of them None (see the module docstring); method,
+    K, damping, tol: the solver's code and constants (`records.solver_arrays`); bounds:
+    (singularity threshold, RCM bound [m]); qpa: the QP's arrays for its methods, else None;
+    C: a curved needle's work block for its methods, else None. s (n,) and state = (lambda,
+    time [s], dt [s]) are updated in place; cmd (n,) holds the last command (for a QP planned
+    from its servo, the servo's command array). On return info holds (records written, target
+    index reached, actuator index for SLIDER_LIMIT, DAQP's exit flag for iRAM!S's QP_FAILED or
+    the plant's check for PLANT_STOPPED) and fail the last iteration's joints, command and
+    error. PAUSED means the record block rec is full: call again from target info[1],
+    iteration info[2].
     """
     na = s.shape[0]
-    work, w, v = model_work(model), np.empty(6), np.empty((4, na))
+    work, w, v = work_arrays(), np.empty(6), np.empty((4, na))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
     reads, fns, address, data, substeps, dt, steps, speed, ramp, gap2 = plant[:10]
     lower, upper, act, ctrl, qpos, qvel, xpos, warn, act_idx, servo = plant[10:20]
@@ -172,9 +134,9 @@ def run_targets(
             if address != 0:  # the dynamic plant's measured actuators
                 for i in range(na):
                     s[i] = qpos[reads[i]]
-            status, at = iterate_model(model, work, method, K, damping, tol, max_it, drift,
-                                       bounds, qpa, C, targets[k], kind == 1, tip_t, trocar, s,
-                                       state, it, rec[n], fail, info,
+            status, at = iterate_robot(P, arm, method, K, damping, tol, max_it, drift, bounds,
+                                       qpa, C, targets[k], kind == 1, tip_t, trocar, s, state,
+                                       it, rec[n], fail, info, work,
                                        it == 0 and k > k0)  # fmt: skip
             n = keep_record(status, k, it, n, irec, info)
             if status == DONE:

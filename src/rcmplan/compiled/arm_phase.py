@@ -163,8 +163,9 @@ class _Setup:
         self.width = record_width(self.n, roll=self.roll)
 
     def head(self, targets: FloatArray) -> tuple[Any, ...]:
-        """The compiled loop's arguments before the resume point (`phase.loop_runner`)."""
-        return (self.model, *self.args[2:4], *self.args[5:], targets)
+        """The compiled loop's arguments before the resume point (`phase.loop_runner`): no
+        iRAM!S parameters, the arm's arrays (`algorithm.run_targets`)."""
+        return (None, self.model, *self.args[2:4], *self.args[5:], targets)
 
     def stop(self, controller: Controller, solver: Solver, status: int, target: FloatArray,
              where: str) -> None:  # fmt: skip

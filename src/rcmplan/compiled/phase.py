@@ -94,7 +94,7 @@ def run_phase_loop(
     _, damping, tol = solver_arrays(solver)
     targets = np.ascontiguousarray(targets, dtype=np.float64)
     fail = np.empty(FAIL_WIDTH)
-    head = (P, code, K, damping, tol, cfg.max_iterations, cfg.drift_correction,
+    head = (P, None, code, K, damping, tol, cfg.max_iterations, cfg.drift_correction,
             loop_bounds(controller), qpa, np.empty((BLOCK_ROWS, 7)) if curved else None,
             targets)  # fmt: skip
     run = loop_runner(head, fail, None if plant is None else plant.loop_args())
@@ -113,7 +113,7 @@ BlockRunner = Callable[
 def loop_runner(
     head: tuple[Any, ...], fail: FloatArray, plant: tuple[Any, ...] | None = None
 ) -> BlockRunner:
-    """The compiled loop `algorithm.run_targets` on head = (model, method, K, damping, tol,
+    """The compiled loop `algorithm.run_targets` on head = (P, arm, method, K, damping, tol,
     max_it, drift, bounds, qpa, C, targets), its last iteration in fail; plant: the dynamic
     MuJoCo plant's arrays (`PlantArrays.loop_args`), by default the kinematic plant's
     (`exact_plant`). Every robot and both plants run the one compiled loop."""
@@ -193,7 +193,7 @@ def run_phase_on_plant(
         raise ValueError(f"the iRAM!S iteration does not run solver {solver.name!r}")
     cfg = controller.settings
     K, damping, tol = solver_arrays(solver)
-    head = (robot_params(controller.robot), code, K, damping, tol, cfg.max_iterations,
+    head = (robot_params(controller.robot), None, code, K, damping, tol, cfg.max_iterations,
             cfg.drift_correction, loop_bounds(controller), None, None)  # fmt: skip
     fail, m = np.empty(FAIL_WIDTH), solver.tolerance().shape[0]
 
@@ -210,14 +210,14 @@ def run_phase_per_period(
     before: Callable[[], None] | None = None,
 ) -> None:  # fmt: skip
     """Algorithm 1 on each target with a plant stepping in Python: each period reads the
-    plant, runs one compiled iteration (`algorithm.iteration` on head = (model, method, K,
+    plant, runs one compiled iteration (`algorithm.iteration` on head = (P, arm, method, K,
     damping, tol, max_it, drift, bounds, qpa, C), its last iteration in fail) and commands
     and advances the plant. Records go to the log in blocks (with the roll error column:
     `roll`), also when a stop or the plant raises; controller.lam follows each iteration; a
     stop status calls stop(status, target index), which raises the reference exception.
     before: called before each iteration (a QP planned from its servo's command)."""
     alg, loop = fast_cache.algorithm(), fast_cache.loop_kernels()
-    plant, max_it, code = controller.plant, controller.settings.max_iterations, head[1]
+    plant, max_it, code = controller.plant, controller.settings.max_iterations, head[2]
     n = np.asarray(plant.read_actuators()).shape[0]
     state = np.array([controller.lam, plant.time, plant.dt])
     rec, irec = np.empty((BLOCK, record_width(n, roll))), np.empty((BLOCK, 2), dtype=np.int64)
