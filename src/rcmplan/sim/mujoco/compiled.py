@@ -138,14 +138,13 @@ def exact_plant() -> tuple[Any, ...]:
 
 
 def plant_arrays(plant: Any) -> PlantArrays | None:
-    """The arrays of a dynamic `MujocoPlant` or `ArmPlant`, or None if MuJoCo's C functions
-    cannot be found."""
+    """The arrays of a dynamic `ServoPlant` (`MujocoPlant`, `ArmPlant`), or None if MuJoCo's C
+    functions cannot be found."""
     fns = function_addresses(plant.mj)
     if fns is None or not all(fns):
         return None
     d, ids = plant.data, plant._ids
-    arm = not hasattr(plant, "index")  # an ArmPlant: no loops, no ramp, the command clipped
-    n = plant._steps.shape[0]
+    slot, pin, gap = plant.loop_sites()
 
     def idx(a: Any) -> NDArray[np.intp]:
         return np.ascontiguousarray(a, dtype=np.intp)
@@ -153,20 +152,14 @@ def plant_arrays(plant: Any) -> PlantArrays | None:
     def arr(a: Any) -> FloatArray:
         return np.ascontiguousarray(a, dtype=np.float64)
 
-    none = idx(np.empty(0))
     return PlantArrays(
         fns=np.array(fns, dtype=np.intp), model=int(plant.model._address),
         data=int(d._address), substeps=int(plant.substeps), dt=float(plant.dt),
-        steps=arr(plant._steps), speed=arr(plant._speed),
-        ramp=0.0 if arm else float(plant._ramp),
-        gap2=0.0 if arm else float(plant.gap_limit) ** 2,
-        lower=arr(plant._lower if arm else np.full(n, -np.inf)),
-        upper=arr(plant._upper if arm else np.full(n, np.inf)),
-        act=d.act, ctrl=d.ctrl, qpos=d.qpos, qvel=d.qvel, xpos=d.site_xpos,
-        warn=d.warning.number, act_idx=idx(ids.act), servo=idx(ids.servo),
-        feedforward=idx(ids.feedforward), slider_qpos=idx(ids.qpos if arm else ids.slider_qpos),
-        slot=none if arm else idx(plant.index.slot_array),
-        pin=none if arm else idx(plant.index.pin_array),
+        steps=arr(plant._steps), speed=arr(plant._speed), ramp=float(plant._ramp),
+        gap2=float(gap) ** 2, lower=arr(plant._clip[0]), upper=arr(plant._clip[1]), act=d.act,
+        ctrl=d.ctrl, qpos=d.qpos, qvel=d.qvel, xpos=d.site_xpos, warn=d.warning.number,
+        act_idx=idx(ids.act), servo=idx(ids.servo), feedforward=idx(ids.feedforward),
+        slider_qpos=idx(ids.reads), slot=idx(slot), pin=idx(pin),
     )  # fmt: skip
 
 

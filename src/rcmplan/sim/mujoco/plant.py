@@ -20,27 +20,28 @@ whole closed loop compiled instead (`rcmplan.compiled.mujoco_loop`).
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray, instance, scalar, vector
-from rcmplan.exceptions import InvalidInputError, SimulationError
-from rcmplan.robot.iramis import Iramis
+from rcmplan.exceptions import SimulationError
+from rcmplan.robot.iramis import SLIDER_NAMES, Iramis
 from rcmplan.scene.eye import Eye, EyePoints
-from rcmplan.sim.mujoco.actuators import PiezoParameters, profile_velocity, quantise
+from rcmplan.sim.mujoco.actuators import PiezoParameters
 from rcmplan.sim.mujoco.assembly import LoopIndex, assemble_at, loop_gap
 from rcmplan.sim.mujoco.files import load_model, mujoco_module, physics_model
 from rcmplan.sim.mujoco.model import ModelOptions
 from rcmplan.sim.mujoco.plant_checks import check_plant_args
 from rcmplan.sim.mujoco.scene import EyePhantom, default_eye, phantom_of
+from rcmplan.sim.mujoco.servo_plant import ServoIds, ServoPlant
 
 JOINT_QPOS = ("q0", "q1", "q2", "q3", "L5", "q5")
 
 
-class MujocoPlant:
-    """iRAM!S in MuJoCo, read and commanded through slider positions.
+class MujocoPlant(ServoPlant):
+    """iRAM!S in MuJoCo, read and commanded through slider positions (`ServoPlant`).
 
     Args:
         robot: Kinematic model the MJCF is generated from (default: thesis iRAM!S).
@@ -56,6 +57,8 @@ class MujocoPlant:
         needle_arc: (R [m], alpha [rad]) of a curved needle's arc, drawn after the shaft
             (visual only; the controller's model holds its kinematics), or None.
     """
+
+    _ids: _Ids
 
     def __init__(
         self,
@@ -80,11 +83,7 @@ class MujocoPlant:
         # in compiled code (`rcmplan.sim.mujoco.compiled`)
         self.exact_commands = False
         self.compiled_physics = mode == "dynamic"
-        self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
-        physics_dt = scalar("physics_dt", physics_dt, 0.0, dt, low_open=True)
-        self.substeps = round(dt / physics_dt)
-        if abs(self.substeps * physics_dt - dt) > 1e-9 * dt:
-            raise InvalidInputError("physics_dt", physics_dt, f"a whole fraction of dt = {dt:g} s")
+        physics_dt = self._timing(dt, physics_dt)
         self.gap_limit = scalar("gap_limit", gap_limit, 0.0, 1e-2, low_open=True)
         self.eye = (
             phantom_of(eye, points) if isinstance(eye, Eye) else eye or default_eye(self.robot)
@@ -101,6 +100,7 @@ class MujocoPlant:
         self._ids = _Ids(self.mj, self.model)
         self._steps, self._speed = self.piezo.steps(), np.asarray(self.piezo.speed)
         self._ramp = float(self.piezo.ramp_time)
+        self._clip = (np.full(6, -np.inf), np.full(6, np.inf))  # no clip: the servo state's
         # capability: a dynamic-mode command is rounded to the slider resolution
         self.actuator_resolution = self._steps.copy() if mode == "dynamic" else None
         self._lower, self._upper = self.robot.lower, self.robot.upper
@@ -121,37 +121,9 @@ class MujocoPlant:
         self._cmd = s
         self.time = 0.0
 
-    def read_actuators(self) -> FloatArray:
-        """The simulated slider joint positions (6,) in [m] and [rad]."""
-        return np.array(self.data.qpos[self._ids.slider_qpos], dtype=float)
-
-    def command_actuators(self, s: FloatArray) -> None:
-        """Command sliders; SliderLimitError beyond travel, InvalidInputError if not finite."""
-        try:
-            cmd = np.array(s, dtype=np.float64)
-            ok = cmd.shape == (6,) and bool(((cmd >= self._lower) & (cmd <= self._upper)).all())
-        except (TypeError, ValueError):
-            ok = False
-        if not ok:  # NaN fails the comparison too; the full check names what is wrong
-            cmd = self.robot.check_actuators(vector("s", s, 6)).copy()
-        self._cmd = cmd
-
-    def advance(self) -> None:
-        """Move on by one control period dt; raises SimulationError if unstable."""
-        if self.mode == "kinematic":
-            assemble_at(self.mj, self.model, self.data, self.index, self._cmd)
-            self.data.time += self.dt
-        else:
-            ref = self.data.act[self._ids.act]
-            target = quantise(self._cmd, self._steps)
-            v_prev = self.data.ctrl[self._ids.servo]  # the last period's reference velocity
-            v = profile_velocity(target, ref, v_prev, self.dt, self._speed, self._ramp)
-            self.data.ctrl[self._ids.servo] = v
-            self.data.ctrl[self._ids.feedforward] = v
-            self.mj.mj_step(self.model, self.data, nstep=self.substeps)
-        self.mj.mj_kinematics(self.model, self.data)
-        self.time += self.dt
-        self.check()
+    def _place(self, s: FloatArray) -> None:
+        """Kinematic mode: the sliders at s, the loops closed by Newton steps."""
+        assemble_at(self.mj, self.model, self.data, self.index, s)
 
     # --- simulated measurements ------------------------------------------------------------
     def joints(self) -> FloatArray:
@@ -190,32 +162,14 @@ class MujocoPlant:
         """Largest PCJM loop-closure gap in [m]."""
         return loop_gap(self.data, self.index)
 
-    def warnings(self) -> dict[str, int]:
-        """MuJoCo warning counters that are non-zero, by warning name."""
-        counts = np.asarray(self.data.warning.number)
-        if not counts.any():
-            return {}
-        names = {int(w): w.name for w in self.mj.mjtWarning.__members__.values()}
-        return {names[int(i)]: int(counts[i]) for i in np.flatnonzero(counts)}
-
     def settle(self, duration: float = 0.2) -> None:
         """Hold the current command for `duration` [s]."""
         for _ in range(round(duration / self.dt)):
             self.advance()
 
-    @property
-    def command(self) -> FloatArray:
-        """The last slider command (6,), a copy."""
-        return self._cmd.copy()
-
-    def check(self) -> None:
-        """Raise SimulationError if the simulation is unstable now: NaN or inf in the state,
-        a MuJoCo warning, or a loop-closure gap above `gap_limit`."""
+    def _check_more(self) -> None:
+        """SimulationError if a loop-closure gap is above `gap_limit`."""
         d = self.data
-        if not math.isfinite(float(d.qpos.dot(d.qpos) + d.qvel.dot(d.qvel))):
-            raise SimulationError(f"simulation diverged (NaN or inf) at t = {self.time:.6g} s")
-        if self._warning_count.any():
-            raise SimulationError(f"MuJoCo warnings at t = {self.time:.6g} s: {self.warnings()}")
         r = d.site_xpos[self.index.slot_array]
         r -= d.site_xpos[self.index.pin_array]
         if float(r.ravel().dot(r.ravel())) <= self.gap_limit**2:  # bounds every pin's gap
@@ -226,6 +180,10 @@ class MujocoPlant:
                 f"PCJM loop-closure gap {gap:.3g} m exceeds the limit {self.gap_limit:.3g} m "
                 f"at t = {self.time:.6g} s (sliders {self.read_actuators()})"
             )
+
+    def loop_sites(self) -> tuple[NDArray[np.intp], NDArray[np.intp], float]:
+        """(slot sites, pin sites, gap limit [m]) of the PCJM loops (`ServoPlant`)."""
+        return self.index.slot_array, self.index.pin_array, self.gap_limit
 
 
 def cancel_gravity(mj: Any, model: Any) -> None:
@@ -247,20 +205,17 @@ def cancel_gravity(mj: Any, model: Any) -> None:
     model.body_gravcomp[:] = 0.0
 
 
-class _Ids:
-    """Ids and addresses the plant reads every period."""
+class _Ids(ServoIds):
+    """Ids and addresses the plant reads every period: the sliders' (`ServoIds`), the needle's
+    sites and the joints q."""
 
     def __init__(self, mj: Any, model: Any) -> None:
-        from rcmplan.robot.iramis import SLIDER_NAMES
+        super().__init__(mj, model, list(SLIDER_NAMES), list(SLIDER_NAMES))
 
         def obj(kind: Any, name: str) -> int:
             return int(mj.mj_name2id(model, kind, name))
 
-        site, act, jnt = mj.mjtObj.mjOBJ_SITE, mj.mjtObj.mjOBJ_ACTUATOR, mj.mjtObj.mjOBJ_JOINT
+        site, jnt = mj.mjtObj.mjOBJ_SITE, mj.mjtObj.mjOBJ_JOINT
         self.tip = obj(site, "needle_tip")
         self.base = obj(site, "needle_base")
-        self.servo = np.array([obj(act, f"servo_{n}") for n in SLIDER_NAMES])
-        self.feedforward = np.array([obj(act, f"feedforward_{n}") for n in SLIDER_NAMES])
-        self.act = np.array([int(model.actuator_actadr[i]) for i in self.servo])
         self.joint_qpos = np.array([int(model.jnt_qposadr[obj(jnt, n)]) for n in JOINT_QPOS])
-        self.slider_qpos = np.array([int(model.jnt_qposadr[obj(jnt, n)]) for n in SLIDER_NAMES])

@@ -1,0 +1,150 @@
+"""What the two MuJoCo plants share: actuators read and commanded as a vector (iRAM!S's sliders
+in `MujocoPlant`, an arm's joints in `ArmPlant`), each a position servo whose reference moves
+towards the quantised command with a velocity feed-forward.
+
+`ServoPlant.advance` is the plants' control period, operation for operation what the compiled
+period does (`sim.mujoco.compiled.advance`): in dynamic mode the command quantised to the
+actuator resolution and clipped (`_clip`: an arm's travel, unbounded on iRAM!S), the
+reference velocity within speed and acceleration (`actuators.profile_velocity`; ramp 0: speed
+alone), the servo and feed-forward controls, the physics steps; in kinematic mode the
+subclass places the actuators (`_place`). Then MuJoCo's kinematics and the checks (NaN,
+MuJoCo warnings, and the subclass's own: iRAM!S's loop-closure gap, `_check_more`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.exceptions import InvalidInputError, SimulationError
+from rcmplan.sim.mujoco.actuators import profile_velocity, quantise
+
+
+class ServoIds:
+    """Addresses the plant reads every period, in actuator order: the actuators' positions in
+    qpos (`reads`), the servos' states in act, the servo and feed-forward controls."""
+
+    def __init__(self, mj: Any, model: Any, reads: list[str], servos: list[str]) -> None:
+        def obj(kind: Any, name: str) -> int:
+            return int(mj.mj_name2id(model, kind, name))
+
+        act, jnt = mj.mjtObj.mjOBJ_ACTUATOR, mj.mjtObj.mjOBJ_JOINT
+        self.reads = np.array([int(model.jnt_qposadr[obj(jnt, n)]) for n in reads])
+        self.servo = np.array([obj(act, f"servo_{n}") for n in servos])
+        self.feedforward = np.array([obj(act, f"feedforward_{n}") for n in servos])
+        self.act = np.array([int(model.actuator_actadr[i]) for i in self.servo])
+
+
+class ServoPlant:
+    """The Plant interface of a MuJoCo model with servo actuators; see the module docstring.
+
+    A subclass sets, before its first `reset`: mj, model, data, robot, mode ("dynamic" or
+    "kinematic"), dt [s], substeps (physics steps per period), `_ids` (`ServoIds`), `_steps`
+    and `_speed` (the actuators' resolution and speed), `_ramp` [s] (0: no acceleration
+    bound), `_clip` (lower, upper) of the quantised command, `_lower`, `_upper` (the travel a
+    command is checked against), `_warning_count` (`data.warning.number`), and defines
+    `_place` (kinematic mode) and `reset`.
+    """
+
+    mj: Any
+    model: Any
+    data: Any
+    robot: Any
+    mode: str
+    dt: float
+    substeps: int
+    time: float
+    _ids: ServoIds
+    _steps: FloatArray
+    _speed: FloatArray
+    _ramp: float
+    _clip: tuple[FloatArray, FloatArray]
+    _lower: FloatArray
+    _upper: FloatArray
+    _cmd: FloatArray
+    _warning_count: NDArray[np.int32]  # a view of mjData's warning counts (MuJoCo updates it)
+
+    def _timing(self, dt: float, physics_dt: float) -> float:
+        """Check and set the control period dt [s] and the physics steps per period; returns
+        physics_dt [s], which must divide dt."""
+        self.dt = scalar("dt", dt, 0.0, 1.0, low_open=True)
+        physics_dt = scalar("physics_dt", physics_dt, 0.0, dt, low_open=True)
+        self.substeps = round(dt / physics_dt)
+        if abs(self.substeps * physics_dt - dt) > 1e-9 * dt:
+            raise InvalidInputError("physics_dt", physics_dt, f"a whole fraction of dt = {dt:g} s")
+        return physics_dt
+
+    def read_actuators(self) -> FloatArray:
+        """The simulated actuator positions (n,) in [m] or [rad]."""
+        return np.array(self.data.qpos[self._ids.reads], dtype=float)
+
+    def command_actuators(self, s: FloatArray) -> None:
+        """Command the actuators; SliderLimitError beyond travel, InvalidInputError if not
+        finite or not (n,)."""
+        n = self._steps.shape[0]
+        try:
+            cmd = np.array(s, dtype=np.float64)
+            ok = cmd.shape == (n,) and bool(((cmd >= self._lower) & (cmd <= self._upper)).all())
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:  # NaN fails the comparison too; the full check names what is wrong
+            cmd = self.robot.check_actuators(vector("s", s, n)).copy()
+        self._cmd = cmd
+
+    def advance(self) -> None:
+        """Move on by one control period dt; raises SimulationError if unstable."""
+        d = self.data
+        if self.mode == "kinematic":
+            self._place(self._cmd)
+            d.time += self.dt
+        else:
+            ids = self._ids
+            target = np.clip(quantise(self._cmd, self._steps), *self._clip)
+            v_prev = d.ctrl[ids.servo]  # the last period's reference velocity
+            v = profile_velocity(target, d.act[ids.act], v_prev, self.dt, self._speed, self._ramp)
+            d.ctrl[ids.servo] = v
+            d.ctrl[ids.feedforward] = v
+            self.mj.mj_step(self.model, d, nstep=self.substeps)
+        self.mj.mj_kinematics(self.model, d)
+        self.time += self.dt
+        self.check()
+
+    def _place(self, s: FloatArray) -> None:
+        """Kinematic mode: put the actuators exactly at s."""
+        raise NotImplementedError
+
+    @property
+    def command(self) -> FloatArray:
+        """The last actuator command (n,), a copy."""
+        return self._cmd.copy()
+
+    def warnings(self) -> dict[str, int]:
+        """MuJoCo warning counters that are non-zero, by warning name."""
+        counts = np.asarray(self.data.warning.number)
+        if not counts.any():
+            return {}
+        names = {int(w): w.name for w in self.mj.mjtWarning.__members__.values()}
+        return {names[int(i)]: int(counts[i]) for i in np.flatnonzero(counts)}
+
+    def check(self) -> None:
+        """Raise SimulationError if the simulation is unstable now: NaN or inf in the state,
+        a MuJoCo warning, or the subclass's own check (`_check_more`)."""
+        d = self.data
+        if not math.isfinite(float(d.qpos.dot(d.qpos) + d.qvel.dot(d.qvel))):
+            raise SimulationError(f"simulation diverged (NaN or inf) at t = {self.time:.6g} s")
+        if self._warning_count.any():
+            raise SimulationError(f"MuJoCo warnings at t = {self.time:.6g} s: {self.warnings()}")
+        self._check_more()
+
+    def _check_more(self) -> None:
+        """A subclass's own stability check (nothing here)."""
+
+    def loop_sites(self) -> tuple[NDArray[np.intp], NDArray[np.intp], float]:
+        """(slot sites, pin sites, gap limit [m]) of the closed kinematic loops the compiled
+        period checks (`sim.mujoco.compiled.advance`); none here."""
+        none = np.empty(0, dtype=np.intp)
+        return none, none, 0.0
