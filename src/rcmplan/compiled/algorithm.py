@@ -14,8 +14,8 @@ in one of two arguments, the other None:
 numba leaves out the branches of an argument that is None, so each robot family's loop
 compiles with its own kinematics only (as the QP's and the curved needle's arrays, qpa and C,
 leave out their methods' code); the loop itself, its pausing, its records and its plants are
-written once. Both iterations are inlined into it (`iterate_robot`): a compiled function of
-its own would have its whole callee tree optimised once more in every caller.
+written once. Both iterations are inlined into it: a compiled function of its own would have
+its whole callee tree optimised once more in every caller.
 
 plant: the dynamic MuJoCo plant's arrays (`PlantArrays.loop_args`, iRAM!S's `MujocoPlant` or an
 arm's `ArmPlant`): each period the loop reads the simulated actuators and runs the plant's
@@ -42,36 +42,6 @@ from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.sim.mujoco.compiled import OK, advance
 
 
-@njit(cache=True, inline="always")
-def iterate_robot(
-    P: FloatArray | None, arm: tuple | None, method: int, K: FloatArray, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
-    C: FloatArray | None, target: FloatArray, pivot: bool, tip_t: FloatArray,
-    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
-    fail: FloatArray, info: np.ndarray, work: tuple, framed: bool,
-) -> tuple[int, int]:  # fmt: skip
-    """One iteration of the robot's family from actuators s; returns (status, where the
-    command starts in fail). STEPPED: the command is checked (finite, within travel). work:
-    iRAM!S's scratch and work block (w, d, f, J); framed: the arm's work array holds the frames
-    of s (the last target's final iteration)."""
-    if P is not None:  # iRAM!S (numba prunes a branch whose argument is None)
-        w, d, f, J = work
-        status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, C, target,
-                         pivot, tip_t, trocar, s, state, it, row, fail, info, w, d, f,
-                         J)  # fmt: skip
-        return status, 12  # fail = (q, q_new, s_new, ...)
-    if arm is None:
-        raise ValueError("algorithm.iterate_robot: give iRAM!S's P or an arm's arrays")
-    A, ix, gain, lower, upper, W, dq = arm
-    n = ix[0]
-    status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa, C,
-                         target, pivot, tip_t, trocar, s, state, it, row, fail, W, dq,
-                         framed)  # fmt: skip
-    if status == STEPPED:
-        status = command_status(fail, n, lower, upper, info)
-    return status, n  # fail = (q, q_new, ...): the joints are the actuators
-
-
 @njit(cache=True)
 def work_arrays() -> tuple:
     """iRAM!S's iteration's scratch and work block (w, d, f, J), made once per loop call."""
@@ -87,11 +57,25 @@ def iteration(
     fail: FloatArray, info: np.ndarray,
 ) -> tuple[int, int]:  # fmt: skip
     """One iteration of the robot's family from actuators s, for a plant stepping in Python
-    (`phase.run_phase_per_period`): `iterate_robot` with the arguments of `run_targets`;
-    returns (status, where the command starts in fail)."""
-    return iterate_robot(P, arm, method, K, damping, tol, max_it, drift, bounds, qpa, C, target,
-                         pivot, tip_t, trocar, s, state, it, row, fail, info, work_arrays(),
-                         False)  # fmt: skip
+    (`phase.run_phase_per_period`), as `run_targets` runs it; returns (status, where the
+    command starts in fail). STEPPED: the command is checked (finite, within travel)."""
+    w, d, f, J = work_arrays()
+    status, at = DONE, 0
+    # the family's iteration, as in `run_targets` (see there why it is written in place)
+    if P is not None:  # iRAM!S: fail = (q, q_new, s_new, ...)
+        status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, C, target,
+                         pivot, tip_t, trocar, s, state, it, row, fail, info, w, d, f,
+                         J)  # fmt: skip
+        at = 12
+    if arm is not None:  # an arm: fail = (q, q_new, ...), its joints are its actuators
+        A, ix, gain, lower, upper, W, dq = arm
+        status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa,
+                             C, target, pivot, tip_t, trocar, s, state, it, row, fail, W,
+                             dq)  # fmt: skip
+        at = ix[0]
+        if status == STEPPED:
+            status = command_status(fail, at, lower, upper, info)
+    return status, at
 
 
 @njit(cache=True)
@@ -116,10 +100,11 @@ def run_targets(
     iteration info[2].
     """
     na = s.shape[0]
-    work, w, v = work_arrays(), np.empty(6), np.empty((4, na))
+    w6, d7, f7, J = work_arrays()  # iRAM!S's iteration's scratch and work block
+    w, v = np.empty(6), np.empty((4, na))
     trocar, tip_t = np.full(3, np.nan), np.empty(3)
     reads, fns, address, data, substeps, dt, steps, speed, ramp, gap2 = plant[:10]
-    lower, upper, act, ctrl, qpos, qvel, xpos, warn, act_idx, servo = plant[10:20]
+    clip_lo, clip_hi, act, ctrl, qpos, qvel, xpos, warn, act_idx, servo = plant[10:20]
     feedforward, slot, pin = plant[20:]
     n = 0
     for k in range(k0, targets.shape[0]):
@@ -134,10 +119,24 @@ def run_targets(
             if address != 0:  # the dynamic plant's measured actuators
                 for i in range(na):
                     s[i] = qpos[reads[i]]
-            status, at = iterate_robot(P, arm, method, K, damping, tol, max_it, drift, bounds,
-                                       qpa, C, targets[k], kind == 1, tip_t, trocar, s, state,
-                                       it, rec[n], fail, info, work,
-                                       it == 0 and k > k0)  # fmt: skip
+            # The family's iteration, written here and not in a helper: numba prunes a
+            # branch on a None argument of this function before it inlines the callees, so
+            # each family's loop never holds (nor types) the other's code.
+            status, at = DONE, 0
+            if P is not None:  # iRAM!S: fail = (q, q_new, s_new, ...)
+                status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, C,
+                                 targets[k], kind == 1, tip_t, trocar, s, state, it, rec[n],
+                                 fail, info, w6, d7, f7, J)  # fmt: skip
+                at = 12
+            if arm is not None:  # an arm: fail = (q, q_new, ...), its joints its actuators
+                A, ix, gain, lower, upper, W, dq = arm
+                framed = it == 0 and k > k0  # W holds the frames of s: the last target's
+                status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift,
+                                     bounds, qpa, C, targets[k], kind == 1, tip_t, trocar, s,
+                                     state, it, rec[n], fail, W, dq, framed)  # fmt: skip
+                at = ix[0]
+                if status == STEPPED:
+                    status = command_status(fail, at, lower, upper, info)
             n = keep_record(status, k, it, n, irec, info)
             if status == DONE:
                 break
@@ -149,7 +148,7 @@ def run_targets(
                 put(s, 0, fail, at, na)
             else:
                 code = advance(cmd, v, fns, address, data, substeps, dt, steps, speed, ramp,
-                               gap2, lower, upper, act, ctrl, qpos, qvel, xpos, warn, act_idx,
+                               gap2, clip_lo, clip_hi, act, ctrl, qpos, qvel, xpos, warn, act_idx,
                                servo, feedforward, slot, pin)  # fmt: skip
             state[1] += state[2]
             if code != OK:
