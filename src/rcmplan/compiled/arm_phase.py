@@ -131,8 +131,9 @@ def _plant_arrays(plant: object) -> PlantArrays | None:
 
 
 class _Setup:
-    """What both arm loops pass to the kernels for one phase: the arm's arrays (or a curved
-    needle's, `curved`), the solver's code and constants, the loop settings, and work arrays."""
+    """What the compiled loop and the per-period driver pass to the kernels for one phase: the
+    arm's arrays (or a curved needle's, `curved`), the solver's code and constants, the loop
+    settings, and work arrays."""
 
     def __init__(self, controller: Controller, solver: Solver,
                  curved: CurvedArrays | None = None) -> None:  # fmt: skip
@@ -152,20 +153,20 @@ class _Setup:
         else:
             self.W = np.empty(curved.work_shape())
             self.fail, self.d = np.empty(2 * self.n + 7), np.empty(curved.m + 1)
-        self.args = (A, ix, self.code, K, gain, damping, tol, cfg.max_iterations,
-                     bool(cfg.drift_correction), loop_bounds(controller), self.qpa,
-                     None if curved is None else self.W)  # fmt: skip
         robot = controller.robot
         lower = np.ascontiguousarray(robot.lower, dtype=np.float64)
         upper = np.ascontiguousarray(robot.upper, dtype=np.float64)
-        self.model = (A, ix, gain, lower, upper, self.W, self.d)  # `algorithm.run_targets`'
+        arm = (A, ix, gain, lower, upper, self.W, self.d)  # `algorithm.run_targets`' arm
+        self.args = (None, arm, self.code, K, damping, tol, cfg.max_iterations,
+                     bool(cfg.drift_correction), loop_bounds(controller), self.qpa,
+                     None if curved is None else self.W)  # fmt: skip
         self.roll = curved is not None
         self.width = record_width(self.n, roll=self.roll)
 
     def head(self, targets: FloatArray) -> tuple[Any, ...]:
         """The compiled loop's arguments before the resume point (`phase.loop_runner`): no
-        iRAM!S parameters, the arm's arrays (`algorithm.run_targets`)."""
-        return (None, self.model, *self.args[2:4], *self.args[5:], targets)
+        iRAM!S parameters, the arm's arrays (`algorithm.run_targets`), then the solver's."""
+        return (*self.args, targets)
 
     def stop(self, controller: Controller, solver: Solver, status: int, target: FloatArray,
              where: str) -> None:  # fmt: skip
@@ -220,5 +221,5 @@ def run_arm_phase(
     def stop(status: int, k: int) -> None:
         setup.stop(controller, solver, status, targets[k], _where(controller, pid, k))
 
-    run_phase_per_period(controller, targets, pid, sid, setup.head(targets)[:-1], setup.fail,
+    run_phase_per_period(controller, targets, pid, sid, setup.args, setup.fail,
                          stop, before=lambda: servo_command(solver, setup.qpa))  # fmt: skip

@@ -48,10 +48,6 @@ from rcmplan.robot.model import RobotModel
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
 
-# Auto mode's payoff counts targets of the reference pinv loop (about 0.4 ms each); a QP target
-# on the reference path takes about 38 iterations of 200 us (the default injection), so it
-# counts as TARGET_WEIGHT of them.
-TARGET_WEIGHT = 20
 ITERATIONS_PER_TARGET = 40  # record buffer per target (the loop pauses when it is full)
 
 

@@ -152,19 +152,6 @@ def loop_bounds(controller: Controller) -> FloatArray:
     return np.array([singular_threshold(controller), 0.0 if bound is None else bound])
 
 
-def append_records(
-    log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], n: int, pid: int, sid: int
-) -> None:
-    """Append the first n compiled records to a LogBuilder, as one block (rows of
-    `record_width(6, roll=True)` columns carry the roll error)."""
-    vectors = {k: rec[:n, a:b] for k, (a, b) in ((k, REC_COLUMNS[k]) for k in VECTORS)}
-    roll = rec[:n, REC_WIDTH] if rec.shape[1] > REC_WIDTH else np.nan
-    log.extend(
-        n, time=rec[:n, 0], lam=rec[:n, 13], roll_error=roll, step=irec[:n, 0],
-        iteration=irec[:n, 1], solver=sid, phase=pid, **vectors,
-    )  # fmt: skip
-
-
 def append_rows(
     log: LogBuilder, rec: FloatArray, irec: NDArray[np.int64], count: int, n: int, pid: int,
     sid: int,

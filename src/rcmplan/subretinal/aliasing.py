@@ -17,12 +17,6 @@ BandHz = tuple[float, float]
 EPS_HZ = 1e-12
 
 
-def one_zone(band_hz: BandHz, fs_hz: float) -> bool:
-    """True when the band [Hz] lies inside one Nyquist zone of the sampling rate fs_hz [Hz]."""
-    half = 0.5 * fs_hz
-    return band_hz[1] <= (math.floor(band_hz[0] / half) + 1) * half + EPS_HZ
-
-
 def fold_hz(f_hz: float, fs_hz: float) -> float:
     """The folded rate [Hz] in [0, fs_hz / 2] that a rate f_hz [Hz] shows sampled at fs_hz."""
     r = math.fmod(f_hz, fs_hz)
