@@ -256,3 +256,18 @@ def test_the_loop_refuses_a_method_without_the_arrays_it_reads(robot: Iramis, co
             np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip
     with pytest.raises(ValueError, match="need qpa, a curved needle's methods C"):
         fast_cache.algorithm().run_targets(*args)
+
+
+def test_the_loop_refuses_a_call_without_a_robot(robot: Iramis) -> None:
+    """Neither iRAM!S's parameters nor an arm's arrays: refused, not run as a loop with no
+    iteration (which would end DONE without a step)."""
+    from rcmplan.compiled import records
+
+    x0 = extended_task(robot, robot.home, 1.0)
+    args = (None, None, records.PINV, np.ones(6), 0.0, np.full(6, 1e-8), 10, True,
+            np.array([0.1, 0.0]), None, None, x0[None, :], 0, 0, robot.home_actuators.copy(),
+            np.empty(6), np.array([1.0, 0.0, 1e-3]), np.empty((20, 35)),
+            np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
+            np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip
+    with pytest.raises(ValueError, match="give iRAM!S's P or an arm's arrays"):
+        fast_cache.algorithm().run_targets(*args)

@@ -11,11 +11,12 @@ in one of two arguments, the other None:
   (`arm.arm_arrays`, or a curved needle's), its joints' travel and its work arrays
   (`arm_phase._Setup`), iterated by `arm_loop.arm_iterate` (its joints are its actuators).
 
-numba leaves out the branches of an argument that is None, so each robot family's loop
+Each family's iteration stands in the loop under its own `is not None` guard: numba prunes a
+branch on an argument that is None before it inlines the callees, so each family's loop
 compiles with its own kinematics only (as the QP's and the curved needle's arrays, qpa and C,
-leave out their methods' code); the loop itself, its pausing, its records and its plants are
-written once. Both iterations are inlined into it: a compiled function of its own would have
-its whole callee tree optimised once more in every caller.
+leave out their methods' code), while the loop itself, its pausing, its records and its plants
+are written once. Neither iteration is a compiled function of its own: numba would optimise its
+whole callee tree once more in every caller (docs/benchmarks.md, the cold compile rows).
 
 plant: the dynamic MuJoCo plant's arrays (`PlantArrays.loop_args`, iRAM!S's `MujocoPlant` or an
 arm's `ArmPlant`): each period the loop reads the simulated actuators and runs the plant's
@@ -59,6 +60,8 @@ def iteration(
     """One iteration of the robot's family from actuators s, for a plant stepping in Python
     (`phase.run_phase_per_period`), as `run_targets` runs it; returns (status, where the
     command starts in fail). STEPPED: the command is checked (finite, within travel)."""
+    if P is None and arm is None:
+        raise ValueError("algorithm.iteration: give iRAM!S's P or an arm's arrays")
     w, d, f, J = work_arrays()
     status, at = DONE, 0
     # the family's iteration, as in `run_targets` (see there why it is written in place)
@@ -99,6 +102,8 @@ def run_targets(
     error. PAUSED means the record block rec is full: call again from target info[1],
     iteration info[2].
     """
+    if P is None and arm is None:
+        raise ValueError("algorithm.run_targets: give iRAM!S's P or an arm's arrays")
     na = s.shape[0]
     w6, d7, f7, J = work_arrays()  # iRAM!S's iteration's scratch and work block
     w, v = np.empty(6), np.empty((4, na))
