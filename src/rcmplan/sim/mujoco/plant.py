@@ -100,7 +100,8 @@ class MujocoPlant(ServoPlant):
         self._ids = _Ids(self.mj, self.model)
         self._steps, self._speed = self.piezo.steps(), np.asarray(self.piezo.speed)
         self._ramp = float(self.piezo.ramp_time)
-        self._clip = (np.full(6, -np.inf), np.full(6, np.inf))  # no clip: the servo state's
+        # no clip of the command: the model clamps the servo's state to the travel
+        self._clip = (np.full(6, -np.inf), np.full(6, np.inf))
         # capability: a dynamic-mode command is rounded to the slider resolution
         self.actuator_resolution = self._steps.copy() if mode == "dynamic" else None
         self._lower, self._upper = self.robot.lower, self.robot.upper
