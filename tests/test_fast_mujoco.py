@@ -170,10 +170,14 @@ def test_library_path_finds_the_loaded_mujoco_library() -> None:
     assert addresses is not None and all(a > 0 for a in addresses)
 
 
-def test_one_compiled_loop_serves_both_plants() -> None:
-    """The kinematic plant's loop argument (`exact_plant`) has the numba types of a dynamic
-    MuJoCo plant's (`PlantArrays.loop_args`), so the one loop compiles once for both plants;
-    a changed array type in either would compile a second loop (and fail here)."""
+def test_one_compiled_loop_serves_every_plant() -> None:
+    """The kinematic plant's loop argument (`exact_plant`) and a plant stepping in Python's
+    (`stepping_plant`) have the numba types of a dynamic MuJoCo plant's
+    (`PlantArrays.loop_args`), so the one loop compiles once for every plant; a changed array
+    type in either would compile a second loop (and fail here)."""
     arrays = compiled.plant_arrays(MujocoPlant(Iramis(), mode="dynamic"))
     assert arrays is not None
-    assert numba.typeof(compiled.exact_plant()) == numba.typeof(arrays.loop_args())
+    dynamic = numba.typeof(arrays.loop_args())
+    assert numba.typeof(compiled.exact_plant()) == dynamic
+    assert numba.typeof(compiled.stepping_plant()) == dynamic
+    assert compiled.stepping_plant()[2] == -1 and compiled.exact_plant()[2] == 0

@@ -22,8 +22,10 @@ plant: the dynamic MuJoCo plant's arrays (`PlantArrays.loop_args`, iRAM!S's `Muj
 arm's `ArmPlant`): each period the loop reads the simulated actuators and runs the plant's
 period towards the command (`sim.mujoco.compiled.advance`); or, with model address 0
 (`exact_plant`), the kinematic plant: the actuators reach each command exactly and time moves
-on by dt. A plant that steps in Python (a user's own, MuJoCo's kinematic mode) runs the same
-iteration once per period (`iteration`, driven by `phase.run_phase_per_period`).
+on by dt; or, with model address -1 (`stepping_plant`), a plant that steps in Python (a user's
+own, MuJoCo's kinematic mode): the loop returns after each iteration (PAUSED, the command in
+cmd), and its Python driver commands and advances the plant and calls it again
+(`phase.run_phase_per_period`). Every plant runs the one loop.
 
 The loop stops with a status code (`records`) instead of raising; the Python drivers
 (`phase.run_in_blocks`) turn it into the reference exception. Records go to preallocated rows
@@ -50,38 +52,6 @@ def work_arrays() -> tuple:
 
 
 @njit(cache=True)
-def iteration(
-    P: FloatArray | None, arm: tuple | None, method: int, K: FloatArray, damping: float,
-    tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
-    C: FloatArray | None, target: FloatArray, pivot: bool, tip_t: FloatArray,
-    trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
-    fail: FloatArray, info: np.ndarray,
-) -> tuple[int, int]:  # fmt: skip
-    """One iteration of the robot's family from actuators s, for a plant stepping in Python
-    (`phase.run_phase_per_period`), as `run_targets` runs it; returns (status, where the
-    command starts in fail). STEPPED: the command is checked (finite, within travel)."""
-    if P is None and arm is None:
-        raise ValueError("algorithm.iteration: give iRAM!S's P or an arm's arrays")
-    w, d, f, J = work_arrays()
-    status, at = DONE, 0
-    # the family's iteration, as in `run_targets` (see there why it is written in place)
-    if P is not None:  # iRAM!S: fail = (q, q_new, s_new, ...)
-        status = iterate(P, method, K, damping, tol, max_it, drift, bounds, qpa, C, target,
-                         pivot, tip_t, trocar, s, state, it, row, fail, info, w, d, f,
-                         J)  # fmt: skip
-        at = 12
-    if arm is not None:  # an arm: fail = (q, q_new, ...), its joints are its actuators
-        A, ix, gain, lower, upper, W, dq = arm
-        status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift, bounds, qpa,
-                             C, target, pivot, tip_t, trocar, s, state, it, row, fail, W,
-                             dq)  # fmt: skip
-        at = ix[0]
-        if status == STEPPED:
-            status = command_status(fail, at, lower, upper, info)
-    return status, at
-
-
-@njit(cache=True)
 def run_targets(
     P: FloatArray | None, arm: tuple | None, method: int, K: FloatArray, damping: float,
     tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
@@ -99,8 +69,8 @@ def run_targets(
     from its servo, the servo's command array). On return info holds (records written, target
     index reached, actuator index for SLIDER_LIMIT, DAQP's exit flag for iRAM!S's QP_FAILED or
     the plant's check for PLANT_STOPPED) and fail the last iteration's joints, command and
-    error. PAUSED means the record block rec is full: call again from target info[1],
-    iteration info[2].
+    error. PAUSED means the record block rec is full, or (a plant stepping in Python) an
+    iteration ran: call again from target info[1], iteration info[2].
     """
     if P is None and arm is None:
         raise ValueError("algorithm.run_targets: give iRAM!S's P or an arm's arrays")
@@ -111,17 +81,17 @@ def run_targets(
     reads, fns, address, data, substeps, dt, steps, speed, ramp, gap2 = plant[:10]
     clip_lo, clip_hi, act, ctrl, qpos, qvel, xpos, warn, act_idx, servo = plant[10:20]
     feedforward, slot, pin = plant[20:]
-    n = 0
+    n, once = 0, False  # once: an iteration ran, a plant stepping in Python reads again
     for k in range(k0, targets.shape[0]):
         info[0], info[1] = n, k
         kind = target_frame(targets[k], holds_rcm(method), w, tip_t, trocar)
         if kind < 0:
             return NO_TIP
         for it in range(it0 if k == k0 else 0, max_it + 1):
-            if n == rec.shape[0]:
+            if n == rec.shape[0] or once:
                 info[0], info[1], info[2] = n, k, it
                 return PAUSED
-            if address != 0:  # the dynamic plant's measured actuators
+            if address > 0:  # the dynamic plant's measured actuators
                 for i in range(na):
                     s[i] = qpos[reads[i]]
             # The family's iteration, written here and not in a helper: numba prunes a
@@ -143,6 +113,7 @@ def run_targets(
                 if status == STEPPED:
                     status = command_status(fail, at, lower, upper, info)
             n = keep_record(status, k, it, n, irec, info)
+            once = address < 0
             if status == DONE:
                 break
             if status != STEPPED:
@@ -151,7 +122,7 @@ def run_targets(
             code = OK
             if address == 0:  # the kinematic plant reaches the command
                 put(s, 0, fail, at, na)
-            else:
+            elif address > 0:  # the dynamic MuJoCo plant's period
                 code = advance(cmd, v, fns, address, data, substeps, dt, steps, speed, ramp,
                                gap2, clip_lo, clip_hi, act, ctrl, qpos, qvel, xpos, warn, act_idx,
                                servo, feedforward, slot, pin)  # fmt: skip

@@ -24,11 +24,8 @@ from rcmplan.compiled.records import (
     BLOCK,
     DONE,
     FAIL_WIDTH,
-    NO_TIP,
     PAUSED,
     PLANT_STOPPED,
-    QP_FAILED,
-    STEPPED,
     append_rows,
     iramis_method,
     is_curved,
@@ -42,7 +39,7 @@ from rcmplan.compiled.records import (
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import SimulationError
 from rcmplan.robot.curved_block import BLOCK_ROWS
-from rcmplan.sim.mujoco.compiled import PlantArrays, exact_plant
+from rcmplan.sim.mujoco.compiled import PlantArrays, exact_plant, stepping_plant
 
 if TYPE_CHECKING:
     from rcmplan.control.runner import ControlState as Controller
@@ -209,46 +206,41 @@ def run_phase_per_period(
     fail: FloatArray, stop: Callable[[int, int], None], roll: bool = False,
     before: Callable[[], None] | None = None,
 ) -> None:  # fmt: skip
-    """Algorithm 1 on each target with a plant stepping in Python: each period reads the
-    plant, runs one compiled iteration (`algorithm.iteration` on head = (P, arm, method, K,
-    damping, tol, max_it, drift, bounds, qpa, C), its last iteration in fail) and commands
-    and advances the plant. Records go to the log in blocks (with the roll error column:
-    `roll`), also when a stop or the plant raises; controller.lam follows each iteration; a
-    stop status calls stop(status, target index), which raises the reference exception.
-    before: called before each iteration (a QP planned from its servo's command)."""
-    alg, loop = fast_cache.algorithm(), fast_cache.loop_kernels()
-    plant, max_it, code = controller.plant, controller.settings.max_iterations, head[2]
+    """Algorithm 1 on each target with a plant stepping in Python, in the one compiled loop
+    (`algorithm.run_targets` on head = (P, arm, method, K, damping, tol, max_it, drift,
+    bounds, qpa, C), its last iteration in fail, given `stepping_plant`): each period reads
+    the plant, runs one iteration and, when it stepped, commands and advances the plant.
+    Records go to the log in blocks (with the roll error column: `roll`), also when a stop or
+    the plant raises; controller.lam follows each iteration; a stop status calls stop(status,
+    target index), which raises the reference exception. before: called before each
+    iteration (a QP planned from its servo's command)."""
+    plant = controller.plant
+    targets = np.ascontiguousarray(targets, dtype=np.float64)
+    run = loop_runner((*head, targets), fail, stepping_plant())
     n = np.asarray(plant.read_actuators()).shape[0]
     state = np.array([controller.lam, plant.time, plant.dt])
     rec, irec = np.empty((BLOCK, record_width(n, roll))), np.empty((BLOCK, 2), dtype=np.int64)
-    info = np.zeros(3, dtype=np.int64)
-    w, tip_t, trocar = np.empty(6), np.empty(3), np.full(3, np.nan)
-    targets = np.ascontiguousarray(targets, dtype=np.float64)
-    count = 0
+    info, cmd = np.zeros(3, dtype=np.int64), np.empty(n)
+    count, k0, it0 = 0, 0, 0
     try:
-        for k in range(targets.shape[0]):
-            kind = loop.target_frame(targets[k], loop.holds_rcm(code), w, tip_t, trocar)
-            if kind < 0:
-                stop(NO_TIP, k)
-            for it in range(max_it + 1):
-                state[1] = plant.time
-                s = np.ascontiguousarray(plant.read_actuators(), dtype=np.float64)
-                if before is not None:
-                    before()
-                status, at = alg.iteration(*head, targets[k], kind == 1, tip_t, trocar, s, state,
-                                           it, rec[count], fail, info)  # fmt: skip
-                if it > 0 and status != QP_FAILED:
-                    irec[count] = k, it
-                    count += 1
-                    if count == BLOCK:
-                        append_rows(controller.log, rec, irec, count, n, pid, sid)
-                        count = 0
-                controller.lam = float(state[0])
-                if status == DONE:
-                    break
-                if status != STEPPED:
-                    stop(status, k)
-                plant.command_actuators(fail[at : at + n].copy())
+        while True:
+            state[1] = plant.time
+            s = np.array(plant.read_actuators(), dtype=np.float64)
+            if before is not None:
+                before()
+            status = run(k0, it0, s, cmd, state, rec[count:], irec[count:], info)
+            count += int(info[0])
+            if count == BLOCK:
+                append_rows(controller.log, rec, irec, count, n, pid, sid)
+                count = 0
+            controller.lam = float(state[0])
+            if status != PAUSED:
+                if status != DONE:
+                    stop(status, int(info[1]))
+                return
+            if int(info[1]) == k0:  # the iteration stepped (else target k0 was done)
+                plant.command_actuators(cmd.copy())
                 plant.advance()
+            k0, it0 = int(info[1]), int(info[2])
     finally:  # also on a stop: the partial log keeps every record so far
         append_rows(controller.log, rec, irec, count, n, pid, sid)
