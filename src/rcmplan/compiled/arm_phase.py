@@ -43,6 +43,7 @@ from rcmplan.compiled.records import (
     raise_arm_stop,
     record_width,
     solver_arrays,
+    where,
 )
 from rcmplan.control.curved import LimitedPoseSolver
 from rcmplan.control.limited_tip import LimitedTipSolver
@@ -179,10 +180,6 @@ class _Setup:
         raise_arm_stop(controller, status, target, self.fail, self.n, tol, where)
 
 
-def _where(controller: Controller, pid: int, k: int) -> str:
-    return f"phase {controller.log.phase_names[pid]!r} step {k}"
-
-
 def run_arm_phase_compiled(
     controller: Controller, solver: Solver, targets: FloatArray, pid: int, sid: int,
     curved: CurvedArrays | None = None,
@@ -207,7 +204,7 @@ def run_arm_phase_compiled(
                                  dynamic=arrays is not None)  # fmt: skip
     if status != DONE:
         k = int(info[1])
-        setup.stop(controller, solver, status, targets[k], _where(controller, pid, k))
+        setup.stop(controller, solver, status, targets[k], where(controller, pid, k))
 
 
 def run_arm_phase(
@@ -219,7 +216,7 @@ def run_arm_phase(
     targets = np.ascontiguousarray(targets, dtype=np.float64)
 
     def stop(status: int, k: int) -> None:
-        setup.stop(controller, solver, status, targets[k], _where(controller, pid, k))
+        setup.stop(controller, solver, status, targets[k], where(controller, pid, k))
 
     run_phase_per_period(controller, targets, pid, sid, setup.args, setup.fail,
                          stop, before=lambda: servo_command(solver, setup.qpa))  # fmt: skip

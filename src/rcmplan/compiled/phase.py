@@ -35,6 +35,7 @@ from rcmplan.compiled.records import (
     record_width,
     robot_params,
     solver_arrays,
+    where,
 )
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import SimulationError
@@ -66,9 +67,8 @@ def run_phase_compiled(
     status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid, method, P,
                                              plant=plant, per_target=per_target)  # fmt: skip
     if status != DONE:
-        where = f"phase {controller.log.phase_names[pid]!r} step {int(info[1])}"
-        m = solver.tolerance().shape[0]
-        raise_stop(controller, status, int(info[1]), targets, fail, tol[:m], where)
+        k, m = int(info[1]), solver.tolerance().shape[0]
+        raise_stop(controller, status, k, targets, fail, tol[:m], where(controller, pid, k))
 
 
 def run_phase_loop(
@@ -195,8 +195,7 @@ def run_phase_on_plant(
     fail, m = np.empty(FAIL_WIDTH), solver.tolerance().shape[0]
 
     def stop(status: int, k: int) -> None:
-        where = f"phase {controller.log.phase_names[pid]!r} step {k}"
-        raise_stop(controller, status, k, targets, fail, tol[:m], where)
+        raise_stop(controller, status, k, targets, fail, tol[:m], where(controller, pid, k))
 
     run_phase_per_period(controller, targets, pid, sid, head, fail, stop)
 

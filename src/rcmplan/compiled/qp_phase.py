@@ -36,6 +36,7 @@ from rcmplan.compiled.records import (
     raise_stop,
     robot_params,
     solver_arrays,
+    where,
 )
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.qp import QpSolver
@@ -123,8 +124,7 @@ def raise_qp_stop(
     k = int(info[1])
     if status == QP_FAILED:
         raise_qp_failure(controller, solver, targets[k], fail[0:6], int(info[2]))
-    where = f"phase {controller.log.phase_names[pid]!r} step {k}"
-    raise_stop(controller, status, k, targets, fail, tol, where)
+    raise_stop(controller, status, k, targets, fail, tol, where(controller, pid, k))
 
 
 def raise_qp_failure(

@@ -166,6 +166,11 @@ def append_rows(
                **cols)  # fmt: skip
 
 
+def where(controller: Controller, pid: int, k: int) -> str:
+    """Where a stop happened, as the reference loop names it: phase pid's name, target k."""
+    return f"phase {controller.log.phase_names[pid]!r} step {k}"
+
+
 def raise_stop(
     controller: Controller, status: int, k: int, targets: FloatArray, fail: FloatArray,
     tol: FloatArray, where: str,

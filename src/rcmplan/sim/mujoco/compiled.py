@@ -141,7 +141,8 @@ def stepping_plant() -> tuple[Any, ...]:
     """The compiled loop's plant argument for a plant that steps in Python: `exact_plant` with
     model address -1, so that the loop returns after each iteration (`algorithm.run_targets`)
     for its driver to command and advance the plant."""
-    return (*exact_plant()[:2], -1, *exact_plant()[3:])
+    exact = exact_plant()
+    return (*exact[:2], -1, *exact[3:])
 
 
 def plant_arrays(plant: Any) -> PlantArrays | None:
