@@ -112,8 +112,9 @@ def loop_runner(
 ) -> BlockRunner:
     """The compiled loop `algorithm.run_targets` on head = (P, arm, method, K, damping, tol,
     max_it, drift, bounds, qpa, C, targets), its last iteration in fail; plant: the dynamic
-    MuJoCo plant's arrays (`PlantArrays.loop_args`), by default the kinematic plant's
-    (`exact_plant`). Every robot and both plants run the one compiled loop."""
+    MuJoCo plant's arrays (`PlantArrays.loop_args`) or a plant stepping in Python's
+    (`stepping_plant`), by default the kinematic plant's (`exact_plant`). Every robot and
+    every plant run the one compiled loop."""
     loop = fast_cache.algorithm()
     args = exact_plant() if plant is None else plant
 
