@@ -106,3 +106,37 @@ def test_both_loops_bound_the_step_alike(mode: str) -> None:
     reference = deviations("ur5", "pinv", LoopSettings().rcm_tolerance)
     assert status == reference[0] == "ok"
     assert dev == pytest.approx(reference[1], abs=1e-12)
+
+
+@pytest.mark.parametrize("name", ["iramis", "ur5"])
+def test_the_compiled_bound_shortens_a_step_as_the_python_rule_does(name: str) -> None:
+    """`rcm_bound.bound_step`, the compiled loops' bound for both robot families, gives the
+    step `bounded_step` gives on the robot model, on a step whose second-order part carries
+    the needle past the bound."""
+    from rcmplan.compiled.arm import FastArm
+    from rcmplan.compiled.rcm_bound import bound_step
+    from rcmplan.compiled.records import robot_params
+    from rcmplan.control.rcm_step import bounded_step
+    from rcmplan.robot.iramis import Iramis
+    from rcmplan.robot.shipped import shipped_arm
+
+    robot = Iramis() if name == "iramis" else shipped_arm(name)
+    q = robot.home.copy()
+    trocar = robot.needle_point(q, 0.5)
+    active = list(robot.active)
+    dq = np.full(len(active), 0.02)  # rad (and m for iRAM!S's prismatic joints: scaled below)
+    if name == "iramis":
+        dq *= 1e-2
+    bound = 0.1 * UM
+    ref_dq, ref_dlam = bounded_step(robot, q, dq, 0.01, trocar, bound)
+    d, x, w = np.array([*dq, 0.01]), np.empty(q.shape[0]), np.empty(6)
+    if name == "iramis":
+        f = bound_step(robot_params(robot), None, q, d, 0, 5, trocar, math.nan, bound, x, w)
+    else:
+        fast = FastArm(robot)
+        arm = (fast.A, fast.ix, fast.W)
+        f = bound_step(None, arm, q, d, 2 + fast.n, fast.m, trocar, math.nan, bound, x, w)
+    assert f < 1.0  # the bound acted
+    assert d[:-1] == pytest.approx(ref_dq, rel=1e-12, abs=0.0)
+    assert d[-1] == pytest.approx(ref_dlam, rel=1e-12, abs=0.0)
+    assert d[-1] == pytest.approx(0.01 * f, rel=1e-12)

@@ -36,9 +36,6 @@ from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.arm_qp_kernels import (
-    solve_arm_step,
-    solve_curved_arm_step,
-    solve_servo_step,
     step_arrays,
 )
 from rcmplan.compiled.chain_kernels import (
@@ -54,7 +51,13 @@ from rcmplan.compiled.chain_kernels import (
     pinv_solve,
 )
 from rcmplan.compiled.loop import converged, holds_rcm, tip_only
-from rcmplan.compiled.qp_params import RCM_TOL
+from rcmplan.compiled.rcm_bound import (
+    arm_qp_solve,
+    bound_step,
+    closest_on_needle,
+    hold_box,
+    stepped,
+)
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
@@ -75,9 +78,8 @@ from rcmplan.compiled.records import (
 from rcmplan.control import curved_step
 from rcmplan.control.dls_task import dls_error
 from rcmplan.control.limited_tip import step_fraction, tip_fraction
-from rcmplan.control.rcm_step import BOX_TRIES, STEP_TRIES, box_margin, step_scale
 from rcmplan.robot import curved_arm
-from rcmplan.robot.needle import axis_angles, axis_into, closest_point
+from rcmplan.robot.needle import axis_angles, axis_into
 
 
 @njit(cache=True)
@@ -192,7 +194,7 @@ def arm_iterate(
             state[0] = lam
     if qpa is not None and qp:  # error and step from one solve (`ArmQpStep`)
         ne = 6 if C is None else 7
-        if qp_solve(A, ix, W, C, qpa, K, s, state[0], target, e, d) != 1:
+        if arm_qp_solve(A, ix, W, C, qpa, K, s, state[0], target, e, d) != 1:
             return QP_FAILED
     elif C is not None and method >= CURVED:
         ne = curved_step.arm_task_error(A, ix, C, cm, state[0], target, e)
@@ -210,7 +212,8 @@ def arm_iterate(
     if is_singular(A, ix, W, bounds[0]):
         return SINGULAR
     if qpa is not None and qp:  # the solve's step, the RCM box held on the true kinematics
-        hold_box(A, ix, W, C, qpa, K, s, state[0], target, trocar, now, first, m, fail, e, d)
+        hold_box(None, (A, ix, W), K, s, state[0], target, trocar, now, first, m, fail, qpa, qpa[1],
+                 C, e, d, fail[n : 2 * n], d)  # fmt: skip
     elif C is not None and method >= CURVED:
         curved_step.arm_step(A, ix, C, cm, K, gain, damping, s, state[0], e, d)
     else:
@@ -220,102 +223,25 @@ def arm_iterate(
     elif C is not None and method == CURVED_POSE_LIMITED:  # K: the gains (7,), the bounds
         limit_step(K[7:], ix, W, s, d, first, m)
     if holds_rcm(method):
-        bound_step(A, ix, W, s, d, fail, first, m, trocar, now, bounds[1])
-    stepped(n, ix, first, m, s, d, fail)
+        bound_step(None, (A, ix, W), s, d, first, m, trocar, now, bounds[1], fail[n : 2 * n], d)
+    stepped(n, ix, first, m, s, d, fail[n : 2 * n])
     state[0] += d[m]
     return STEPPED
 
 
 @njit(cache=True)
-def qp_solve(A: FloatArray, ix: IntArray, W: FloatArray, C: FloatArray | None, qpa: tuple,
-             K: FloatArray, s: FloatArray, lam: float, target: FloatArray, e: FloatArray,
-             d: FloatArray) -> int:  # fmt: skip
-    """The QP's error e and step d at joints s (`ArmQpStep`): a curved needle's (C its work
-    array; no servo), with a servo, or plain; returns DAQP's exit flag, kept in qpa's flag."""
-    travel, Q, contacts, bufs, act, flag, servo = qpa
-    if C is not None:
-        flag[0] = solve_curved_arm_step(A, ix, C, travel, Q, contacts, K, s, lam, target, act,
-                                        e, d, bufs)  # fmt: skip
-    elif servo.shape[0] > 0:
-        flag[0] = solve_servo_step(A, ix, W, travel, Q, contacts, K, s, lam, target, act, e, d,
-                                   bufs, servo)  # fmt: skip
-    else:
-        flag[0] = solve_arm_step(A, ix, W, travel, Q, contacts, K, s, lam, target, act, e, d,
-                                 bufs)  # fmt: skip
-    return flag[0]
-
-
-@njit(cache=True)
-def hold_box(A: FloatArray, ix: IntArray, W: FloatArray, C: FloatArray | None, qpa: tuple,
-             K: FloatArray, s: FloatArray, lam: float, target: FloatArray, trocar: FloatArray,
-             now: float, first: int, m: int, fail: FloatArray, e: FloatArray,
-             d: FloatArray) -> bool:  # fmt: skip
-    """The QP's RCM box on the true kinematics (`QpSolver.step`, `rcm_step.box_margin`): while
-    the step d leaves the needle beyond the box's tolerance (and farther than `now` [m]),
-    solve again (`qp_solve`) with the box narrowed, at most BOX_TRIES times; a solve that
-    fails is repeated with the last box that solved; a step still beyond is shortened
-    (`bound_step`). e is then the last solve's; W holds the frames of s or of a step
-    tried. Returns True if d is not the first solve's."""
-    Q, n = qpa[1], ix[0]
-    tol = Q[RCM_TOL]
-    if tol == 0.0:
-        return False
-    margin = 0.0
-    for _ in range(BOX_TRIES):
-        stepped(n, ix, first, m, s, d, fail)
-        frames(A, ix, fail[n : 2 * n], W)
-        narrower = box_margin(closest_on_needle(A, n, W, trocar)[1], now, tol, margin)
-        if narrower == 0.0:
-            return margin > 0.0
-        if narrower == margin:
-            break
-        Q[RCM_TOL] = tol - narrower
-        flag = qp_solve(A, ix, W, C, qpa, K, s, lam, target, e, d)
-        if flag != 1:
-            Q[RCM_TOL] = tol - margin
-            qp_solve(A, ix, W, C, qpa, K, s, lam, target, e, d)
-        Q[RCM_TOL] = tol
-        if flag != 1:
-            break
-        margin = narrower
-    return bound_step(A, ix, W, s, d, fail, first, m, trocar, now, tol) != 1.0 or margin > 0.0
-
-
-@njit(cache=True)
 def held_packed(F: FloatArray, Z: IntArray, q: FloatArray, lam: float, target: FloatArray,
                 fail: FloatArray, flag: IntArray) -> bool:  # fmt: skip
-    """`hold_box` on the solve `arm_qp_kernels.solve_packed` left in the buffers packed in F and
-    Z at (q, lambda, target) (`ArmQpStep.step`); fail (2n,) and flag (1,) are scratch. Returns
-    True if the step in the buffers changed (they then hold another solve, or a shorter
-    step)."""
+    """`rcm_bound.hold_box` on the solve `arm_qp_kernels.solve_packed` left in the buffers
+    packed in F and Z at (q, lambda, target) (`ArmQpStep.step`); fail (2n,) and flag (1,) are
+    scratch. Returns True if the step in the buffers changed (they then hold another solve,
+    or a shorter step)."""
     A, ix, W, travel, Q, contacts, K, s, e, d, servo, qp = step_arrays(F, Z)
     n, m = ix[0], ix[1]
-    trocar = target[3:6]
-    frames(A, ix, q, W)
-    now = closest_on_needle(A, n, W, trocar)[1]
     qpa = (travel, Q, contacts, qp, s, flag, servo)
-    return hold_box(A, ix, W, None, qpa, K, q, lam, target, trocar, now, 2 + n, m, fail, e, d)
-
-
-@njit(cache=True)
-def bound_step(A: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: FloatArray,
-               fail: FloatArray, first: int, m: int, trocar: FloatArray, now: float,
-               bound: float) -> float:  # fmt: skip
-    """Shorten the step d of the moving joints ix[first:first + m] (and d lambda) until the
-    needle passes within `bound` [m] of the trocar after it, or no farther than `now` [m]
-    (`rcm_step.step_scale`); bound <= 0: no bound. The stepped joints go through fail[n:2n],
-    their frames through W. Returns the factor applied (1.0: d untouched)."""
-    n, total = ix[0], 1.0
-    for _ in range(STEP_TRIES if bound > 0.0 else 0):
-        stepped(n, ix, first, m, s, d, fail)
-        frames(A, ix, fail[n : 2 * n], W)  # W then holds the stepped frames
-        f = step_scale(closest_on_needle(A, n, W, trocar)[1], now, bound)
-        if f == 1.0:
-            break
-        total *= f
-        for j in range(m + 1):
-            d[j] *= f
-    return total
+    f, narrower = hold_box(None, (A, ix, W), K, q, lam, target, target[3:6], math.nan, 2 + n, m,
+                           fail, qpa, Q, None, e, d, fail[n : 2 * n], d)  # fmt: skip
+    return f != 1.0 or narrower
 
 
 @njit(cache=True)
@@ -340,26 +266,6 @@ def limit_step(K: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: Flo
     for j in range(m):
         k = ix[first + j]
         d[j] = (s[k] + f * d[j]) - s[k]
-
-
-@njit(cache=True)
-def stepped(n: int, ix: IntArray, first: int, m: int, s: FloatArray, d: FloatArray,
-            fail: FloatArray) -> None:  # fmt: skip
-    """The stepped joints s + d (d over the moving joints ix[first:first + m]) into
-    fail[n:2n]."""
-    for i in range(n):
-        fail[n + i] = s[i]
-    for j in range(m):
-        fail[n + ix[first + j]] += d[j]
-
-
-@njit(cache=True)
-def closest_on_needle(
-    A: FloatArray, n: int, W: FloatArray, trocar: FloatArray
-) -> tuple[float, float]:
-    """(lambda in [0, 1], distance [m]) of the needle point closest to the trocar, at the
-    frames in W (`needle.closest_point`)."""
-    return closest_point(needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0), trocar)
 
 
 @njit(cache=True)

@@ -36,8 +36,8 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import jacobian_a, njit, solve_augmented, task
 from rcmplan.compiled.packed import mat, vec
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
-from rcmplan.compiled.qp_params import RCM_TOL
 from rcmplan.compiled.qp_rows import views
+from rcmplan.compiled.rcm_bound import bound_step, hold_box
 from rcmplan.compiled.records import (
     BAD_JOINTS,
     CURVED,
@@ -59,7 +59,6 @@ from rcmplan.compiled.records import (
 from rcmplan.control import curved_step
 from rcmplan.control.dls_task import dls_error, is_pivot
 from rcmplan.control.limited_tip import step_fraction, tip_fraction
-from rcmplan.control.rcm_step import BOX_TRIES, STEP_TRIES, box_margin, step_scale
 from rcmplan.linalg import damped
 from rcmplan.robot import curved_iramis
 from rcmplan.robot.curved_block import B, S
@@ -104,40 +103,6 @@ def closest_lambda(
     point(P, q, tr, 0.0, w[:3])
     point(P, q, tr, 1.0, w[3:])
     return closest_point(w[:3], w[3:], trocar)[0]
-
-
-@njit(cache=True)
-def rcm_distance(P: FloatArray, q: FloatArray, trocar: FloatArray, w: FloatArray) -> float:
-    """Distance in [m] from the trocar to the needle (shaft) at joints q; w (6,) is scratch."""
-    tr = trig(q)
-    point(P, q, tr, 0.0, w[:3])
-    point(P, q, tr, 1.0, w[3:])
-    return closest_point(w[:3], w[3:], trocar)[1]
-
-
-@njit(cache=True)
-def bound_rcm_step(
-    P: FloatArray, q: FloatArray, d: FloatArray, moved: int, trocar: FloatArray, bound: float,
-    w: FloatArray, x: FloatArray,
-) -> float:  # fmt: skip
-    """Shorten the step d (joints 0..moved-1, then lambda in d[moved]) until the needle passes
-    within `bound` [m] of the trocar after it, or no farther than before it (`step_scale`);
-    returns the factor applied (1.0: d untouched). bound <= 0: no bound. x (6,) and w (6,)
-    are scratch."""
-    total = 1.0
-    if not bound > 0.0:
-        return total
-    now = rcm_distance(P, q, trocar, w)
-    for _ in range(STEP_TRIES):
-        for i in range(6):
-            x[i] = q[i] + d[i] if i < moved else q[i]
-        f = step_scale(rcm_distance(P, x, trocar, w), now, bound)
-        if f == 1.0:
-            break
-        total *= f
-        for i in range(moved + 1):
-            d[i] *= f
-    return total
 
 
 @njit(cache=True)
@@ -286,8 +251,7 @@ def iterate(
         return SINGULAR
     if qpa is not None and qp:  # a curved needle's QP moves the roll q5 too
         moved = 6 if method >= CURVED else 5
-        return qp_step(P, K, q, tr, target, trocar, moved, bounds, state, fail, qpa, C, info, w,
-                       d)  # fmt: skip
+        return qp_step(P, K, q, target, trocar, moved, bounds, state, fail, qpa, C, info, w, d)
     moved = 5
     if C is not None and method >= CURVED:
         curved_step.iramis_step(P, cm, K, damping, q, tr, state[0], e, C, d, f)
@@ -299,7 +263,7 @@ def iterate(
     elif C is not None and method == CURVED_POSE_LIMITED:  # K: the gains (7,), the bounds
         limit_step(P, K[7:], q, d, moved, sn, qn, w, J)
     elif holds_rcm(method):
-        bound_rcm_step(P, q, d, moved, trocar, bounds[1], w, qn)
+        bound_step(P, None, q, d, 0, moved, trocar, math.nan, bounds[1], qn, w)
     for i in range(6):
         qn[i] = q[i] + d[i] if i < moved else q[i]
     state[0] += d[moved]
@@ -342,79 +306,18 @@ def limit_step(
 
 
 @njit(cache=True)
-def hold_box(
-    P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
-    trocar: FloatArray, moved: int, fail: FloatArray, qpa: tuple, C: FloatArray | None,
-    w: FloatArray,
-) -> bool:  # fmt: skip
-    """The QP's RCM box on the true kinematics (`QpSolver.step`, `rcm_step.box_margin`): while
-    the solution in qpa leaves the needle beyond the box's tolerance (and farther than at q,
-    measured only then), solve again (`iteration_error`) with the box narrowed, at most
-    BOX_TRIES times; a solve that fails is repeated with the last box that solved. The error
-    in fail is then the last solve's. Returns True if the solution in qpa holds the box (or
-    there is none: an equality), False if its step is still to be shortened. w (6,) is
-    scratch; the stepped joints go through fail[6:12]."""
-    Q, x = qpa[0], qpa[2][X]
-    tol = Q[RCM_TOL]
-    if tol == 0.0:
-        return True
-    qn, s_qp = fail[6:12], fail[19 + moved : 25 + moved]
-    now, margin = math.nan, 0.0
-    for _ in range(BOX_TRIES):
-        step_joints(P, q, s_qp, x, qn, w)
-        after = rcm_distance(P, qn, trocar, w)
-        if after <= tol:
-            return True
-        now = rcm_distance(P, q, trocar, w) if math.isnan(now) else now
-        narrower = box_margin(after, now, tol, margin)
-        if narrower == 0.0:
-            return True
-        if narrower == margin:
-            return False
-        Q[RCM_TOL] = tol - narrower
-        flag = iteration_error(P, K, q, tr, lam, target, fail, qpa, C)
-        if flag != 1:
-            Q[RCM_TOL] = tol - margin
-            iteration_error(P, K, q, tr, lam, target, fail, qpa, C)
-        Q[RCM_TOL] = tol
-        if flag != 1:
-            return False
-        margin = narrower
-    return False
-
-
-@njit(cache=True)
-def held_step(
-    P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
-    trocar: FloatArray, moved: int, fail: FloatArray, qpa: tuple, C: FloatArray | None,
-    w: FloatArray, d: FloatArray,
-) -> float:  # fmt: skip
-    """`QpSolver.step` after the loop's solve at joints q (`qp_kernels.iteration_error`), moving
-    joints 0..moved-1: the RCM box held on the true kinematics (`hold_box`), the step d
-    (moved + 1,) in joints and lambda, shortened from the QP's RCM tolerance if the box is
-    still not held; the stepped joints in fail[6:12]. Returns the factor applied (1.0: the
-    solution's step as it is)."""
-    held = hold_box(P, K, q, tr, lam, target, trocar, moved, fail, qpa, C, w)
-    qn, s_qp = fail[6:12], fail[19 + moved : 25 + moved]
-    d[moved] = step_joints(P, q, s_qp, qpa[2][X], qn, w)
-    for i in range(moved):
-        d[i] = qn[i] - q[i]
-    return 1.0 if held else bound_rcm_step(P, q, d, moved, trocar, qpa[0][RCM_TOL], w, qn)
-
-
-@njit(cache=True)
 def period_step(P: FloatArray, K: FloatArray, q: FloatArray, lam: float, target: FloatArray,
                 fail: FloatArray, qpa: tuple, w: FloatArray, d: FloatArray) -> int:  # fmt: skip
     """`QpSolver.step` at joints q, lambda towards the X_ext target (6,) as the loop takes it
-    (`iteration_error`, `held_step`), for a caller that steps one period at a time
+    (`iteration_error`, `rcm_bound.hold_box`), for a caller that steps one period at a time
     (`qp_period.period_step`); returns DAQP's exit flag, the step in d (6,) when 1. fail
     (`records.FAIL_WIDTH`,) and w (6,) are scratch."""
     for i in range(6):
         fail[i] = q[i]
-    tr = trig(q)
-    flag = iteration_error(P, K, fail[0:6], tr, lam, target, fail, qpa, None)
+    flag = iteration_error(P, K, fail[0:6], trig(q), lam, target, fail, qpa, None)
     if flag == 1:
-        held_step(P, K, fail[0:6], tr, lam, target, target[3:6], 5, fail, qpa, None, w, d)
+        hold_box(P, None, K, fail[0:6], lam, target, target[3:6], math.nan, 0, 5, fail, qpa,
+                 qpa[0], None, d, d, fail[6:12], w)  # fmt: skip
     return flag
 
 
@@ -438,16 +341,19 @@ def period_packed(F: FloatArray, Z: np.ndarray, q: FloatArray, lam: float,
 
 @njit(cache=True)
 def qp_step(
-    P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, target: FloatArray,
-    trocar: FloatArray, moved: int, bounds: FloatArray, state: FloatArray, fail: FloatArray,
-    qpa: tuple, C: FloatArray | None, info: np.ndarray, w: FloatArray, d: FloatArray,
+    P: FloatArray, K: FloatArray, q: FloatArray, target: FloatArray, trocar: FloatArray,
+    moved: int, bounds: FloatArray, state: FloatArray, fail: FloatArray, qpa: tuple,
+    C: FloatArray | None, info: np.ndarray, w: FloatArray, d: FloatArray,
 ) -> int:  # fmt: skip
-    """The loop's QP step from joints q after its solve (`held_step`), then shortened from the
-    loop's RCM tolerance; lambda moved in state[0], the joints and sliders commanded in
-    fail[6:12] and fail[12:18]; returns STEPPED or a stop code (`command_status`)."""
+    """The loop's QP step from joints q after its solve, moving joints 0..moved-1: the RCM box
+    held on the true kinematics (`rcm_bound.hold_box`), then shortened from the loop's RCM
+    tolerance (`rcm_bound.bound_step`); lambda moved in state[0], the joints and sliders
+    commanded in fail[6:12] and fail[12:18]; returns STEPPED or a stop code
+    (`command_status`)."""
     qn, sn, s_qp = fail[6:12], fail[12:18], fail[19 + moved : 25 + moved]
-    f = held_step(P, K, q, tr, state[0], target, trocar, moved, fail, qpa, C, w, d)
-    if f * bound_rcm_step(P, q, d, moved, trocar, bounds[1], w, qn) != 1.0:
+    f, _ = hold_box(P, None, K, q, state[0], target, trocar, math.nan, 0, moved, fail, qpa,
+                    qpa[0], C, d, d, qn, w)  # fmt: skip
+    if f * bound_step(P, None, q, d, 0, moved, trocar, math.nan, bounds[1], qn, w) != 1.0:
         for i in range(moved):
             qn[i] = q[i] + d[i]
     else:

@@ -20,8 +20,9 @@ last step that solved is kept, and if even the narrowest box leaves it beyond (a
 second-order part alone exceeds the tolerance) it is shortened against the QP's tolerance by
 the rule above (`bounded_step`), before the loop's own bound applies to it.
 
-`step_scale` and `box_margin` are the two rules; the compiled loops call them in compiled code
-and the Python loop and `QpSolver.step` call them as they are (numba kernels).
+`step_scale` and `box_margin` are the two rules; the compiled loops apply them once for every
+robot (`rcm_bound.bound_step`, `rcm_bound.hold_box`), the Python loop and `QpSolver.step` here
+on any robot model (`bounded_step`).
 """
 
 from __future__ import annotations
@@ -63,7 +64,7 @@ def box_margin(after: float, before: float, tol: float, margin: float) -> float:
 
 def needle_distance(robot: Any, q: FloatArray, trocar: FloatArray) -> float:
     """Distance in [m] from the trocar to the needle (its shaft's closest point) at joints q,
-    on any robot model (the compiled loops: `loop.rcm_distance`, `arm_loop.closest_on_needle`)."""
+    on any robot model (the compiled loops: `rcm_bound.distance_at`)."""
     base, end = robot.needle_point(q, 0.0), robot.needle_point(q, 1.0)
     return float(closest_point(base, end, trocar)[1])
 
@@ -73,8 +74,7 @@ def bounded_step(
 ) -> tuple[FloatArray, float]:
     """The step (dq over the robot's active joints, dlam) shortened until the needle passes
     within `bound` [m] of the trocar after it, or no farther than before it (`step_scale`);
-    bound <= 0: the step as it is (the compiled loops: `loop.bound_rcm_step`, `arm_loop.
-    bound_step`)."""
+    bound <= 0: the step as it is (the compiled loops: `rcm_bound.bound_step`)."""
     if not bound > 0.0:
         return dq, dlam
     active, now = list(robot.active), math.nan  # the distance before, measured if needed
