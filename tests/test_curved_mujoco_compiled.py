@@ -49,7 +49,7 @@ def compiled_default() -> Iterator[None]:
     use_path(None)
 
 
-def run(path: str, solver: Solver | Callable[[MujocoPlant, CurvedTipRobot], QpSolver],
+def run(path: str, solver: Solver | Callable[[MujocoPlant | ArmPlant, CurvedTipRobot], QpSolver],
         base_name: str = "iramis") -> tuple[RunLog, MujocoPlant | ArmPlant, Controller]:  # fmt: skip
     """From a pose with the tip at p3 and the shaft through the trocar: the tip 0.2 mm aside
     with the roll turned 2 mrad (X_c targets), then the whole needle 0.1 mm along x (poses).
@@ -75,7 +75,7 @@ def run(path: str, solver: Solver | Callable[[MujocoPlant, CurvedTipRobot], QpSo
     return ctl.run(phases), plant, ctl
 
 
-def curved_qp(plant: MujocoPlant, robot: CurvedTipRobot) -> QpSolver:
+def curved_qp(plant: MujocoPlant | ArmPlant, robot: CurvedTipRobot) -> QpSolver:
     """The QP on iRAM!S holding the curved needle, the plant its servo (its steps planned from
     the plant's last command: `qp_mujoco_phase`, method CURVED_QP); its free steps the limited
     whole-pose steps (`LimitedPoseSolver`)."""
@@ -100,13 +100,15 @@ def test_a_curved_needle_on_mujoco_runs_compiled_with_the_python_loops_log(solve
 
 
 @pytest.mark.parametrize(
-    "solver", [CurvedPinvSolver(tol=TOLERANCE), CurvedDlsSolver(tol=TOLERANCE)], ids=["pinv", "dls"]
+    "solver", [CurvedPinvSolver(tol=TOLERANCE), CurvedDlsSolver(tol=TOLERANCE), curved_qp],
+    ids=["pinv", "dls", "qp"],
 )  # fmt: skip
 def test_a_curved_needle_on_an_arms_mujoco_plant_runs_compiled_with_the_python_loops_log(
-    solver: Solver,
+    solver: Solver | Callable[[MujocoPlant | ArmPlant, CurvedTipRobot], QpSolver],
 ) -> None:
     """The same on the UR5's dynamic plant: the arm's iteration in the one compiled loop, which
-    runs the `ArmPlant`'s period (`arm_phase.run_arm_phase_compiled`)."""
+    runs the `ArmPlant`'s period (`arm_phase.run_arm_phase_compiled`); the QP planned from the
+    plant's last command (`arm_qp_kernels.solve_curved_arm_step` with the servo's array)."""
     ref, ref_plant, ref_ctl = run("off", solver, "ur5")
     got, plant, ctl = run("on", solver, "ur5")
     assert ref_ctl.phase_paths == {"aside": "reference", "along": "reference"}

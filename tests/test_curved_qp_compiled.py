@@ -120,7 +120,7 @@ def test_the_arm_s_compiled_curved_step_equals_the_python_qp(rng) -> None:  # ty
             lam = float(rng.uniform(0.2, 0.9))
             target = stack_value(CURVED_TASKS, robot, q + rng.normal(0.0, 1e-3, arrays.n), lam)
             flag = k.solve_curved_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s,
-                                           e, d, qp)  # fmt: skip
+                                           e, d, qp, np.zeros(0))  # fmt: skip
             e_ref = solver.task_error(robot, q, lam, target)
             inp = StepInput(q, lam, target, e_ref, solver.K, solver.damping, solver.dt,
                             solver.weights)  # fmt: skip

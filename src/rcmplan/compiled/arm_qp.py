@@ -53,11 +53,12 @@ def arm_qp_applies(solver: object) -> bool:
 def curved_qp_applies(solver: object) -> bool:
     """True for a curved needle's QpSolver the arm loop runs (method CURVED_QP): the DAQP back
     end, a `CurvedTipRobot` itself holding the needle on an arm (`curved.curved_arrays`: an
-    arm's arrays), the settings the kernels hold (`qp_params`), no servo."""
+    arm's arrays), the settings the kernels hold (`qp_params`); with a servo the QP is planned
+    from its command (`arm_qp_kernels.solve_curved_arm_step`)."""
     if type(solver) is not QpSolver or solver.backend != "daqp" or not solver.curved:
         return False
     arrays = curved_arrays(solver.robot)
-    if arrays is None or arrays.P is not None or solver.servo is not None:
+    if arrays is None or arrays.P is not None:
         return False
     return fast_cache.daqp_callable() and qp_params(solver.robot, solver) is not None
 
@@ -78,7 +79,7 @@ def qp_arrays(solver: object, n: int) -> tuple | None:
     travel = np.ascontiguousarray([robot.lower[active], robot.upper[active]])
     Q, contacts = qp_params(robot, solver)  # type: ignore[misc]
     if solver.servo is not None:
-        servo = np.zeros(3 * n + 12)
+        servo = np.zeros(3 * n + (14 if curved else 12))  # the plan, X's error there and at q
         res = getattr(solver.servo, "actuator_resolution", None)
         servo[n : 2 * n] = 0.0 if res is None else res
     bufs = buffers(m + 1, 7) if curved else buffers(m + 1)

@@ -156,16 +156,16 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
 
 
 @njit(cache=True)
-def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
+def build_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
                           Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
                           lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
-                          d: FloatArray, qp: tuple) -> int:  # fmt: skip
-    """`solve_arm_step` for a curved needle on the arm (A, ix: `curved_arm.pack`'s arrays, W
+                          qp: tuple) -> int:  # fmt: skip
+    """`build_arm_step` for a curved needle on the arm (A, ix: `curved_arm.pack`'s arrays, W
     its work array): variables the curved needle's m_c active joints and l dlambda, the cost
     on X_c's rows J_c T (7, m_c + 1) (T: 1 / l for lambda), the tip the arc's end, the arm's
     singular measure over its straight active joints (0 for a joint only the curved needle
-    moves, as `SerialArm.singular_terms`). e (7,) holds the X_c error, d (m_c + 1,) the
-    step."""
+    moves, as `SerialArm.singular_terms`); e (7,) the X_c error at q. Returns the number of
+    rows (`qp_rows.assemble`)."""
     n, m = ix[0], ix[1]
     first, mc = curved_arm.active_span(ix)
     c = curved_arm.block_row(n)
@@ -192,15 +192,44 @@ def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
         for p in range(m):
             if j < mc and ix[first + j] == ix[2 + n + p]:
                 grads[0, j] = grads[1, p]
-    rows = assemble(Q, contacts, K, lam, target, e, s, travel[0], travel[1], A[5 * n + 12, 0],
+    return assemble(Q, contacts, K, lam, target, e, s, travel[0], travel[1], A[5 * n + 12, 0],
                     values, qp)  # fmt: skip
-    flag = solve_assembled(Q, K, rows, e, qp)
+
+
+@njit(cache=True)
+def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
+                          Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
+                          lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
+                          d: FloatArray, qp: tuple, servo: FloatArray) -> int:  # fmt: skip
+    """`solve_arm_step` (or with a servo, a servo array of any length, `solve_servo_step`) for
+    a curved needle on the arm (`build_curved_arm_step`): e (7,) holds the X_c error (J_c x*
+    / K, with a servo plus the command's lead), d (m_c + 1,) the step from q. With a servo,
+    servo = (command (n,), resolution (n,), then scratch (n + 14,))."""
+    n = ix[0]
+    first, mc = curved_arm.active_span(ix)
+    if servo.shape[0] == 0:
+        rows = build_curved_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, qp)
+        flag = solve_assembled(Q, K, rows, e, qp)
+        plan = q
+    else:
+        plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 7], servo[3 * n + 7 :]
+        for i in range(n):  # `QpSolver.planned_joints`
+            res = servo[n + i]
+            plan[i] = servo[i] if res == 0.0 else np.rint(servo[i] / res) * res
+        rows = build_curved_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e,
+                                     qp)  # fmt: skip
+        flag = solve_planned(Q, K, rows, e, e_plan, qp)
+        if flag == 1:  # X_c's error at the measured joints, and the command's lead
+            frames(A, ix, q, W)
+            curved_arm.task(A, n, W, lam, False, now)
+            curved_step.error(now, target, now)
+            lead_error(Q, qp[X], now[:7], e_plan, e)
     if flag != 1:
         return flag
     x = qp[X]
-    for j in range(mc):  # `qp.joints_step`: the joints moved by x
+    for j in range(mc):  # `qp.joints_step`: the joints moved by x, from the plan
         k = ix[first + j]
-        d[j] = (q[k] + x[j] * SCALE) - q[k]
+        d[j] = (plan[k] + x[j] * SCALE) - q[k]
     d[mc] = x[mc] * SCALE / A[5 * n + 12, 0]
     return flag
 

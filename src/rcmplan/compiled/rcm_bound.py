@@ -122,11 +122,12 @@ def arm_qp_solve(A: FloatArray, ix: IntArray, W: FloatArray, C: FloatArray | Non
                  K: FloatArray, s: FloatArray, lam: float, target: FloatArray, e: FloatArray,
                  d: FloatArray) -> int:  # fmt: skip
     """An arm's QP error e and step d at joints s (`ArmQpStep`): a curved needle's (C its work
-    array; no servo), with a servo, or plain; returns DAQP's exit flag, kept in qpa's flag."""
+    array) or a straight one's, planned from its servo's command if it has one; returns DAQP's
+    exit flag, kept in qpa's flag."""
     travel, Q, contacts, bufs, act, flag, servo = qpa
     if C is not None:
         flag[0] = solve_curved_arm_step(A, ix, C, travel, Q, contacts, K, s, lam, target, act,
-                                        e, d, bufs)  # fmt: skip
+                                        e, d, bufs, servo)  # fmt: skip
     elif servo.shape[0] > 0:
         flag[0] = solve_servo_step(A, ix, W, travel, Q, contacts, K, s, lam, target, act, e, d,
                                    bufs, servo)  # fmt: skip
