@@ -106,11 +106,17 @@ def test_one_direction_per_visit_is_required() -> None:
         sc.phases(make_robot("iramis"))
 
 
-def test_a_curved_needle_on_an_arm_in_mujoco_stops_with_a_typed_error() -> None:
-    result = run_scenario(load_scenario("curved").with_plant("mujoco").with_robot("ur5"))
-    assert isinstance(result.error, InvalidInputError)
-    assert result.status == "invalid_input"
-    assert "'kinematic' for a curved needle on an arm" in result.message
+def test_a_curved_needle_on_an_arm_runs_its_qp_on_mujoco_compiled_within_its_bounds() -> None:
+    """The `curved` scenario on the UR5's dynamic MuJoCo plant with the QP: the plant moves the
+    shaft's model, the controller drives the curved model on the same joints, every phase in
+    the compiled loop, and the run holds what it states (`ok` only within its bounds)."""
+    pytest.importorskip("mujoco")
+    sc = load_scenario("curved").with_plant("mujoco").with_robot("ur5").with_method("qp")
+    result = run_scenario(sc)
+    assert result.status == "ok", result.message
+    assert result.extra["execution_path"] == "compiled"
+    assert np.isfinite(result.log.roll_error).all()
+    assert float(np.nanmax(np.linalg.norm(result.log.rcm_deviation(), axis=1))) <= 1e-6
 
 
 def test_the_mujoco_scene_draws_the_arc_ending_at_the_models_tip() -> None:

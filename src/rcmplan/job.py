@@ -40,13 +40,10 @@ __all__ = ["RunResult", "run_scenario"]
 
 
 def check_curved_plant(robot: RobotModel, plant: str) -> RobotModel:
-    """The model a plant is built for: a curved needle's shaft (its MuJoCo model has no arc;
-    iRAM!S only), else the robot itself."""
-    if not isinstance(robot, CurvedTipRobot):
-        return robot
-    if plant != "kinematic" and robot.name != "iramis":
-        raise InvalidInputError("plant", plant, "'kinematic' for a curved needle on an arm")
-    return robot.base
+    """The model a plant is built for: a curved needle's shaft (the plant moves the robot's
+    actuators; the MuJoCo models draw the straight shaft, iRAM!S's the arc too), else the
+    robot itself."""
+    return robot.base if isinstance(robot, CurvedTipRobot) else robot
 
 
 def run_scenario(
