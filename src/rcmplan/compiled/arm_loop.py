@@ -6,9 +6,9 @@ drift correction (lambda of the needle point closest to the trocar), the solver'
 the record (from the second iteration on), the per-component tolerance check, the iteration
 cap, the singularity check (`chain_kernels.is_singular`) and the solver's step, every quantity
 read from the frames of that one pass; `command_status` then checks the command (finite,
-within travel) as the plant would. The loop over a phase's targets, on either plant, is
-`algorithm.run_targets` (one loop for every robot); a plant stepping in Python calls
-`arm_iterate` once per period (`rcmplan.compiled.arm_phase`). Imports numba.
+within travel) as the plant would. The loop over a phase's targets, on every plant, is
+`algorithm.run_targets` (one loop for every robot; a plant stepping in Python gets one
+iteration per call, `phase.run_phase_per_period`). Imports numba.
 
 Records go to preallocated rows in the `records.record_columns(n)` layout: time [s],
 sliders (n,), joints (n,), lambda, tip, rcm, trocar, base, target tip (3 each) [m], error (6,)

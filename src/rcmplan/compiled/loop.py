@@ -4,8 +4,8 @@ Each iteration does what the reference loop does, in the same order: joints from
 through the PCJMs, drift correction (lambda of the needle point closest to the trocar), task
 error, record (from the second iteration on), per-component tolerance check, iteration cap,
 singularity check, step, sliders from joints and travel check. The loop over a phase's targets,
-reading and commanding either plant, is `algorithm.run_targets` (one loop for every robot);
-a plant stepping in Python calls `iterate` once per period (`phase.run_phase_on_plant`).
+reading and commanding the plant, is `algorithm.run_targets` (one loop for every robot and
+every plant; a plant stepping in Python gets one iteration per call, `phase.run_phase_per_period`).
 
 The kernel stops with a status code instead of raising; `rcmplan.compiled.runner` turns the code
 into the reference exception. Records go to preallocated arrays: `rec` (cap, 35) with columns
