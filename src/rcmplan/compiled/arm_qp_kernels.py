@@ -122,6 +122,17 @@ def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
 
 
 @njit(cache=True)
+def planned_joints(servo: FloatArray, n: int) -> FloatArray:
+    """`QpSolver.planned_joints`: the servo's last command servo[:n] rounded to its resolution
+    servo[n:2n] (0: none), into servo[2n:3n], which is returned."""
+    plan = servo[2 * n : 3 * n]
+    for i in range(n):
+        res = servo[n + i]
+        plan[i] = servo[i] if res == 0.0 else np.rint(servo[i] / res) * res
+    return plan
+
+
+@njit(cache=True)
 def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
                      Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
                      lam: float, target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray,
@@ -134,10 +145,7 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
     error at q when a joint moves at full speed), d the active joints' increments from q to
     the planned joints moved by the solution, and d lambda; W the frames of q."""
     n, m = ix[0], ix[1]
-    plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 6], servo[3 * n + 6 :]
-    for i in range(n):  # `QpSolver.planned_joints`
-        res = servo[n + i]
-        plan[i] = servo[i] if res == 0.0 else np.rint(servo[i] / res) * res
+    plan, e_plan, now = planned_joints(servo, n), servo[3 * n : 3 * n + 6], servo[3 * n + 6 :]
     rows = build_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e, qp)
     flag = solve_planned(Q, K, rows, e, e_plan, qp)
     if flag != 1:
@@ -212,10 +220,7 @@ def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
         flag = solve_assembled(Q, K, rows, e, qp)
         plan = q
     else:
-        plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 7], servo[3 * n + 7 :]
-        for i in range(n):  # `QpSolver.planned_joints`
-            res = servo[n + i]
-            plan[i] = servo[i] if res == 0.0 else np.rint(servo[i] / res) * res
+        plan, e_plan, now = planned_joints(servo, n), servo[3 * n : 3 * n + 7], servo[3 * n + 7 :]
         rows = build_curved_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e,
                                      qp)  # fmt: skip
         flag = solve_planned(Q, K, rows, e, e_plan, qp)
