@@ -18,7 +18,6 @@ receives all of them packed in two buffers (`packed`, `solve_packed`).
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray
@@ -35,6 +34,7 @@ from rcmplan.compiled.qp_rows import (
 from rcmplan.control import curved_step
 from rcmplan.control.cost import x_c_point_rows, x_ext_jacobian
 from rcmplan.control.limits.base import SCALE
+from rcmplan.control.resolution import quantised
 from rcmplan.robot import curved_arm
 from rcmplan.robot import curved_block as ck
 from rcmplan.robot.chain_kinematics import (
@@ -124,12 +124,9 @@ def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
 @njit(cache=True)
 def planned_joints(servo: FloatArray, n: int) -> FloatArray:
     """`QpSolver.planned_joints`: the servo's last command servo[:n] rounded to its resolution
-    servo[n:2n] (0: none), into servo[2n:3n], which is returned."""
-    plan = servo[2 * n : 3 * n]
-    for i in range(n):
-        res = servo[n + i]
-        plan[i] = servo[i] if res == 0.0 else np.rint(servo[i] / res) * res
-    return plan
+    servo[n:2n] (0: none; `control.resolution.quantised`), into servo[2n:3n], which is
+    returned."""
+    return quantised(servo[:n], servo[n : 2 * n], servo[2 * n : 3 * n])
 
 
 @njit(cache=True)

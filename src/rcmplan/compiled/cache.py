@@ -125,10 +125,10 @@ def clear_stale() -> None:
 def kernel_sources() -> list[Path]:
     """The files that hold rcmplan's numba kernels (a test keeps the list whole): this folder,
     the step solves (`linalg`), the robot kernels (the curved needle's included), the control
-    kernels (the step bound, the cost, the limited step, the curved needle's steps, the limits'
-    rows), the
-    compiled MuJoCo plant and its actuators' velocity profile, and the iOCT
-    B-scan's rendering and segmentation."""
+    kernels (the step bound, the cost, the limited step, the curved needle's steps, DLS's task,
+    a command's rounding to the actuator resolution, the limits' rows), the compiled MuJoCo
+    plant and its actuators' velocity profile, and the iOCT B-scan's rendering and
+    segmentation."""
     package = Path(__file__).parent.parent
     robot, control, subretinal = package / "robot", package / "control", package / "subretinal"
     return [
@@ -138,7 +138,7 @@ def kernel_sources() -> list[Path]:
                                        "chain_pose", "needle", "curved_block", "curved_iramis",
                                        "curved_arm")),
         *(control / f"{m}.py" for m in ("rcm_step", "cost", "limited_tip", "curved_step",
-                                        "dls_task")),
+                                        "dls_task", "resolution")),
         *sorted((control / "limits").glob("*.py")),
         *(package / "sim" / "mujoco" / f"{m}.py" for m in ("compiled", "actuators")),
         *(subretinal / f"{m}.py" for m in ("ioct", "segment_filters", "segment_kernels")),

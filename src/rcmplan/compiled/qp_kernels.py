@@ -27,6 +27,7 @@ from rcmplan.control import curved_step
 from rcmplan.control.cost import x_c_point_rows, x_ext_jacobian
 from rcmplan.control.limits.base import SCALE
 from rcmplan.control.limits.rows import times
+from rcmplan.control.resolution import quantised
 from rcmplan.robot import curved_block as ck
 from rcmplan.robot import curved_iramis
 from rcmplan.robot.iramis_kernels import (
@@ -218,8 +219,7 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
         return solve_assembled(Q, K, rows, e, qp)
     e_plan, q_plan = fail[24 + k : 24 + 2 * k], fail[24 + 2 * k : 30 + 2 * k]
     now = fail[30 + 2 * k : 37 + 2 * k]
-    for i in range(6):  # the command as the plant rounds it (`QpSolver.planned_joints`)
-        now[i] = cmd[i] if res[i] == 0.0 else np.rint(cmd[i] / res[i]) * res[i]
+    quantised(cmd, res, now[:6])  # the command as the plant rounds it (`QpSolver.planned_joints`)
     joints_from_actuators(P, now[:6], q_plan)
     if C is None:
         flag = solve_servo_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,

@@ -56,6 +56,7 @@ from rcmplan.control.qp_checks import check_qp_args
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, CostTerm, StepInput, StepQP, build_step
 from rcmplan.control.rcm_step import BOX_TRIES, bounded_step, box_margin, needle_distance
+from rcmplan.control.resolution import quantised
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import checked_target, solve_pose, target_tip
 from rcmplan.exceptions import QPError, UnreachableTargetError
@@ -233,7 +234,7 @@ class QpSolver:
             return q
         s = np.asarray(self.servo.command, dtype=float)
         if self._resolution is not None:
-            s = np.round(s / self._resolution) * self._resolution
+            s = quantised(s, self._resolution, np.empty(s.shape[0]))
         key = s.tobytes()
         if key != self._plan_key:  # `error` and `step` ask in turn for the same command
             self._plan, self._plan_key = robot.joints_from_actuators(s), key

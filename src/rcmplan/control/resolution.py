@@ -11,6 +11,10 @@ pose (the lever arms change by up to 20 % over the default injection, measured, 
 servo's settling residual must fit as well); `met_tolerance` raises a requested tolerance to
 it. A plant that reaches its commands exactly (no `actuator_resolution`, or None) changes
 nothing.
+
+`quantised` is the rounding itself, the one every user of a resolution calls: the MuJoCo
+plants' servo references, and the QP's plan from the servo's last command (`QpSolver`, and in
+compiled code the iRAM!S and arm servo steps).
 """
 
 from __future__ import annotations
@@ -18,12 +22,23 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from rcmplan._validate import FloatArray
 from rcmplan.control.solvers import Tolerance
 from rcmplan.robot.model import RobotModel
 
 MARGIN = 2.0  # the tolerance over the grid's first-order error bound at the home pose
+
+
+@njit(cache=True)
+def quantised(s: FloatArray, res: FloatArray, out: FloatArray) -> FloatArray:
+    """The command s (n,) as a plant with resolution res (n,) reaches it: each s[i] rounded to
+    a whole number of steps res[i] (to even on a tie; res[i] = 0: s[i] as it is), into out
+    (n,), which is returned."""
+    for i in range(s.shape[0]):
+        out[i] = s[i] if res[i] == 0.0 else np.rint(s[i] / res[i]) * res[i]
+    return out
 
 
 def plant_resolution(plant: Any) -> FloatArray | None:

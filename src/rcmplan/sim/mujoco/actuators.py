@@ -21,6 +21,7 @@ import numpy as np
 from numba import njit
 
 from rcmplan._validate import FloatArray, scalar, vector
+from rcmplan.control.resolution import quantised
 from rcmplan.robot.iramis import Iramis
 
 INSERTION, ROTARY = 4, 5  # indices of L5 and q5 in s = (L1, L2, L3, L4, L5, q5)
@@ -115,8 +116,10 @@ class PiezoParameters:
 
 
 def quantise(s: FloatArray, steps: FloatArray) -> FloatArray:
-    """s rounded to a whole number of `steps` per slider."""
-    return np.asarray(np.round(s / steps) * steps, dtype=float)
+    """s rounded to a whole number of `steps` per slider (`control.resolution.quantised`), a new
+    array."""
+    s = np.asarray(s, dtype=float)
+    return quantised(s, np.asarray(steps, dtype=float), np.empty(s.shape[0]))
 
 
 def reference_velocity(

@@ -31,6 +31,7 @@ from numba.extending import intrinsic
 from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
+from rcmplan.control.resolution import quantised
 from rcmplan.sim.mujoco.actuators import velocity_into
 
 OK, DIVERGED, WARNED, GAP = range(4)  # status codes of `advance`
@@ -181,8 +182,9 @@ def reference_velocity(
     to [lower, upper], from the servo references act[act_idx], moving at the last period's
     ctrl[servo]; v (4, n): the velocity, then the quantised command, the references and the
     last velocities."""
+    quantised(cmd, steps, v[1])
     for i in range(cmd.shape[0]):
-        v[1, i] = min(max(np.rint(cmd[i] / steps[i]) * steps[i], lower[i]), upper[i])
+        v[1, i] = min(max(v[1, i], lower[i]), upper[i])
         v[2, i] = act[act_idx[i]]
         v[3, i] = ctrl[servo[i]]
     velocity_into(v[1], v[2], v[3], dt, speed, ramp, v[0])
