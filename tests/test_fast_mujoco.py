@@ -151,16 +151,20 @@ def test_a_diverged_state_raises_simulation_error(monkeypatch: pytest.MonkeyPatc
     assert plant.time == pytest.approx(1e-3)  # the compiled loop stopped after one period
 
 
-def test_without_the_c_library_the_per_iteration_path_runs(
+def test_without_the_c_library_the_dynamic_plant_says_what_it_needs(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    ref, ref_plant, _, _ = run(True, monkeypatch, PinvSolver())
+    """The dynamic plant's period is the compiled one (`compiled.advance`), which calls
+    MuJoCo's C functions: without them (a MuJoCo whose library is not beside its package)
+    the plant refuses its first period, saying so, and the run stops with it."""
     monkeypatch.setattr(compiled, "function_addresses", lambda mj: None)
-    calls.clear()
-    got, plant, _, _ = run(False, monkeypatch, PinvSolver())
-    assert calls == [0, 0]  # declined, and the controller fell back
-    assert_identical(ref, got)
-    assert_same_plant(ref_plant, plant)
+    robot = Iramis()
+    plant = MujocoPlant(robot, mode="dynamic")
+    with pytest.raises(SimulationError, match="needs MuJoCo's C functions"):
+        plant.advance()
+    assert plant.time == 0.0  # no period ran
+    with pytest.raises(SimulationError, match="needs MuJoCo's C functions"):
+        Controller(MujocoPlant(robot, mode="dynamic"), PinvSolver()).run(phases(robot)[:1])
 
 
 def test_library_path_finds_the_loaded_mujoco_library() -> None:

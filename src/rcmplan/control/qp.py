@@ -328,7 +328,7 @@ def synchronised_step(robot: RobotModel, step: StepQP, dt: float) -> StepQP:
     """The step's QP tracking K e / sigma instead of K e, sigma >= 1 the largest fraction of
     an actuator's speed window that the unconstrained optimum x = -P^-1 q would use: a
     straight, synchronised sub-goal along the way to the target, as the plant's servo
-    reference moves (`sim.mujoco.actuators.synchronised_velocity`); the unconstrained optimum
+    reference moves (`sim.mujoco.actuators.velocity_into`, ramp 0); the unconstrained optimum
     then just fits the window.
 
     Tracking K e itself, a step that cannot reach the target within the window spends its

@@ -4,7 +4,7 @@ A stick-slip positioner in closed-loop (scanning) mode is modelled as a stiff po
 that tracks a reference; the reference moves towards the quantised command no faster than the
 slider's maximum speed and changes its speed no faster than its acceleration, as a positioner
 controller's trajectory generator does (all six axes scaled together, so their profiles stay
-synchronised and they arrive at the same time; `profile_velocity`).
+synchronised and they arrive at the same time; `velocity_into`).
 In MuJoCo each slider has two actuators: an integrator whose state is the reference
 (force kp (ref - x) - kv x_dot, state clamped to the travel) and a velocity feed-forward
 (force kv v_ref), so a constant-speed ramp is tracked without lag.
@@ -107,65 +107,18 @@ class PiezoParameters:
         return out
 
     def quantise(self, s: FloatArray) -> FloatArray:
-        """The command rounded to the slider resolution."""
-        return quantise(s, self.steps())
-
-    def reference_velocity(self, s_ref: FloatArray, s_cmd: FloatArray, dt: float) -> FloatArray:
-        """Velocity that moves the reference towards the command within dt, speed-limited."""
-        return reference_velocity(s_ref, s_cmd, dt, self.steps(), np.asarray(self.speed))
-
-
-def quantise(s: FloatArray, steps: FloatArray) -> FloatArray:
-    """s rounded to a whole number of `steps` per slider (`control.resolution.quantised`), a new
-    array."""
-    s = np.asarray(s, dtype=float)
-    return quantised(s, np.asarray(steps, dtype=float), np.empty(s.shape[0]))
-
-
-def reference_velocity(
-    s_ref: FloatArray, s_cmd: FloatArray, dt: float, steps: FloatArray, speed: FloatArray
-) -> FloatArray:
-    """Velocity [m/s, rad/s] taking the reference s_ref to the quantised command in dt [s].
-
-    When a slider would exceed its maximum speed, the whole velocity vector is scaled down
-    (synchronised axes): every slider arrives together and the slider-space path stays
-    straight, as with a coordinated motion controller; no slider exceeds its speed.
-    """
-    return synchronised_velocity(quantise(s_cmd, steps), s_ref, dt, speed)
-
-
-def synchronised_velocity(
-    target: FloatArray, s_ref: FloatArray, dt: float, speed: FloatArray
-) -> FloatArray:
-    """(target - s_ref) / dt, scaled down as a whole so that no slider exceeds its speed:
-    `profile_velocity` without its acceleration bound (`target` is already quantised; the
-    per-period part of `reference_velocity`)."""
-    return profile_velocity(target, s_ref, np.zeros_like(speed), dt, speed, 0.0)
-
-
-def profile_velocity(
-    target: FloatArray,
-    s_ref: FloatArray,
-    v_prev: FloatArray,
-    dt: float,
-    speed: FloatArray,
-    ramp_time: float,
-) -> FloatArray:
-    """Reference velocity [m/s, rad/s] for one period of dt [s] (`velocity_into`) from the
-    reference s_ref, moving at v_prev, towards the (quantised) target."""
-    v = np.empty(len(speed))
-    velocity_into(np.asarray(target, dtype=np.float64), np.asarray(s_ref, dtype=np.float64),
-                  np.asarray(v_prev, dtype=np.float64), dt, np.asarray(speed, dtype=np.float64),
-                  float(ramp_time), v)  # fmt: skip
-    return v
+        """The command s (6,) rounded to the slider resolution (`control.resolution.quantised`),
+        a new array."""
+        s = np.asarray(s, dtype=float)
+        return quantised(s, self.steps(), np.empty(s.shape[0]))
 
 
 @njit(cache=True)
 def velocity_into(target: FloatArray, s_ref: FloatArray, v_prev: FloatArray, dt: float,
                   speed: FloatArray, ramp: float, v: FloatArray) -> None:  # fmt: skip
     """The reference velocity of one period of dt [s] into v (n,): from the reference s_ref,
-    moving at v_prev, towards the (quantised) target, within speed and acceleration. The one
-    implementation: the Python plants and the compiled period (`compiled.advance`) call it.
+    moving at v_prev, towards the (quantised) target, within speed and acceleration: the
+    plants' control period (`compiled.advance`) calls it.
 
     1. Synchronised: arrive within the period, the whole vector scaled down so that no slider
        exceeds its speed (every slider arrives together, the slider-space path stays straight).

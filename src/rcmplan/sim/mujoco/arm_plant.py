@@ -6,7 +6,7 @@ Modes:
         compensated). The command is rounded to `robot.resolution` (the encoder count a real
         servo can hold); each joint's servo reference then moves to it within the period at
         constant speed, all joints scaled together so that none exceeds its speed (the
-        synchronised motion of `actuators.profile_velocity` without its acceleration bound,
+        synchronised motion of `actuators.velocity_into` without its acceleration bound,
         `ServoPlant.advance`), with that speed fed forward.
         Lagging joints lag in proportion (servo gains scaled by inertia, `ServoOptions`), so the
         needle keeps its line; `read_actuators` returns the simulated joint positions.

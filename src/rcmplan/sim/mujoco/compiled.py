@@ -1,15 +1,16 @@
 """The dynamic MuJoCo plants' control period in compiled code.
 
-`advance` is `advance` of a dynamic `MujocoPlant` (iRAM!S's sliders) or `ArmPlant` (an arm's
-joints), operation for operation: the quantised command (clipped to travel, the arm's), the
-synchronised reference velocity within speed and acceleration (`actuators.velocity_into`,
-the kernel the Python plants call too; the arm's without the acceleration bound), the servo
-and feed-forward controls, the physics steps, the kinematics and the checks (NaN, MuJoCo
-warnings, loop-closure gap: iRAM!S's PCJMs). MuJoCo's own `mj_step` and `mj_kinematics` are
-called from the compiled code through their C addresses, so a closed control loop on the
-MuJoCo plant runs without returning to Python between periods (`rcmplan.compiled.algorithm`).
-tests/test_fast_mujoco.py and tests/test_mujoco_arm.py check that it gives the same log, to
-the last bit, as the Python plants.
+`advance` is the control period of a dynamic `MujocoPlant` (iRAM!S's sliders) or `ArmPlant`
+(an arm's joints), the one implementation: the plant's own `advance` calls it, and so do the
+compiled loops. The quantised command (clipped to travel, the arm's), the synchronised
+reference velocity within speed and acceleration (`actuators.velocity_into`; the arm's
+without the acceleration bound), the servo and feed-forward controls, the physics steps, the
+kinematics and the checks (NaN, MuJoCo warnings, loop-closure gap: iRAM!S's PCJMs). MuJoCo's
+own `mj_step` and `mj_kinematics` are called from the compiled code through their C
+addresses, so a closed control loop on the MuJoCo plant runs without returning to Python
+between periods (`rcmplan.compiled.algorithm`). tests/test_fast_mujoco.py and
+tests/test_mujoco_arm.py check that a phase run by the compiled loop gives the same log, to
+the last bit, as the loop stepping the plant from Python.
 
 The C addresses come from the shared library the `mujoco` package loaded; they are arguments,
 not constants, so numba's cache stays valid across processes.

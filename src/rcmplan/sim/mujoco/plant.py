@@ -5,7 +5,7 @@ Modes:
         on MuJoCo's kinematics (no dynamics, no actuators).
     dynamic: each `advance` runs dt / physics_dt physics steps; the piezo servo reference moves
         towards the quantised command at most at slider speed and acceleration, the sliders'
-        profiles synchronised (`actuators.profile_velocity`).
+        profiles synchronised (`actuators.velocity_into`).
 After every period the plant checks for NaN, MuJoCo warnings and the loop-closure gap and
 raises SimulationError when the simulation has become unstable.
 

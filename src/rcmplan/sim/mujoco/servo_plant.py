@@ -2,13 +2,15 @@
 in `MujocoPlant`, an arm's joints in `ArmPlant`), each a position servo whose reference moves
 towards the quantised command with a velocity feed-forward.
 
-`ServoPlant.advance` is the plants' control period, operation for operation what the compiled
-period does (`sim.mujoco.compiled.advance`): in dynamic mode the command quantised to the
-actuator resolution and clipped (`_clip`: an arm's travel, unbounded on iRAM!S), the
-reference velocity within speed and acceleration (`actuators.profile_velocity`; ramp 0: speed
-alone), the servo and feed-forward controls, the physics steps; in kinematic mode the
-subclass places the actuators (`_place`). Then MuJoCo's kinematics and the checks (NaN,
-MuJoCo warnings, and the subclass's own: iRAM!S's loop-closure gap, `_check_more`).
+`ServoPlant.advance` is the plants' control period. In dynamic mode it is the compiled period
+the compiled loops run (`sim.mujoco.compiled.advance`, called here with this plant's arrays):
+the command quantised to the actuator resolution and clipped (`_clip`: an arm's travel,
+unbounded on iRAM!S), the reference velocity within speed and acceleration
+(`actuators.velocity_into`; ramp 0: speed alone), the servo and feed-forward controls, the
+physics steps through MuJoCo's C functions, the kinematics and the checks, whose failure
+`check` then names. In kinematic mode the subclass places the actuators (`_place`), then
+MuJoCo's kinematics and `check` (NaN, MuJoCo warnings, and the subclass's own: iRAM!S's
+loop-closure gap, `_check_more`).
 """
 
 from __future__ import annotations
@@ -21,7 +23,6 @@ from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.exceptions import InvalidInputError, SimulationError
-from rcmplan.sim.mujoco.actuators import profile_velocity, quantise
 
 
 class ServoIds:
@@ -67,6 +68,7 @@ class ServoPlant:
     _upper: FloatArray
     _cmd: FloatArray
     _warning_count: NDArray[np.int32]  # a view of mjData's warning counts (MuJoCo updates it)
+    _period: tuple[Any, ...] | None = None  # the compiled period's arguments, made on first use
 
     def _timing(self, dt: float, physics_dt: float) -> float:
         """Check and set the control period dt [s] and the physics steps per period; returns
@@ -97,21 +99,36 @@ class ServoPlant:
 
     def advance(self) -> None:
         """Move on by one control period dt; raises SimulationError if unstable."""
-        d = self.data
         if self.mode == "kinematic":
             self._place(self._cmd)
-            d.time += self.dt
-        else:
-            ids = self._ids
-            target = np.clip(quantise(self._cmd, self._steps), *self._clip)
-            v_prev = d.ctrl[ids.servo]  # the last period's reference velocity
-            v = profile_velocity(target, d.act[ids.act], v_prev, self.dt, self._speed, self._ramp)
-            d.ctrl[ids.servo] = v
-            d.ctrl[ids.feedforward] = v
-            self.mj.mj_step(self.model, d, nstep=self.substeps)
-        self.mj.mj_kinematics(self.model, d)
+            self.data.time += self.dt
+            self.mj.mj_kinematics(self.model, self.data)
+            self.time += self.dt
+            self.check()
+            return
+        from rcmplan.sim.mujoco import compiled  # loads numba: the dynamic plant only
+
+        code = compiled.advance(self._cmd, *self._period_args())
         self.time += self.dt
-        self.check()
+        if code != compiled.OK:
+            self.check()  # names what failed
+            raise SimulationError(f"the control period's check {code} failed at t = "
+                                  f"{self.time:.6g} s")  # fmt: skip
+
+    def _period_args(self) -> tuple[Any, ...]:
+        """The compiled period's arguments after the command: its scratch, then this plant's
+        arrays (`compiled.plant_arrays`), made once: views of mjData, which stays the same."""
+        if self._period is None:
+            from rcmplan.sim.mujoco import compiled
+
+            arrays = compiled.plant_arrays(self)
+            if arrays is None:
+                raise SimulationError(
+                    "the dynamic MuJoCo plant needs MuJoCo's C functions (mj_step, "
+                    f"mj_kinematics), and no MuJoCo library was found beside {self.mj.__file__}"
+                )
+            self._period = (np.empty((4, self._steps.shape[0])), *arrays.args())
+        return self._period
 
     def _place(self, s: FloatArray) -> None:
         """Kinematic mode: put the actuators exactly at s."""
