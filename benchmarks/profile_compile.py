@@ -8,17 +8,25 @@ Run it in fresh caches, else it measures cache loads:
 
 Two trees compared: run it once per tree at the same time (`PYTHONPATH=TREE/src`), so that the
 two share the machine's load (docs/benchmarks.md, the cold compile rows).
+
+With arguments it profiles one command line instead, what its first run compiles:
+
+    NUMBA_CACHE_DIR=$(mktemp -d) XDG_CACHE_HOME=$(mktemp -d) \
+        python benchmarks/profile_compile.py inject --no-plots --out /tmp/first-run
 """
 
 from __future__ import annotations
 
 import collections
+import sys
 import time
 
 from numba.core import event
 
 
-def main(top: int = 25) -> None:
+def main(argv: list[str], top: int = 25) -> None:
+    """Profile `compile_kernels()`, or the command line `rcmplan *argv` if argv is not empty."""
+    from rcmplan.cli import main as command
     from rcmplan.warmup import compile_kernels
 
     t0 = time.perf_counter()
@@ -26,7 +34,10 @@ def main(top: int = 25) -> None:
         event.install_recorder("numba:compile") as rc,
         event.install_recorder("numba:llvm_lock") as rl,
     ):
-        compile_kernels()
+        if argv:
+            print(f"rcmplan {' '.join(argv)}: exit {command(argv)}")
+        else:
+            compile_kernels()
     total = time.perf_counter() - t0
     excl: collections.Counter[str] = collections.Counter()
     incl: collections.Counter[str] = collections.Counter()
@@ -58,4 +69,4 @@ def main(top: int = 25) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    main(sys.argv[1:])
