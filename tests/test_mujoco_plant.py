@@ -123,6 +123,10 @@ def test_commands_are_quantised_to_the_slider_resolution(robot: Iramis) -> None:
     s = np.array([1.2e-9 + 0.3e-9, 0.0, 0.0, 0.0, 0.0, 0.0104])
     q = piezo.quantise(s)
     np.testing.assert_allclose(q, [2e-9, 0.0, 0.0, 0.0, 0.0, 0.010], atol=1e-18)
+    with pytest.raises(InvalidInputError, match=r"shape \(6,\)"):
+        piezo.quantise(s[:5])
+    with pytest.raises(InvalidInputError, match="finite"):
+        piezo.quantise(np.r_[s[:5], np.nan])
 
 
 def test_gravity_compensation_removes_the_sag(robot: Iramis) -> None:

@@ -14,6 +14,7 @@ from rcmplan.control.qp import QpSolver, synchronised_step
 from rcmplan.control.qp_backends import solve
 from rcmplan.control.qp_problem import SCALE, StepInput, build_step
 from rcmplan.control.targets import rcm_target, solve_pose
+from rcmplan.exceptions import InvalidInputError
 from rcmplan.scene.eye import default_eye, default_points
 from rcmplan.sim import KinematicPlant
 
@@ -116,3 +117,12 @@ def test_a_sub_goal_within_the_window_is_the_step_itself(robot: Iramis, scene: S
     inp = StepInput(q, lam, near, e, qp.K, qp.damping, qp.dt, qp.weights)
     step = build_step(robot, inp, qp.rows, qp.bounds)
     assert synchronised_step(robot, step, qp.dt) is step
+
+
+def test_a_servo_resolution_of_the_wrong_length_is_refused_naming_it(
+    robot: Iramis, scene: Scene
+) -> None:
+    plant = ServoPlant(robot.home_actuators.copy())
+    plant.actuator_resolution = plant.actuator_resolution[:5]  # one per actuator but q5's
+    with pytest.raises(InvalidInputError, match=r"servo\.actuator_resolution.*shape \(6,\)"):
+        QpSolver(robot, scene[0], servo=plant)

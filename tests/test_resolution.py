@@ -108,3 +108,10 @@ def test_a_command_is_rounded_to_whole_steps_ties_to_even_and_a_zero_step_keeps_
         y = quantised(x, steps, np.empty(6))
         assert np.all(np.abs(y - x) <= 0.5 * steps * (1 + 1e-9))
         np.testing.assert_allclose(y / steps, np.round(y / steps), rtol=0, atol=1e-6)
+
+
+def test_lengths_that_differ_are_refused_not_read_past() -> None:
+    with pytest.raises(ValueError, match="same length"):
+        quantised(np.zeros(6), np.full(5, 1e-9), np.empty(6))
+    with pytest.raises(ValueError, match="same length"):
+        quantised(np.zeros(6), np.full(6, 1e-9), np.empty(5))

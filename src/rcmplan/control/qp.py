@@ -123,7 +123,8 @@ class QpSolver:
         follows = servo is not None and not getattr(servo, "exact_commands", True)
         self.servo = servo if follows and hasattr(servo, "command") else None
         res = getattr(self.servo, "actuator_resolution", None)
-        self._resolution = None if res is None else np.asarray(res, dtype=float)
+        n = len(robot.home_actuators)
+        self._resolution = None if res is None else vector("servo.actuator_resolution", res, n)
         self.extra_limits = tuple(extra_limits)
         self.rows: tuple[Limit, ...] = (*self.limits.rows(eye, self.dt), *self.extra_limits)
         self.bounds = self.limits.bounds()

@@ -35,7 +35,9 @@ MARGIN = 2.0  # the tolerance over the grid's first-order error bound at the hom
 def quantised(s: FloatArray, res: FloatArray, out: FloatArray) -> FloatArray:
     """The command s (n,) as a plant with resolution res (n,) reaches it: each s[i] rounded to
     a whole number of steps res[i] (to even on a tie; res[i] = 0: s[i] as it is), into out
-    (n,), which is returned."""
+    (n,), which is returned. ValueError if res or out is not as long as s."""
+    if res.shape[0] != s.shape[0] or out.shape[0] != s.shape[0]:
+        raise ValueError("quantised: s, res and out must have the same length")
     for i in range(s.shape[0]):
         out[i] = s[i] if res[i] == 0.0 else np.rint(s[i] / res[i]) * res[i]
     return out

@@ -109,8 +109,7 @@ class PiezoParameters:
     def quantise(self, s: FloatArray) -> FloatArray:
         """The command s (6,) rounded to the slider resolution (`control.resolution.quantised`),
         a new array."""
-        s = np.asarray(s, dtype=float)
-        return quantised(s, self.steps(), np.empty(s.shape[0]))
+        return quantised(vector("s", s, 6), self.steps(), np.empty(6))
 
 
 @njit(cache=True)

@@ -36,6 +36,7 @@ from rcmplan.control.resolution import quantised
 from rcmplan.sim.mujoco.actuators import velocity_into
 
 OK, DIVERGED, WARNED, GAP = range(4)  # status codes of `advance`
+CHECKS = {DIVERGED: "NaN or inf in the state", WARNED: "a MuJoCo warning", GAP: "a loop gap"}
 LIBRARY_PATTERNS = {"linux": "libmujoco.so*", "darwin": "libmujoco*.dylib", "win32": "mujoco*.dll"}
 
 

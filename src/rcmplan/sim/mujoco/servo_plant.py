@@ -112,8 +112,8 @@ class ServoPlant:
         self.time += self.dt
         if code != compiled.OK:
             self.check()  # names what failed
-            raise SimulationError(f"the control period's check {code} failed at t = "
-                                  f"{self.time:.6g} s")  # fmt: skip
+            failed = compiled.CHECKS.get(code, f"check {code}")
+            raise SimulationError(f"the control period failed ({failed}) at t = {self.time:.6g} s")
 
     def _period_args(self) -> tuple[Any, ...]:
         """The compiled period's arguments after the command: its scratch, then this plant's
