@@ -110,7 +110,6 @@ def test_a_curved_needle_on_an_arm_runs_its_qp_on_mujoco_compiled_within_its_bou
     """The `curved` scenario on the UR5's dynamic MuJoCo plant with the QP: the plant moves the
     shaft's model, the controller drives the curved model on the same joints, every phase in
     the compiled loop, and the run holds what it states (`ok` only within its bounds)."""
-    pytest.importorskip("mujoco")
     sc = load_scenario("curved").with_plant("mujoco").with_robot("ur5").with_method("qp")
     result = run_scenario(sc)
     assert result.status == "ok", result.message

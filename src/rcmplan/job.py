@@ -39,7 +39,7 @@ from rcmplan.sim.registry import make_plant
 __all__ = ["RunResult", "run_scenario"]
 
 
-def check_curved_plant(robot: RobotModel, plant: str) -> RobotModel:
+def plant_model(robot: RobotModel) -> RobotModel:
     """The model a plant is built for: a curved needle's shaft (the plant moves the robot's
     actuators; the MuJoCo models draw the straight shaft, iRAM!S's the arc too), else the
     robot itself."""
@@ -67,7 +67,7 @@ def run_scenario(
     robot = scenario.needle.fit(robot or make_robot(scenario.robot))
     extra: dict[str, Any] = {}
     try:
-        shaft = check_curved_plant(robot, scenario.plant)
+        shaft = plant_model(robot)
         eye = scenario.eye(robot)
         scene = {"eye": eye, "points": scenario.points(eye), "needle_arc": scenario.needle.arc()}
         plant = make_plant(scenario.plant, shaft, scene=scene, dt=scenario.dt)

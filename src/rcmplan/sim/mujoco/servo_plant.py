@@ -68,7 +68,7 @@ class ServoPlant:
     _upper: FloatArray
     _cmd: FloatArray
     _warning_count: NDArray[np.int32]  # a view of mjData's warning counts (MuJoCo updates it)
-    _period: tuple[Any, ...] | None = None  # the compiled period's arguments, made on first use
+    _period: tuple[Any, tuple[Any, ...]] | None = None  # the compiled period and its arguments
 
     def _timing(self, dt: float, physics_dt: float) -> float:
         """Check and set the control period dt [s] and the physics steps per period; returns
@@ -106,28 +106,29 @@ class ServoPlant:
             self.time += self.dt
             self.check()
             return
-        from rcmplan.sim.mujoco import compiled  # loads numba: the dynamic plant only
-
-        code = compiled.advance(self._cmd, *self._period_args())
+        period, args = self._period or self._compiled_period()
+        code = period(self._cmd, *args)
         self.time += self.dt
-        if code != compiled.OK:
+        if code != 0:  # `compiled.OK`
+            from rcmplan.sim.mujoco import compiled
+
             self.check()  # names what failed
             failed = compiled.CHECKS.get(code, f"check {code}")
             raise SimulationError(f"the control period failed ({failed}) at t = {self.time:.6g} s")
 
-    def _period_args(self) -> tuple[Any, ...]:
-        """The compiled period's arguments after the command: its scratch, then this plant's
-        arrays (`compiled.plant_arrays`), made once: views of mjData, which stays the same."""
-        if self._period is None:
-            from rcmplan.sim.mujoco import compiled
+    def _compiled_period(self) -> tuple[Any, tuple[Any, ...]]:
+        """`compiled.advance` and its arguments after the command: its scratch, then this
+        plant's arrays (`compiled.plant_arrays`), made once: views of mjData, which stays the
+        same. (Imported here: it loads numba, which only the dynamic plant needs.)"""
+        from rcmplan.sim.mujoco import compiled
 
-            arrays = compiled.plant_arrays(self)
-            if arrays is None:
-                raise SimulationError(
-                    "the dynamic MuJoCo plant needs MuJoCo's C functions (mj_step, "
-                    f"mj_kinematics), and no MuJoCo library was found beside {self.mj.__file__}"
-                )
-            self._period = (np.empty((4, self._steps.shape[0])), *arrays.args())
+        arrays = compiled.plant_arrays(self)
+        if arrays is None:
+            raise SimulationError(
+                "the dynamic MuJoCo plant needs MuJoCo's C functions (mj_step, "
+                f"mj_kinematics), and no MuJoCo library was found beside {self.mj.__file__}"
+            )
+        self._period = (compiled.advance, (np.empty((4, self._steps.shape[0])), *arrays.args()))
         return self._period
 
     def _place(self, s: FloatArray) -> None:
