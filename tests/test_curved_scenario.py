@@ -118,6 +118,21 @@ def test_a_curved_needle_on_an_arm_runs_its_qp_on_mujoco_compiled_within_its_bou
     assert float(np.nanmax(np.linalg.norm(result.log.rcm_deviation(), axis=1))) <= 1e-6
 
 
+def test_the_panda_rolls_its_curved_needle_to_the_retina_below_within_joint_7s_travel() -> None:
+    """p5 lies below the trocar: the needle rolls from the entry (bend up) to bend down. Joint
+    7 of the Panda turns +-2.8973 rad, so a bend on the flange's x put bend-down 0.1 rad
+    beyond its travel (refused before motion); the file's needle_bend ("+y") centres the
+    travel on the rolls the injection uses."""
+    sc = replace(load_scenario("curved").with_robot("panda"), visits=("p5",))
+    result = run_scenario(sc)
+    assert result.status == "ok", result.message
+    q7 = result.log.joints[:, 6]
+    assert np.ptp(q7) > 2.5  # the roll turned about half a turn
+    robot = make_robot("panda")
+    assert robot.lower[6] + 1.0 < q7.min() and q7.max() < robot.upper[6] - 1.0
+    assert float(np.nanmax(np.linalg.norm(result.log.rcm_deviation(), axis=1))) <= 1e-6
+
+
 def test_the_mujoco_scene_draws_the_arc_ending_at_the_models_tip() -> None:
     mujoco = pytest.importorskip("mujoco")
     from rcmplan.sim.mujoco.plant import MujocoPlant

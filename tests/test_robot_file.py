@@ -74,7 +74,9 @@ def test_the_shipped_robot_files_load_to_the_arms_built_before(name: str) -> Non
         assert np.array_equal(getattr(new.chain, attr), getattr(old.chain, attr)), attr
     assert np.array_equal(new.home, old.home)
     assert new.needle.length == old.needle.length
-    assert np.array_equal(new.needle.mount, old.needle.mount)
+    bend = read_robot_file(shipped_robot_files()[name]).needle_bend
+    assert np.array_equal(new.needle.mount, needle_mount("+z", bend=bend))
+    assert np.array_equal(new.needle.mount[:, 2:], old.needle.mount[:, 2:])  # the same needle
     assert (new.name, new.roll_joint, new.active) == (old.name, old.roll_joint, old.active)
     assert new.singular_threshold == old.singular_threshold
 
@@ -102,6 +104,37 @@ def test_the_needle_mount_is_a_rotation_whose_z_axis_is_the_needle_axis(axis: st
     assert np.allclose(M[:3, :3].T @ M[:3, :3], np.eye(3), atol=0)
     assert np.linalg.det(M[:3, :3]) == pytest.approx(1.0, abs=1e-15)
     assert np.array_equal(M[:3, 3], np.zeros(3))
+
+
+@pytest.mark.parametrize("bend", ["+x", "-y", "-x", (1.0, 1.0, 0.0), (0.3, -2.0, 0.5)])
+def test_the_needle_bend_is_the_mounts_x_axis_normal_to_the_needle(bend) -> None:
+    M = needle_mount("+z", bend=bend)
+    b = np.zeros(3) if isinstance(bend, str) else np.array(bend)
+    if isinstance(bend, str):
+        b["xyz".index(bend[1])] = float(bend[0] + "1")
+    b[2] = 0.0  # made normal to the needle (+z)
+    np.testing.assert_allclose(M[:3, 0], b / np.linalg.norm(b), atol=1e-15)
+    assert np.array_equal(M[:3, 2], [0.0, 0.0, 1.0])
+    assert np.linalg.det(M[:3, :3]) == pytest.approx(1.0, abs=1e-15)
+    assert np.array_equal(needle_mount("+x", bend=None), needle_mount("+x"))
+
+
+def test_a_needle_bend_only_turns_a_curved_needle_about_its_own_axis(tmp_path) -> None:
+    """needle_bend leaves the straight needle where it was and turns the arc about the shaft:
+    the tip of a curved needle moves to the side the file names."""
+    home = {"home": KINOVA_HOME}
+    plain = load_robot_file(robot_toml(tmp_path / "a.toml", **home)).arm
+    bent = load_robot_file(robot_toml(tmp_path / "b.toml", needle_bend='"+y"', **home)).arm
+    q = bent.home
+    for lam in (0.0, 1.0):
+        assert np.array_equal(bent.needle_point(q, lam), plain.needle_point(q, lam))
+    assert np.array_equal(bent.needle.mount[:3, 0], [0.0, 1.0, 0.0])
+    curved = load_scenario("curved").needle.fit(bent)
+    a = bent.needle_axis(q)
+    side = curved.tip(q) - bent.tip(q)  # the arc beyond the shaft's end
+    side -= (side @ a) * a
+    flange = bent.tool_pose(q)[:3, :3] @ bent.needle.mount[:3, :3].T
+    np.testing.assert_allclose(side / np.linalg.norm(side), flange[:, 1], atol=1e-12)
 
 
 def test_a_file_with_a_home_runs_the_default_injection_to_status_ok(tmp_path, capsys) -> None:
@@ -219,6 +252,9 @@ BAD = {  # case: (keys changed, error type, what the message names)
     "needle axis": ({"needle_axis": '"z"'}, RobotFileError, r"needle_axis = 'z'.*\+x -x \+y"),
     "needle axis zero": ({"needle_axis": "[0, 0, 0]"}, RobotFileError,
                          r"needle_axis = \(0, 0, 0\).*non-zero direction"),
+    "needle bend": ({"needle_bend": '"y"'}, RobotFileError, r"needle_bend = 'y'.*\+x -x \+y"),
+    "needle bend along the needle": ({"needle_bend": "[-1, 0, 0.1]"}, RobotFileError,
+                                     r"needle_bend = .*25 degrees from the needle's line"),
     "needle offset": ({"needle_offset_mm": "[0, 25]"}, RobotFileError,
                       r"needle_offset_mm = \(0, 25\).*\[x, y, z\]"),
     "home outside the limits": ({"home": "[1.5707, 2.618, -1.5707, 3.1415, 2.618, 0.0]"},

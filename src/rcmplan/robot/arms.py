@@ -59,31 +59,46 @@ def needle_arm(
 
 
 def needle_mount(
-    axis: str | Sequence[float], offset: Sequence[float] = (0.0, 0.0, 0.0)
+    axis: str | Sequence[float],
+    offset: Sequence[float] = (0.0, 0.0, 0.0),
+    bend: str | Sequence[float] | None = None,
 ) -> FloatArray:
     """The (4, 4) needle mount in the flange frame: its origin (the needle base) at `offset`
     (3,) [m], its z axis (the needle) along `axis`, one of NEEDLE_AXES or a direction (3,) (made
-    unit). Its x axis (a curved needle's bend) is the flange's z made normal to the needle, or
-    the flange's x for a needle within 25 degrees of the flange's z (for the named axes: the
-    flange's z for +-x and +-y, its x for +-z)."""
-    if isinstance(axis, str):
-        if axis not in NEEDLE_AXES:
-            raise InvalidInputError("needle_axis", axis, "one of " + " ".join(NEEDLE_AXES))
-        z = np.zeros(3)
-        z["xyz".index(axis[1])] = 1.0 if axis[0] == "+" else -1.0
+    unit). Its x axis (a curved needle's bend) is `bend` made normal to the needle (one of
+    NEEDLE_AXES or a direction (3,), at least 25 degrees from the needle's line); without
+    `bend`, the flange's z made normal to the needle, or the flange's x for a needle within 25
+    degrees of the flange's z (for the named axes: the flange's z for +-x and +-y, its x for
+    +-z)."""
+    z = _direction("needle_axis", axis)
+    if bend is None:
+        x = np.array([0.0, 0.0, 1.0]) if abs(z[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
     else:
-        z = vector("needle_axis", axis, 3)
-        norm = float(np.linalg.norm(z))
-        if not norm > 1e-9:
-            raise InvalidInputError("needle_axis", axis, "a non-zero direction (3,)")
-        z = z / norm
-    x = np.array([0.0, 0.0, 1.0]) if abs(z[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+        x = _direction("needle_bend", bend)
+        if abs(float(x @ z)) >= 0.9:
+            valid = f"a direction at least 25 degrees from the needle's line {z.tolist()}"
+            raise InvalidInputError("needle_bend", bend, valid)
     x = x - (x @ z) * z
     x /= np.linalg.norm(x)
     M = np.eye(4)
     M[:3, :3] = np.column_stack([x, np.cross(z, x), z])
     M[:3, 3] = vector("needle_offset", offset, 3)
     return M
+
+
+def _direction(name: str, value: str | Sequence[float]) -> FloatArray:
+    """A unit direction (3,) in the flange frame from one of NEEDLE_AXES or a vector (3,)."""
+    if isinstance(value, str):
+        if value not in NEEDLE_AXES:
+            raise InvalidInputError(name, value, "one of " + " ".join(NEEDLE_AXES))
+        out = np.zeros(3)
+        out["xyz".index(value[1])] = 1.0 if value[0] == "+" else -1.0
+        return out
+    out = vector(name, value, 3)
+    norm = float(np.linalg.norm(out))
+    if not norm > 1e-9:
+        raise InvalidInputError(name, value, "a non-zero direction (3,)")
+    return out / norm
 
 
 def roll_joint(chain: JointChain, needle: StraightNeedle) -> int | None:

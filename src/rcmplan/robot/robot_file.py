@@ -8,6 +8,7 @@ needle on it and the home pose. The shipped arms (`rcmplan/robots/*.toml`) use t
     flange = "j2s6s200_end_effector" # URDF link (MJCF: body or site) holding the needle
     needle_axis = "+x"               # the needle's direction in the flange frame ("+z")
     needle_offset_mm = [0, 0, 25]    # the needle base in the flange frame ([0, 0, 0])
+    needle_bend = "+y"               # where a curved needle bends, flange frame (see below)
     needle_length_mm = 60.0          # (60)
     home = [...]                     # joints at home, rad or m (absent: searched)
 
@@ -15,11 +16,12 @@ needle on it and the home pose. The shipped arms (`rcmplan/robots/*.toml`) use t
 `package://example-robot-data/<path under the package's robots folder>` (extra `robots`). The
 needle starts at `needle_offset_mm` in the flange frame (the flange origin by default) and runs
 along `needle_axis`, one of +x -x +y -y +z -z or a direction [x, y, z]: its mount's z axis
-(`rcmplan.robot.arms.needle_mount`). The last joint is held as the needle roll when it turns
-the needle about its own axis. A home, given or searched (`rcmplan.robot.home_search`), lies
-within the joint limits; the arm is then turned about the vertical so that the needle points
-along -x at home (`rcmplan.robot.arms.place_arm`). Every fault raises `RobotFileError` naming
-the file and key.
+(`rcmplan.robot.arms.needle_mount`). A curved needle bends towards `needle_bend` (the same
+forms, made normal to the needle: the mount's x axis; absent, `needle_mount` chooses it). The
+last joint is held as the needle roll when it turns the needle about its own axis. A home,
+given or searched (`rcmplan.robot.home_search`), lies within the joint limits; the arm is then
+turned about the vertical so that the needle points along -x at home
+(`rcmplan.robot.arms.place_arm`). Every fault raises `RobotFileError` naming the file and key.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from rcmplan.robot.model import SerialArm
 from rcmplan.robot.needle import StraightNeedle
 
 KEYS = ("name", "description", "urdf", "mjcf", "flange", "needle_axis", "needle_offset_mm",
-        "needle_length_mm", "home")  # fmt: skip
+        "needle_length_mm", "needle_bend", "home")  # fmt: skip
 MIN_MOVING_JOINTS = 5  # joints moving the needle, to hold an RCM and reach a point
 MAX_FILE_BYTES = 1 << 16
 SINGULAR_THRESHOLD = 0.01  # the arms' smallest accepted singularity measure
@@ -63,6 +65,8 @@ class RobotSpec:
         needle_axis: One of NEEDLE_AXES, or a unit direction (3,) in the flange frame.
         needle_offset: The needle base (3,) in the flange frame [m]. needle_length: In [m].
         home: Joints at home in [rad] or [m], or None (searched).
+        needle_bend: Where a curved needle bends in the flange frame (one of NEEDLE_AXES or a
+            unit direction (3,)), or None (`needle_mount`'s choice).
     """
 
     path: Path
@@ -75,6 +79,7 @@ class RobotSpec:
     needle_length: float = values.NEEDLE_LENGTH_MM / 1e3
     needle_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)
     home: tuple[float, ...] | None = None
+    needle_bend: str | tuple[float, float, float] | None = None
 
     def error(self, key: str, value: Any, valid: str) -> RobotFileError:
         """A RobotFileError naming this file and `key`."""
@@ -125,7 +130,8 @@ def read_robot_file(path: str | Path) -> RobotSpec:
         raise RobotFileError(path, "urdf", value, "one model file: urdf = PATH or mjcf = PATH")
     return RobotSpec(path, text("name"), text("description", ""), kinds[0], text(kinds[0]),
                      text("flange"), values.axis(path, table), values.length(path, table),
-                     values.offset(path, table), values.home(path, table))  # fmt: skip
+                     values.offset(path, table), values.home(path, table),
+                     values.bend(path, table))  # fmt: skip
 
 
 def _table(path: Path) -> dict[str, Any]:
@@ -192,7 +198,11 @@ def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> Loade
         instance("search", search, HomeSearch, "a HomeSearch or None (the default search)")
     spec = read_robot_file(file_path("path", path))
     chain = model_chain(spec)
-    needle = StraightNeedle(spec.needle_length, needle_mount(spec.needle_axis, spec.needle_offset))
+    try:
+        mount = needle_mount(spec.needle_axis, spec.needle_offset, spec.needle_bend)
+    except InvalidInputError as exc:
+        raise spec.error(exc.name, exc.value, exc.valid) from exc
+    needle = StraightNeedle(spec.needle_length, mount)
     roll = roll_joint(chain, needle)
     moving = [n for i, n in enumerate(chain.joint_names) if i != roll]
     if len(moving) < MIN_MOVING_JOINTS:
@@ -250,7 +260,8 @@ def _search_key(spec: RobotSpec, chain: JointChain, search: HomeSearch) -> tuple
     arrays = (chain.base, chain.origins, chain.axes, chain.tip, chain.lower, chain.upper,
               chain.prismatic)  # fmt: skip
     numbers = np.concatenate([np.ravel(a) for a in arrays])
-    return (numbers.tobytes(), spec.needle_axis, spec.needle_offset, spec.needle_length, search)
+    return (numbers.tobytes(), spec.needle_axis, spec.needle_offset, spec.needle_length,
+            spec.needle_bend, search)  # fmt: skip
 
 
 _SEARCHED: dict[tuple[Any, ...], tuple[tuple[float, ...] | None, float, tuple[int, int]]] = {}

@@ -34,14 +34,26 @@ def triple(value: Any) -> bool:
 
 def axis(path: Path, table: dict[str, Any]) -> str | tuple[float, float, float]:
     """needle_axis: one of NEEDLE_AXES, or a non-zero direction [x, y, z] made unit."""
-    value = table.get("needle_axis", "+z")
+    return _direction(path, "needle_axis", table.get("needle_axis", "+z"))
+
+
+def bend(path: Path, table: dict[str, Any]) -> str | tuple[float, float, float] | None:
+    """needle_bend: one of NEEDLE_AXES, or a non-zero direction [x, y, z] made unit; None when
+    absent (`rcmplan.robot.arms.needle_mount` then chooses the bend)."""
+    if "needle_bend" not in table:
+        return None
+    return _direction(path, "needle_bend", table["needle_bend"])
+
+
+def _direction(path: Path, key: str, value: Any) -> str | tuple[float, float, float]:
+    """One of NEEDLE_AXES as written, or a non-zero direction [x, y, z] made unit."""
     if isinstance(value, str) and value in NEEDLE_AXES:
         return value
     if triple(value) and math.hypot(*value) > 1e-9:
         x, y, z = (float(v) / math.hypot(*value) for v in value)
         return (x, y, z)
     valid = "one of " + " ".join(NEEDLE_AXES) + ", or a non-zero direction [x, y, z]"
-    raise RobotFileError(path, "needle_axis", value, valid)
+    raise RobotFileError(path, key, value, valid)
 
 
 def offset(path: Path, table: dict[str, Any]) -> tuple[float, float, float]:
