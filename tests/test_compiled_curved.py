@@ -1,7 +1,7 @@
 """The curved needle's kernels: J_c against finite differences of X_c, each step against the
 equation it solves (numpy); the compiled loop against the loop run from Python: whole phases of
 the curved injection (records with the roll error, the plant, lambda) on iRAM!S and the UR5,
-and the same exceptions; a straight needle's runs keep their path and records."""
+the whole-pose phases on the Panda (seven joints), and the same exceptions; a straight needle's runs keep their path and records."""
 
 from __future__ import annotations
 
@@ -16,7 +16,6 @@ from rcmplan.compiled import curved_phase
 from rcmplan.compiled.curved import curved_arrays
 from rcmplan.control import LoopSettings, Phase, PinvSolver
 from rcmplan.control.curved import (
-    CURVED_POSE_TASKS,
     CURVED_TASKS,
     CurvedDlsSolver,
     CurvedPinvSolver,
@@ -237,15 +236,40 @@ def test_a_plant_without_exact_commands_takes_the_reference_loop(robot: CurvedTi
     assert not curved_phase.run_if_fast(ctl, ctl.solver, target, 0, 0)
 
 
-def test_the_whole_pose_step_of_a_redundant_arm_takes_the_reference_loop() -> None:
+def redundant_curved() -> CurvedTipRobot:
+    """The Panda with a curved needle: seven joints move it (the roll among them)."""
     base = make_robot("panda")
     robot = curved_robot(base, CurvedNeedle(base.needle_length, 12e-3, 0.25))
-    use_path("on")
-    plant = KinematicPlant(base)
-    ctl = Controller(plant, CurvedPinvSolver(), robot=robot)
-    target = stack_value(CURVED_POSE_TASKS, robot, robot.home, 0.0)[None, :]
     assert arrays_of(robot).m == 7
-    assert not curved_phase.run_if_fast(ctl, CurvedPoseSolver(), target, 0, 0)
+    return robot
+
+
+def test_the_whole_pose_step_of_a_redundant_arm_is_its_minimum_norm_least_squares(rng) -> None:
+    robot, solver = redundant_curved(), CurvedPoseSolver()
+    for q in configurations(robot, rng, 10):
+        target = stack_value(solver.tasks, robot, q, 0.0) + rng.normal(0.0, 1e-4, 7)
+        e = solver.error(robot, q, 0.0, target)
+        dq, dlam = solver.step(robot, q, 0.0, target, e)
+        J = task_jacobian(solver.tasks, robot, q, 0.0)
+        assert np.linalg.matrix_rank(J[:, :-1]) == 6  # seven rows, seven joints: rank 6
+        np.testing.assert_allclose([*dq, dlam], numpy_step(solver, robot, q, 0.0, e),
+                                   rtol=0, atol=TOL)  # fmt: skip
+
+
+def test_the_whole_pose_phases_of_a_redundant_arm_run_compiled_with_the_reference_log(
+    monkeypatch,
+) -> None:
+    ref_ctl, ref = curved_run("panda", "pinv", "off", phases=2)  # approach, enter: whole poses
+    assert arrays_of(ref_ctl.robot).m == 7
+
+    def no_reference(*args: object) -> None:
+        raise AssertionError("the reference loop ran")
+
+    monkeypatch.setattr(Controller, "converge", no_reference)
+    ctl, log = curved_run("panda", "pinv", "on", phases=2)
+    assert_same_log(log, ref)
+    np.testing.assert_allclose(ctl.plant.read_actuators(), ref_ctl.plant.read_actuators(),
+                               rtol=0, atol=TOL)  # fmt: skip
 
 
 def test_a_straight_needle_keeps_the_straight_records_on_the_compiled_path() -> None:

@@ -25,11 +25,10 @@ from rcmplan.compiled.arm_qp import curved_qp_applies
 from rcmplan.compiled.curved import curved_arrays
 from rcmplan.compiled.phase import run_phase_compiled
 from rcmplan.compiled.records import (
-    CURVED_POSE,
     is_curved,
     method_code,
 )
-from rcmplan.control.curved import POSE_JOINTS, LimitedPoseSolver
+from rcmplan.control.curved import LimitedPoseSolver
 from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 
@@ -55,9 +54,7 @@ def run_if_fast(
     commands exactly or around the dynamic MuJoCo plant's compiled period (iRAM!S's QP's
     limited free step among them; an arm's QP too); False (nothing done) otherwise."""
     arrays = curved_arrays(controller.robot)
-    if arrays is None or (method_code(solver) == CURVED_POSE and arrays.m > POSE_JOINTS):
-        return False
-    if type(solver) is LimitedPoseSolver and arrays.m > POSE_JOINTS:
+    if arrays is None:
         return False
     if type(solver) is QpSolver and arrays.P is None and not curved_qp_applies(solver):
         return False

@@ -47,9 +47,6 @@ from rcmplan.robot.model import RobotModel
 
 TARGET_WIDTH = 7
 ROLL_ROW = 3
-# The whole-pose task has seven rows for a rigid needle's six freedoms: with more than six
-# active joints its Jacobian is rank-deficient both ways, beyond the compiled step's solves.
-POSE_JOINTS = 6
 
 
 def curved(robot: RobotModel) -> CurvedTipRobot:
@@ -221,14 +218,10 @@ class CurvedPoseSolver(CurvedPinvSolver):
     def step(
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
-        """The least-squares step on the (7, m) pose Jacobian (`curved_step.step`); with more
-        than POSE_JOINTS active joints, where that Jacobian is rank-deficient both ways, the
-        minimum-norm least-squares step (an SVD)."""
+        """The least-squares step on the (7, m) pose Jacobian (`curved_step.step`; with more
+        than six active joints, where that Jacobian is rank-deficient both ways, the
+        minimum-norm one)."""
         K = np.asarray(self.K, dtype=np.float64)
-        if len(robot.active) > POSE_JOINTS:
-            J = task_jacobian(self.tasks, robot, q, lam)[:, :-1]
-            d = np.linalg.lstsq(J, K * error, rcond=None)[0]
-            return np.asarray(d, dtype=np.float64), 0.0
         return kernel_step(robot, self.code, K, 0.0, 0.0, q, lam, error)[:-1], 0.0
 
 

@@ -6,8 +6,10 @@ whole-pose steps on X_c (the implementation of `rcmplan.control.curved`'s solver
         null-space posture z: d = J^+ (K e - J z) + z;
     CURVED_DLS: d = J^T (J J^T + D^2 I)^-1 e with the roll row and error times l_s, so that every
         row is in [m] (one damping for all);
-    CURVED_POSE: the least-squares (or minimum-norm) step of J_c without its lambda column for
-        K e; dlambda = 0.
+    CURVED_POSE: the least-squares step of J_c without its lambda column for K e; dlambda = 0.
+        With more than six joints J_c (7 rows for a rigid needle's six freedoms) is
+        rank-deficient both ways: its minimum-norm least-squares step (`least_norm`, from the
+        rows' one dependency).
 
 On iRAM!S J_c has structure, exact in exact arithmetic, that the pinv step uses
 (`iramis_pinv_step`, as the straight needle's `kernels.solve_augmented` uses J_a's): the roll
@@ -19,6 +21,8 @@ Imports numba.
 """
 
 from __future__ import annotations
+
+import math
 
 from numba import njit
 
@@ -70,6 +74,51 @@ def normal(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
 
 
 @njit(cache=True)
+def least_norm(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
+    """The minimum-norm least-squares d[:cols] of J[:, :cols] d = b (row c + B) for the
+    whole-pose task of seven or more joints, whose seven rows (tip, roll, needle base) have
+    rank 6: the tip and the base of a rigid needle keep their distance, so n = (u, 0, -u) / 2^0.5
+    with u the unit left null vector of D = J_tip - J_base (3, cols) has n^T J = 0. b is
+    projected on J's range (b - n n^T b), the tip row where |u| is largest dropped (the last
+    row takes its place), and the six rows left, of full rank, give the minimum-norm step
+    d = J6^T (J6 J6^T)^-1 b6 (`linalg.damped` with no damping): J^+ b, with no SVD (whose
+    compile, numba's `lstsq`, took 9 s more in a first curved run). J's rows and b are
+    overwritten."""
+    r0, rb = c + J, c + B
+    m00 = m01 = m02 = m11 = m12 = m22 = 0.0  # D D^T, rank 2: u is normal to its rows
+    for j in range(cols):
+        x, y, z = (C[r0, j] - C[r0 + 4, j], C[r0 + 1, j] - C[r0 + 5, j],
+                   C[r0 + 2, j] - C[r0 + 6, j])  # fmt: skip
+        m00, m01, m02 = m00 + x * x, m01 + x * y, m02 + x * z
+        m11, m12, m22 = m11 + y * y, m12 + y * z, m22 + z * z
+    # u: the largest cross product of two of its rows
+    ux, uy, uz = m01 * m12 - m02 * m11, m02 * m01 - m00 * m12, m00 * m11 - m01 * m01
+    best = ux * ux + uy * uy + uz * uz
+    x, y, z = m01 * m22 - m02 * m12, m02 * m02 - m00 * m22, m00 * m12 - m01 * m02
+    if x * x + y * y + z * z > best:
+        ux, uy, uz, best = x, y, z, x * x + y * y + z * z
+    x, y, z = m11 * m22 - m12 * m12, m12 * m02 - m01 * m22, m01 * m12 - m11 * m02
+    if x * x + y * y + z * z > best:
+        ux, uy, uz, best = x, y, z, x * x + y * y + z * z
+    norm = math.sqrt(2.0 * best)
+    n = (ux / norm, uy / norm, uz / norm)  # the tip rows' part of n; the base rows': -n
+    t = 0.0
+    for i in range(3):
+        t += n[i] * (C[rb, i] - C[rb, 4 + i])
+    for i in range(3):
+        C[rb, i] -= t * n[i]
+        C[rb, 4 + i] += t * n[i]
+    drop = 0
+    for i in range(1, 3):
+        if abs(n[i]) > abs(n[drop]):
+            drop = i
+    for j in range(cols):
+        C[r0 + drop, j] = C[r0 + 6, j]
+    C[rb, drop] = C[rb, 6]
+    damped(C, r0, WIDTH - 1, cols, 0.0, c + S, rb, d)
+
+
+@njit(cache=True)
 def step(C: FloatArray, c: int, method: int, m: int, K: FloatArray, damping: float,
          shaft: float, e: FloatArray, d: FloatArray) -> None:  # fmt: skip
     """The solver's step d (m + 1,) from J_c in rows c + J.. and the error e (7,):
@@ -77,8 +126,8 @@ def step(C: FloatArray, c: int, method: int, m: int, K: FloatArray, damping: flo
     - CURVED_PINV: J_c d = K e when J_c is square (m = 6), else the minimum-norm step plus the
       null-space posture z (row c + Z, filled by the caller): d = J^+ (K e - J z) + z;
     - CURVED_DLS: d = J^T (J J^T + D^2 I)^-1 e with the roll row and error times l_s (`shaft`);
-    - CURVED_POSE: the least-squares (or minimum-norm) step of J_c without its lambda column
-      for K e; dlambda = 0.
+    - CURVED_POSE: the least-squares step of J_c without its lambda column for K e (with more
+      than six joints the minimum-norm one, `least_norm`); dlambda = 0.
     """
     b = c + B
     if method == CURVED_DLS:
@@ -93,10 +142,10 @@ def step(C: FloatArray, c: int, method: int, m: int, K: FloatArray, damping: flo
         C[b, i] = K[i] * e[i]
     if cols < WIDTH:
         normal(C, c, cols, d)
-    elif cols == WIDTH or method == CURVED_PINV:  # square, or wide with the posture
+    elif method == CURVED_POSE:  # seven or more joints: J_c has rank 6
+        least_norm(C, c, cols, d)
+    else:  # CURVED_PINV: square, or wide with the posture
         pinv(C, c + J, WIDTH, cols, c + S, b, c + Z, d)
-    else:
-        damped(C, c + J, WIDTH, cols, 0.0, c + S, b, d)
     if method != CURVED_PINV:
         d[m] = 0.0
 
