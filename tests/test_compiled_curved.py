@@ -1,7 +1,8 @@
 """The curved needle's kernels: J_c against finite differences of X_c, each step against the
 equation it solves (numpy); the compiled loop against the loop run from Python: whole phases of
 the curved injection (records with the roll error, the plant, lambda) on iRAM!S and the UR5,
-the whole-pose phases on the Panda (seven joints), and the same exceptions; a straight needle's runs keep their path and records."""
+the whole-pose phases on the Panda (seven joints), and the same exceptions; a straight needle's
+runs keep their path and records; a degenerate whole-pose Jacobian gives a NaN step."""
 
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from rcmplan.control.curved import (
     CurvedPoseSolver,
     task_jacobian,
 )
+from rcmplan.control.curved_step import least_norm
 from rcmplan.control.curved_targets import solve_curved_pose
 from rcmplan.control.log import RunLog
 from rcmplan.control.methods import make_free_solver, make_solver
@@ -29,6 +31,7 @@ from rcmplan.control.solvers import Solver
 from rcmplan.control.tasks import stack_value
 from rcmplan.controller import Controller
 from rcmplan.exceptions import ConvergenceError, RcmplanError, SliderLimitError
+from rcmplan.robot import curved_block
 from rcmplan.robot.curved import CurvedArrays, CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.registry import make_robot
@@ -335,3 +338,11 @@ def test_a_target_the_needle_cannot_take_raises_the_reference_error(
         return
     assert messages[1] == messages[0]
     assert messages[0].startswith("InvalidInputError" if bad == "nan" else "UnreachableTarget")
+
+
+def test_a_degenerate_whole_pose_jacobian_gives_a_nan_step_not_an_exception() -> None:
+    C, r = np.zeros((curved_block.BLOCK_ROWS, 8)), curved_block.J
+    C[r : r + 3, :7] = C[r + 4 : r + 7, :7] = np.eye(3, 7)  # tip and base move alike: D = 0
+    d = np.zeros(8)
+    least_norm(C, 0, 7, d)
+    assert np.isnan(d[:7]).all()

@@ -73,7 +73,7 @@ def normal(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
         d[i] = C[c + B, i]
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")  # a degenerate J: NaN (the loop then stops), no exception
 def least_norm(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
     """The minimum-norm least-squares d[:cols] of J[:, :cols] d = b (row c + B) for the
     whole-pose task of seven or more joints, whose seven rows (tip, roll, needle base) have
@@ -83,7 +83,8 @@ def least_norm(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
     row takes its place), and the six rows left, of full rank, give the minimum-norm step
     d = J6^T (J6 J6^T)^-1 b6 (`linalg.damped` with no damping): J^+ b, with no SVD (whose
     compile, numba's `lstsq`, took 9 s more in a first curved run). J's rows and b are
-    overwritten."""
+    overwritten. A J of lower rank (D of rank below 2: no joint turns the tip about the base)
+    gives NaN, which the loop stops on (BAD_JOINTS)."""
     r0, rb = c + J, c + B
     m00 = m01 = m02 = m11 = m12 = m22 = 0.0  # D D^T, rank 2: u is normal to its rows
     for j in range(cols):
