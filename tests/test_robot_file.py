@@ -116,7 +116,6 @@ def test_the_needle_bend_is_the_mounts_x_axis_normal_to_the_needle(bend) -> None
     np.testing.assert_allclose(M[:3, 0], b / np.linalg.norm(b), atol=1e-15)
     assert np.array_equal(M[:3, 2], [0.0, 0.0, 1.0])
     assert np.linalg.det(M[:3, :3]) == pytest.approx(1.0, abs=1e-15)
-    assert np.array_equal(needle_mount("+x", bend=None), needle_mount("+x"))
 
 
 def test_a_needle_bend_only_turns_a_curved_needle_about_its_own_axis(tmp_path) -> None:
