@@ -1,8 +1,10 @@
 """What Linux says of a process in /proc: its descendants, whether it runs, whether its exit has
-begun, whether it catches a signal (for the interrupt harnesses of tests/ and benchmarks/)."""
+begun, whether it catches a signal, the CPU time it has used (for the interrupt harnesses of
+tests/ and benchmarks/)."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 PF_EXITING = 0x4  # include/linux/sched.h: the task is in do_exit(); a signal sent now is dropped
@@ -43,6 +45,14 @@ def exiting(pid: int) -> bool:
     its memory takes to be freed. The flags are field 9."""
     fields = stat_fields(pid)
     return fields is None or fields[0] in ("Z", "X") or bool(int(fields[6]) & PF_EXITING)
+
+
+def cpu_seconds(pid: int) -> float | None:
+    """The CPU time [s] pid has used, user and system (fields 14 and 15); None once reaped."""
+    fields = stat_fields(pid)
+    if fields is None:
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def catches(pid: int, signum: int) -> bool:

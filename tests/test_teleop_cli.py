@@ -4,6 +4,7 @@ margin, bad input files refused before motion, and SIGTERM keeping the partial s
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -14,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from procstat import cpu_seconds
 from rcmplan.cli import main
 from rcmplan.cli.teleop import FILTERS
 from rcmplan.control.log import RunLog
@@ -110,9 +112,11 @@ def test_sigterm_writes_the_partial_session_and_exits_143(tmp_path) -> None:
     from rcmplan.teleop.settings import TeleopSettings
 
     out = tmp_path / "out"
-    # The default 20 s session on the UR5 takes about 5-7 s. The signal goes 1 s after the
-    # session is built (its last import, reported by -X importtime); building it here first
-    # compiles the UR5's QP step into numba's cache, so the command's build only loads it.
+    # The default 20 s session on the UR5 takes about 5-7 s of CPU time. The signal goes once
+    # the process has used 1 s of CPU time after the session's last import (reported by -X
+    # importtime): CPU time, not wall time, so that a loaded machine does not make the signal
+    # land before the first record. Building the session here first compiles the UR5's QP
+    # step into numba's cache, so the command's build only loads it.
     Session(TeleopSettings(robot="ur5"))
     env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
     proc = subprocess.Popen([sys.executable, "-X", "importtime", "-m", "rcmplan", "teleop",
@@ -123,7 +127,11 @@ def test_sigterm_writes_the_partial_session_and_exits_143(tmp_path) -> None:
     for line in proc.stderr:
         if line.rsplit("|", 1)[-1].strip() == "rcmplan.compiled.qp_period":
             break
-    time.sleep(1.0)
+    start = cpu_seconds(proc.pid)
+    assert start is not None, "the session ended before its last import was reported"
+    deadline = time.monotonic() + 60.0
+    while (cpu_seconds(proc.pid) or math.inf) < start + 1.0 and time.monotonic() < deadline:
+        time.sleep(0.01)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 143, err
