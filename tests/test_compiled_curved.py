@@ -2,7 +2,8 @@
 equation it solves (numpy); the compiled loop against the loop run from Python: whole phases of
 the curved injection (records with the roll error, the plant, lambda) on iRAM!S and the UR5,
 the whole-pose phases on the Panda (seven joints), and the same exceptions; a straight needle's
-runs keep their path and records; a degenerate whole-pose Jacobian gives a NaN step."""
+runs keep their path and records; a degenerate whole-pose Jacobian gives a NaN step, which the
+solvers called from Python refuse as the straight needle's do."""
 
 from __future__ import annotations
 
@@ -30,7 +31,12 @@ from rcmplan.control.methods import make_free_solver, make_solver
 from rcmplan.control.solvers import Solver
 from rcmplan.control.tasks import stack_value
 from rcmplan.controller import Controller
-from rcmplan.exceptions import ConvergenceError, RcmplanError, SliderLimitError
+from rcmplan.exceptions import (
+    ConvergenceError,
+    InvalidInputError,
+    RcmplanError,
+    SliderLimitError,
+)
 from rcmplan.robot import curved_block
 from rcmplan.robot.curved import CurvedArrays, CurvedTipRobot, curved_robot
 from rcmplan.robot.curved_needle import CurvedNeedle
@@ -346,3 +352,22 @@ def test_a_degenerate_whole_pose_jacobian_gives_a_nan_step_not_an_exception() ->
     d = np.zeros(8)
     least_norm(C, 0, 7, d)
     assert np.isnan(d[:7]).all()
+
+
+@pytest.mark.parametrize("solver", [CurvedPinvSolver(), CurvedDlsSolver(), CurvedPoseSolver()],
+                         ids=lambda s: s.name)  # fmt: skip
+def test_a_curved_solver_refuses_a_non_finite_error_as_the_straight_ones_do(
+    robot: CurvedTipRobot, solver: Solver
+) -> None:
+    """A NaN in the error gives a NaN step from the kernel; `step` raises InvalidInputError
+    naming the error (as `PinvSolver.step` does) instead of returning it."""
+    q, lam = robot.home, 0.5
+    target = stack_value(solver.tasks, robot, q, lam)  # type: ignore[attr-defined]
+    error = solver.error(robot, q, lam, target)
+    dq, _ = solver.step(robot, q, lam, target, error)
+    assert np.isfinite(dq).all()  # a finite error: a finite step
+    error[3] = np.nan
+    with pytest.raises(InvalidInputError, match="error"):
+        solver.step(robot, q, lam, target, error)
+    with pytest.raises(InvalidInputError, match="error"):
+        PinvSolver().step(robot.base, robot.base.home, lam, np.zeros(6), np.full(6, np.nan))

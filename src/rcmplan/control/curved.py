@@ -36,7 +36,7 @@ from rcmplan.control.curved_step import (
 )
 from rcmplan.control.limited_tip import limited_step
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping
-from rcmplan.control.targets import checked_target
+from rcmplan.control.targets import checked_target, finite_step
 from rcmplan.control.tasks import NeedleBase, RcmPoint, Task, TipPosition
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.chain_kinematics import frames
@@ -116,19 +116,21 @@ def kernel_step(
     lam: float, error: FloatArray,
 ) -> FloatArray:  # fmt: skip
     """The compiled loops' step d = (dq[active], dlambda) (m + 1,) of the curved solver `code`
-    (`curved_step`) at (q, lambda) for its error (7,); `gain` is the null-space posture's."""
+    (`curved_step`) at (q, lambda) for its error (7,); `gain` is the null-space posture's.
+    A step that is not finite raises as the straight needle's solvers' do (`finite_step`:
+    InvalidInputError naming a non-finite error or q, or SingularPoseError)."""
     arrays = curved(robot).arrays
     assert arrays is not None  # `curved` refuses a straight needle
     q = vector("q", q, arrays.n)
-    e = checked_target(error, TARGET_WIDTH, "error", finite=False)  # NaN shows in the step
+    e = checked_target(error, TARGET_WIDTH, "error", finite=False)  # refused by finite_step
     d, work = np.empty(arrays.m + 1), np.empty(arrays.work_shape())
     if arrays.P is not None:
         iramis_step(arrays.P, code, K, damping, q, trig(q), float(lam), e, work, d, np.empty(3))
-        return d
-    A, ix = arrays.arm()
-    frames(A, ix, q, work)
-    arm_step(A, ix, work, code, K, gain, damping, q, float(lam), e, d)
-    return d
+    else:
+        A, ix = arrays.arm()
+        frames(A, ix, q, work)
+        arm_step(A, ix, work, code, K, gain, damping, q, float(lam), e, d)
+    return finite_step(d, robot, q, e)
 
 
 class CurvedSolver:
