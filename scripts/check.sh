@@ -60,15 +60,16 @@ esac
 # numba compiles each kernel on its first call and caches it (`rcmplan.compiled.cache`). On a
 # fresh clone that compile is most of the suite's CPU time, and two pytest workers would each
 # compile the same kernels: so every loop's kernels compile first, in two processes at once
-# (iRAM!S's and its curved needle's, on both plants through one loop; the arms', their curved
-# needle's, the subretinal episode's QP periods and the iOCT B-scan's: 209 and 207 s side by
-# side in one measurement), while ruff and mypy run, and the test workers load them.
+# (iRAM!S's, its curved needle's on both plants through one loop, and the subretinal episode's
+# QP periods and iOCT B-scan; the arms' and their curved needle's: 170 and 162 s side by side
+# in one measurement, alone on the machine), while ruff and mypy run, and the test workers
+# load them.
 # Each stage prints its wall time, measured from the start of this script.
 trap 'kill $(jobs -p) 2>/dev/null || true' EXIT  # no compile left running if a check fails
 took() { echo "check.sh: $1 done at $SECONDS s"; }
-{ python -c "from rcmplan.warmup import compile_iramis_kernels as i, compile_curved_kernels as c; i(); c(('iramis',))" && took "iRAM!S kernels"; } &
+{ python -c "from rcmplan.warmup import compile_iramis_kernels as i, compile_curved_kernels as c, compile_subretinal_kernels as b; i(); c(('iramis',)); b()" && took "iRAM!S and subretinal kernels"; } &
 iramis_kernels=$!
-{ python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_subretinal_kernels as b, compile_curved_kernels as c; a(); c(('arm',)); b()" && took "arm and subretinal kernels"; } &
+{ python -c "from rcmplan.warmup import compile_arm_kernels as a, compile_curved_kernels as c; a(); c(('arm',))" && took "arm kernels"; } &
 arm_kernels=$!
 python -m ruff check src tests benchmarks
 python -m ruff format --check src tests benchmarks
@@ -77,7 +78,9 @@ took "ruff and mypy"
 wait "$iramis_kernels"
 wait "$arm_kernels"
 
-# One pytest worker per core, at most 4 (pytest-xdist).
+# One pytest worker per core, at most 4 (pytest-xdist), each taking whole files, the longest
+# first (tests/conftest.py: RUN_FIRST), so that no worker is left alone with a long file at
+# the end and no file's fixtures are built on two workers.
 workers="$(python -c 'import os; print(min(4, len(os.sched_getaffinity(0))))')"
-python -m pytest -q -n "$workers"
+python -m pytest -q -n "$workers" --dist loadfile --no-loadscope-reorder
 took "pytest"

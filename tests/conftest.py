@@ -18,10 +18,30 @@ if os.environ.get("RCMPLAN_REQUIRE_BROWSER") == "0":
     del os.environ["RCMPLAN_REQUIRE_BROWSER"]  # the browser tests read any other value as set
 
 
+# The order the files run in. First the one whose tests fork this process and so need it to run
+# no other thread (`analysis.parallel.can_fork`): a Dask client leaves its IO loop's and
+# offload's threads behind for the life of the process, so these run before any test that
+# starts one (each pytest-xdist worker takes the next file in this order). Then the files that
+# take longest, longest first (pytest --durations=0, summed per file, in one run with two
+# workers), so that with `--dist loadfile` (scripts/check.sh) the files left for the end are
+# short and the workers finish at about the same time. A file not named here runs after these,
+# as collected.
+RUN_FIRST = (
+    "test_parallel.py",
+    "test_interrupts.py", "test_view_browser.py", "test_subretinal_episodes.py",
+    "test_qp_compiled.py", "test_api_properties.py", "test_interrupts_writes.py",
+    "test_sweep_executors.py", "test_subretinal_trace.py", "test_api_properties_control.py",
+    "test_view_live.py", "test_view.py", "test_mujoco_methods.py",
+)  # fmt: skip
+
+
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
-    """Deselect the tests marked `heavy` unless RCMPLAN_HEAVY_TESTS=1 (tests/heavy.py)."""
+    """Run the files in `RUN_FIRST`'s order; deselect the tests marked `heavy` unless
+    RCMPLAN_HEAVY_TESTS=1 (tests/heavy.py)."""
     from heavy import HEAVY
 
+    rank = {name: k for k, name in enumerate(RUN_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: else as collected
     if HEAVY:
         return
     keep = [item for item in items if item.get_closest_marker("heavy") is None]

@@ -61,6 +61,7 @@ def test_an_interrupt_stops_the_drawing_at_once_and_reaps_every_child(tmp_path: 
         raise KeyboardInterrupt
 
     jobs = [(tmp_path / f"{i}.txt", slow(tmp_path / f"{i}.txt")) for i in range(2)]
+    before = children_of(os.getpid())  # e.g. multiprocessing's helpers started by other tests
     old_term = signal.signal(signal.SIGTERM, raise_interrupt)
     # SIGALRM sends the SIGTERM: no timer thread (a thread makes forking unsafe).
     old_alarm = signal.signal(signal.SIGALRM, lambda *_: os.kill(os.getpid(), signal.SIGTERM))
@@ -72,6 +73,6 @@ def test_an_interrupt_stops_the_drawing_at_once_and_reaps_every_child(tmp_path: 
         signal.setitimer(signal.ITIMER_REAL, 0)
         signal.signal(signal.SIGALRM, old_alarm)
         signal.signal(signal.SIGTERM, old_term)
-    assert not children_of(os.getpid())  # each child stopped and reaped
+    assert children_of(os.getpid()) <= before  # each child forked here stopped and reaped
     time.sleep(3.5)  # long enough for a job that was left running to write its file
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # no job ran to its end
