@@ -377,18 +377,24 @@ def test_a_solve_that_fails_in_the_arm_loop_raises_the_reference_qp_error(arm: S
     assert outcomes.get("qp_error", 0) > 0, outcomes
 
 
-def test_the_arm_loop_refuses_the_qp_without_its_arrays(arm: SerialArm) -> None:
-    """The arm loop leaves out the QP's code when its arrays are None (numba prunes the
-    branch): method QP without them is refused, not run as another method."""
+@pytest.mark.parametrize("given", ["QP without its arrays", "pinv with the QP's arrays"])
+def test_the_arm_loop_refuses_the_qp_without_its_arrays(arm: SerialArm, given: str) -> None:
+    """The arm loop picks the QP's code by its arrays alone (numba prunes the other methods'
+    branches): method QP without them is refused, not run as another method, and so is
+    another method given them."""
     from rcmplan.control.solvers import PinvSolver
 
     ctl = Controller(KinematicPlant(arm), PinvSolver())
     setup = arm_phase._Setup(ctl, ctl.solver)
     target = extended_task(arm, arm.home, 0.5)[None, :]
     head = list(setup.head(target))
-    head[2] = QP  # the method code; qpa (head[9]) is None for the pinv solver
-    assert head[9] is None
+    assert head[9] is None  # qpa, None for the pinv solver
     n = arm.chain.n
+    if given.startswith("QP"):
+        head[2] = QP  # the method code
+    else:
+        head[9] = arm_phase.qp_arrays(QpSolver(arm, default_eye(arm)), n)
+        assert head[9] is not None
     with pytest.raises(ValueError, match="need qpa"):
         fast_cache.algorithm().run_targets(
             *head, 0, 0, arm.home.copy(), np.empty(n), np.array([0.5, 0.0, 1e-3]),

@@ -238,19 +238,26 @@ def test_the_first_run_stamp_covers_every_file_that_holds_a_kernel() -> None:
     assert holding <= set(fast_cache.kernel_sources())
 
 
-@pytest.mark.parametrize("code", ["QP", "CURVED_PINV", "CURVED_QP", "PINV"])
+@pytest.mark.parametrize("code", ["QP", "CURVED_PINV", "CURVED_QP", "PINV", "PINV with qpa"])
 def test_the_loop_refuses_a_method_without_the_arrays_it_reads(robot: Iramis, code: str) -> None:
-    """The loop leaves out the QP's and the curved needle's code when their arrays are None
-    (numba prunes those branches): a call naming the method without its arrays is refused,
-    not run as another method, and so is a straight needle's method given a curved needle's
-    work block."""
+    """The loop picks the QP's and the curved needle's code by their arrays alone (numba prunes
+    the other methods' branches): a call naming the method without its arrays is refused, not
+    run as another method, and so is a straight needle's method given a curved needle's work
+    block or the QP's arrays."""
     from rcmplan.compiled import records
 
     x0 = extended_task(robot, robot.home, 1.0)
     target = np.r_[x0[:3], 0.0, x0[3:]] if code.startswith("CURVED") else x0
     C = np.empty((BLOCK_ROWS, 7)) if code in ("CURVED_QP", "PINV") else None
-    args = (robot_params(robot), None, getattr(records, code), np.ones(7), 0.0, np.full(7, 1e-8), 10,
-            True, np.array([0.1, 0.0]), None, C, target[None, :], 0, 0,
+    qpa = None
+    if code == "PINV with qpa":
+        from rcmplan.compiled.qp_params import qp_params
+        from rcmplan.control.qp import QpSolver
+
+        qpa = fast_cache.qp_kernels().loop_qp(qp_params(robot, QpSolver(robot)))
+    method = getattr(records, code.split()[0])
+    args = (robot_params(robot), None, method, np.ones(7), 0.0, np.full(7, 1e-8), 10,
+            True, np.array([0.1, 0.0]), qpa, C, target[None, :], 0, 0,
             robot.home_actuators.copy(), np.empty(6), np.array([1.0, 0.0, 1e-3]),
             np.empty((20, 36)), np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
             np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip

@@ -171,15 +171,19 @@ def arm_iterate(
     """One iteration from joints s (n,). Returns DONE, STEPPED (the next joints in fail[n:2n]),
     NO_CONVERGENCE, SINGULAR or QP_FAILED. state = (lambda, time [s], ...); lambda is updated.
     fail holds (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). qpa: the QP's
-    arrays (`arm_phase.qp_arrays`) for method QP, else None; C: for a curved needle's methods
-    its work array (W itself), else None (numba leaves out the branches of a None argument,
-    `loop.iterate`). `framed`: W already holds the frames of s."""
+    arrays (`arm_phase.qp_arrays`) for the QP's methods only, else None; C: for a curved
+    needle's methods only, its work array (W itself), else None (each picks its branches alone,
+    so that numba leaves out the other methods' code: `loop.iterate`). `framed`: W already
+    holds the frames of s."""
     qp = method in (QP, CURVED_QP)
-    if (qp and qpa is None) or (method >= CURVED) == (C is None):
-        raise ValueError("arm_loop.arm_iterate: QP methods need qpa, a curved needle's methods C")
+    if qp == (qpa is None) or (method >= CURVED) == (C is None):
+        raise ValueError(
+            "arm_loop.arm_iterate: QP methods need qpa, a curved needle's methods "
+            "C, and no other method takes them"
+        )
     n, m = ix[0], ix[1]
     first = 2 + n  # the moving joints: the arm's active ones
-    if C is not None and method >= CURVED:  # or the curved needle's (with the roll joint)
+    if C is not None:  # or the curved needle's (with the roll joint)
         first, m = curved_arm.active_span(ix)
     cm = CURVED_POSE if method == CURVED_POSE_LIMITED else method  # the curved step's method
     e = fail[2 * n :]
@@ -192,16 +196,16 @@ def arm_iterate(
         lam, now = closest_on_needle(A, n, W, trocar)
         if drift:
             state[0] = lam
-    if qpa is not None and qp:  # error and step from one solve (`ArmQpStep`)
+    if qpa is not None:  # error and step from one solve (`ArmQpStep`)
         ne = 6 if C is None else 7
         if arm_qp_solve(A, ix, W, C, qpa, K, s, state[0], target, e, d) != 1:
             return QP_FAILED
-    elif C is not None and method >= CURVED:
+    elif C is not None:
         ne = curved_step.arm_task_error(A, ix, C, cm, state[0], target, e)
     else:
         ne = task_error(A, ix, W, method, state[0], target, tip_t, pivot, e)
     if it > 0:
-        if C is not None and method >= CURVED:
+        if C is not None:
             record_curved(A, n, C, row, state[1], s, state[0], trocar, tip_t, e)
         else:
             record(A, n, W, row, state[1], s, state[0], trocar, tip_t, e, ne)
@@ -211,14 +215,14 @@ def arm_iterate(
         return NO_CONVERGENCE
     if is_singular(A, ix, W, bounds[0]):
         return SINGULAR
-    if qpa is not None and qp:  # the solve's step, the RCM box held on the true kinematics
+    if qpa is not None:  # the solve's step, the RCM box held on the true kinematics
         hold_box(None, (A, ix, W), K, s, state[0], target, trocar, now, first, m, fail, qpa, qpa[1],
                  C, e, d, fail[n : 2 * n], d)  # fmt: skip
-    elif C is not None and method >= CURVED:
+    elif C is not None:
         curved_step.arm_step(A, ix, C, cm, K, gain, damping, s, state[0], e, d)
     else:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
-    if method == TIP_LIMITED:
+    if qpa is None and method == TIP_LIMITED:
         limit_step(K, ix, W, s, d, first, m)
     elif C is not None and method == CURVED_POSE_LIMITED:  # K: the gains (7,), the bounds
         limit_step(K[7:], ix, W, s, d, first, m)

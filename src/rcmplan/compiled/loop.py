@@ -215,31 +215,36 @@ def iterate(
     the actuators it was built at and its scratch after the error. J: the straight needle's
     work block (`curved_block`'s shape).
 
-    qpa: the QP's arrays (`qp_kernels.loop_qp`) for method QP, else None; C: a curved needle's
-    work block (`curved_block`) for its methods, else None. numba leaves out the branches of
-    an argument that is None, so a loop without the QP or the curved needle compiles without
-    their code (a first default run: `docs/benchmarks.md`, the cold compile row).
+    qpa: the QP's arrays (`qp_kernels.loop_qp`) for the QP's methods only, else None; C: a
+    curved needle's work block (`curved_block`) for its methods only, else None (checked). Each
+    branch is picked by these arrays alone, and numba decides `is None` on an argument while it
+    compiles: a loop without the QP or the curved needle compiles without their code (a first
+    default run: `docs/benchmarks.md`, the cold compile row), and one with them without the
+    other methods' code.
     """
     qp = method in (QP, CURVED_QP)
-    if (qp and qpa is None) or (method >= CURVED) == (C is None):
-        raise ValueError("loop.iterate: QP methods need qpa, a curved needle's methods C")
+    if qp == (qpa is None) or (method >= CURVED) == (C is None):
+        raise ValueError(
+            "loop.iterate: QP methods need qpa, a curved needle's methods C, and no "
+            "other method takes them"
+        )
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     cm = CURVED_POSE if method == CURVED_POSE_LIMITED else method  # the curved step's method
     joints_from_actuators(P, s, q)
     tr = trig(q)
     if holds_rcm(method) and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
-    if qpa is not None and qp:  # error and step from one solve
+    if qpa is not None:  # error and step from one solve
         info[2] = iteration_error(P, K, q, tr, state[0], target, fail, qpa, C)
         if info[2] != 1:
             return QP_FAILED
         m = 7 if method >= CURVED else 6
-    elif C is not None and method >= CURVED:  # error and step: `curved_iramis`
+    elif C is not None:  # error and step: `curved_iramis`
         m = curved_step.iramis_task_error(P, cm, q, tr, state[0], target, e, w)
     else:
         m = task_error(P, method, q, tr, state[0], target, tip_t, pivot, e, w)
     if it > 0:
-        if C is not None and method >= CURVED:
+        if C is not None:
             record_curved(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e)
         else:
             record(P, row, state[1], s, q, tr, state[0], trocar, tip_t, e, m)
@@ -249,11 +254,11 @@ def iterate(
         return NO_CONVERGENCE
     if singular_measure(tr[0], tr[2]) < bounds[0]:
         return SINGULAR
-    if qpa is not None and qp:  # a curved needle's QP moves the roll q5 too
+    if qpa is not None:  # a curved needle's QP moves the roll q5 too
         moved = 6 if method >= CURVED else 5
         return qp_step(P, K, q, target, trocar, moved, bounds, state, fail, qpa, C, info, w, d)
     moved = 5
-    if C is not None and method >= CURVED:
+    if C is not None:
         curved_step.iramis_step(P, cm, K, damping, q, tr, state[0], e, C, d, f)
         moved = 6  # a curved needle's roll q5 is active
     else:
