@@ -12,8 +12,8 @@ max(rows, cols) wide. `step` is the entry for a Jacobian held as its own array.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 
 

@@ -36,9 +36,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.arm_loop import arm_iterate, command_status
-from rcmplan.compiled.kernels import njit
 from rcmplan.compiled.loop import holds_rcm, iterate, keep_record, put, target_frame
 from rcmplan.compiled.records import DONE, NO_TIP, PAUSED, PLANT_STOPPED, STEPPED
 from rcmplan.robot.curved_block import BLOCK_ROWS

@@ -18,8 +18,7 @@ receives all of them packed in two buffers (`packed`, `solve_packed`).
 
 from __future__ import annotations
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.packed import ints, mat, vec
 from rcmplan.compiled.qp_rows import (

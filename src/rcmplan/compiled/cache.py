@@ -124,15 +124,16 @@ def clear_stale() -> None:
 
 def kernel_sources() -> list[Path]:
     """The files that hold rcmplan's numba kernels (a test keeps the list whole): this folder,
-    the step solves (`linalg`), the robot kernels (the curved needle's included), the control
-    kernels (the step bound, the cost, the limited step, the curved needle's steps, DLS's task,
-    a command's rounding to the actuator resolution, the limits' rows), the compiled MuJoCo
-    plant and its actuators' velocity profile, and the iOCT B-scan's rendering and
-    segmentation."""
+    the decorator they are compiled with (`_jit`), the step solves (`linalg`), the robot
+    kernels (the curved needle's included), the control kernels (the step bound, the cost, the
+    limited step, the curved needle's steps, DLS's task, a command's rounding to the actuator
+    resolution, the limits' rows), the compiled MuJoCo plant and its actuators' velocity
+    profile, and the iOCT B-scan's rendering and segmentation."""
     package = Path(__file__).parent.parent
     robot, control, subretinal = package / "robot", package / "control", package / "subretinal"
     return [
         *sorted(Path(__file__).parent.glob("*.py")),
+        package / "_jit.py",
         package / "linalg.py",
         *(robot / f"{m}.py" for m in ("iramis_kernels", "chain_kinematics", "chain_singular",
                                        "chain_pose", "needle", "curved_block", "curved_iramis",

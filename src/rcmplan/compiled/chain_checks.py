@@ -6,9 +6,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.robot.chain_kinematics import IntArray
 from rcmplan.robot.chain_pose import needle_pose

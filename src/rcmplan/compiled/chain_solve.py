@@ -4,8 +4,7 @@ solves; the layout is in `chain_kinematics`."""
 
 from __future__ import annotations
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.control.dls_task import dls_error, is_pivot
 from rcmplan.linalg import damped, pinv

@@ -14,9 +14,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.control import curved_step
 from rcmplan.control.curved_step import CURVED_PINV

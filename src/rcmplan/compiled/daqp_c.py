@@ -27,8 +27,9 @@ from typing import Any
 
 import llvmlite.binding as llvm
 import numpy as np
-from numba import njit, types
+from numba import types
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.exceptions import QPError
 

@@ -10,8 +10,8 @@ Parameters travel as one float64 array P (`iramis_kernels.PARAMS`).
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.robot.iramis_kernels import point, point_jacobian, trig
 from rcmplan.robot.needle import axis_angles

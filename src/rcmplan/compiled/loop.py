@@ -32,8 +32,9 @@ import math
 
 import numpy as np
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.kernels import jacobian_a, njit, solve_augmented, task
+from rcmplan.compiled.kernels import jacobian_a, solve_augmented, task
 from rcmplan.compiled.packed import mat, vec
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
 from rcmplan.compiled.qp_rows import views

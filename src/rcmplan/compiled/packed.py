@@ -16,8 +16,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot.chain_kinematics import IntArray

@@ -16,8 +16,8 @@ solve as the tuple `qp` of `buffers()`.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import qp_rows
 from rcmplan.compiled.daqp_c import EQUALITY

@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.kernels import njit, task
+from rcmplan.compiled.kernels import task
 from rcmplan.compiled.loop import command_status, period_step, put, record
 from rcmplan.compiled.records import DONE, FAIL_WIDTH, QP_FAILED, STEPPED
 from rcmplan.control.limits.tissue_depth import FLOOR_AT

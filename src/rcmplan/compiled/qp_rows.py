@@ -22,8 +22,8 @@ array, and the buffers of one solve as the tuple `qp` of `buffers(w)`.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.daqp_c import (
     EQUALITY,

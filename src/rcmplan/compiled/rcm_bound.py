@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.arm_qp_kernels import (
     solve_arm_step,
@@ -27,7 +28,6 @@ from rcmplan.compiled.arm_qp_kernels import (
     solve_servo_step,
 )
 from rcmplan.compiled.chain_kernels import IntArray, frames, needle_point
-from rcmplan.compiled.kernels import njit
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
 from rcmplan.compiled.qp_params import RCM_TOL
 from rcmplan.control.rcm_step import BOX_TRIES, STEP_TRIES, box_margin, step_scale

@@ -5,8 +5,8 @@
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.control.limits.rows import SCALE
 from rcmplan.linalg import lu_solve

@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.linalg import damped, lu_solve, pinv
 from rcmplan.robot import curved_arm, curved_iramis

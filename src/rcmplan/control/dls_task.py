@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 
 Point = FloatArray | tuple[float, float, float]  # the kernels' points are arrays or tuples

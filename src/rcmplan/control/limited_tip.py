@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.solvers import SolverKind, TipSolver, Tolerance
 from rcmplan.control.tasks import TIP_POSITION

@@ -30,8 +30,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.robot.needle import closest_point
 

@@ -22,8 +22,8 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.control.solvers import Tolerance
 from rcmplan.robot.model import RobotModel

@@ -25,9 +25,9 @@ import math
 from typing import Any
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.robot.needle import axis_angles
 

@@ -15,8 +15,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.linalg import gram
 from rcmplan.robot.chain_kinematics import (

@@ -18,9 +18,9 @@ Imports numba.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numpy.typing import NDArray
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.robot import curved_block as ck
 from rcmplan.robot.chain_kinematics import (

@@ -24,8 +24,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 
 G, J, S, B, Z = 0, 6, 13, 20, 21  # row offsets in the work block

@@ -20,8 +20,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.robot import curved_block as ck
 from rcmplan.robot.iramis_kernels import point, point_jacobian, trig

@@ -11,8 +11,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 
 PARAMS = ("l1", "l2", "l3", "l4", "l5", "l6", "d", "lower[6]", "upper[6]")

@@ -28,8 +28,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import InvalidInputError
 

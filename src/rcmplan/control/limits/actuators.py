@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.limits.base import Kinematics, StepInput
 from rcmplan.control.limits.rows import SCALE

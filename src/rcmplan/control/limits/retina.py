@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.control.eye_model import EyeModel, check_eye
 from rcmplan.control.limits.base import Constraint, Kinematics, StepInput, no_rows

@@ -10,8 +10,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
-
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 
 SCALE = 1e-6  # [m] or [rad] per unit of the decision variables

@@ -6,8 +6,8 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray, array, matrix, scalar, vector
 from rcmplan.control.limits.base import Constraint, Kinematics, StepInput
 from rcmplan.control.limits.rows import RECOVERY, damper_bound

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from numba import njit
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray, scalar, vector
 from rcmplan.control.resolution import quantised
 from rcmplan.robot.iramis import Iramis

@@ -27,10 +27,11 @@ from typing import Any
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.extending import intrinsic
 from numpy.typing import NDArray
 
+from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.control.resolution import quantised
 from rcmplan.sim.mujoco.actuators import velocity_into

@@ -1,0 +1,41 @@
+"""numba's `njit` for rcmplan's kernels: one compiled version per set of argument types, not
+one per set of constants.
+
+Inside compiled code numba types a constant as a literal (`Literal[int](6)`, not `int64`), and
+a call to another kernel with constant arguments compiles that kernel once per distinct set of
+constants: `loop.put(row, 1, s, 0, 6)` and `loop.put(row, 7, q, 0, 6)` were two compiles of
+`put`, and a full warm-up built 68 such copies (`linalg.lu_solve` 7 times for one type
+signature). Here a kernel called from compiled code is compiled for its arguments' plain types
+(`numba.types.unliteral`), once; where the caller is compiled, LLVM still inlines the callee
+and folds the constants in.
+
+A kernel that needs a constant argument as a literal (an index into a heterogeneous tuple,
+say) cannot use this decorator; none does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+import numba
+from numba.core import types
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def njit(**options: Any) -> Callable[[F], F]:
+    """`numba.njit(**options)` whose calls from compiled code take plain argument types."""
+
+    def decorate(fn: F) -> F:
+        dispatcher = numba.njit(**options)(fn)
+        by_type = dispatcher.get_call_template
+
+        def get_call_template(args: tuple, kws: dict) -> tuple:
+            plain = tuple(types.unliteral(a) for a in args)
+            return by_type(plain, {k: types.unliteral(v) for k, v in kws.items()})
+
+        dispatcher.get_call_template = get_call_template
+        return dispatcher
+
+    return decorate
