@@ -4,10 +4,11 @@ one per set of constants.
 Inside compiled code numba types a constant as a literal (`Literal[int](6)`, not `int64`), and
 a call to another kernel with constant arguments compiles that kernel once per distinct set of
 constants: `loop.put(row, 1, s, 0, 6)` and `loop.put(row, 7, q, 0, 6)` were two compiles of
-`put`, and a full warm-up built 68 such copies (`linalg.lu_solve` 7 times for one type
-signature). Here a kernel called from compiled code is compiled for its arguments' plain types
-(`numba.types.unliteral`), once; where the caller is compiled, LLVM still inlines the callee
-and folds the constants in.
+`put`, and a warm-up with the test stage after it left 68 such copies in numba's cache
+(`linalg.lu_solve` 7 times for one type signature). Here a kernel called from compiled code is
+compiled for its arguments' plain types (`numba.types.unliteral`), once: a cold compile of
+every kernel took 0.84 of the CPU time, the loops' speed unchanged within this machine's noise
+(docs/benchmarks.md).
 
 A kernel that needs a constant argument as a literal (an index into a heterogeneous tuple,
 say) cannot use this decorator; none does.
