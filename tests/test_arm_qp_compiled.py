@@ -378,7 +378,7 @@ def test_a_solve_that_fails_in_the_arm_loop_raises_the_reference_qp_error(arm: S
 
 
 @pytest.mark.parametrize("given", ["QP without its arrays", "pinv with the QP's arrays"])
-def test_the_arm_loop_refuses_the_qp_without_its_arrays(arm: SerialArm, given: str) -> None:
+def test_the_arm_loop_takes_the_qps_arrays_with_the_qp_only(arm: SerialArm, given: str) -> None:
     """The arm loop picks the QP's code by its arrays alone (numba prunes the other methods'
     branches): method QP without them is refused, not run as another method, and so is
     another method given them."""
