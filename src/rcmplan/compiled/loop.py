@@ -239,7 +239,7 @@ def iterate(
         info[2] = iteration_error(P, K, q, tr, state[0], target, fail, qpa, C)
         if info[2] != 1:
             return QP_FAILED
-        m = 7 if method >= CURVED else 6
+        m = 6 if C is None else 7
     elif C is not None:  # error and step: `curved_iramis`
         m = curved_step.iramis_task_error(P, cm, q, tr, state[0], target, e, w)
     else:
@@ -256,7 +256,7 @@ def iterate(
     if singular_measure(tr[0], tr[2]) < bounds[0]:
         return SINGULAR
     if qpa is not None:  # a curved needle's QP moves the roll q5 too
-        moved = 6 if method >= CURVED else 5
+        moved = 5 if C is None else 6
         return qp_step(P, K, q, target, trocar, moved, bounds, state, fail, qpa, C, info, w, d)
     moved = 5
     if C is not None:
