@@ -159,3 +159,21 @@ def test_the_record_layout_for_six_joints_is_the_iramis_layout() -> None:
     assert record_columns(6) == REC_COLUMNS
     assert record_width(6) == REC_WIDTH == max(b for _, b in REC_COLUMNS.values())
     assert record_width(7) == max(b for _, b in record_columns(7).values())
+
+
+def test_a_work_array_says_whose_frames_it_holds(arm: SerialArm, fast: FastArm) -> None:
+    """The loop skips the frames only for exactly the joints they were computed at."""
+    kin = fast_cache.chain_kernels()
+    rng = np.random.default_rng(7)
+    q = arm.home + rng.uniform(-0.1, 0.1, arm.chain.n)
+    W = kin.blank_work(kin.work_shape(int(fast.ix[0]), int(fast.ix[1])))
+    assert not kin.holds_frames(fast.ix, q, W)
+    kin.frames(fast.A, fast.ix, q, W)
+    assert kin.holds_frames(fast.ix, q.copy(), W)
+    for k in range(arm.chain.n):  # one ulp on any joint is another configuration
+        moved = q.copy()
+        moved[k] = np.nextafter(moved[k], np.inf)
+        assert not kin.holds_frames(fast.ix, moved, W)
+    frames = W[: 4 * (arm.chain.n + 1)].copy()  # computing them again changes no bit
+    kin.frames(fast.A, fast.ix, q, W)
+    np.testing.assert_array_equal(W[: 4 * (arm.chain.n + 1)], frames)

@@ -105,10 +105,9 @@ def run_targets(
                 at = 12
             if arm is not None:  # an arm: fail = (q, q_new, ...), its joints its actuators
                 A, ix, gain, lower, upper, W, dq = arm
-                framed = it == 0 and k > k0  # W holds the frames of s: the last target's
                 status = arm_iterate(A, ix, method, K, gain, damping, tol, max_it, drift,
                                      bounds, qpa, C, targets[k], kind == 1, tip_t, trocar, s,
-                                     state, it, rec[n], fail, W, dq, framed)  # fmt: skip
+                                     state, it, rec[n], fail, W, dq)  # fmt: skip
                 at = ix[0]
                 if status == STEPPED:
                     status = command_status(fail, at, lower, upper, info)

@@ -44,6 +44,7 @@ from rcmplan.compiled.chain_kernels import (
     dls_solve_at,
     frames,
     gram_solve,
+    holds_frames,
     is_singular,
     jacobian_at,
     needle_axis,
@@ -166,15 +167,16 @@ def arm_iterate(
     tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
     C: FloatArray | None, target: FloatArray, pivot: bool, tip_t: FloatArray,
     trocar: FloatArray, s: FloatArray, state: FloatArray, it: int, row: FloatArray,
-    fail: FloatArray, W: FloatArray, d: FloatArray, framed: bool = False,
+    fail: FloatArray, W: FloatArray, d: FloatArray,
 ) -> int:  # fmt: skip
     """One iteration from joints s (n,). Returns DONE, STEPPED (the next joints in fail[n:2n]),
     NO_CONVERGENCE, SINGULAR or QP_FAILED. state = (lambda, time [s], ...); lambda is updated.
     fail holds (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). qpa: the QP's
     arrays (`arm_phase.qp_arrays`) for the QP's methods only, else None; C: for a curved
     needle's methods only, its work array (W itself), else None (each picks its branches alone,
-    so that numba leaves out the other methods' code: `loop.iterate`). `framed`: W already
-    holds the frames of s."""
+    so that numba leaves out the other methods' code: `loop.iterate`). The frames of s are
+    computed unless W holds them (`holds_frames`: the last iteration's, or its step's RCM
+    bound's when the plant reached that step exactly)."""
     qp = method in (QP, CURVED_QP)
     if qp == (qpa is None) or (method >= CURVED) == (C is None):
         raise ValueError(
@@ -189,7 +191,7 @@ def arm_iterate(
     e = fail[2 * n :]
     for i in range(n):
         fail[i] = s[i]
-    if not framed:
+    if not holds_frames(ix, s, W):
         frames(A, ix, s, W)
     now = 0.0  # the needle's distance to the trocar [m]
     if holds_rcm(method):

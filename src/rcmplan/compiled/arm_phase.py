@@ -148,11 +148,12 @@ class _Setup:
             K = limited_K(controller.robot, solver)  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
         self.qpa = qp_arrays(solver, self.n)
+        kin = fast_cache.chain_kernels()  # W holds no frames yet (`holds_frames`)
         if curved is None:
-            self.W = np.empty(fast_cache.chain_kernels().work_shape(self.n, m))
+            self.W = kin.blank_work(kin.work_shape(self.n, m))
             self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)
         else:
-            self.W = np.empty(curved.work_shape())
+            self.W = kin.blank_work(curved.work_shape())
             self.fail, self.d = np.empty(2 * self.n + 7), np.empty(curved.m + 1)
         robot = controller.robot
         lower = np.ascontiguousarray(robot.lower, dtype=np.float64)

@@ -11,8 +11,11 @@ An arm travels as two arrays (`pack` builds them):
 One work array W (float64, `work_shape(n, m)`) holds the frames (rows 4 k..4 k + 3 for frame
 k), J, a 6 x 6 scratch, vector rows, the singularity measure's (5, m) matrix, (5, 5) Gram
 matrix, (5, 5) eigenvectors and two (m,) right singular vectors (`chain_singular`), and the
-joint axes in the world. The kernels allocate nothing and index A and W by row offsets: numba views
-(slices, reshapes) cost tens of ns each, as much as a joint's kinematics.
+joint axes in the world, each beside the joint value the frames were computed at (`frames` is
+the only kernel that writes the frames, so a loop reads them again without recomputing when
+the joints have not changed: `holds_frames`). The kernels allocate nothing and index A and W
+by row offsets: numba views (slices, reshapes) cost tens of ns each, as much as a joint's
+kinematics.
 Joints q (n,) in [rad] or [m]; steps d = (dq[active], dlambda), (m + 1,).
 
 A kernel that needs the frames of q either computes them (`frames`) or says "at the frames in
@@ -44,7 +47,8 @@ def work_shape(n: int, m: int) -> tuple[int, int]:
 
 @njit(cache=True)
 def axes_row(n: int) -> int:
-    """First row of W's joint axes in the world (row axes_row(n) + k: joint k's, 3 columns)."""
+    """First row of W's joint axes in the world (row axes_row(n) + k: joint k's, 3 columns,
+    and in column 3 q[k] of the frames in W)."""
     return singular_row(n) + 3 * SING + 2
 
 
@@ -108,11 +112,12 @@ def rotate(T: FloatArray, o: int, x: float, y: float, z: float) -> tuple[float, 
 
 @njit(cache=True)
 def frames(A: FloatArray, ix: IntArray, q: FloatArray, W: FloatArray) -> None:
-    """Frames 0..n (joints after motion, then the end frame) and the joint axes in the world
-    into W's rows."""
+    """Frames 0..n (joints after motion, then the end frame), the joint axes in the world and
+    the joints q themselves into W's rows."""
     n = ix[0]
     r = axes_row(n)
     for k in range(n):
+        W[r + k, 3] = q[k]
         if k == 0:
             compose(A, 4 * n, A, 0, W, 0)
         else:
@@ -121,6 +126,22 @@ def frames(A: FloatArray, ix: IntArray, q: FloatArray, W: FloatArray) -> None:
         move(W, 4 * k, A, a, ix[2 + k] != 0, q[k])
         W[r + k, 0], W[r + k, 1], W[r + k, 2] = rotate(W, 4 * k, A[a, 0], A[a, 1], A[a, 2])
     compose(W, 4 * (n - 1), A, 4 * (n + 1), W, 4 * n)
+
+
+@njit(cache=True)
+def holds_frames(ix: IntArray, q: FloatArray, W: FloatArray) -> bool:
+    """True if W holds the frames of exactly the joints q (n,) (`frames` left them; a W never
+    framed holds NaN there: `blank_work`)."""
+    r = axes_row(ix[0])
+    for k in range(ix[0]):  # noqa: SIM110 (a plain loop compiles best)
+        if W[r + k, 3] != q[k]:
+            return False
+    return True
+
+
+def blank_work(shape: tuple[int, int]) -> FloatArray:
+    """A work array of `shape` that holds no frames (`holds_frames` is False for any joints)."""
+    return np.full(shape, np.nan)
 
 
 @njit(cache=True)
