@@ -166,8 +166,10 @@ def test_a_work_array_says_whose_frames_it_holds(arm: SerialArm, fast: FastArm) 
     kin = fast_cache.chain_kernels()
     rng = np.random.default_rng(7)
     q = arm.home + rng.uniform(-0.1, 0.1, arm.chain.n)
-    W = kin.blank_work(kin.work_shape(int(fast.ix[0]), int(fast.ix[1])))
+    n = arm.chain.n
+    W = kin.blank_work(kin.work_shape(n, int(fast.ix[1])), n)
     assert not kin.holds_frames(fast.ix, q, W)
+    assert not kin.holds_frames(fast.ix, np.zeros(n), W)  # zeros are not frames of q = 0
     kin.frames(fast.A, fast.ix, q, W)
     assert kin.holds_frames(fast.ix, q.copy(), W)
     for k in range(arm.chain.n):  # one ulp on any joint is another configuration

@@ -150,10 +150,10 @@ class _Setup:
         self.qpa = qp_arrays(solver, self.n)
         kin = fast_cache.chain_kernels()  # W holds no frames yet (`holds_frames`)
         if curved is None:
-            self.W = kin.blank_work(kin.work_shape(self.n, m))
+            self.W = kin.blank_work(kin.work_shape(self.n, m), self.n)
             self.fail, self.d = np.empty(2 * self.n + 6), np.empty(m + 1)
         else:
-            self.W = kin.blank_work(curved.work_shape())
+            self.W = kin.blank_work(curved.work_shape(), self.n)
             self.fail, self.d = np.empty(2 * self.n + 7), np.empty(curved.m + 1)
         robot = controller.robot
         lower = np.ascontiguousarray(robot.lower, dtype=np.float64)

@@ -106,7 +106,8 @@ def step_buffers(solver: QpSolver, K: FloatArray) -> tuple:
         raise InvalidInputError("solver", solver, "a QpSolver the compiled arm step runs "
                                 "(`arm_qp_applies`)")  # fmt: skip
     travel, Q, contacts, qp, _, _, servo = arrays
-    W = np.zeros(fast_cache.chain_kernels().work_shape(n, m))
+    kin = fast_cache.chain_kernels()
+    W = kin.blank_work(kin.work_shape(n, m), n)  # no frames yet (`holds_frames`)
     return (A, ix, W, travel, Q, contacts, K, np.zeros(m), np.zeros(6), np.zeros(m + 1), servo,
             *qp)  # fmt: skip
 

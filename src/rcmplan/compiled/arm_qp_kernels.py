@@ -10,7 +10,9 @@ T = d(q[active], lambda) / d(s[active], l lambda) is the identity on the active 
 for lambda (`limits.base.variable_map`): variables x = (dq[active], l dlambda) / SCALE.
 
 The arm travels as the chain kernels' (A, ix) with a work array W (`chain_kinematics.
-work_shape`), its active joints' travel as travel (2, m) [rad or m], the settings as Q
+work_shape`, made by `blank_work`: a step computes the frames of its joints unless W already
+holds them, `holds_frames`, as after the loop's iteration at the same joints), its active
+joints' travel as travel (2, m) [rad or m], the settings as Q
 (`qp_params`, the speeds of the active joints last), and the buffers of one solve as
 `qp_rows.buffers(m + 1)`. Called from Python once per period (`arm_qp.ArmQpStep`), the step
 receives all of them packed in two buffers (`packed`, `solve_packed`).
@@ -40,6 +42,7 @@ from rcmplan.robot.chain_kinematics import (
     IntArray,
     angle_rows,
     frames,
+    holds_frames,
     needle_axis,
     needle_point,
     point_jacobian,
@@ -83,7 +86,8 @@ def build_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
     n, m = ix[0], ix[1]
     J = qp[8]
     JT, pts, _, grads = qp[15:]
-    frames(A, ix, q, W)
+    if not holds_frames(ix, q, W):  # the loop's iteration left those of q
+        frames(A, ix, q, W)
     for j in range(m):
         s[j] = q[ix[2 + n + j]]
     task_at(A, n, W, lam, e)
@@ -146,7 +150,8 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
     flag = solve_planned(Q, K, rows, e, e_plan, qp)
     if flag != 1:
         return flag
-    frames(A, ix, q, W)
+    if not holds_frames(ix, q, W):  # the plan's are there, unless it is q
+        frames(A, ix, q, W)
     task_at(A, n, W, lam, now)  # X_ext at the measured joints, then its error
     for i in range(6):
         now[i] = target[i] - now[i]
@@ -174,7 +179,8 @@ def build_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
     first, mc = curved_arm.active_span(ix)
     c = curved_arm.block_row(n)
     task_, JT, pts, grads = qp[6], qp[15], qp[16], qp[18]
-    frames(A, ix, q, W)
+    if not holds_frames(ix, q, W):  # the loop's iteration left those of q
+        frames(A, ix, q, W)
     for j in range(mc):
         s[j] = q[ix[first + j]]
     curved_arm.task(A, n, W, lam, False, e)
@@ -221,7 +227,8 @@ def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
                                      qp)  # fmt: skip
         flag = solve_planned(Q, K, rows, e, e_plan, qp)
         if flag == 1:  # X_c's error at the measured joints, and the command's lead
-            frames(A, ix, q, W)
+            if not holds_frames(ix, q, W):  # the plan's are there, unless it is q
+                frames(A, ix, q, W)
             curved_arm.task(A, n, W, lam, False, now)
             curved_step.error(now, target, now)
             lead_error(Q, qp[X], now[:7], e_plan, e)

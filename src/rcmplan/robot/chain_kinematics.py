@@ -139,9 +139,12 @@ def holds_frames(ix: IntArray, q: FloatArray, W: FloatArray) -> bool:
     return True
 
 
-def blank_work(shape: tuple[int, int]) -> FloatArray:
-    """A work array of `shape` that holds no frames (`holds_frames` is False for any joints)."""
-    return np.full(shape, np.nan)
+def blank_work(shape: tuple[int, int], n: int) -> FloatArray:
+    """A work array of `shape` for n joints (`work_shape`, or a curved needle's) that holds no
+    frames: zeros, and NaN where `frames` keeps its joints (`holds_frames` is False for any)."""
+    W = np.zeros(shape)
+    W[axes_row(n) : axes_row(n) + n, 3] = np.nan
+    return W
 
 
 @njit(cache=True)
