@@ -226,6 +226,35 @@ def test_a_first_run_says_once_that_numba_compiles(tmp_path) -> None:
     assert runs[1].stderr == ""
 
 
+def test_a_new_stamp_clears_numbas_cache_and_an_unwritable_folder_keeps_it(tmp_path) -> None:
+    """A first run (no stamp in its cache folder) clears rcmplan's kernels from numba's cache,
+    here NUMBA_CACHE_DIR, so they compile again; but with no stamp to record it, clearing would
+    recompile everything on every run: a cache folder rcmplan cannot write (here a file) leaves
+    numba's cache as it is."""
+    import subprocess
+    import sys
+
+    code = (
+        "from rcmplan import Iramis\n"
+        "from rcmplan.compiled.runner import FastIramis\n"
+        "robot = Iramis()\n"
+        "FastIramis(robot).task(robot.home, 0.5)\n"
+    )
+    numba_dir = tmp_path / "numba"
+    (tmp_path / "file").write_text("not a folder")
+    caches = []
+    for home in (tmp_path / "cache", tmp_path / "cache2", tmp_path / "file"):
+        env = {"XDG_CACHE_HOME": str(home), "NUMBA_CACHE_DIR": str(numba_dir),
+               "PATH": "/usr/bin:/bin"}  # fmt: skip
+        run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                             env=env, check=True)  # fmt: skip
+        assert "numba compiles each kernel" in run.stderr  # no stamp in either folder yet
+        caches.append({p: p.stat().st_mtime_ns for p in numba_dir.rglob("*.nb[ic]")})
+    assert caches[0] and caches[1].keys() == caches[0].keys()
+    assert all(caches[1][p] > caches[0][p] for p in caches[0])  # cleared, compiled again
+    assert caches[2] == caches[1]  # nothing cleared, nothing compiled again
+
+
 def test_the_first_run_stamp_covers_every_file_that_holds_a_kernel() -> None:
     """numba checks a cached kernel against its own file only, so the stamp that clears the
     cache must change with every file holding a kernel (`cache.kernel_sources`)."""

@@ -212,6 +212,49 @@ def test_urdf_chain_from_an_inner_root_frame_matches_the_whole_chain(arm_urdf: P
     np.testing.assert_allclose(inner.forward_kinematics(q[1:]), whole.forward_kinematics(q))
 
 
+def assert_same_chain(a: JointChain, b: JointChain) -> None:
+    """Every array of the two chains equal to the bit, and the same names."""
+    assert (a.name, a.joint_names) == (b.name, b.joint_names)
+    for field in ("origins", "axes", "prismatic", "lower", "upper", "velocity", "tip", "base"):
+        np.testing.assert_array_equal(getattr(a, field), getattr(b, field), err_msg=field)
+
+
+def test_a_urdf_read_again_comes_from_the_cache_equal_to_the_bit(
+    arm_urdf: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rcmplan.robot import urdf
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    parsed = load_urdf(arm_urdf, "flange", root_frame="l1", name="inner")
+    assert len(list((tmp_path / "cache" / "rcmplan" / "urdf").glob("*.json"))) == 1
+
+    def no_parser(path: object) -> None:
+        raise AssertionError(f"parsed {path} again")
+
+    monkeypatch.setattr(urdf, "_read", no_parser)
+    assert_same_chain(load_urdf(arm_urdf, "flange", root_frame="l1", name="inner"), parsed)
+    with pytest.raises(AssertionError, match="parsed"):  # another request: the parser again
+        load_urdf(arm_urdf, "flange")
+    arm_urdf.write_text(ARM_URDF.replace('velocity="0.3"', 'velocity="0.4"'))
+    with pytest.raises(AssertionError, match="parsed"):  # another file: the parser again
+        load_urdf(arm_urdf, "flange", root_frame="l1", name="inner")
+
+
+def test_a_broken_or_unwritable_urdf_cache_is_passed_over(
+    arm_urdf: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    parsed = load_urdf(arm_urdf, "flange")
+    (kept,) = (tmp_path / "cache" / "rcmplan" / "urdf").glob("*.json")
+    for broken in ("{", '{"name": "arm3"}', kept.read_text().replace("0.3", '"fast"')):
+        kept.write_text(broken)
+        assert_same_chain(load_urdf(arm_urdf, "flange"), parsed)  # parsed, and kept again
+        assert kept.read_text() != broken
+    (tmp_path / "file").write_text("not a folder")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "file"))
+    assert_same_chain(load_urdf(arm_urdf, "flange"), parsed)
+
+
 def test_dh_chain_of_iramis_equals_its_closed_forms() -> None:
     robot = Iramis()
     chain = JointChain.from_dh(robot.chain)

@@ -20,6 +20,7 @@ from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+from rcmplan._paths import cache_folder
 from rcmplan.exceptions import require_extra
 
 _state: dict[str, Any] = {"noticed": False, "daqp_abi": None}
@@ -34,12 +35,18 @@ def _load(name: str) -> ModuleType:
         if not stamp.exists():
             print("rcmplan: first run of this installation: numba compiles each kernel as it is "
                   "first used and caches it for later runs", file=sys.stderr)  # fmt: skip
-            clear_stale()
             try:
                 stamp.parent.mkdir(parents=True, exist_ok=True)
-                stamp.write_text("numba compiled rcmplan's kernels in this installation\n")
-            except OSError:  # a read-only home: the line is printed again next time
-                pass
+                writable = os.access(stamp.parent, os.W_OK)
+            except OSError:
+                writable = False
+            # Without a stamp nothing would record the clearing: every run would clear and
+            # compile again (a read-only cache folder: the line is printed each time, and
+            # numba's cache, checked against each kernel's own file, is kept)
+            if writable:
+                clear_stale()
+                with contextlib.suppress(OSError):
+                    stamp.write_text("numba compiled rcmplan's kernels in this installation\n")
     return importlib.import_module(f"rcmplan.compiled.{name}")
 
 
@@ -112,8 +119,11 @@ def clear_stale() -> None:
     load). The stamp changes with any kernel source, so a new stamp clears them."""
     package = Path(__file__).parent.parent
     custom = os.environ.get("NUMBA_CACHE_DIR")
-    if custom:  # numba's cache of this process: the folders it keeps for rcmplan's files
-        folders = [f for f in Path(custom).rglob("*") if f.is_dir() and "rcmplan" in str(f)]
+    if custom:  # numba's cache of this process: the folder it keeps for each kernel's folder
+        from numba.core.caching import _CacheLocator
+
+        subpaths = {_CacheLocator.get_suitable_cache_subpath(p) for p in kernel_sources()}
+        folders = [Path(custom) / sub for sub in sorted(subpaths)]
     else:
         folders = [*package.rglob("__pycache__")]
     for folder in folders:
@@ -157,5 +167,4 @@ def stamp_path() -> Path:
     key.update(sys.version.encode())
     key.update(os.environ.get("NUMBA_CACHE_DIR", "").encode())
     key.update(str(here).encode())
-    base = os.environ.get("XDG_CACHE_HOME") or "~/.cache"
-    return Path(base).expanduser() / "rcmplan" / f"compiled-{key.hexdigest()[:16]}.ok"
+    return cache_folder() / f"compiled-{key.hexdigest()[:16]}.ok"

@@ -6,12 +6,24 @@ fold into the next moving joint's origin, or into the chain's `tip` after the la
 A continuous joint gets the travel [-pi, pi] rad (one full turn; `ChainJoint` needs finite
 limits) and, without a <limit> tag, the `ChainJoint` default velocity. Mimic, floating and
 planar joints on the path raise `UnsupportedJointError`. Lengths in m, angles in rad.
+
+Importing the parser takes about a second (yourdfpy imports trimesh), more than the rest of an
+arm's run, so a chain read once is kept as JSON in the user's cache folder
+(`$XDG_CACHE_HOME/rcmplan/urdf/`, default `~/.cache`), keyed by the file's bytes, the frames
+and name asked for, the parser's version and this module's source: the same request on an
+unchanged file returns the same chain without the parser. The cache holds what the parser
+read, not the chain built from it, so a chain from the cache equals a parsed one bit for bit.
+A cache that cannot be read or written is passed over.
 """
 
 from __future__ import annotations
 
+import contextlib
+import hashlib
+import json
 import math
 from collections.abc import Sequence
+from importlib import metadata
 from os import PathLike
 from pathlib import Path
 from typing import Any
@@ -19,10 +31,13 @@ from xml.etree import ElementTree
 
 import numpy as np
 
+from rcmplan._atomic import write_text
+from rcmplan._paths import cache_folder
 from rcmplan._validate import FloatArray, file_path, text
 from rcmplan.exceptions import (
     InvalidInputError,
     ModelFileError,
+    RcmplanError,
     UnknownFrameError,
     UnsupportedJointError,
     require_extra,
@@ -65,6 +80,25 @@ def load_urdf(
         text("root_frame", root_frame)
     if name is not None:
         text("name", name)
+    key = _cache_file(path, tip_frame, root_frame, name)
+    chain = _cached(key)
+    if chain is None:
+        spec = _read_chain(path, tip_frame, root_frame, name)
+        chain = _chain(spec)
+        _keep(key, spec)
+    return chain
+
+
+def _chain(spec: dict[str, Any]) -> JointChain:
+    """The chain of `_read_chain`'s result."""
+    joints = [ChainJoint(**j) for j in spec["joints"]]
+    return JointChain(joints, np.array(spec["tip"]), np.array(spec["base"]), spec["name"])
+
+
+def _read_chain(path: Path, tip_frame: str, root_frame: str | None,
+                name: str | None) -> dict[str, Any]:  # fmt: skip
+    """What `load_urdf` builds its chain from, read by the parser: the chain's name, tip and
+    base (lists), and each moving joint's `ChainJoint` arguments."""
     robot = _read(path)
     links = [link.name for link in robot.links]
     by_child = {j.child: j for j in robot.joints}
@@ -80,7 +114,43 @@ def load_urdf(
         valid = f"a link below {root!r} with at least one moving joint on the way"
         raise InvalidInputError("tip_frame", tip_frame, valid)
     base = _product(_origin(j) for j in reversed(_path_up(by_child, root)))
-    return JointChain(joints, tip, base, name or robot.name)
+    return {"name": name or robot.name, "tip": tip.tolist(), "base": base.tolist(),
+            "joints": joints}  # fmt: skip
+
+
+def _cache_file(path: Path, tip_frame: str, root_frame: str | None,
+                name: str | None) -> Path | None:  # fmt: skip
+    """The cache file of this request, or None when the file cannot be read (the parser then
+    says why)."""
+    try:
+        data = Path(path).read_bytes()
+        parser = metadata.version("yourdfpy")
+    except (OSError, metadata.PackageNotFoundError):
+        return None
+    key = hashlib.sha256(data)
+    key.update(Path(__file__).read_bytes())
+    key.update(json.dumps([parser, tip_frame, root_frame, name]).encode())
+    return cache_folder() / "urdf" / f"{key.hexdigest()[:32]}.json"
+
+
+def _cached(file: Path | None) -> JointChain | None:
+    """The chain kept in file, or None if there is none it can build (no file, or not one
+    `_keep` wrote whole)."""
+    if file is None:
+        return None
+    try:
+        return _chain(json.loads(file.read_text()))
+    except (OSError, ValueError, KeyError, TypeError, RcmplanError):
+        return None
+
+
+def _keep(file: Path | None, spec: dict[str, Any]) -> None:
+    """Write the chain's arguments to file (atomically); a folder that refuses is passed over."""
+    if file is None:
+        return
+    with contextlib.suppress(OSError):
+        file.parent.mkdir(parents=True, exist_ok=True)
+        write_text(file, json.dumps(spec))
 
 
 def _read(path: str | PathLike[str]) -> Any:
@@ -129,9 +199,10 @@ def _path_down(by_child: dict[str, Any], above: list[Any], root: str, tip: str) 
     raise UnknownFrameError(f"root_frame (an ancestor of {tip!r})", root, ancestors)
 
 
-def _chain_joints(path_joints: Sequence[Any]) -> tuple[list[ChainJoint], FloatArray]:
-    """ChainJoints for the moving joints of a path, and the fixed remainder (the tip)."""
-    joints: list[ChainJoint] = []
+def _chain_joints(path_joints: Sequence[Any]) -> tuple[list[dict[str, Any]], FloatArray]:
+    """The `ChainJoint` arguments of the moving joints of a path, and the fixed remainder (the
+    tip)."""
+    joints: list[dict[str, Any]] = []
     pending = np.eye(4)
     for j in path_joints:
         pending = pending @ _origin(j)
@@ -144,8 +215,9 @@ def _chain_joints(path_joints: Sequence[Any]) -> tuple[list[ChainJoint], FloatAr
     return joints, pending
 
 
-def _joint(j: Any, origin: FloatArray) -> ChainJoint:
-    """One ChainJoint from a yourdfpy Joint; limits from <limit>, [-pi, pi] if continuous."""
+def _joint(j: Any, origin: FloatArray) -> dict[str, Any]:
+    """One ChainJoint's arguments from a yourdfpy Joint (checked by building it); limits from
+    <limit>, [-pi, pi] if continuous."""
     limit = j.limit
     lower, upper = -math.pi, math.pi
     if j.type != "continuous":
@@ -153,7 +225,17 @@ def _joint(j: Any, origin: FloatArray) -> ChainJoint:
         upper = 0.0 if limit is None or limit.upper is None else float(limit.upper)
     velocity = 1.0 if limit is None or limit.velocity is None else float(limit.velocity)
     axis = np.array([1.0, 0.0, 0.0]) if j.axis is None else np.asarray(j.axis, dtype=float)
-    return ChainJoint(j.name, MOVING[j.type], origin, axis, lower, upper, velocity)
+    spec = {
+        "name": j.name,
+        "kind": MOVING[j.type],
+        "origin": origin.tolist(),
+        "axis": axis.tolist(),
+        "lower": lower,
+        "upper": upper,
+        "velocity": velocity,
+    }
+    ChainJoint(**spec)  # raises now if the file's values are invalid
+    return spec
 
 
 def _origin(j: Any) -> FloatArray:
