@@ -120,10 +120,13 @@ def clear_stale() -> None:
     package = Path(__file__).parent.parent
     custom = os.environ.get("NUMBA_CACHE_DIR")
     if custom:  # numba's cache of this process: the folder it keeps for each kernel's folder
-        from numba.core.caching import _CacheLocator
+        try:  # numba's own naming of those folders (a private helper of numba.core.caching)
+            from numba.core.caching import _CacheLocator
 
-        subpaths = {_CacheLocator.get_suitable_cache_subpath(p) for p in kernel_sources()}
-        folders = [Path(custom) / sub for sub in sorted(subpaths)]
+            locate = _CacheLocator.get_suitable_cache_subpath
+        except (ImportError, AttributeError):  # a numba without it: nothing found to clear
+            return
+        folders = [Path(custom) / sub for sub in sorted({locate(p) for p in kernel_sources()})]
     else:
         folders = [*package.rglob("__pycache__")]
     for folder in folders:
