@@ -198,11 +198,15 @@ def test_per_iteration_path_stops_like_the_reference(robot: Iramis) -> None:
     assert_same_log(out[0].log, out[1].log)
 
 
-def test_a_first_run_says_once_that_numba_compiles(tmp_path) -> None:
+def test_a_first_run_says_once_that_numba_compiles_and_clears_numbas_cache(tmp_path) -> None:
     """The first use of compiled code in an installation prints one line on stderr while numba
     compiles (its stamp lives under XDG_CACHE_HOME); the next process says nothing. A small
     kernel (the task values) stands for any: the line comes from loading compiled code
-    (`cache._load`), whatever it runs; a whole run would only compile more."""
+    (`cache._load`), whatever it runs; a whole run would only compile more. A new stamp (here
+    another cache folder) first clears rcmplan's kernels from numba's cache (NUMBA_CACHE_DIR),
+    so they compile again; but with no stamp to record it, clearing would recompile everything
+    on every run: a cache folder rcmplan cannot write (here a file) leaves numba's cache as it
+    is."""
     import json
     import subprocess
     import sys
@@ -213,46 +217,26 @@ def test_a_first_run_says_once_that_numba_compiles(tmp_path) -> None:
         "robot = Iramis()\n"
         "print(FastIramis(robot).task(robot.home, 0.5).tolist())\n"
     )
-    # A cache folder of its own: the run compiles afresh and leaves the suite's cache alone.
-    env = {"XDG_CACHE_HOME": str(tmp_path), "NUMBA_CACHE_DIR": str(tmp_path / "numba"),
-           "PATH": "/usr/bin:/bin"}  # fmt: skip
-    runs = [subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                           env=env, check=True) for _ in range(2)]  # fmt: skip
     robot = Iramis()
     expected = FastIramis(robot).task(robot.home, 0.5)
-    for r in runs:
-        np.testing.assert_array_equal(json.loads(r.stdout), expected)  # the compiled values
-    assert "numba compiles each kernel" in runs[0].stderr
-    assert runs[1].stderr == ""
-
-
-def test_a_new_stamp_clears_numbas_cache_and_an_unwritable_folder_keeps_it(tmp_path) -> None:
-    """A first run (no stamp in its cache folder) clears rcmplan's kernels from numba's cache,
-    here NUMBA_CACHE_DIR, so they compile again; but with no stamp to record it, clearing would
-    recompile everything on every run: a cache folder rcmplan cannot write (here a file) leaves
-    numba's cache as it is."""
-    import subprocess
-    import sys
-
-    code = (
-        "from rcmplan import Iramis\n"
-        "from rcmplan.compiled.runner import FastIramis\n"
-        "robot = Iramis()\n"
-        "FastIramis(robot).task(robot.home, 0.5)\n"
-    )
+    # Cache folders of its own: the runs compile afresh and leave the suite's caches alone.
     numba_dir = tmp_path / "numba"
     (tmp_path / "file").write_text("not a folder")
-    caches = []
-    for home in (tmp_path / "cache", tmp_path / "cache2", tmp_path / "file"):
-        env = {"XDG_CACHE_HOME": str(home), "NUMBA_CACHE_DIR": str(numba_dir),
+    said, caches = [], []
+    for home in ("cache", "cache", "cache2", "file"):
+        env = {"XDG_CACHE_HOME": str(tmp_path / home), "NUMBA_CACHE_DIR": str(numba_dir),
                "PATH": "/usr/bin:/bin"}  # fmt: skip
         run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                              env=env, check=True)  # fmt: skip
-        assert "numba compiles each kernel" in run.stderr  # no stamp in either folder yet
+        np.testing.assert_array_equal(json.loads(run.stdout), expected)  # the compiled values
+        said.append(run.stderr)
         caches.append({p: p.stat().st_mtime_ns for p in numba_dir.rglob("*.nb[ic]")})
-    assert caches[0] and caches[1].keys() == caches[0].keys()
-    assert all(caches[1][p] > caches[0][p] for p in caches[0])  # cleared, compiled again
-    assert caches[2] == caches[1]  # nothing cleared, nothing compiled again
+    assert "numba compiles each kernel" in said[0] and said[1] == ""
+    assert all("numba compiles each kernel" in line for line in said[2:])  # no stamp there
+    assert caches[0] and caches[1] == caches[0]  # loaded, not compiled again
+    assert caches[2].keys() == caches[0].keys()
+    assert all(caches[2][p] > caches[0][p] for p in caches[0])  # cleared, compiled again
+    assert caches[3] == caches[2]  # nothing cleared, nothing compiled again
 
 
 def test_the_first_run_stamp_covers_every_file_that_holds_a_kernel() -> None:
