@@ -7,8 +7,8 @@ A continuous joint gets the travel [-pi, pi] rad (one full turn; `ChainJoint` ne
 limits) and, without a <limit> tag, the `ChainJoint` default velocity. Mimic, floating and
 planar joints on the path raise `UnsupportedJointError`. Lengths in m, angles in rad.
 
-Importing the parser takes about a second (yourdfpy imports trimesh), more than the rest of an
-arm's run, so a chain read once is kept as JSON in the user's cache folder
+Importing the parser costs most of a second (yourdfpy imports trimesh), a quarter to a third of
+a short arm command's process, so a chain read once is kept as JSON in the user's cache folder
 (`$XDG_CACHE_HOME/rcmplan/urdf/`, default `~/.cache`), keyed by the file's bytes, the frames
 and name asked for, the parser's version and this module's source: the same request on an
 unchanged file returns the same chain without the parser. The cache holds what the parser
