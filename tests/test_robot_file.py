@@ -170,6 +170,31 @@ def test_the_searched_home_is_horizontal_within_the_limits_and_away_from_the_arm
     assert loaded.measure == arm.singularity_measure(arm.home) >= HomeSearch().min_measure
 
 
+def test_a_searched_home_is_kept_between_processes_equal_to_the_bit(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rcmplan.robot import robot_file
+
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
+    monkeypatch.setattr(robot_file, "_SEARCHED", {})
+    first = load_robot_file(EXAMPLE).arm.home
+    (kept,) = (tmp_path / "cache" / "rcmplan" / "home").glob("*.json")
+
+    def no_search(*args: object) -> None:
+        raise AssertionError("searched again")
+
+    monkeypatch.setattr(robot_file, "search_home", no_search)
+    monkeypatch.setattr(robot_file, "_SEARCHED", {})  # as in a new process
+    np.testing.assert_array_equal(load_robot_file(EXAMPLE).arm.home, first)
+    with pytest.raises(AssertionError, match="searched again"):  # other settings: a search
+        load_robot_file(EXAMPLE, HomeSearch(seed=1))
+    for broken in ("{", '{"q": [1.0], "measure": 0.1, "tried": [512, 8]}'):  # one joint of six
+        kept.write_text(broken)
+        monkeypatch.setattr(robot_file, "_SEARCHED", {})
+        with pytest.raises(AssertionError, match="searched again"):
+            load_robot_file(EXAMPLE)
+
+
 def test_the_home_search_is_deterministic_and_beats_the_hand_written_homes() -> None:
     ur5 = make_robot("ur5")
     chain = load_urdf(robots_dir() / OLD_ARMS["ur5"][0], "tool0", name="ur5")

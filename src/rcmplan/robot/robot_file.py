@@ -28,11 +28,13 @@ from __future__ import annotations
 
 import tomllib
 from dataclasses import dataclass
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rcmplan._paths import keep, kept_file, read_kept
 from rcmplan._validate import FloatArray, file_path, instance
 from rcmplan.exceptions import (
     InvalidInputError,
@@ -41,6 +43,7 @@ from rcmplan.exceptions import (
     RobotFileError,
     UnknownFrameError,
 )
+from rcmplan.robot import home_search
 from rcmplan.robot import robot_file_values as values
 from rcmplan.robot.arms import needle_mount, place_arm, roll_joint
 from rcmplan.robot.chain import JointChain
@@ -264,18 +267,44 @@ def _search_key(spec: RobotSpec, chain: JointChain, search: HomeSearch) -> tuple
             spec.needle_bend, search)  # fmt: skip
 
 
-_SEARCHED: dict[tuple[Any, ...], tuple[tuple[float, ...] | None, float, tuple[int, int]]] = {}
+# A search's result: (home or None, its singularity measure, (samples, refined))
+_Found = tuple[tuple[float, ...] | None, float, tuple[int, int]]
+_SEARCHED: dict[tuple[Any, ...], _Found] = {}
 
 
 def _searched(
     key: tuple[Any, ...], chain: JointChain, needle: StraightNeedle, roll: int | None,
     search: HomeSearch,
-) -> tuple[tuple[float, ...] | None, float, tuple[int, int]]:  # fmt: skip
-    """search_home, remembered per key (a command loads a robot file more than once)."""
+) -> _Found:  # fmt: skip
+    """search_home, remembered per key in the process (a command loads a robot file more than
+    once) and between processes in the user's cache folder (a search takes about a second;
+    `rcmplan._paths`), keyed with the robot models' sources (the search and the kinematics it
+    runs on) and the numpy and scipy it ran with."""
     if key not in _SEARCHED:
         if len(_SEARCHED) >= 16:
             _SEARCHED.clear()
-        found = search_home(chain, needle, roll, search)
-        q = None if found.q is None else tuple(float(v) for v in found.q)
-        _SEARCHED[key] = (q, found.measure, found.tried)
+        versions = f"{np.__version__} {metadata.version('scipy')} {key[1:]!r}".encode()
+        here = Path(home_search.__file__).parent
+        sources = [p.read_bytes() for p in [*sorted(here.glob("*.py")), here.parent / "linalg.py"]]
+        file = kept_file("home", key[0], versions, *sources)
+        kept = _kept_home(read_kept(file), chain.n)
+        if kept is None:
+            found = search_home(chain, needle, roll, search)
+            q = None if found.q is None else tuple(float(v) for v in found.q)
+            kept = (q, float(found.measure), (int(found.tried[0]), int(found.tried[1])))
+            keep(file, {"q": q, "measure": kept[1], "tried": kept[2]})
+        _SEARCHED[key] = kept
     return _SEARCHED[key]
+
+
+def _kept_home(value: Any, n: int) -> _Found | None:
+    """A search's result as `keep` wrote it ({"q": n floats or None, "measure", "tried"}), or
+    None for anything else."""
+    try:
+        q, measure, tried = value["q"], value["measure"], value["tried"]
+        ok = q is None or (len(q) == n and all(type(v) is float for v in q))
+        if ok and type(measure) is float and len(tried) == 2 and all(type(t) is int for t in tried):
+            return (None if q is None else tuple(q)), measure, (tried[0], tried[1])
+    except (KeyError, TypeError):
+        pass
+    return None

@@ -18,8 +18,6 @@ A cache that cannot be read or written is passed over.
 
 from __future__ import annotations
 
-import contextlib
-import hashlib
 import json
 import math
 from collections.abc import Sequence
@@ -31,8 +29,7 @@ from xml.etree import ElementTree
 
 import numpy as np
 
-from rcmplan._atomic import write_text
-from rcmplan._paths import cache_folder
+from rcmplan._paths import keep, kept_file, read_kept
 from rcmplan._validate import FloatArray, file_path, text
 from rcmplan.exceptions import (
     InvalidInputError,
@@ -127,30 +124,24 @@ def _cache_file(path: Path, tip_frame: str, root_frame: str | None,
         parser = metadata.version("yourdfpy")
     except (OSError, metadata.PackageNotFoundError):
         return None
-    key = hashlib.sha256(data)
-    key.update(Path(__file__).read_bytes())
-    key.update(json.dumps([parser, tip_frame, root_frame, name]).encode())
-    return cache_folder() / "urdf" / f"{key.hexdigest()[:32]}.json"
+    request = json.dumps([parser, tip_frame, root_frame, name]).encode()
+    return kept_file("urdf", data, Path(__file__).read_bytes(), request)
 
 
 def _cached(file: Path | None) -> JointChain | None:
     """The chain kept in file, or None if there is none it can build (no file, or not one
-    `_keep` wrote whole)."""
-    if file is None:
-        return None
+    `keep` wrote whole)."""
+    spec = None if file is None else read_kept(file)
     try:
-        return _chain(json.loads(file.read_text()))
-    except (OSError, ValueError, KeyError, TypeError, RcmplanError):
+        return None if spec is None else _chain(spec)
+    except (KeyError, TypeError, ValueError, RcmplanError):
         return None
 
 
 def _keep(file: Path | None, spec: dict[str, Any]) -> None:
-    """Write the chain's arguments to file (atomically); a folder that refuses is passed over."""
-    if file is None:
-        return
-    with contextlib.suppress(OSError):
-        file.parent.mkdir(parents=True, exist_ok=True)
-        write_text(file, json.dumps(spec))
+    """Keep the chain's arguments in file (`rcmplan._paths.keep`)."""
+    if file is not None:
+        keep(file, spec)
 
 
 def _read(path: str | PathLike[str]) -> Any:
