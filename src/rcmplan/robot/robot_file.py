@@ -277,7 +277,7 @@ def _searched(
     search: HomeSearch,
 ) -> _Found:  # fmt: skip
     """search_home, remembered per key in the process (a command loads a robot file more than
-    once) and between processes in the user's cache folder (a search takes about a second;
+    once) and between processes in the user's cache folder (a search costs up to a second;
     `rcmplan._paths`), keyed with the robot models' sources (the search and the kinematics it
     runs on) and the numpy and scipy it ran with."""
     if key not in _SEARCHED:
