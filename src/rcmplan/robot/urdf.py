@@ -82,7 +82,8 @@ def load_urdf(
     if chain is None:
         spec = _read_chain(path, tip_frame, root_frame, name)
         chain = _chain(spec)
-        _keep(key, spec)
+        if key is not None:
+            keep(key, spec)
     return chain
 
 
@@ -136,12 +137,6 @@ def _cached(file: Path | None) -> JointChain | None:
         return None if spec is None else _chain(spec)
     except (KeyError, TypeError, ValueError, RcmplanError):
         return None
-
-
-def _keep(file: Path | None, spec: dict[str, Any]) -> None:
-    """Keep the chain's arguments in file (`rcmplan._paths.keep`)."""
-    if file is not None:
-        keep(file, spec)
 
 
 def _read(path: str | PathLike[str]) -> Any:
