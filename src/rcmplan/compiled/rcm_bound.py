@@ -14,6 +14,16 @@ step leaves the needle beyond the box) and applies them to any robot model from 
 
 numba leaves out the branch of the argument that is None, so each family compiles with its own
 kinematics only. A step d holds the moving joints' increments, then d lambda in d[m].
+
+`hold_box` and `qp_solve` are inlined into their callers (`loop.qp_step`, `loop.period_step`,
+`arm_loop.step`, `arm_loop.held_packed`) rather than compiled as functions of their own: numba
+optimises a compiled kernel's whole callee tree for it and then again in each caller, and each
+of their four versions held the QP's whole solve: 13-17 s (`hold_box`) and 11-14 s
+(`qp_solve`) of a cold compile of every kernel. Inlined, a cold compile takes 0.93-0.94 of the
+CPU time (docs/benchmarks.md).
+Inlining the QP's solve itself (`qp_kernels.iteration_error`, `arm_qp_solve`) into the loops'
+iterations made it slower (a cold compile still ran after 6 min, against 4 min before):
+`algorithm.run_targets` then optimises it in each of its versions.
 """
 
 from __future__ import annotations
@@ -137,7 +147,7 @@ def arm_qp_solve(A: FloatArray, ix: IntArray, W: FloatArray, C: FloatArray | Non
     return flag[0]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # see the module docstring
 def qp_solve(P: FloatArray | None, arm: tuple | None, K: FloatArray, q: FloatArray, lam: float,
              target: FloatArray, fail: FloatArray, qpa: tuple, C: FloatArray | None,
              e: FloatArray, d: FloatArray) -> int:  # fmt: skip
@@ -166,7 +176,7 @@ def solution_step(P: FloatArray | None, arm: tuple | None, q: FloatArray, first:
         stepped(arm[1][0], arm[1], first, m, q, d, x)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")  # see the module docstring
 def hold_box(P: FloatArray | None, arm: tuple | None, K: FloatArray, q: FloatArray, lam: float,
              target: FloatArray, trocar: FloatArray, now: float, first: int, m: int,
              fail: FloatArray, qpa: tuple, Q: FloatArray, C: FloatArray | None, e: FloatArray,
