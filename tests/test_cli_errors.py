@@ -92,6 +92,31 @@ def test_a_number_out_of_range_is_named_as_the_option_in_its_unit(
     assert said in refused(argv, tmp_path, capsys)
 
 
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["--width", "5000"], "--width = 5000 is invalid; valid: an integer in [16, 1280]"),
+        (["--height", "8"], "--height = 8 is invalid; valid: an integer in [16, 960]"),
+        (["--fps", "0"], "--fps = 0.0 is invalid"),
+    ],
+)  # fmt: skip
+def test_render_options_are_refused_before_the_scenario_runs(
+    argv: list[str], said: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert said in refused(["render", *argv], tmp_path, capsys)
+    assert not (tmp_path / "log.npz").exists()  # the scenario did not run
+
+
+def test_render_mp4_without_the_video_extra_is_refused_before_the_scenario_runs(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import sys
+
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)
+    assert "rcmplan[video]" in refused(["render", "--format", "mp4"], tmp_path, capsys)
+    assert not (tmp_path / "log.npz").exists()
+
+
 def test_a_robot_file_with_a_bad_value_names_the_file_the_key_and_its_unit(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

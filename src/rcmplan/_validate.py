@@ -131,9 +131,9 @@ def _out_of_range(
 def integer(name: str, value: Any, low: int, high: int) -> int:
     """Return value as an int in [low, high] (an int or numpy integer, not a bool), or raise."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, int | np.integer):
-        raise InvalidInputError(name, value, f"an integer in [{low:,}, {high:,}]")
+        raise InvalidInputError(name, value, f"an integer in [{low}, {high}]")
     if not low <= value <= high:
-        raise InvalidInputError(name, value, f"an integer in [{low:,}, {high:,}]")
+        raise InvalidInputError(name, value, f"an integer in [{low}, {high}]")
     return int(value)
 
 

@@ -22,12 +22,14 @@ import numpy as np
 from rcmplan._validate import FloatArray, integer, scalar
 from rcmplan.cli import interrupts
 from rcmplan.cli.common import add_json, add_method, add_out, add_plant, add_scenario
-from rcmplan.exceptions import InvalidInputError, RcmplanError
+from rcmplan.exceptions import InvalidInputError, RcmplanError, require_extra
 from rcmplan.robot.iramis import Iramis
+from rcmplan.sim.mujoco.scene import OFFSCREEN
 
 CAMERAS = ("closeup", "overview")
 MAX_FRAMES = 10_000
 MAX_FPS = 100.0  # GIF frame times are whole hundredths of a second
+MIN_SIZE = 16  # pixels
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -42,13 +44,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     add_method(p)
     add_plant(p, default="kinematic")
     p.add_argument("--demo", action="store_true", help="animate a generated slider trajectory")
-    p.add_argument("--width", type=int, default=640, help="image width in pixels, 16-1280 (640)")
-    p.add_argument("--height", type=int, default=480, help="image height in pixels, 16-960 (480)")
+    p.add_argument("--width", type=int, default=640,
+                   help=f"image width in pixels, {MIN_SIZE}-{OFFSCREEN[0]} (640)")  # fmt: skip
+    p.add_argument("--height", type=int, default=480,
+                   help=f"image height in pixels, {MIN_SIZE}-{OFFSCREEN[1]} (480)")  # fmt: skip
     p.add_argument("--camera", choices=CAMERAS, default="closeup",
                    help="animation camera (closeup)")  # fmt: skip
     p.add_argument("--frames", type=int, default=60, help=f"animation frames, 1-{MAX_FRAMES} (60)")
     p.add_argument("--fps", type=float, default=20.0,
-                   help=f"animation frame rate, 0-{MAX_FPS:g} (20)")  # fmt: skip
+                   help=f"animation frame rate, above 0 to {MAX_FPS:g} (20)")  # fmt: skip
     p.add_argument(
         "--format", choices=("gif", "mp4"), default="gif", help="animation (mp4: `video` extra)"
     )
@@ -102,8 +106,11 @@ def run(args: argparse.Namespace) -> int:
     out = prepare_folder(args.out)
     robot = Iramis()
     try:
+        size = image_size(args)
         frames = integer("--frames", args.frames, 1, MAX_FRAMES)
         fps = scalar("--fps", args.fps, 0.0, MAX_FPS, low_open=True)
+        if args.format == "mp4":
+            require_extra("imageio_ffmpeg", "video")
         result, eye, sliders = trajectory(args, robot, out)
     except RcmplanError as exc:
         write_stopped(out, args, exc.status, f"{type(exc).__name__}: {exc}")
@@ -112,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
     arc = None if result is None else result.scenario.needle.arc()
     plant = MujocoPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
     try:
-        figures = render_figures(args, plant, sliders, out / "figures", name, frames, fps)
+        figures = render_figures(args, plant, sliders, out / "figures", name, size, frames, fps)
     except RcmplanError as exc:
         write_render_summary(out, result, {}, exc)
         raise
@@ -139,15 +146,20 @@ def trajectory(args: argparse.Namespace, robot: Iramis, out: Path) -> tuple[Any,
     return None, None, demo_trajectory(robot)
 
 
+def image_size(args: argparse.Namespace) -> tuple[int, int]:
+    """(width, height) of --width and --height, checked against what the scene renders."""
+    return (integer("--width", args.width, MIN_SIZE, OFFSCREEN[0]),
+            integer("--height", args.height, MIN_SIZE, OFFSCREEN[1]))  # fmt: skip
+
+
 def render_figures(args: argparse.Namespace, plant: Any, sliders: FloatArray, folder: Path,
-                   name: str, frames: int, fps: float) -> dict[str, Path]:  # fmt: skip
+                   name: str, size: tuple[int, int], frames: int,
+                   fps: float) -> dict[str, Path]:  # fmt: skip
     """The home snapshots from both cameras, the animation and its last frame."""
     from rcmplan.sim.mujoco.render import SceneRenderer, animate, save_animation, save_png
 
     model, data = plant.scene()
-    width = integer("--width", args.width, 16, int(model.vis.global_.offwidth))
-    height = integer("--height", args.height, 16, int(model.vis.global_.offheight))
-    renderer = SceneRenderer(model, width, height)
+    renderer = SceneRenderer(model, *size)
     try:
         made = {f"home_{cam}": save_png(folder / f"home_{cam}.png", renderer.render(data, cam))
                 for cam in ("overview", "closeup")}  # fmt: skip

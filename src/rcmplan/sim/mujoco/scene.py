@@ -76,12 +76,16 @@ def look_at(eye: FloatArray, target: FloatArray) -> str:
     return fmt(np.concatenate([x, y]))
 
 
+OFFSCREEN = (1280, 960)  # the largest image the scene renders, (width, height) in pixels
+
+
 def scene_xml(robot: Iramis, eye: EyePhantom, robot_file: str = "robot.xml") -> str:
     """The scene MJCF as a string; it includes `robot_file`."""
     root = ET.Element("mujoco", model="iramis scene")
     ET.SubElement(root, "include", file=robot_file)
     vis = ET.SubElement(root, "visual")
-    ET.SubElement(vis, "global", offwidth="1280", offheight="960", azimuth="120", elevation="-25")
+    ET.SubElement(vis, "global", offwidth=str(OFFSCREEN[0]), offheight=str(OFFSCREEN[1]),
+                  azimuth="120", elevation="-25")  # fmt: skip
     ET.SubElement(vis, "headlight", diffuse="0.5 0.5 0.5", ambient="0.3 0.3 0.3")
     assets = ET.SubElement(root, "asset")
     ET.SubElement(
