@@ -264,6 +264,10 @@ def test_importing_rcmplan_as_a_library_leaves_the_signal_handlers_alone() -> No
         (["python", "-c", "import rcmplan"], "-c", False),
         (["python", "script.py", "-m", "rcmplan"], "script.py", False),
         (["python", "/venv/bin/rcmplan", "inject"], "/venv/bin/rcmplan", True),
+        # a sweep's forkserver worker: the command's sys.argv, its own interpreter line
+        (["python", "-c", "from multiprocessing.forkserver import main; main(3, 4, [])"],
+         "/venv/bin/rcmplan", False),
+        ([], "/venv/bin/rcmplan", True),  # an interpreter without orig_argv
     ],
 )
 def test_the_process_is_the_command_only_when_started_as_it(
@@ -328,3 +332,28 @@ def without_wall_time(out: Path) -> list[list[str]]:
     """targets.csv without its wall-time column."""
     with open(out / "targets.csv", newline="") as fh:
         return [row[:-1] for row in csv.reader(fh)]
+
+
+def test_ctrl_c_on_the_installed_script_is_answered_by_the_command_alone(tmp_path: Path) -> None:
+    """Ctrl-C reaches the whole foreground process group: the sweep's forkserver workers, which
+    run the `rcmplan` script again with the command's argv, leave it to the command (no stop
+    line or stop file of theirs)."""
+    script = Path(sys.executable).with_name("rcmplan")
+    assert script.exists(), f"{script}: the console script `pip install` writes"
+    out = tmp_path / "sweep"
+    proc = subprocess.Popen(
+        [str(script), "sweep", "--targets", "30000", "--workers", "2", "--no-plots", "--out",
+         str(out)], start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    deadline = time.monotonic() + 300
+    while len(children_of(proc.pid)) < 3:  # the forkserver and its two workers
+        assert proc.poll() is None and time.monotonic() < deadline, "no workers within 300 s"
+        time.sleep(0.05)
+    time.sleep(1.0)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    text = err.decode()
+    assert proc.returncode == 130, text[-2000:]
+    assert "before the run" not in text and not our_tracebacks(text), text[-2000:]
+    doc = json.loads((out / "summary.json").read_text())
+    assert doc["status"] == "interrupted" and "rerun with --resume" in doc["message"]

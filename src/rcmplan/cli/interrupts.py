@@ -98,18 +98,23 @@ _state = _State()
 
 
 def is_command() -> bool:
-    """True when this process runs the `rcmplan` command: `python [options] -m rcmplan ...`
-    (read from `sys.orig_argv`), or a program named `rcmplan` (the installed script)."""
+    """True when this process runs the `rcmplan` command: `python [options] -m rcmplan ...` or
+    the installed `rcmplan` script, read from the interpreter's own command line
+    (`sys.orig_argv`). A multiprocessing worker of the command is not the command: it is
+    started with `-c`, and runs the script again (as `__mp_main__`) with the command's
+    `sys.argv`, which is why `sys.argv` is read only when `sys.orig_argv` is empty."""
     argv = list(getattr(sys, "orig_argv", []))
     i = 1
     while i < len(argv):
         arg = argv[i]
         if arg.startswith("-m"):
             return (arg[2:] or (argv[i + 1] if i + 1 < len(argv) else "")) == "rcmplan"
-        if arg in ("-c", "-") or not arg.startswith("-"):
-            break  # a command string, standard input or a script: not the module
+        if arg in ("-c", "-"):
+            return False  # a command string or standard input
+        if not arg.startswith("-"):
+            return os.path.basename(arg) == "rcmplan"  # the script
         i += 2 if arg in ("-X", "-W") else 1  # the two options whose value may stand apart
-    return bool(sys.argv) and os.path.basename(sys.argv[0]) == "rcmplan"
+    return not argv and bool(sys.argv) and os.path.basename(sys.argv[0]) == "rcmplan"
 
 
 def install_if_command() -> None:
