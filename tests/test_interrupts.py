@@ -265,8 +265,11 @@ def test_importing_rcmplan_as_a_library_leaves_the_signal_handlers_alone() -> No
         (["python", "script.py", "-m", "rcmplan"], "script.py", False),
         (["python", "/venv/bin/rcmplan", "inject"], "/venv/bin/rcmplan", True),
         # a sweep's forkserver worker: the command's sys.argv, its own interpreter line
-        (["python", "-c", "from multiprocessing.forkserver import main; main(3, 4, [])"],
-         "/venv/bin/rcmplan", False),
+        (
+            ["python", "-c", "from multiprocessing.forkserver import main; main(3, 4, [])"],
+            "/venv/bin/rcmplan",
+            False,
+        ),
         ([], "/venv/bin/rcmplan", True),  # an interpreter without orig_argv
     ],
 )
