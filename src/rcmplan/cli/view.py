@@ -1,8 +1,8 @@
 """`rcmplan view`: a run in 3D in the browser, or the needle driven live.
 
-`rcmplan view RUN_DIR` replays a run folder (inject, spiral, teleop) or a comparison folder
-(compare); `rcmplan view --live` serves a draggable target that the robot's needle tip follows
-in real time with the RCM held. The folder is read and checked before the server starts; the
+`rcmplan view RUN_DIR` replays a run folder (inject, spiral, teleop, a subretinal episode with
+its B-scans) or a comparison folder (compare); `rcmplan view --live` serves a draggable target
+that the robot's needle tip follows in real time with the RCM held; one of the two is needed. The folder is read and checked before the server starts; the
 address is printed on one line; Ctrl-C (or SIGTERM) stops the server cleanly (exit 0).
 """
 
@@ -16,7 +16,6 @@ from typing import Any
 from rcmplan.cli import interrupts
 from rcmplan.cli.common import add_plant, add_robot, add_scenario
 from rcmplan.cli.teleop import FILTERS  # not rcmplan.teleop: its import costs scipy.signal
-from rcmplan.exceptions import InvalidInputError
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -27,9 +26,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         "trocar, targets, tip trace by RCM deviation; a timeline and panels), or with --live a "
         "draggable target the needle tip follows in real time with the RCM held.",
     )  # fmt: skip
-    p.add_argument("run_dir", nargs="?", metavar="RUN_DIR",
-                   help="a run folder (inject, spiral, teleop) or a compare folder")  # fmt: skip
-    p.add_argument("--live", action="store_true", help="drive the needle live instead")
+    what = p.add_mutually_exclusive_group(required=True)
+    what.add_argument("run_dir", nargs="?", metavar="RUN_DIR",
+                      help="a run folder (inject, spiral, teleop, a subretinal episode) or a "
+                      "compare folder")  # fmt: skip
+    what.add_argument("--live", action="store_true", help="drive the needle live instead")
     p.add_argument("--port", type=int, default=8080, help="port to serve on (8080; 0: any)")
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (127.0.0.1)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
@@ -79,8 +80,6 @@ def run(args: argparse.Namespace) -> int:
     """Serve until Ctrl-C or SIGTERM; errors in the folder or the port before any server."""
     from rcmplan.view.server import address, open_browser, serve, start_server, stop_server
 
-    if args.live == bool(args.run_dir):
-        raise InvalidInputError("RUN_DIR", args.run_dir, "a run folder, or --live (not both)")
     source = checked_source(args)
     server = start_server(args.host, args.port)
     view = None

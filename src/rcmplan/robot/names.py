@@ -30,4 +30,7 @@ def check_robot(robot: str) -> str:
     """`robot` if it is a robot name or an existing .toml file, else InvalidInputError."""
     if robot in ROBOT_NAMES or (is_robot_file(robot) and Path(robot).is_file()):
         return robot
+    if is_robot_file(robot):
+        missing = str(Path(robot).absolute())  # where a relative name was looked for
+        raise InvalidInputError("robot", robot, f"{VALID}; there is no file {missing!r}")
     raise InvalidInputError("robot", robot, VALID)

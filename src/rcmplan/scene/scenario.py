@@ -253,7 +253,10 @@ def _read(source: str | Path) -> str:
         return shipped_text(name)
     path = Path(source)
     if not path.is_file():
-        raise ScenarioError("scenario", name, f"a TOML file or one of {scenario_names()}")
+        valid = f"a TOML file or one of {scenario_names()}"
+        if name.endswith(".toml") or len(path.parts) > 1:  # a file meant
+            valid += f"; there is no file {str(path.absolute())!r}"
+        raise ScenarioError("scenario", name, valid)
     try:
         with open(path, "rb") as fh:
             data = fh.read(MAX_FILE_BYTES + 1)
