@@ -2,8 +2,9 @@
 
 `rcmplan view RUN_DIR` replays a run folder (inject, spiral, teleop, a subretinal episode with
 its B-scans) or a comparison folder (compare); `rcmplan view --live` serves a draggable target
-that the robot's needle tip follows in real time with the RCM held; one of the two is needed. The folder is read and checked before the server starts; the
-address is printed on one line; Ctrl-C (or SIGTERM) stops the server cleanly (exit 0).
+that the robot's needle tip follows in real time with the RCM held; one of the two is needed.
+The folder is read and checked before the server starts; the address is printed on one line;
+Ctrl-C (or SIGTERM) stops the server cleanly (exit 0).
 """
 
 from __future__ import annotations
