@@ -169,3 +169,16 @@ def test_on_the_mujoco_plant_the_margin_holds_and_the_needle_holds_when_released
     t = result.log.time
     tips = result.log.tip[(t > 2.6) & (t < 3.2)]  # released; the servo settles in 0.1 s
     assert np.abs(tips - tips[0]).max() < 1e-6
+
+
+@pytest.mark.parametrize(
+    ("tip", "inp", "expected"),
+    [(20e-6, 100e-6, 0.8), (1.1e-7, 5.7e-8, None), (1e-6, None, None), (None, 1e-4, None)],
+)
+def test_tremor_reduction_is_given_only_for_an_input_with_tremor(
+    tip: float | None, inp: float | None, expected: float | None
+) -> None:
+    from rcmplan.teleop.metrics import summary_band
+
+    ratio = summary_band({"tip_tremor_rms_m": tip, "input_tremor_rms_m": inp})["tremor_reduction"]
+    assert ratio == pytest.approx(expected) if expected is not None else ratio is None

@@ -3,7 +3,10 @@
 - Tremor: the 6-16 Hz band (zero-phase fourth-order Butterworth band-pass over the whole
   session), RMS of its 3-D magnitude over the engaged periods: at the tip
   (`tip_tremor_rms_m`) and in the scaled input (`input_tremor_rms_m`, the raw master
-  position divided by the scale).
+  position divided by the scale); `tremor_reduction` = 1 - tip / input, given only when the
+  input's band holds at least MIN_INPUT_TREMOR_M (a tremor-free input leaves the ratio of two
+  figures of the controller's own resolution: with `--tremor-um 0` the tip's band holds about
+  0.1 um).
 - Reference: the scaled intended motion through the same clutch mapping: the tip anchor of
   each engagement plus the intended master displacement since the engagement, scaled and
   rotated. The intended motion is the input's own (a synthetic surgeon's) or, for a recorded
@@ -32,6 +35,7 @@ MAX_LAG_S = 0.3
 INTENDED_CUTOFF_HZ = 2.0
 ALIGN_CUTOFF_HZ = 5.0
 EDGE_S = 0.5
+MIN_INPUT_TREMOR_M = 1e-6  # below it, the input has no tremor to reduce (module docstring)
 
 Mask = NDArray[np.bool_]
 
@@ -123,7 +127,8 @@ def speed_excess(sliders: FloatArray, speed: FloatArray, dt: float) -> FloatArra
 
 
 def summary_band(values: dict[str, Any]) -> dict[str, Any]:
-    """Tremor reduction ratio from tip and input tremor (None when either is missing)."""
+    """Tremor reduction ratio from tip and input tremor (None when either is missing, or when
+    the input's tremor is below MIN_INPUT_TREMOR_M)."""
     tip, inp = values.get("tip_tremor_rms_m"), values.get("input_tremor_rms_m")
-    ratio = None if tip is None or not inp else 1.0 - tip / inp
+    ratio = None if tip is None or inp is None or inp < MIN_INPUT_TREMOR_M else 1.0 - tip / inp
     return {"tremor_reduction": ratio}
