@@ -157,6 +157,28 @@ def test_cli_writes_the_summary(tmp_path: Path) -> None:
     assert doc["bscans"] == "bscans.npz" and (out / "bscans.npz").exists()  # for rcmplan view
 
 
+def test_the_table_gives_one_figure_per_row_and_the_segmentation_rows_for_images(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rcmplan.cli.subretinal import print_table
+
+    out = tmp_path / "sr"
+    main(["subretinal", "--hold-s", "0.3", "--out", str(out), "--no-plots", "--json"])
+    doc = json.loads((out / "summary.json").read_text())
+    capsys.readouterr()
+    for estimates in ("image", "noise"):
+        print_table({**doc, "ioct_estimates": estimates})
+        rows = capsys.readouterr().out.splitlines()[3:]
+        named = [r for r in rows if r.startswith("segmented ")]
+        if estimates == "noise":
+            assert named == []
+            continue
+        assert [r.split(":")[0] for r in named] == ["segmented ILM per A-line",
+                                                    "segmented needle tip"]  # fmt: skip
+        assert f"({doc['tip_segmented']} volumes)" in named[1]
+        assert all(r.split()[-1] == "um" and "," not in r.split(")")[-1] for r in named)
+
+
 @pytest.mark.parametrize(
     ("option", "value", "named"),
     [("--ioct-rate-hz", "0", "--ioct-rate-hz"), ("--latency-ms", "-5", "--latency-ms"),

@@ -231,9 +231,13 @@ def print_table(doc: dict[str, Any]) -> None:
         ["largest trocar displacement (whole-eye motion)", um("max_trocar_displacement_m")],
         ["prediction RMS", um("prediction_rms_m")],
         [f"ILM estimate error RMS ({source})", um("segmentation_rms_m")],
-        ["segmented ILM per A-line, needle tip: RMS error",
-         f"{um('segmentation_ilm_rms_m')}, {um('segmentation_tip_rms_m')}"],
         ["iOCT volumes delivered, dropped (no ILM segmented)",
          f"{doc['acquisitions_delivered']}, {doc['acquisitions_dropped']}"],
     ]  # fmt: skip
+    if doc["ioct_estimates"] == "image":  # the segmentation against the rendered scene
+        rows[-1:-1] = [
+            ["segmented ILM per A-line: RMS error", um("segmentation_ilm_rms_m")],
+            [f"segmented needle tip: RMS error ({doc['tip_segmented']} volumes)",
+             um("segmentation_tip_rms_m")],
+        ]  # fmt: skip
     print(table(["figure", "value"], rows))
