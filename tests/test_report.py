@@ -19,6 +19,7 @@ from rcmplan.analysis.summary_text import (
     execution_text,
     summary_lines,
     um,
+    violations_label,
     violations_text,
 )
 from rcmplan.analysis.units import fmt
@@ -118,7 +119,9 @@ def test_report_carries_the_limits_waypoints_and_path_the_command_line_prints(
         assert shared in printed
     assert f"<dt>max waypoint tip error</dt><dd>{um(s['max_waypoint_tip_error_m'])}</dd>" in page
     assert f"<dt>limited waypoints</dt><dd>{s['limited_waypoints']:,}</dd>" in page
-    assert f"<dt>limit violations (records)</dt><dd>{violations_text(s)}</dd>" in page
+    label = html.escape(violations_label(s))
+    assert f"<div><dt>{label}</dt><dd>{violations_text(s)}</dd></div>" in page
+    assert violations_label(s) == "records beyond the QP's limits"  # the QP's own: no "which"
     assert f"<dd>{execution_text(s)}</dd>" in page
     for kind, n in s["limit_violations"].items():
         assert f"<td class='l'>{kind}</td><td class='l'>" in page
@@ -141,3 +144,14 @@ def test_each_tip_error_has_one_name_in_the_table_the_lines_and_the_report(qp_re
     assert tracking > s["max_waypoint_tip_error_m"] > s["max_tip_error_m"]
     assert "<th>max tracking error [um]</th>" in page
     assert f"<dt>max tip error at the targets</dt><dd>{um(s['max_tip_error_m'])}</dd>" in page
+
+
+def test_the_violation_counts_of_a_method_without_limits_say_it_does_not_hold_them() -> None:
+    assert violations_label({"method": "pinv"}) == (
+        "records beyond the QP's limits, which pinv does not hold"
+    )
+    lines = summary_lines({"method": "dls", "max_rcm_deviation_m": 4e-7, "max_tip_error_m": 0.0,
+                           "iterations": 10, "wall_time_s": 0.01,
+                           "max_waypoint_tip_error_m": 1e-9, "limited_waypoints": 0,
+                           "limit_violations": {"speed": 804, "retina": 12}})  # fmt: skip
+    assert lines[1].endswith("which dls does not hold: speed 804, retina 12")

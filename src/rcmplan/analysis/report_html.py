@@ -24,6 +24,7 @@ from rcmplan.analysis.summary_text import (
     limited_rows,
     um,
     violation_rows,
+    violations_label,
     violations_text,
 )
 from rcmplan.analysis.units import fmt
@@ -86,7 +87,7 @@ def headline(s: dict[str, Any], trocar_radius_m: float) -> list[tuple[str, str]]
         rows += [
             ("max waypoint tip error", um(s["max_waypoint_tip_error_m"])),
             ("limited waypoints", f"{s['limited_waypoints']:,}"),
-            ("limit violations (records)", violations_text(s)),
+            (violations_label(s), violations_text(s)),
         ]
     rows += [
         ("control iterations", f"{s['iterations']:,}"),
