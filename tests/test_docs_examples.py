@@ -1,0 +1,35 @@
+"""The Python examples of docs/ that run without a user's own files run as written (those of
+docs/robots.md load the user's URDF, `my_arm.urdf`; the README's are in test_readme.py)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import pytest
+
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def block(name: str) -> str:
+    """The one Python example of docs/name."""
+    (found,) = re.findall(r"```python\n(.*?)```", (DOCS / name).read_text(), flags=re.S)
+    return str(found)
+
+
+def test_the_live_input_example_drives_a_session_and_stops(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    exec(compile(block("teleop.md"), "docs/teleop.md", "exec"), {})
+    status, periods, drawn = capsys.readouterr().out.split()
+    assert status == "ok"
+    assert int(periods) == int(drawn) > 100  # 0.5 s of pushes at 1 ms a period, then stop
+
+
+def test_the_objective_example_builds_a_qp_with_the_posture_objective() -> None:
+    import rcmplan as rp
+
+    scope: dict[str, object] = {}
+    exec(compile(block("design.md"), "docs/design.md", "exec"), scope)
+    assert isinstance(scope["qp"], rp.QpSolver)
+    assert isinstance(scope["keep"], rp.Objective)
