@@ -165,3 +165,28 @@ def test_the_robot_names_are_the_registered_robots() -> None:
     from rcmplan.robot.registry import ROBOTS
 
     assert tuple(ROBOTS) == ROBOT_NAMES
+
+
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["inject", "--metod", "qp"], "rcmplan inject: error: unrecognized arguments: --metod qp; "
+                                      "did you mean --method?"),
+        (["inject", "--bogus=3"], "rcmplan inject: error: unrecognized arguments: --bogus=3"),
+        (["injct"], "invalid choice: 'injct' (choose from 'compare', 'inject', "),
+        (["injct"], "'view'); did you mean inject?"),
+        (["inject", "--method", "qpp"], "(choose from 'pinv', 'pinv-thesis', 'dls', 'qp'); did "
+                                        "you mean qp?"),
+    ],
+)  # fmt: skip
+def test_a_misspelt_word_is_answered_with_the_command_usage_and_the_closest_valid_one(
+    argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert said in err
+    usage = "usage: rcmplan inject " if argv[0] == "inject" else "usage: rcmplan [-h]"
+    assert err.startswith(usage)
+    assert err.count("did you mean") == (0 if argv == ["inject", "--bogus=3"] else 1)

@@ -19,7 +19,7 @@ import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from rcmplan.exceptions import RcmplanError
 
@@ -47,6 +47,32 @@ class Parser(argparse.ArgumentParser):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._negative_number_matcher = re.compile(r"-\.?\d")
+
+    def error(self, message: str) -> NoReturn:
+        """Usage and the error, with the closest valid word to a misspelt choice."""
+        found = re.search(r"invalid choice: '([^']*)' \(choose from (.*)\)$", message)
+        if found:
+            choices = re.findall(r"'([^']*)'", found.group(2))
+            message += did_you_mean(found.group(1), choices)
+        super().error(message)
+
+
+def did_you_mean(word: str, valid: Sequence[str]) -> str:
+    """The suggestion "; did you mean X?" for the closest of `valid` to `word` (leading dashes
+    aside), or "" when none is close."""
+    import difflib
+
+    names = {v.lstrip("-"): v for v in valid}
+    close = difflib.get_close_matches(word.lstrip("-"), list(names), n=1, cutoff=0.6)
+    return f"; did you mean {names[close[0]]}?" if close else ""
+
+
+def unrecognized(parser: argparse.ArgumentParser, words: Sequence[str]) -> NoReturn:
+    """The command's usage and the words it does not know, with the closest of its options to
+    the first unknown option."""
+    options = [o for a in parser._actions for o in a.option_strings if o.startswith("--")]
+    first = next((w.split("=", 1)[0] for w in words if w.startswith("-")), "")
+    parser.error(f"unrecognized arguments: {' '.join(words)}" + did_you_mean(first, options))
 
 
 def modules_for(argv: Sequence[str]) -> tuple[str, ...]:
@@ -93,8 +119,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     "interrupted" (exit 130 and 143; `rcmplan.cli.interrupts`).
     """
     words = sys.argv[1:] if argv is None else argv
-    args = build_parser(modules_for(words)).parse_args(words)
+    parser = build_parser(modules_for(words))
+    args, extra = parser.parse_known_args(words)
+    if extra:
+        unrecognized(command_parser(parser, args.command), extra)
     return _run(args)
+
+
+def command_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """The parser of one command of `parser` (built by `build_parser`)."""
+    (sub,) = (a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    found: argparse.ArgumentParser = sub.choices[command]
+    return found
 
 
 def _run(args: argparse.Namespace) -> int:
