@@ -117,6 +117,16 @@ def test_render_mp4_without_the_video_extra_is_refused_before_the_scenario_runs(
     assert not (tmp_path / "log.npz").exists()
 
 
+def test_the_thesis_method_on_a_curved_needle_is_refused_before_the_run(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["inject", "--scenario", "curved", "--method", "pinv-thesis", "--no-plots"]
+    line = refused(argv, tmp_path, capsys)
+    assert "method = 'pinv-thesis' is invalid; valid: one of ('pinv', 'dls', 'qp') for a " \
+        "curved needle" in line  # fmt: skip
+    assert not (tmp_path / "log.npz").exists()
+
+
 def test_a_robot_file_with_a_bad_value_names_the_file_the_key_and_its_unit(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

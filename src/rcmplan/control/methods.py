@@ -10,7 +10,7 @@ import importlib
 from dataclasses import replace
 from typing import Any
 
-from rcmplan.choices import DEFAULT_METHOD, METHODS
+from rcmplan.choices import CURVED_METHODS, DEFAULT_METHOD, METHODS
 from rcmplan.control.method_settings import MethodSettings
 from rcmplan.control.resolution import met_tolerance
 from rcmplan.control.solvers import DlsSolver, PinvSolver, Solver
@@ -72,7 +72,7 @@ def _curved_solver(name: str, cfg: MethodSettings, robot: RobotModel, **context:
         qp = importlib.import_module("rcmplan.control.qp")
         solver: Solver = qp.QpSolver.from_settings(cfg, robot, **context)
         return solver
-    raise InvalidInputError("method", name, "'pinv', 'dls' or 'qp' for a curved needle")
+    raise InvalidInputError("method", name, f"one of {CURVED_METHODS} for a curved needle")
 
 
 def make_free_solver(

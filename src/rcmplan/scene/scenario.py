@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan.choices import METHODS, PLANTS
+from rcmplan.choices import CURVED_METHODS, METHODS, PLANTS
 from rcmplan.control.methods import MethodSettings
 from rcmplan.control.phase import MAX_TARGETS, LoopSettings, Phase
 from rcmplan.control.solvers import Tolerance
@@ -62,6 +62,11 @@ class Scenario:
     spiral: Spiral = field(default_factory=Spiral)
     dt: float = 1e-3
     needle: NeedleOptions = field(default_factory=NeedleOptions)
+
+    def __post_init__(self) -> None:
+        if self.needle.kind == "curved" and self.method not in CURVED_METHODS:
+            raise ScenarioError("method", self.method,
+                                f"one of {CURVED_METHODS} for a curved needle")  # fmt: skip
 
     def eye(self, robot: RobotModel) -> Eye:
         """The eye placed for this robot."""
