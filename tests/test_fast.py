@@ -199,14 +199,13 @@ def test_per_iteration_path_stops_like_the_reference(robot: Iramis) -> None:
 
 
 def test_a_first_run_says_once_that_numba_compiles_and_clears_numbas_cache(tmp_path) -> None:
-    """The first use of compiled code in an installation prints one line on stderr while numba
-    compiles (its stamp lives under XDG_CACHE_HOME); the next process says nothing. A small
-    kernel (the task values) stands for any: the line comes from loading compiled code
-    (`cache._load`), whatever it runs; a whole run would only compile more. A new stamp (here
-    another cache folder) first clears rcmplan's kernels from numba's cache (NUMBA_CACHE_DIR),
-    so they compile again; but with no stamp to record it, clearing would recompile everything
-    on every run: a cache folder rcmplan cannot write (here a file) leaves numba's cache as it
-    is."""
+    """A process that compiles one of rcmplan's kernels prints one line on stderr
+    (`_jit.FirstCompile`); the next process loads them from numba's cache and says nothing. A
+    small kernel (the task values) stands for any; a whole run would only compile more. A new
+    stamp (here another cache folder) first clears rcmplan's kernels from numba's cache
+    (NUMBA_CACHE_DIR), so they compile again, and the line says so; but with no stamp to record
+    it, clearing would recompile everything on every run: a cache folder rcmplan cannot write
+    (here a file) leaves numba's cache as it is, nothing compiles and nothing is said."""
     import json
     import subprocess
     import sys
@@ -231,8 +230,9 @@ def test_a_first_run_says_once_that_numba_compiles_and_clears_numbas_cache(tmp_p
         np.testing.assert_array_equal(json.loads(run.stdout), expected)  # the compiled values
         said.append(run.stderr)
         caches.append({p: p.stat().st_mtime_ns for p in numba_dir.rglob("*.nb[ic]")})
-    assert "numba compiles each kernel" in said[0] and said[1] == ""
-    assert all("numba compiles each kernel" in line for line in said[2:])  # no stamp there
+    line = "rcmplan: numba compiles kernels that this kind of run uses for the first time"
+    assert [text.count(line) for text in said] == [1, 0, 1, 0]
+    assert said[1] == said[3] == ""
     assert caches[0] and caches[1] == caches[0]  # loaded, not compiled again
     assert caches[2].keys() == caches[0].keys()
     assert all(caches[2][p] > caches[0][p] for p in caches[0])  # cleared, compiled again

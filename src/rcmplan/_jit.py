@@ -12,15 +12,22 @@ every kernel took 0.84 of the CPU time, the loops' speed unchanged within this m
 
 A kernel that needs a constant argument as a literal (an index into a heterogeneous tuple,
 say) cannot use this decorator; none does.
+
+numba compiles a kernel at its first call with a set of argument types and keeps it in its cache
+(`cache=True`); a later process loads it. The first compile of one of rcmplan's kernels in a
+process prints one line on stderr (`FirstCompile`, a listener of numba's compile events: a load
+from the cache sends none), so a run that compiles says so, whether it is the first run of the
+installation or the first of a kind not run before (another robot, method or plant).
 """
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 from typing import Any, TypeVar
 
 import numba
-from numba.core import types
+from numba.core import event, types
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -40,3 +47,28 @@ def njit(**options: Any) -> Callable[[F], F]:
         return dispatcher
 
     return decorate
+
+
+class FirstCompile(event.Listener):
+    """Prints one line on stderr at the first compile of one of rcmplan's kernels in this
+    process (nothing for other packages' functions, nor for kernels loaded from the cache)."""
+
+    LINE = ("rcmplan: numba compiles kernels that this kind of run uses for the first time; "
+            "it caches them, and later runs load them at once")  # fmt: skip
+
+    def __init__(self) -> None:
+        self.said = False
+
+    def on_start(self, ev: event.Event) -> None:
+        if self.said:
+            return
+        fn = getattr(ev.data.get("dispatcher"), "py_func", None)
+        if getattr(fn, "__module__", "").startswith("rcmplan."):
+            self.said = True
+            print(self.LINE, file=sys.stderr, flush=True)
+
+    def on_end(self, ev: event.Event) -> None:
+        """Nothing at the end of a compile."""
+
+
+event.register("numba:compile", FirstCompile())

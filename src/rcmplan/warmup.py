@@ -36,10 +36,9 @@ from rcmplan.sim.kinematic import KinematicPlant
 
 def compile_kernels() -> None:
     """Compile (or load from numba's cache) every kernel with the argument types used here:
-    `python -c "from rcmplan.warmup import compile_kernels; compile_kernels()"` fills
-    the cache ahead of a first run (in a container build, say). Its four parts may run in
-    separate processes at once (`scripts/check.sh` runs them in two): each kernel's cache
-    entry is its own file."""
+    `python -m rcmplan.warmup` fills the cache ahead of a first run (in a container build,
+    say). Its four parts may run in separate processes at once (`scripts/check.sh` runs them
+    in two): each kernel's cache entry is its own file."""
     compile_iramis_kernels()
     compile_arm_kernels()
     compile_curved_kernels()
@@ -294,3 +293,7 @@ def compile_bscan_kernels() -> None:
         segment_bscan(render_bscan(model, scene, rng), model, scene.curvature_radius_m,
                       scene.needle_diameter_m)  # fmt: skip
     reflectivity(BScanScene(), np.zeros(1), np.zeros(1))
+
+
+if __name__ == "__main__":
+    compile_kernels()

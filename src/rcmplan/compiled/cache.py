@@ -1,9 +1,10 @@
-"""Where the compiled code lives, and the one line a first run prints while numba compiles it.
+"""Where the compiled code lives, and when numba's cache of it is stale.
 
 There is one path: every phase that a kernel implements runs compiled, from the first target
-on, in every process. numba compiles each kernel when it is first called and keeps it in its
-cache (`cache=True`, under `__pycache__` beside the source, or `NUMBA_CACHE_DIR`), so only the
-first run after an install or an upgrade compiles; that run says so on stderr, once.
+on, in every process. numba compiles each kernel when it is first called with a set of argument
+types and keeps it in its cache (`cache=True`, under `__pycache__` beside the source, or
+`NUMBA_CACHE_DIR`), so the first run of each kind after an install or an upgrade compiles (a
+run that compiles says so on stderr, once: `rcmplan._jit.FirstCompile`).
 Nothing here starts a process or reads an environment variable of rcmplan's own.
 """
 
@@ -27,22 +28,20 @@ _state: dict[str, Any] = {"noticed": False, "daqp_abi": None}
 
 
 def _load(name: str) -> ModuleType:
-    """Import a module of compiled code, first saying on stderr (once per installation and
-    numba version) that its kernels are being compiled."""
+    """Import a module of compiled code, first (once per process) clearing numba's cache of
+    rcmplan's kernels if this installation's stamp is new (`clear_stale`)."""
     if not _state["noticed"]:
         _state["noticed"] = True
         stamp = stamp_path()
         if not stamp.exists():
-            print("rcmplan: first run of this installation: numba compiles each kernel as it is "
-                  "first used and caches it for later runs", file=sys.stderr)  # fmt: skip
             try:
                 stamp.parent.mkdir(parents=True, exist_ok=True)
                 writable = os.access(stamp.parent, os.W_OK)
             except OSError:
                 writable = False
             # Without a stamp nothing would record the clearing: every run would clear and
-            # compile again (a read-only cache folder: the line is printed each time, and
-            # numba's cache, checked against each kernel's own file, is kept)
+            # compile again (a read-only cache folder: numba's cache, checked against each
+            # kernel's own file, is kept)
             if writable:
                 clear_stale()
                 with contextlib.suppress(OSError):
