@@ -36,6 +36,7 @@ def run_command(argv: list[str]) -> str:
     return (
         "import runpy, sys\n"
         f"sys.argv = ['rcmplan', *{argv!r}]\n"
+        "sys.orig_argv = [sys.executable, '-m', 'rcmplan', *sys.argv[1:]]\n"
         "try:\n"
         "    runpy.run_module('rcmplan', run_name='__main__')\n"
         "except SystemExit as exc:\n"

@@ -25,6 +25,7 @@ pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs POSIX sig
 DRIVER = """
 import os, signal, sys
 sys.argv = ["rcmplan", *sys.argv[1:]]
+sys.orig_argv = [sys.executable, *sys.argv]  # as the installed script starts
 from rcmplan.cli import interrupts, main
 declare, sent = interrupts.finished, []
 def finished(*args, **kwargs):

@@ -25,6 +25,7 @@ DRIVER = """
 import os, signal, sys
 module, name, event_, call, signum = *sys.argv[1:4], int(sys.argv[4]), int(sys.argv[5])
 sys.argv = ["rcmplan", *sys.argv[6:]]
+sys.orig_argv = [sys.executable, *sys.argv]  # as the installed script starts
 from rcmplan.cli import main
 calls = []
 def tracer(frame, event, arg):

@@ -23,7 +23,10 @@ AFTER_THE_HANDLER = {"typing", "argparse", "json", "pathlib", "re", "rcmplan.exc
 
 def test_the_handler_is_installed_before_the_imports_it_does_not_need() -> None:
     # -S: no `site`, whose .pth files may import any of these first in some installations.
-    code = "import sys; sys.argv = ['rcmplan']; import rcmplan.cli"
+    code = (
+        "import sys; sys.argv = ['rcmplan']; sys.orig_argv = [sys.executable, 'rcmplan']; "
+        "import rcmplan.cli"
+    )
     done = subprocess.run([sys.executable, "-S", "-X", "importtime", "-c", code],
                           env={**os.environ, "PYTHONPATH": SRC}, capture_output=True,
                           text=True, timeout=120)  # fmt: skip
@@ -39,6 +42,7 @@ def test_the_handler_is_installed_before_the_imports_it_does_not_need() -> None:
 DRIVER = """
 import os, signal, sys
 sys.argv = ["rcmplan", "inject", "--out", sys.argv[1]]
+sys.orig_argv = [sys.executable, *sys.argv]  # as the installed script starts
 class SignalOnImport:
     def find_spec(self, name, path=None, target=None):
         if name == "rcmplan._atomic":
@@ -74,6 +78,7 @@ def test_a_signal_while_the_handler_s_modules_load_waits_for_them_and_stops_the_
 AT_THE_BLOCK = """
 import os, signal, sys
 sys.argv = ["rcmplan", "inject", "--no-plots", "--out", sys.argv[1]]
+sys.orig_argv = [sys.executable, *sys.argv]  # as the installed script starts
 from rcmplan.cli import interrupts, main
 target, sent = interrupts.handled.__wrapped__.__code__, []
 def tracer(frame, event, arg):

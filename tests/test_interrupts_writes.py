@@ -24,6 +24,7 @@ DRIVER = """
 import contextlib, os, signal, sys
 name, n = sys.argv[1], int(sys.argv[2])
 sys.argv = ["rcmplan", *sys.argv[3:]]
+sys.orig_argv = [sys.executable, *sys.argv]  # as the installed script starts
 exit_code = contextlib._GeneratorContextManager.__exit__.__code__
 seen = []
 def tracer(frame, event, arg):

@@ -119,5 +119,6 @@ def test_a_log_without_records_has_the_robot_s_actuator_columns() -> None:
     result = run_scenario(sc)
     assert result.status == "unreachable_target"
     assert result.summary()["limit_violations"]["travel"] == 0
-    refused = run_scenario(sc.with_method("pinv-thesis"))  # before a controller exists
+    bad = replace(sc.method_settings, extra={"tip_speed": 1.0})  # not a QP option
+    refused = run_scenario(replace(sc.with_method("qp"), method_settings=bad))  # no controller
     assert refused.status == "invalid_input" and refused.log.sliders.shape == (0, 7)

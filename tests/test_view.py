@@ -387,10 +387,22 @@ def test_view_of_a_bad_folder_exits_2_naming_it_without_a_traceback(run_dir, tmp
     assert str(bad) in err and "truncated" in err and "Traceback" not in err
 
 
-def test_view_asks_for_a_folder_or_live() -> None:
+@pytest.mark.parametrize(
+    ("argv", "said"),
+    [
+        (["view", "--no-browser"], "one of the arguments RUN_DIR --live is required"),
+        (["view", "--live", "some-run"], "argument RUN_DIR: not allowed with argument --live"),
+    ],
+)
+def test_view_asks_for_a_folder_or_live(
+    argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     from rcmplan.cli import main
 
-    assert main(["view", "--no-browser"]) == 2
+    with pytest.raises(SystemExit) as stop:
+        main(argv)
+    assert stop.value.code == 2
+    assert said in capsys.readouterr().err
 
 
 def test_a_busy_port_is_refused_before_viser_moves_to_another() -> None:
