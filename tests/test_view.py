@@ -141,6 +141,19 @@ def test_a_folder_that_is_not_a_run_is_refused_saying_what_a_run_folder_holds(tm
             load_runs(path)
 
 
+@pytest.mark.parametrize(
+    ("argv", "kind"),
+    [(["reproduce"], "reproduce"), (["sweep", "--targets", "4", "--no-plots"], "sweep")],
+)
+def test_a_folder_of_many_runs_is_refused_naming_its_command(tmp_path, argv, kind) -> None:
+    from rcmplan.cli import main
+
+    assert main([*argv, "--out", str(tmp_path)]) == 0
+    with pytest.raises(RunFolderError, match=re.escape(f"a folder of `rcmplan {kind}`: figures "
+                                                       "of many runs, none to replay")):  # fmt: skip
+        load_runs(tmp_path)
+
+
 def test_a_comparison_folder_gives_one_run_per_method(tmp_path) -> None:
     from rcmplan.cli import main
 

@@ -30,9 +30,9 @@ if TYPE_CHECKING:
     from rcmplan.subretinal.episode_bscans import EpisodeBScans
 
 WHAT_A_RUN_IS = (
-    "a run folder holds summary.json and log.npz (written by rcmplan inject, spiral or "
-    "teleop); a comparison folder holds summary.json with a `methods` list and one run folder "
-    "per method"
+    "a run folder holds summary.json and log.npz (written by rcmplan inject, spiral, teleop "
+    "or subretinal); a comparison folder holds summary.json with a `methods` list and one run "
+    "folder per method"
 )
 
 
@@ -87,6 +87,10 @@ def load_run(folder: Path, label: str | None = None) -> RunData:
     """One run folder, checked: summary.json, its scene block, log.npz and their agreement."""
     summary = read_json(folder / "summary.json")
     status = summary.get("status")
+    kind = summary.get("command") or ("sweep" if "executor" in summary else None)
+    if kind in ("reproduce", "sweep"):  # figures of many runs, no log of one
+        raise RunFolderError(folder, f"a folder of `rcmplan {kind}`: figures of many runs, "
+                             f"none to replay; {WHAT_A_RUN_IS}")  # fmt: skip
     if not (folder / "log.npz").is_file():
         why = f" (status {status!r}: {summary.get('message', '')})" if status != "ok" else ""
         raise RunFolderError(folder / "log.npz", f"missing: the run left no log{why}")
