@@ -410,12 +410,9 @@ def test_view_of_a_bad_folder_exits_2_naming_it_without_a_traceback(run_dir, tmp
 def test_view_asks_for_a_folder_or_live(
     argv: list[str], said: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from rcmplan.cli import main
+    from cli_usage import usage_error
 
-    with pytest.raises(SystemExit) as stop:
-        main(argv)
-    assert stop.value.code == 2
-    assert said in capsys.readouterr().err
+    assert said in usage_error(argv, capsys)
 
 
 def test_a_busy_port_is_refused_before_viser_moves_to_another() -> None:
