@@ -84,15 +84,16 @@ def random_joints(rng: np.random.Generator, n: int, angle: float = 1.2) -> np.nd
 
 
 @pytest.fixture(autouse=True, scope="session")
-def _kernels_already_announced(tmp_path_factory: pytest.TempPathFactory) -> None:
-    """Commands run as after their first run: the one line a first run prints while numba
-    compiles (`rcmplan.compiled.cache`) is stamped as said, in a cache folder of this session
-    (tests/test_fast.py checks the line itself with a folder of its own)."""
+def _stale_kernels_already_cleared(tmp_path_factory: pytest.TempPathFactory) -> None:
+    """Commands run as after their first run: the stamp that says numba's cache was cleared of
+    stale kernels (`rcmplan._kernel_cache`) is written in a cache folder of this session, so no
+    process of the suite clears the kernels the warm-ups compiled (tests/test_fast.py checks
+    the clearing with folders of its own)."""
     import os
 
-    from rcmplan.compiled import cache
+    from rcmplan import _kernel_cache
 
     os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
-    stamp = cache.stamp_path()
+    stamp = _kernel_cache.stamp_path()
     stamp.parent.mkdir(parents=True, exist_ok=True)
-    stamp.write_text("announced\n")
+    stamp.write_text("cleared\n")

@@ -29,6 +29,10 @@ from typing import Any, TypeVar
 import numba
 from numba.core import event, types
 
+from rcmplan._kernel_cache import check_once
+
+check_once()  # before any kernel is compiled or loaded from numba's cache
+
 F = TypeVar("F", bound=Callable[..., Any])
 
 
