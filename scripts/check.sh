@@ -57,7 +57,7 @@ case "${RCMPLAN_REQUIRE_BROWSER:-}" in
   *) echo "check.sh: RCMPLAN_REQUIRE_BROWSER=$RCMPLAN_REQUIRE_BROWSER: browser tests required" ;;
 esac
 
-# numba compiles each kernel on its first call and caches it (`rcmplan.compiled.cache`). On a
+# numba compiles each kernel on its first call and caches it (`rcmplan._jit`). On a
 # fresh clone that compile is most of the suite's CPU time, and two pytest workers would each
 # compile the same kernels: so every loop's kernels compile first, in two processes at once
 # (iRAM!S's, its curved needle's on both plants through one loop, and the subretinal episode's

@@ -1,5 +1,5 @@
 """The user's cache folder, where rcmplan keeps what it computes once and can compute again (the
-compiled kernels' stamp, `rcmplan.compiled.cache`; parsed URDF chains, `rcmplan.robot.urdf`;
+compiled kernels' stamp, `rcmplan._kernel_cache`; parsed URDF chains, `rcmplan.robot.urdf`;
 searched homes, `rcmplan.robot.robot_file`): `$XDG_CACHE_HOME/rcmplan`, by default
 `~/.cache/rcmplan`. A result is kept as JSON in a file named by a hash of everything it
 depends on; a file that cannot be read or written is passed over (the result is computed)."""

@@ -8,9 +8,9 @@ of the methods the kernels implement (exact types: a subclass may change `step`)
 one that says what it can do (`exact_commands`: a command is reached exactly in one period;
 `compiled_physics`: its period can run in compiled code).
 
-Where it applies it always runs, from the first target on (numba compiles each kernel once
-per installation and caches it: `rcmplan.compiled.cache`). Results equal the reference Python
-loop's to rounding (tests/test_fast.py checks 1e-12).
+Where it applies it always runs, from the first target on (numba compiles each kernel at its
+first call with a set of argument types and caches it: `rcmplan._jit`). Results equal the
+reference Python loop's to rounding (tests/test_fast.py checks 1e-12).
 """
 
 from __future__ import annotations
