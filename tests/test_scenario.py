@@ -55,6 +55,25 @@ def test_broken_scenarios_name_the_key_and_the_allowed_values(
         load_scenario(write(tmp_path, text))
 
 
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("[steps]\npositon_mm = 0.2", "; did you mean position_mm?"),
+        ("[step]\nposition_mm = 0.2", "; did you mean steps?"),
+        ("procedur = 'spiral'", "; did you mean procedure?"),
+        ("[qp]\ntip_speed = 1", "; did you mean tip_speed_mm_s?"),
+        ("[eye]\nzzz = 1", ""),  # nothing close: nothing offered
+    ],
+)
+def test_a_misspelt_key_is_answered_with_the_closest_valid_one(
+    tmp_path: Path, text: str, said: str
+) -> None:
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(write(tmp_path, text))
+    message = str(info.value)
+    assert message.endswith(said) and message.count("did you mean") == (1 if said else 0)
+
+
 def test_malformed_toml_and_missing_files_raise(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError, match="valid TOML"):
         load_scenario(write(tmp_path, "[eye\nradius_mm = "))

@@ -5,6 +5,7 @@ Every message names the offending value and, where one exists, the valid range o
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
 
@@ -391,3 +392,16 @@ class NoHomeFoundError(RobotFileError):
     the needle horizontal and the arm away from its singular set."""
 
     status = "no_home_found"
+
+
+def did_you_mean(word: Any, valid: Iterable[str]) -> str:
+    """The suggestion "; did you mean X?" for the closest of `valid` to `word` (leading dashes
+    aside), or "" when none is close (or `word` is not a string): for messages that list the
+    valid names."""
+    import difflib
+
+    if not isinstance(word, str):
+        return ""
+    names = {v.lstrip("-"): v for v in valid}
+    close = difflib.get_close_matches(word.lstrip("-"), list(names), n=1, cutoff=0.6)
+    return f"; did you mean {names[close[0]]}?" if close else ""

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from rcmplan.exceptions import RcmplanError
+from rcmplan.exceptions import RcmplanError, did_you_mean
 
 COMMANDS = (
     "compare",
@@ -55,16 +55,6 @@ class Parser(argparse.ArgumentParser):
             choices = re.findall(r"'([^']*)'", found.group(2))
             message += did_you_mean(found.group(1), choices)
         super().error(message)
-
-
-def did_you_mean(word: str, valid: Sequence[str]) -> str:
-    """The suggestion "; did you mean X?" for the closest of `valid` to `word` (leading dashes
-    aside), or "" when none is close."""
-    import difflib
-
-    names = {v.lstrip("-"): v for v in valid}
-    close = difflib.get_close_matches(word.lstrip("-"), list(names), n=1, cutoff=0.6)
-    return f"; did you mean {names[close[0]]}?" if close else ""
 
 
 def unrecognized(parser: argparse.ArgumentParser, words: Sequence[str]) -> NoReturn:

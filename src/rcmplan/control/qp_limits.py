@@ -23,7 +23,7 @@ from rcmplan.control.limits import (
     TipSpeed,
 )
 from rcmplan.control.limits.rows import RECOVERY
-from rcmplan.exceptions import InvalidInputError
+from rcmplan.exceptions import InvalidInputError, did_you_mean
 from rcmplan.robot.model import RobotModel
 
 # extra key -> (field, factor to SI)
@@ -113,7 +113,9 @@ class QpLimits:
                 kwargs[name] = scalar(key, value) * factor
             else:
                 valid = sorted([*EXTRA_KEYS, "contacts_mm", "solver"])
-                raise InvalidInputError("qp option", key, f"one of {valid}")
+                raise InvalidInputError(
+                    "qp option", key, f"one of {valid}{did_you_mean(key, valid)}"
+                )
         return cls(**kwargs)
 
     def singular_floor(self, robot: RobotModel) -> float:

@@ -12,7 +12,7 @@ import math
 from typing import Any
 
 from rcmplan.control.phase import MAX_TARGETS, LoopSettings
-from rcmplan.exceptions import InvalidInputError, ScenarioError
+from rcmplan.exceptions import InvalidInputError, ScenarioError, did_you_mean
 from rcmplan.scene.eye import POINT_NAMES
 
 # The loop refuses an RCM phase whose targets' tips jump farther than this [m] (between two
@@ -136,18 +136,23 @@ def sections(data: dict[str, Any]) -> dict[str, dict[str, Any]]:
     for key, value in data.items():
         if isinstance(value, dict):
             if key not in SCHEMA or key == "":
-                raise ScenarioError("section", key, f"one of {sorted(k for k in SCHEMA if k)}")
+                names = sorted(k for k in SCHEMA if k)
+                raise ScenarioError("section", key, f"one of {names}{did_you_mean(key, names)}")
             for k, v in value.items():
                 if key == "qp":
                     out["qp"][k] = check_qp(k, v)
                     continue
                 if k not in SCHEMA[key]:
-                    raise ScenarioError(f"[{key}] key", k, f"one of {sorted(SCHEMA[key])}")
+                    names = sorted(SCHEMA[key])
+                    raise ScenarioError(f"[{key}] key", k,
+                                        f"one of {names}{did_you_mean(k, names)}")  # fmt: skip
                 out[key][k] = check(key, k, v)
         elif key in SCHEMA[""]:
             out[""][key] = check("", key, value)
         else:
-            raise ScenarioError("key", key, f"one of {sorted(SCHEMA[''])} or a section")
+            names = sorted(SCHEMA[""])
+            close = did_you_mean(key, [*names, *(k for k in SCHEMA if k)])
+            raise ScenarioError("key", key, f"one of {names} or a section{close}")
     return out
 
 
