@@ -258,6 +258,20 @@ def test_robot_prints_a_robot_file_arm(tmp_path, capsys) -> None:
     assert doc["robot"] == "kinova" and len(doc["joints"]) == 6
 
 
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [("[robt]\nname = 'x'\n", "tables = ('robt') is invalid; valid: one [robot] table; did "
+                                "you mean robot?"),
+     ("", "tables = () is invalid; valid: one [robot] table")],
+)  # fmt: skip
+def test_a_file_without_its_robot_table_says_which_tables_it_has(tmp_path, text, said) -> None:
+    path = tmp_path / "arm.toml"
+    path.write_text(text)
+    with pytest.raises(RobotFileError) as info:
+        load_robot_file(path)
+    assert str(info.value) == f"robot file {str(path)!r}: {said}"
+
+
 def test_an_unknown_robot_or_a_missing_file_is_refused_by_the_option(capsys) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["inject", "--robot", "no-such-arm.toml", "--no-plots"])
@@ -267,7 +281,8 @@ def test_an_unknown_robot_or_a_missing_file_is_refused_by_the_option(capsys) -> 
 
 BAD = {  # case: (keys changed, error type, what the message names)
     "missing key": ({"flange": ""}, RobotFileError, r"\[robot\] flange = 'missing'"),
-    "unknown key": ({"flang": '"x"'}, RobotFileError, r"\[robot\] flang .*needle_axis"),
+    "unknown key": ({"flang": '"x"'}, RobotFileError,
+                    r"\[robot\] key = 'flang' is invalid.*needle_axis.*; did you mean flange\?$"),
     "urdf that does not load": ({"urdf": '"broken.urdf"'}, RobotFileError,
                                 r"\[robot\] urdf = .*broken\.urdf.*malformed XML"),
     "missing urdf": ({"urdf": '"nowhere.urdf"'}, RobotFileError, r"no file at .*nowhere\.urdf"),

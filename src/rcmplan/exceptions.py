@@ -380,10 +380,11 @@ class RobotFileError(InvalidInputError):
 
     status = "invalid_robot_file"
 
-    def __init__(self, path: Any, key: str, value: Any, valid: str) -> None:
+    def __init__(self, path: Any, key: str, value: Any, valid: str, name: str = "") -> None:
         self.path = path
         self.key = key
-        where = f"robot file {str(path)!r}" + (f": [robot] {key}" if key else "")
+        name = name or (f"[robot] {key}" if key else "")  # what `value` is, in the file
+        where = f"robot file {str(path)!r}" + (f": {name}" if name else "")
         super().__init__(where, value, valid)
 
 

@@ -42,6 +42,7 @@ from rcmplan.exceptions import (
     NoHomeFoundError,
     RobotFileError,
     UnknownFrameError,
+    did_you_mean,
 )
 from rcmplan.robot import home_search
 from rcmplan.robot import robot_file_values as values
@@ -151,10 +152,12 @@ def _table(path: Path) -> dict[str, Any]:
     table = data.get("robot")
     extra = sorted(set(data) - {"robot"})
     if not isinstance(table, dict) or extra:
-        raise RobotFileError(path, "", extra or "no [robot] table", "one [robot] table")
+        close = did_you_mean(extra[0], ["robot"]) if extra else ""
+        raise RobotFileError(path, "", sorted(data), f"one [robot] table{close}", name="tables")
     unknown = sorted(set(table) - set(KEYS))
     if unknown:
-        raise RobotFileError(path, unknown[0], table[unknown[0]], "a key among " + ", ".join(KEYS))
+        valid = f"one of {', '.join(KEYS)}{did_you_mean(unknown[0], KEYS)}"
+        raise RobotFileError(path, unknown[0], unknown[0], valid, name="[robot] key")
     return table
 
 
