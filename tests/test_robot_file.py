@@ -272,6 +272,17 @@ def test_a_file_without_its_robot_table_says_which_tables_it_has(tmp_path, text,
     assert str(info.value) == f"robot file {str(path)!r}: {said}"
 
 
+def test_a_missing_or_malformed_file_is_named_once_with_what_is_wrong(tmp_path) -> None:
+    missing, broken = tmp_path / "nowhere.toml", tmp_path / "broken.toml"
+    broken.write_text("[robot\n")
+    with pytest.raises(RobotFileError) as info:
+        load_robot_file(missing)
+    assert str(info.value) == (f"robot file {str(missing)!r}: path = {str(missing)!r} is "
+                               "invalid; valid: a readable file (No such file or directory)")  # fmt: skip
+    with pytest.raises(RobotFileError, match=r": text = 'not TOML' is invalid; valid: UTF-8 TOML"):
+        load_robot_file(broken)
+
+
 def test_an_unknown_robot_or_a_missing_file_is_refused_by_the_option(capsys) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["inject", "--robot", "no-such-arm.toml", "--no-plots"])

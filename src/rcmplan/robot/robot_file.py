@@ -146,9 +146,10 @@ def _table(path: Path) -> dict[str, Any]:
             raise RobotFileError(path, "", f"{len(raw)}+ bytes", f"at most {MAX_FILE_BYTES} bytes")
         data = tomllib.loads(raw.decode("utf-8"))
     except OSError as exc:
-        raise RobotFileError(path, "", str(path), f"a readable file ({exc.strerror})") from exc
+        raise RobotFileError(path, "", str(path.absolute()), f"a readable file ({exc.strerror})",
+                             name="path") from exc  # fmt: skip
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise RobotFileError(path, "", str(path), f"UTF-8 TOML ({exc})") from exc
+        raise RobotFileError(path, "", "not TOML", f"UTF-8 TOML ({exc})", name="text") from exc
     table = data.get("robot")
     extra = sorted(set(data) - {"robot"})
     if not isinstance(table, dict) or extra:
