@@ -11,10 +11,9 @@ import pytest
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
-def block(name: str) -> str:
-    """The one Python example of docs/name."""
-    (found,) = re.findall(r"```python\n(.*?)```", (DOCS / name).read_text(), flags=re.S)
-    return str(found)
+def block(name: str, index: int = 0) -> str:
+    """The Python example number `index` of docs/name."""
+    return str(re.findall(r"```python\n(.*?)```", (DOCS / name).read_text(), flags=re.S)[index])
 
 
 def test_the_live_input_example_drives_a_session_and_stops(
@@ -33,3 +32,12 @@ def test_the_objective_example_builds_a_qp_with_the_posture_objective() -> None:
     exec(compile(block("design.md"), "docs/design.md", "exec"), scope)
     assert isinstance(scope["qp"], rp.QpSolver)
     assert isinstance(scope["keep"], rp.Objective)
+
+
+def test_the_own_procedure_example_runs_its_circle_between_the_shipped_phases(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    exec(compile(block("design.md", 1), "docs/design.md", "exec"), {})
+    names, deviation = capsys.readouterr().out.rsplit(") ", 1)
+    assert names == "('approach', 'align', 'insert', 'circle', 'retract', 'withdraw'"
+    assert 0.0 < float(deviation) <= 0.8e-6  # within the controller's step bound
