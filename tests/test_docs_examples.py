@@ -37,7 +37,16 @@ def test_the_objective_example_builds_a_qp_with_the_posture_objective() -> None:
 def test_the_own_procedure_example_runs_its_circle_between_the_shipped_phases(
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    exec(compile(block("design.md", 1), "docs/design.md", "exec"), {})
+    exec(compile(block("design.md", 2), "docs/design.md", "exec"), {})
     names, deviation = capsys.readouterr().out.rsplit(") ", 1)
     assert names == "('approach', 'align', 'insert', 'circle', 'retract', 'withdraw'"
     assert 0.0 < float(deviation) <= 0.8e-6  # within the controller's step bound
+
+
+def test_the_own_solver_example_runs_the_injection_on_the_python_loop(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    exec(compile(block("design.md", 1), "docs/design.md", "exec"), {})
+    records, deviation = capsys.readouterr().out.split()
+    assert int(records) > 1465  # more iterations than pinv's full steps take
+    assert 0.0 < float(deviation) <= 0.8e-6
