@@ -294,3 +294,28 @@ def test_the_loop_refuses_a_call_without_a_robot(robot: Iramis) -> None:
             np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip
     with pytest.raises(ValueError, match="give iRAM!S's P or an arm's arrays"):
         fast_cache.algorithm().run_targets(*args)
+
+
+def test_the_compile_line_is_said_once_by_the_command_not_by_its_workers(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`_jit.FirstCompile` at an rcmplan kernel's compile: the line once in the command's
+    process, none in a multiprocessing worker (a sweep's), none for another package's."""
+    import multiprocessing
+    from types import SimpleNamespace
+
+    from rcmplan._jit import FirstCompile
+    from rcmplan.compiled.kernels import task
+
+    def compiled(fn: object) -> SimpleNamespace:
+        return SimpleNamespace(data={"dispatcher": SimpleNamespace(py_func=fn)})
+
+    said = []
+    for parent in (None, object()):
+        monkeypatch.setattr(multiprocessing, "parent_process", lambda p=parent: p)
+        listener = FirstCompile()
+        listener.on_start(compiled(np.linalg.norm))  # not rcmplan's
+        listener.on_start(compiled(task.py_func))
+        listener.on_start(compiled(task.py_func))
+        said.append(capsys.readouterr().err)
+    assert said == [FirstCompile.LINE + "\n", ""]

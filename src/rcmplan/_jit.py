@@ -55,7 +55,9 @@ def njit(**options: Any) -> Callable[[F], F]:
 
 class FirstCompile(event.Listener):
     """Prints one line on stderr at the first compile of one of rcmplan's kernels in this
-    process (nothing for other packages' functions, nor for kernels loaded from the cache)."""
+    process (nothing for other packages' functions, nor for kernels loaded from the cache, nor
+    in a worker process of multiprocessing: a sweep's command says it once, not once more per
+    worker)."""
 
     LINE = ("rcmplan: numba compiles kernels that this kind of run uses for the first time; "
             "it caches them, and later runs load them at once")  # fmt: skip
@@ -69,7 +71,9 @@ class FirstCompile(event.Listener):
         fn = getattr(ev.data.get("dispatcher"), "py_func", None)
         if getattr(fn, "__module__", "").startswith("rcmplan."):
             self.said = True
-            print(self.LINE, file=sys.stderr, flush=True)
+            mp = sys.modules.get("multiprocessing")  # loaded in any worker it started
+            if mp is None or mp.parent_process() is None:
+                print(self.LINE, file=sys.stderr, flush=True)
 
     def on_end(self, ev: event.Event) -> None:
         """Nothing at the end of a compile."""
