@@ -341,8 +341,7 @@ def test_ctrl_c_on_the_installed_script_is_answered_by_the_command_alone(tmp_pat
     """Ctrl-C reaches the whole foreground process group: the sweep's forkserver workers, which
     run the `rcmplan` script again with the command's argv, leave it to the command (no stop
     line or stop file of theirs)."""
-    script = Path(sys.executable).with_name("rcmplan")
-    assert script.exists(), f"{script}: the console script `pip install` writes"
+    script = installed_script()
     out = tmp_path / "sweep"
     proc = subprocess.Popen(
         [str(script), "sweep", "--targets", "30000", "--workers", "2", "--no-plots", "--out",
@@ -360,3 +359,18 @@ def test_ctrl_c_on_the_installed_script_is_answered_by_the_command_alone(tmp_pat
     assert "before the run" not in text and not our_tracebacks(text), text[-2000:]
     doc = json.loads((out / "summary.json").read_text())
     assert doc["status"] == "interrupted" and "rerun with --resume" in doc["message"]
+
+
+def installed_script() -> Path:
+    """The `rcmplan` console script `pip install` wrote for this interpreter: beside it (a
+    virtual environment, a system install), or in the user's scripts folder (`pip install`
+    without write access to site-packages), else the one on PATH."""
+    import shutil
+    import sysconfig
+
+    places = [Path(sys.executable).parent, Path(sysconfig.get_path("scripts")),
+              Path(sysconfig.get_path("scripts", f"{os.name}_user"))]  # fmt: skip
+    found = [p / "rcmplan" for p in places if (p / "rcmplan").is_file()]
+    on_path = shutil.which("rcmplan")
+    assert found or on_path, f"no `rcmplan` script in {places} or on PATH: pip install wrote none"
+    return found[0] if found else Path(str(on_path))
