@@ -287,7 +287,9 @@ def test_an_unknown_robot_or_a_missing_file_is_refused_by_the_option(capsys) -> 
     with pytest.raises(SystemExit) as exc:
         main(["inject", "--robot", "no-such-arm.toml", "--no-plots"])
     assert exc.value.code == 2
-    assert "iramis, panda, ur5, or a robot file" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "iramis, panda, ur5, or a robot file" in err
+    assert f"there is no file {str(Path('no-such-arm.toml').absolute())!r}" in err
 
 
 BAD = {  # case: (keys changed, error type, what the message names)

@@ -77,8 +77,13 @@ def test_a_misspelt_key_is_answered_with_the_closest_valid_one(
 def test_malformed_toml_and_missing_files_raise(tmp_path: Path) -> None:
     with pytest.raises(ScenarioError, match="valid TOML"):
         load_scenario(write(tmp_path, "[eye\nradius_mm = "))
-    with pytest.raises(ScenarioError, match="default"):
+    with pytest.raises(ScenarioError, match="default") as info:
         load_scenario(tmp_path / "nope.toml")
+    assert str(info.value).endswith(f"; there is no file {str(tmp_path / 'nope.toml')!r}")
+    with pytest.raises(ScenarioError) as info:
+        load_scenario("defualt")  # a misspelt name, not a file: no path offered
+    assert "there is no file" not in str(info.value)
+    assert str(info.value).endswith("; did you mean default?")
 
 
 def test_units_are_converted_to_si(tmp_path: Path) -> None:

@@ -20,7 +20,7 @@ from rcmplan.choices import CURVED_METHODS, METHODS, PLANTS
 from rcmplan.control.methods import MethodSettings
 from rcmplan.control.phase import MAX_TARGETS, LoopSettings, Phase
 from rcmplan.control.solvers import Tolerance
-from rcmplan.exceptions import InvalidInputError, PlanTooLargeError, ScenarioError
+from rcmplan.exceptions import InvalidInputError, PlanTooLargeError, ScenarioError, did_you_mean
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import check_robot, is_robot_file
@@ -261,6 +261,8 @@ def _read(source: str | Path) -> str:
         valid = f"a TOML file or one of {scenario_names()}"
         if name.endswith(".toml") or len(path.parts) > 1:  # a file meant
             valid += f"; there is no file {str(path.absolute())!r}"
+        else:
+            valid += did_you_mean(name, scenario_names())
         raise ScenarioError("scenario", name, valid)
     try:
         with open(path, "rb") as fh:
