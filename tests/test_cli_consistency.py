@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rcmplan.cli import COMMANDS, build_parser, main
+from rcmplan.cli import COMMANDS, build_parser, command_parsers, main
 from rcmplan.cli.tip_input import parse_point, read_path_csv
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.scene.eye import default_eye, eye_frame
@@ -21,19 +21,13 @@ from rcmplan.scene.eye_text import to_base
 SRC = Path(__file__).resolve().parents[1] / "src"
 
 
-def subparsers() -> dict:
-    parser = build_parser()
-    action = next(a for a in parser._actions if a.dest == "command")
-    return dict(action.choices)
-
-
 @pytest.mark.parametrize("name", [*COMMANDS, "spiral"])
 def test_every_command_has_a_description_in_its_help(name) -> None:
-    assert subparsers()[name].description
+    assert command_parsers(build_parser())[name].description
 
 
 def test_render_plant_and_camera_are_choice_lists() -> None:
-    options = {a.dest: a for a in subparsers()["render"]._actions}
+    options = {a.dest: a for a in command_parsers(build_parser())["render"]._actions}
     assert options["plant"].choices and "kinematic" in options["plant"].choices
     assert options["camera"].choices == ("closeup", "overview")
 

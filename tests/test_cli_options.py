@@ -11,7 +11,7 @@ from typing import Any
 
 import pytest
 
-from rcmplan.cli import build_parser, main
+from rcmplan.cli import build_parser, command_parsers, main
 from rcmplan.cli.common import robot_arg
 from rcmplan.control.methods import METHODS
 from rcmplan.sim.registry import PLANTS
@@ -30,29 +30,23 @@ RUN_COMMANDS = {
 }
 
 
-def subparsers() -> dict[str, argparse.ArgumentParser]:
-    parser = build_parser()
-    action = next(a for a in parser._actions if a.dest == "command")
-    return dict(action.choices)
-
-
 def options(parser: argparse.ArgumentParser) -> dict[str, argparse.Action]:
     return {a.dest: a for a in parser._actions}
 
 
 def test_every_command_with_an_output_folder_is_a_run_command_listed_here() -> None:
-    with_out = {name for name, p in subparsers().items() if "out" in options(p)}
+    with_out = {name for name, p in command_parsers(build_parser()).items() if "out" in options(p)}
     assert with_out == set(RUN_COMMANDS)
 
 
 @pytest.mark.parametrize("command", sorted(RUN_COMMANDS))
 def test_every_run_command_has_the_shared_options_it_must_have(command: str) -> None:
-    assert SHARED & set(options(subparsers()[command])) == RUN_COMMANDS[command]
+    assert SHARED & set(options(command_parsers(build_parser())[command])) == RUN_COMMANDS[command]
 
 
-@pytest.mark.parametrize("command", sorted(subparsers()))
+@pytest.mark.parametrize("command", sorted(command_parsers(build_parser())))
 def test_every_shared_option_is_made_by_its_one_helper(command: str) -> None:
-    parser = subparsers()[command]
+    parser = command_parsers(build_parser())[command]
     found = options(parser)
     if "scenario" in found:
         assert found["scenario"].metavar == "NAME|FILE.toml"

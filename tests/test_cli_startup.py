@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from cli_usage import usage_error
-from rcmplan.cli import COMMANDS, MODULE_OF, build_parser, main, modules_for
+from rcmplan.cli import COMMANDS, MODULE_OF, build_parser, command_parsers, main, modules_for
 
 SRC = Path(__file__).resolve().parents[1] / "src"
 NUMERICAL = ("numba", "scipy")
@@ -45,16 +45,9 @@ def run_command(argv: list[str]) -> str:
     )
 
 
-def commands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
-    """The subcommand parsers of `parser` by name."""
-    action = next(a for a in parser._actions if a.dest == "command")
-    assert isinstance(action.choices, dict)
-    return action.choices
-
-
 def option(command: str, dest: str) -> argparse.Action:
     """The option `dest` of `command` in the parser `rcmplan command` builds."""
-    parser = commands(build_parser(modules_for([command])))[command]
+    parser = command_parsers(build_parser(modules_for([command])))[command]
     return next(a for a in parser._actions if a.dest == dest)
 
 
@@ -99,14 +92,14 @@ def test_a_command_registers_its_own_module_only(name: str) -> None:
     assert modules_for([name, "--help"]) == (module,)
     assert modules_for(["--version", name]) == (module,)
     own = [n for n in EVERY_COMMAND if MODULE_OF.get(n, n) == module]
-    assert sorted(commands(build_parser(modules_for([name])))) == own
+    assert sorted(command_parsers(build_parser(modules_for([name])))) == own
 
 
 @pytest.mark.parametrize("name", EVERY_COMMAND)
 def test_a_command_parser_alone_is_the_one_of_the_full_parser(name: str) -> None:
     """Its help, and what it reads from the command line with the defaults, are the same."""
     alone, full = build_parser(modules_for([name])), build_parser()
-    assert commands(alone)[name].format_help() == commands(full)[name].format_help()
+    assert command_parsers(alone)[name].format_help() == command_parsers(full)[name].format_help()
     argv = [name, *NEEDED.get(name, [])]
     assert vars(alone.parse_args(argv)) == vars(full.parse_args(argv))
 

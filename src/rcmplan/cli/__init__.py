@@ -112,15 +112,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(modules_for(words))
     args, extra = parser.parse_known_args(words)
     if extra:
-        unrecognized(command_parser(parser, args.command), extra)
+        unrecognized(command_parsers(parser)[args.command], extra)
     return _run(args)
 
 
-def command_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
-    """The parser of one command of `parser` (built by `build_parser`)."""
+def command_parsers(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """The parsers of the commands registered in `parser` (built by `build_parser`), by name."""
     (sub,) = (a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    found: argparse.ArgumentParser = sub.choices[command]
-    return found
+    return dict(sub.choices)
 
 
 def _run(args: argparse.Namespace) -> int:
