@@ -27,7 +27,8 @@ def write_outputs(
     from rcmplan.analysis.report import write_json
     from rcmplan.sweep import report
 
-    s = {"status": "ok", "message": "", **report.summary(result), "resumed": resumed}
+    s = {"command": "sweep", "status": "ok", "message": "", **report.summary(result),
+         "resumed": resumed}  # fmt: skip
     if gains is not None:
         s["gain_search"] = report.gain_summary(gains)
     report.write_targets_csv(result, out / "targets.csv")
@@ -69,7 +70,7 @@ def write_interrupted(out: Path, checkpoint: Checkpoint, exc: BaseException) -> 
         name = interrupts.signal_name(exc)
         message = (f"interrupted by {name}; {kept} finished results are kept in "
                    f"{checkpoint.path}; rerun with --resume to continue")  # fmt: skip
-        doc = {"status": "interrupted", "message": message, "checkpoint": str(checkpoint.path),
-               "results_kept": kept}  # fmt: skip
+        doc = {"command": "sweep", "status": "interrupted", "message": message,
+               "checkpoint": str(checkpoint.path), "results_kept": kept}  # fmt: skip
         write_text(out / "summary.json", json.dumps(doc, indent=2))
         print(f"rcmplan sweep: {message}", file=sys.stderr)

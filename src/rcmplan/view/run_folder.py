@@ -87,7 +87,7 @@ def load_run(folder: Path, label: str | None = None) -> RunData:
     """One run folder, checked: summary.json, its scene block, log.npz and their agreement."""
     summary = read_json(folder / "summary.json")
     status = summary.get("status")
-    kind = summary.get("command") or ("sweep" if "executor" in summary else None)
+    kind = summary.get("command")
     if kind in ("reproduce", "sweep"):  # figures of many runs, no log of one
         raise RunFolderError(folder, f"a folder of `rcmplan {kind}`: figures of many runs, "
                              f"none to replay; {WHAT_A_RUN_IS}")  # fmt: skip
