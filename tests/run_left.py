@@ -26,6 +26,7 @@ KINDS = (
     "ignored",
     "wrong exit",
     "status",
+    "command",
     "log",
     "records",
     "temporary",
@@ -66,6 +67,9 @@ def faults(out: Path, command: str, code: int, sig: int, err: str = "", late: bo
         found.append(f"status 'interrupted' after exit {code}")
     if ended and late and (code == 1) != (status != "ok"):  # the run's own exit, for its status
         found.append(f"status {status!r} after exit {code}")
+    named = command.split("-")[0]  # "inject-mujoco": a run of inject
+    if doc.get("command") != named:
+        found.append(f"command {doc.get('command')!r} named by the summary of `rcmplan {named}`")
     found += [f"records: {f}" for f in RECORDS.get(command, run_log)(out, doc)]
     found += [f"temporary file {p.name}" for p in out.rglob("*") if ".tmp" in p.name]
     return found

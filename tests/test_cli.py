@@ -26,6 +26,7 @@ def test_inject_writes_log_summary_figures_and_report(tmp_path: Path, capsys) ->
     for key in ("scenario", "method", "plant", "status", "phases", "max_rcm_deviation_m",
                 "max_tip_error_m", "wall_time_s"):  # fmt: skip
         assert key in s
+    assert s["command"] == "inject" and next(iter(s)) == "command"  # named first
     assert s["status"] == "ok" and s["method"] == "pinv" and s["plant"] == "kinematic"
     for p in s["phases"]:
         assert {"name", "max_rcm_deviation_m", "rms_rcm_deviation_m", "final_tip_error_m",
@@ -68,6 +69,7 @@ def test_run_that_stops_midway_keeps_its_partial_log(tmp_path: Path) -> None:
     assert main(["inject", "--scenario", str(scenario), "--out", str(out), "--no-plots"]) == 1
     s = json.loads((out / "summary.json").read_text())
     assert s["status"] == "no_convergence" and s["message"].startswith("ConvergenceError")
+    assert s["command"] == "inject"
     log = RunLog.load_npz(out / "log.npz")
     assert len(log) > 0 and np.all(np.isfinite(log.tip))
 
@@ -146,6 +148,7 @@ def test_compare_runs_each_method_named_by_a_repeated_method_option(tmp_path: Pa
     for r in rows:  # the path each run recorded for itself
         summary = json.loads((tmp_path / r["method"] / "summary.json").read_text())
         assert r["execution_path"] == summary["execution_path"]
+        assert summary["command"] == "compare"
         assert r["compiled_phases"] == summary["compiled_phases"]
     assert json.loads((tmp_path / "summary.json").read_text()) == doc
     assert (tmp_path / "figures" / "compare.png").stat().st_size > 0

@@ -132,5 +132,6 @@ def test_render_command_writes_snapshots_and_an_animation(tmp_path: Path) -> Non
                      "home_overview.png"]  # fmt: skip
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["status"] == "ok" and summary["scenario"] == "default"
+    assert summary["command"] == "render"
     assert sorted(Path(p).name for p in summary["figures"].values()) == names
     assert len(RunLog.load_npz(tmp_path / "log.npz")) == summary["iterations"]

@@ -15,11 +15,13 @@ from test_atomic import small_log
 TERM = signal.SIGTERM
 
 
-def folder(path: Path, doc: dict[str, Any] | None, records: int | None = None) -> Path:
-    """path with summary.json holding doc (none if None) and a log of `records` records."""
+def folder(path: Path, doc: dict[str, Any] | None, records: int | None = None,
+           command: str = "inject") -> Path:  # fmt: skip
+    """path with summary.json holding doc (none if None) as `command` writes it, and a log of
+    `records` records."""
     path.mkdir(parents=True)
     if doc is not None:
-        (path / "summary.json").write_text(json.dumps(doc))
+        (path / "summary.json").write_text(json.dumps({"command": command, **doc}))
     if records is not None:
         small_log(records, 0.0).save_npz(path / "log.npz")
     return path
@@ -44,7 +46,7 @@ def test_a_run_interrupted_during_the_run_needs_its_log_with_the_stated_records(
     unstated = interrupted("during the run")
     assert kinds(folder(tmp_path / "unstated", unstated, 3), "inject") == ["records"]
     session = interrupted("during the session", periods=4)
-    assert kinds(folder(tmp_path / "session", session, 4), "teleop") == []
+    assert kinds(folder(tmp_path / "session", session, 4, "teleop"), "teleop") == []
 
 
 def test_a_run_stopped_before_it_began_may_leave_no_log_but_must_say_so(tmp_path: Path) -> None:
@@ -61,6 +63,8 @@ def test_the_exit_code_the_status_and_the_stderr_must_agree(tmp_path: Path) -> N
     assert kinds(ok, "inject", code=1) == ["ignored"]
     assert kinds(ok, "inject", code=1, late=True) == ["status"]  # exit 1 beside "ok"
     assert kinds(ok, "inject", code=2) == ["wrong exit"]
+    assert kinds(ok, "spiral", code=-TERM) == ["command"]  # the summary of another command
+    assert kinds(ok, "inject-mujoco", code=-TERM) == []  # a harness's name for a run of inject
     broke = {"status": "limit_violated", "message": "max RCM deviation ...", "iterations": 2}
     beyond = folder(tmp_path / "beyond", broke, 2)
     assert kinds(beyond, "inject", code=1, late=True) == []  # a finished run's own exit 1
@@ -79,15 +83,15 @@ def test_the_exit_code_the_status_and_the_stderr_must_agree(tmp_path: Path) -> N
 def test_compare_and_reproduce_rows_agree_with_their_message_and_logs(tmp_path: Path) -> None:
     row = {"method": "pinv", "status": "ok", "message": "", "iterations": 2}
     doc = interrupted("after 1 methods", methods=[row])
-    out = folder(tmp_path / "compare", doc)
+    out = folder(tmp_path / "compare", doc, command="compare")
     assert kinds(out, "compare") == ["records"]  # pinv/ has no log
     folder(out / "pinv", row, 2)
     assert kinds(out, "compare") == []
     miscounted = interrupted("after 2 methods", methods=[row])
-    (out / "summary.json").write_text(json.dumps(miscounted))
+    (out / "summary.json").write_text(json.dumps({"command": "compare", **miscounted}))
     assert kinds(out, "compare") == ["records"]
     rows = [{"experiment": "pivot"}]
     good = interrupted("during the run, after 1 of 3 experiments", experiments=rows)
-    assert kinds(folder(tmp_path / "reproduce", good), "reproduce") == []
+    assert kinds(folder(tmp_path / "reproduce", good, command="reproduce"), "reproduce") == []
     bare = interrupted("during the run", experiments=rows)
-    assert kinds(folder(tmp_path / "bare", bare), "reproduce") == ["records"]
+    assert kinds(folder(tmp_path / "bare", bare, command="reproduce"), "reproduce") == ["records"]

@@ -33,6 +33,8 @@ class RunResult:
         message: Why the run stopped, on one line ("" for a finished run).
         error: The exception that stopped the run, if any.
         wall_time_s: Wall time of the whole run (planning, control, measuring) in [s].
+        command: The rcmplan command that ran it ("inject", "spiral", "render", "compare"),
+            named first in its summary; None for a run from Python.
     """
 
     scenario: Scenario
@@ -44,6 +46,7 @@ class RunResult:
     error: RcmplanError | None = None
     message: str = ""
     extra: dict[str, Any] = field(default_factory=dict)
+    command: str | None = None
 
     @property
     def ok(self) -> bool:
@@ -73,6 +76,7 @@ class RunResult:
             for p in self.phases
         ]
         return {
+            **({"command": self.command} if self.command else {}),
             "scenario": self.scenario.name,
             "robot": self.robot.name,
             "needle": self.robot.needle_kind,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -48,7 +49,7 @@ def measure(scenario: Scenario, out: Path | None = None) -> dict[str, Any]:
     run_scenario(scenario)
     result = run_scenario(scenario)
     if out is not None:
-        write_summary(result, prepare_folder(out / scenario.method))
+        write_summary(replace(result, command="compare"), prepare_folder(out / scenario.method))
     s = result.summary()
     row = {k: s[k] for k in COLUMNS}
     # What moved the robot, as the run itself recorded it, per phase.

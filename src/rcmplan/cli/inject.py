@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 
 from rcmplan.cli import interrupts
 from rcmplan.cli.common import add_run_options, scenario_from_args, scenario_text
@@ -79,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
         with interrupts.surfaced():
             scenario = scenario_for(args)
             with progress(args.command) as tick:
-                result = run_scenario(scenario, on_phase=tick)
+                result = replace(run_scenario(scenario, on_phase=tick), command=args.command)
             write_outputs(
                 result, out, figures=not args.no_plots, scenario_text=scenario_text(args.scenario)
             )

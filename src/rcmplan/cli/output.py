@@ -73,7 +73,7 @@ def write_stopped(
 
     with interrupts.shielded():
         if result is not None:
-            stopped = replace(result, status=status, message=message)
+            stopped = replace(result, status=status, message=message, command=args.command)
             write_summary(stopped, out, csv=status != "interrupted")
             return
         doc = {"status": status, "message": one_line(message)}

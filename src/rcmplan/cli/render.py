@@ -14,6 +14,7 @@ from __future__ import annotations
 import argparse
 import re
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -83,7 +84,7 @@ def run_scenario_of(args: argparse.Namespace, robot: Iramis, out: Path) -> tuple
                                 f"the MuJoCo scene draws), not of {scenario.robot}")  # fmt: skip
     if args.method:
         scenario = scenario.with_method(args.method)
-    result = run_scenario(scenario)
+    result = replace(run_scenario(scenario), command="render")
     write_summary(result, out)
     if not result.finished:
         print(f"rcmplan render: run stopped early ({result.message}); animating the partial "
