@@ -13,6 +13,7 @@ import argparse
 from typing import TYPE_CHECKING, Any
 
 from rcmplan.analysis.units import fmt_setting
+from rcmplan.choices import CURVED_METHODS, METHODS
 from rcmplan.scene.shipped import scenario_names, shipped_text
 
 if TYPE_CHECKING:  # the scenario loader imports the numerical stack: only --list and --schema
@@ -20,6 +21,13 @@ if TYPE_CHECKING:  # the scenario loader imports the numerical stack: only --lis
 
 MM = 1e3
 Key = tuple[str, str]
+
+
+def _listed(names: tuple[str, ...]) -> str:
+    """ "`a`, `b` or `c`"."""
+    quoted = [f"`{n}`" for n in names]
+    return f"{', '.join(quoted[:-1])} or {quoted[-1]}"
+
 
 DESCRIPTIONS: dict[Key, str] = {
     ("", "name"): "name shown in outputs",
@@ -40,7 +48,8 @@ DESCRIPTIONS: dict[Key, str] = {
     ("steps", "position_mm"): "largest tip step between two targets; at most the loop's "
     "largest target jump (the upper bound) less sqrt(3) x `tolerance_position_m`",
     ("steps", "angle_mrad"): "largest needle-angle step between two targets",
-    ("controller", "method"): "`pinv`, `pinv-thesis`, `dls` or `qp`",
+    ("controller", "method"): f"{_listed(METHODS)}; a curved needle: {_listed(CURVED_METHODS)} "
+    "(its solvers have no thesis variant)",
     ("controller", "K"): "diagonal gains of the pseudoinverse methods, each in (0, 2)",
     ("controller", "damping"): "DLS damping in m (the QP: regularisation per unit motion)",
     ("controller", "tolerance_position_m"): "loop tolerance on position components (raised to "
