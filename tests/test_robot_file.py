@@ -256,6 +256,11 @@ def test_robot_prints_a_robot_file_arm(tmp_path, capsys) -> None:
     assert main(["robot", "--robot", str(path), "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["robot"] == "kinova" and len(doc["joints"]) == 6
+    assert main(["robot", "--robot", str(path)]) == 0  # the file named, having no description
+    assert capsys.readouterr().out.splitlines()[0] == f"kinova: from {path}"
+    robot_toml(path, home=KINOVA_HOME, description='"Kinova Jaco 2"')
+    assert main(["robot", "--robot", str(path)]) == 0
+    assert capsys.readouterr().out.splitlines()[0] == f"kinova: Kinova Jaco 2 ({path})"
 
 
 @pytest.mark.parametrize(

@@ -106,8 +106,9 @@ def describe_arm(robot: RobotModel, description: str | None = None) -> str:
         rows.append([name + held, f"{robot.lower[i]:.4g}", f"{robot.upper[i]:.4g}",
                      f"{robot.speed[i]:.4g}", unit])  # fmt: skip
     q = robot.home
+    about = ROBOTS.get(robot.name, "") if description is None else description
     return "\n".join([
-        f"{robot.name}: {ROBOTS.get(robot.name, '') if description is None else description}", "",
+        f"{robot.name}: {about}" if about else robot.name, "",
         table(["joint", "lower", "upper", "speed /s", "unit"], rows), "",
         f"needle length: {1e3 * robot.needle_length:g} mm",
         "home pose: q = (" + ", ".join(f"{v:.4g}" for v in q) + ")",
@@ -142,7 +143,10 @@ def run(args: argparse.Namespace) -> int:
         return 0
     announce_robot(args.robot, "robot")
     robot = make_robot(args.robot)
-    text = read_robot_file(args.robot).description if is_robot_file(args.robot) else None
+    text = None
+    if is_robot_file(args.robot):  # its description, and where it was read from
+        spec = read_robot_file(args.robot)
+        text = f"{spec.description} ({spec.path})" if spec.description else f"from {spec.path}"
     if args.json:
         print_json(model_dict(robot) if isinstance(robot, Iramis) else arm_dict(robot))
         return 0
