@@ -9,7 +9,19 @@ import numpy as np
 
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.model import SerialArm
-from rcmplan.robot.needle import cross3
+
+
+def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a x b for (3,) arrays, or row-wise for arrays of 3-vectors that broadcast ((..., 3));
+    numpy's cross costs tens of microseconds per call, this a few."""
+    if a.ndim == 1 and b.ndim == 1:
+        return np.array(
+            [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        )
+    x = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    y = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    z = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return np.stack([x, y, z], axis=-1)
 
 
 def point_jacobian(chain: JointChain, T: np.ndarray, p: np.ndarray) -> np.ndarray:

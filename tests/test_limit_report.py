@@ -9,7 +9,7 @@ import pytest
 from rcmplan import Iramis
 from rcmplan.analysis.limits import reach_bound, violations, waypoints
 from rcmplan.control import PinvSolver
-from rcmplan.control.limited_tip import LimitedTipSolver, scale_factor
+from rcmplan.control.limited_tip import LimitedTipSolver, step_fraction
 from rcmplan.control.phase import Phase
 from rcmplan.control.qp import make_qp
 from rcmplan.control.qp_limits import QpLimits
@@ -30,7 +30,12 @@ def robot() -> Iramis:
 
 
 # --- the limited free-space step ---------------------------------------------------------------
-def test_scale_factor_holds_speed_and_travel_and_only_lets_an_actuator_back_into_its_band(
+def scale_factor(robot: Iramis, s: np.ndarray, ds: np.ndarray, dt: float, margin: float) -> float:
+    """`step_fraction` with the robot's speed over dt [s] and its travel less the margin."""
+    return step_fraction(s, ds, robot.speed * dt, robot.lower, robot.upper, margin, 1.0)
+
+
+def test_step_fraction_holds_speed_and_travel_and_only_lets_an_actuator_back_into_its_band(
     robot: Iramis,
 ) -> None:
     s = robot.home_actuators.copy()

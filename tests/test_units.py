@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from rcmplan.analysis.units import fmt, fmt_setting, fmt_vector
+from rcmplan.analysis.units import fmt, fmt_setting
 
 
 def test_values_keep_three_significant_digits_in_plain_notation() -> None:
@@ -28,7 +28,6 @@ def test_missing_values_print_as_a_dash() -> None:
 
 def test_the_unit_can_follow_the_number() -> None:
     assert fmt(0.45e-3, "um", with_unit=True) == "450 um"
-    assert fmt_vector([1e-3, -2e-3, 0.0], "mm") == "(1.00, -2.00, 0) mm"
 
 
 def test_settings_print_without_float_noise() -> None:

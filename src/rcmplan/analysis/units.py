@@ -50,9 +50,3 @@ def fmt_setting(value: object) -> str:
     if isinstance(value, Iterable):
         return ", ".join(fmt_setting(v) for v in value)
     return str(value)
-
-
-def fmt_vector(values: Iterable[float], unit: str = "", digits: int = 3) -> str:
-    """(a, b, c) with each component formatted by `fmt`, the unit once after it."""
-    text = "(" + ", ".join(fmt(v, unit, digits) for v in values) + ")"
-    return f"{text} {unit}" if unit else text

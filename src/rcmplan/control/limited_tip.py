@@ -103,17 +103,6 @@ def limited_step(
     return np.asarray((robot.joints_from_actuators(s + f * ds) - q)[active], dtype=float)
 
 
-def scale_factor(
-    robot: RobotModel, s: FloatArray, ds: FloatArray, dt: float, margin: float
-) -> float:
-    """The largest f in [0, 1] with |f ds_i| <= speed_i dt and s + f ds inside the travel less
-    the margin for every actuator (an actuator outside the band may only move back):
-    `step_fraction` with the robot's speed, travel and control period dt [s]."""
-    s = np.ascontiguousarray(s, dtype=np.float64)
-    ds = np.ascontiguousarray(ds, dtype=np.float64)
-    return float(step_fraction(s, ds, robot.speed * dt, robot.lower, robot.upper, margin, 1.0))
-
-
 @njit(cache=True)
 def step_fraction(s: FloatArray, ds: FloatArray, limit: FloatArray, lower: FloatArray,
                   upper: FloatArray, margin: float, f: float) -> float:  # fmt: skip

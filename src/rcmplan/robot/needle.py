@@ -188,16 +188,3 @@ def roll_of(ax: float, ay: float, az: float, bx: float, by: float, bz: float) ->
     h2 = ax * ax + az * az
     r = math.sqrt(h2 + ay * ay)
     return math.atan2(-r * (bx * az - bz * ax), -(ay * (bx * ax + bz * az) - by * h2))
-
-
-def cross3(a: FloatArray, b: FloatArray) -> FloatArray:
-    """a x b for (3,) arrays, or row-wise for arrays of 3-vectors that broadcast ((..., 3));
-    numpy's cross costs tens of microseconds per call, this a few."""
-    if a.ndim == 1 and b.ndim == 1:
-        return np.array(
-            [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-        )
-    x = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
-    y = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
-    z = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
-    return np.stack([x, y, z], axis=-1)

@@ -23,7 +23,6 @@ from rcmplan.exceptions import RcmBoundError
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.sim.registry import make_plant
-from rcmplan.teleop.filters import Vec3
 from rcmplan.teleop.pipeline import Pipeline, TargetMaker
 from rcmplan.teleop.samples import MasterSample
 from rcmplan.teleop.scaling import MotionScaling
@@ -145,7 +144,3 @@ class Session:
         """The clutch events as plain dictionaries (times [s], tips [m])."""
         return [{"t_s": ev.t, "kind": ev.kind, "tip_m": list(ev.tip)}
                 for ev in self.pipeline.clutch.events]  # fmt: skip
-
-    def hold_tip(self) -> Vec3:
-        """Where the needle holds while released [m]."""
-        return self.pipeline.clutch.hold
