@@ -2,7 +2,9 @@
 
 `probe(label, fn, *args)` calls fn: a typed rcmplan error (an `InvalidInputError` naming one
 of the arguments, when `names` are given) or a result that `ok` accepts (finite, within its
-documented bounds) passes; a generic Python exception or a result `ok` refuses fails the test.
+documented bounds) passes; a generic Python exception, a RuntimeWarning on the way (numpy's
+"overflow encountered", "invalid value": bad input must be refused, not computed with) or a
+result `ok` refuses fails the test.
 With RCMPLAN_API_TALLY=FILE set, nothing fails: every outcome is counted per label and the
 counts are written to FILE (JSON) when the run ends, the measure in docs/robustness.md.
 """
@@ -15,6 +17,7 @@ import math
 import os
 import shutil
 import tempfile
+import warnings
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterable
 from pathlib import Path
@@ -91,7 +94,9 @@ def probe(
 ) -> Any:  # fmt: skip
     """fn(*args, **kwargs) under the rule (module docstring); the result, or None if refused."""
     try:
-        out = fn(*args, **kwargs)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)  # raised, then a generic fault
+            out = fn(*args, **kwargs)
     except RcmplanError as exc:
         named = (
             type(exc) is not InvalidInputError

@@ -191,7 +191,8 @@ def split_steps(
     scale = np.full(start.shape[0], sp)
     if start.shape[0] == 6:
         scale[1:3] = sa
-    ratio = float(np.max(delta / scale))
+    with np.errstate(over="ignore"):  # a distance beyond float range is refused below
+        ratio = float(np.max(delta / scale))
     if ratio < 1.0:
         raise InvalidInputError(
             "step size",

@@ -183,7 +183,8 @@ class Iramis:
             kernels.needle_point(
                 self.P, joints(q), lam if lam.__class__ is float else checked_lam(lam), out
             )
-            ok = math.isfinite(out[0] + out[1] + out[2])  # every input but the roll q5
+            # every input but the roll q5 (a sum would warn where an inf meets a -inf)
+            ok = math.isfinite(out[0]) and math.isfinite(out[1]) and math.isfinite(out[2])
         except (TypeError, ValueError, IndexError, OverflowError):
             ok = False
         if not ok:
