@@ -1,6 +1,6 @@
 """Generated scenario files (600 per run, seeded; 1,600 with RCMPLAN_HEAVY_TESTS=1): each
 loads as a valid Scenario or raises a typed rcmplan error with a one-line message, never a
-generic Python error."""
+generic Python error, nor a RuntimeWarning on the way (raised as an error here)."""
 
 from __future__ import annotations
 
@@ -19,6 +19,7 @@ from rcmplan.robot.iramis import Iramis
 from rcmplan.scene.scenario import Scenario, load_scenario
 from rcmplan.scene.schema import SCHEMA
 
+pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 SETTINGS = settings(
     max_examples=cases(300, 800), derandomize=True, database=None, deadline=None,
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
