@@ -13,6 +13,18 @@ every kernel took 0.84 of the CPU time, the loops' speed unchanged within this m
 A kernel that needs a constant argument as a literal (an index into a heterogeneous tuple,
 say) cannot use this decorator; none does.
 
+`njit(borrows=True)`: a kernel that only borrows the arrays it is given (it allocates none,
+returns none and takes none from a call) is compiled without numba's reference counts (numba's
+`_nrt=False`). numba otherwise counts a reference to each array argument as a kernel starts
+and releases it as it ends, with an atomic add each, unless the kernel calls nothing in
+between: in the arm's compiled loop some 95 of them per iteration, 40 % of its time under
+`perf` (a 7-joint arm, p3-p4: 3.5 us per record, 2.4 us with its kinematics, solves, RCM
+bound and records borrowing; docs/benchmarks.md). What such a kernel must not do is checked
+when it compiles (`check_borrows`): numba refuses an allocation without reference counts, and
+an array in its result, or in the result of a call it makes, raises TypeError. numba compiles a
+kernel called first from such a kernel without reference counts as well (and keeps that
+version for every caller): the same check holds it.
+
 numba compiles a kernel at its first call with a set of argument types and keeps it in its cache
 (`cache=True`); a later process loads it. The first compile of one of rcmplan's kernels in a
 process prints one line on stderr (`FirstCompile`, a listener of numba's compile events: a load
@@ -36,8 +48,11 @@ check_once()  # before any kernel is compiled or loaded from numba's cache
 F = TypeVar("F", bound=Callable[..., Any])
 
 
-def njit(**options: Any) -> Callable[[F], F]:
-    """`numba.njit(**options)` whose calls from compiled code take plain argument types."""
+def njit(*, borrows: bool = False, **options: Any) -> Callable[[F], F]:
+    """`numba.njit(**options)` whose calls from compiled code take plain argument types;
+    `borrows`: compiled without reference counts, checked (module docstring)."""
+    if borrows:
+        options["_nrt"] = False
 
     def decorate(fn: F) -> F:
         dispatcher = numba.njit(**options)(fn)
@@ -48,9 +63,43 @@ def njit(**options: Any) -> Callable[[F], F]:
             return by_type(plain, {k: types.unliteral(v) for k, v in kws.items()})
 
         dispatcher.get_call_template = get_call_template
+        compile_new = dispatcher._compiler.compile  # numba's compile of a new version
+
+        def compile_checked(args: tuple, return_type: Any) -> Any:
+            cres = compile_new(args, return_type)
+            if not cres.target_context.enable_nrt:  # compiled without reference counts
+                check_borrows(fn, cres)
+            return cres
+
+        dispatcher._compiler.compile = compile_checked
         return dispatcher
 
     return decorate
+
+
+def holds_array(t: types.Type) -> bool:
+    """True if a value of numba type t is an array or a tuple holding one."""
+    if isinstance(t, types.Array):
+        return True
+    return isinstance(t, types.BaseTuple) and any(holds_array(x) for x in getattr(t, "types", ()))
+
+
+def check_borrows(fn: Callable[..., Any], cres: Any) -> None:
+    """Raise TypeError if the kernel fn, compiled without reference counts (`cres`, one of its
+    compiled versions: a kernel with borrows=True, or one that numba compiled first for such a
+    kernel's call, which it does without them too), returns an array or takes one from a call:
+    its caller would release a reference it was never given, or the array would never be
+    released. Run on each new compile; a version loaded from numba's cache was checked when it
+    was compiled."""
+    name = f"{fn.__module__}.{fn.__qualname__}"
+    returned = cres.signature.return_type
+    if holds_array(returned):
+        raise TypeError(f"{name}: compiled without reference counts but returns {returned}")
+    annotation = getattr(cres, "type_annotation", None)
+    for expr, sig in getattr(annotation, "calltypes", {}).items():
+        if getattr(expr, "op", None) == "call" and sig is not None and holds_array(sig.return_type):
+            raise TypeError(f"{name}: compiled without reference counts but takes an array "
+                            f"({sig.return_type}) from the call {expr}")  # fmt: skip
 
 
 class FirstCompile(event.Listener):

@@ -17,7 +17,8 @@ from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 
 
-@njit(cache=True, error_model="numpy")  # a zero pivot gives inf or NaN, not an exception
+# A zero pivot gives inf or NaN, not an exception.
+@njit(cache=True, borrows=True, error_model="numpy")
 def lu_solve(W: FloatArray, s: int, n: int, b: int) -> None:
     """Solve M x = W[b, :n] in place for the n x n matrix M at rows s.. of W (overwritten):
     Gaussian elimination with partial pivoting as LAPACK's getrf/getrs do it (multipliers
@@ -45,7 +46,7 @@ def lu_solve(W: FloatArray, s: int, n: int, b: int) -> None:
         W[b, r] = acc / W[s + r, r]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def gram(W: FloatArray, j: int, rows: int, cols: int, damping: float, s: int) -> None:
     """S = J J^T + D^2 I (rows x rows) over J's first `cols` columns, into rows s.."""
     for i in range(rows):
@@ -57,7 +58,7 @@ def gram(W: FloatArray, j: int, rows: int, cols: int, damping: float, s: int) ->
         W[s + i, i] += damping * damping
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def back(W: FloatArray, j: int, rows: int, cols: int, b: int, d: FloatArray) -> None:
     """d[:cols] = J^T W[b, :rows]."""
     for c in range(cols):
@@ -67,7 +68,7 @@ def back(W: FloatArray, j: int, rows: int, cols: int, b: int, d: FloatArray) -> 
         d[c] = acc
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def damped(W: FloatArray, j: int, rows: int, cols: int, damping: float, s: int, b: int,
            d: FloatArray) -> None:  # fmt: skip
     """d[:cols] = J^T f with (J J^T + D^2 I) f = W[b] (eqs. 2.19, 2.20): damped least squares,
@@ -78,7 +79,7 @@ def damped(W: FloatArray, j: int, rows: int, cols: int, damping: float, s: int, 
     back(W, j, rows, cols, b, d)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def square(W: FloatArray, j: int, n: int, s: int, b: int, d: FloatArray) -> None:
     """d = J^-1 W[b] for the square J (n x n), copied to S and solved there (`lu_solve`);
     W[b] is overwritten."""
@@ -90,7 +91,7 @@ def square(W: FloatArray, j: int, n: int, s: int, b: int, d: FloatArray) -> None
         d[r] = W[b, r]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def pinv(W: FloatArray, j: int, rows: int, cols: int, s: int, b: int, z: int,
          d: FloatArray) -> None:  # fmt: skip
     """d with J d = W[b]: `square` when J is square, else the minimum-norm solution plus the

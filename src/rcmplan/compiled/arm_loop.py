@@ -83,7 +83,7 @@ from rcmplan.robot import curved_arm
 from rcmplan.robot.needle import axis_angles, axis_into
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: float,
                target: FloatArray, tip_t: FloatArray, pivot: bool,
                e: FloatArray) -> int:  # fmt: skip
@@ -109,7 +109,7 @@ def task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam: flo
     return 6
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def record(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float, s: FloatArray,
            lam: float, trocar: FloatArray, tip_t: FloatArray, e: FloatArray,
            ne: int) -> None:  # fmt: skip
@@ -128,7 +128,7 @@ def record(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float, s: F
         row[o + 16 + i] = e[i] if i < ne else np.nan
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def record_curved(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: float,
                   s: FloatArray, lam: float, trocar: FloatArray, tip_t: FloatArray,
                   e: FloatArray) -> None:  # fmt: skip
@@ -142,7 +142,7 @@ def record_curved(A: FloatArray, n: int, W: FloatArray, row: FloatArray, t: floa
     row[o + 22] = e[3]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray, gain: float,
          damping: float, s: FloatArray, lam: float, pivot: bool, e: FloatArray,
          d: FloatArray) -> None:  # fmt: skip
@@ -274,7 +274,7 @@ def limit_step(K: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: Flo
         d[j] = (s[k] + f * d[j]) - s[k]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def command_status(fail: FloatArray, n: int, lower: FloatArray, upper: FloatArray,
                    info: IntArray) -> int:  # fmt: skip
     """STEPPED if the command q_new = fail[n:2n] is finite and within [lower, upper] (what the

@@ -25,7 +25,7 @@ from rcmplan.robot.chain_kinematics import (
 from rcmplan.robot.needle import x_ext_tip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def gram_solve(W: FloatArray, j: int, rows: int, cols: int, damping: float, e: FloatArray,
                d: FloatArray) -> None:  # fmt: skip
     """d[:cols] = J^T f with (J J^T + D^2 I) f = e[:rows] for J at rows j.. of W (eqs. 2.19,
@@ -37,7 +37,7 @@ def gram_solve(W: FloatArray, j: int, rows: int, cols: int, damping: float, e: F
     damped(W, j, rows, cols, damping, j + ROWS, f, d)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def pinv_solve(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, K: FloatArray,
                gain: float, err: FloatArray, d: FloatArray) -> None:  # fmt: skip
     """The `PinvSolver` step into d (m + 1,) from J_a in W's J rows and the X_ext error err
@@ -57,7 +57,7 @@ def pinv_solve(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, K: Flo
     pinv(W, o, ROWS, m + 1, o + ROWS, e, z, d)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def pinv_step(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: float,
               target: FloatArray, K: FloatArray, gain: float, thesis: bool,
               d: FloatArray) -> None:  # fmt: skip
@@ -73,7 +73,7 @@ def pinv_step(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: fl
     pinv_solve(A, ix, W, q, K, gain, x, d)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def dls_solve_at(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, pivot: bool,
                  e: FloatArray, damping: float, d: FloatArray,
                  tip_ready: bool = False) -> None:  # fmt: skip
@@ -93,7 +93,7 @@ def dls_solve_at(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, pivot: 
     gram_solve(W, o, ROWS, m + 1, damping, e, d)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def dls_step(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: float,
              target: FloatArray, damping: float, d: FloatArray) -> bool:  # fmt: skip
     """One `DlsSolver` step into d (m + 1,): the tip to the tip of the X_ext target and

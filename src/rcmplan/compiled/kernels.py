@@ -17,7 +17,7 @@ from rcmplan.robot.iramis_kernels import point, point_jacobian, trig
 from rcmplan.robot.needle import axis_angles
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def task(P: FloatArray, q: FloatArray, tr: tuple, lam: float, x: FloatArray) -> None:
     """X_ext = (x_tip [m], phi, psi [rad], p_rcm [m]) into x (6,)."""
     c1, s1, c3, s3 = tr
@@ -27,13 +27,13 @@ def task(P: FloatArray, q: FloatArray, tr: tuple, lam: float, x: FloatArray) -> 
     x[1], x[2] = axis_angles(ax, ay, az)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def extended_task(P: FloatArray, q: FloatArray, lam: float, x: FloatArray) -> None:
     """X_ext at (q, lambda) into x (6,)."""
     task(P, q, trig(q), lam, x)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def jacobian_a(
     P: FloatArray, q: FloatArray, tr: tuple, lam: float, thesis: bool, J: FloatArray
 ) -> None:
@@ -48,7 +48,7 @@ def jacobian_a(
     point_jacobian(P, q, tr, lam, J, 3)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def augmented_jacobian(
     P: FloatArray, q: FloatArray, lam: float, thesis: bool, J: FloatArray
 ) -> None:
@@ -56,7 +56,7 @@ def augmented_jacobian(
     jacobian_a(P, q, trig(q), lam, thesis, J)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_augmented(J: FloatArray, b: FloatArray, d: FloatArray) -> None:
     """Solve J_a d = b by substitution: J_a is a permuted triangular matrix.
 
@@ -72,7 +72,7 @@ def solve_augmented(J: FloatArray, b: FloatArray, d: FloatArray) -> None:
     d[0] = (b[5] - J[5, 1] * d[1] - J[5, 3] * d[3] - J[5, 4] * d[4] - J[5, 5] * d[5]) / J[5, 0]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def batch_task_jacobians(
     P: FloatArray, Q: FloatArray, lam: FloatArray, thesis: bool, X: FloatArray, J: FloatArray
 ) -> None:

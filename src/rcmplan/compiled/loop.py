@@ -77,7 +77,7 @@ from rcmplan.robot.iramis_kernels import (
 from rcmplan.robot.needle import axis_into, closest_point, target_tip_into, x_ext_tip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def put(dst: FloatArray, i: int, src: FloatArray, j: int, n: int) -> None:
     """dst[i:i+n] = src[j:j+n] (explicit: slice assignment is slow to compile)."""
     for k in range(n):
@@ -96,7 +96,7 @@ def tip_only(method: int) -> bool:
     return method in (TIP, TIP_LIMITED)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def closest_lambda(
     P: FloatArray, q: FloatArray, tr: tuple, trocar: FloatArray, w: FloatArray
 ) -> float:
@@ -106,7 +106,7 @@ def closest_lambda(
     return closest_point(w[:3], w[3:], trocar)[0]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def task_error(
     P: FloatArray, method: int, q: FloatArray, tr: tuple, lam: float, target: FloatArray,
     tip_t: FloatArray, pivot: bool, e: FloatArray, w: FloatArray,
@@ -130,7 +130,7 @@ def task_error(
     return 6
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_step(
     P: FloatArray, method: int, K: FloatArray, damping: float, q: FloatArray, tr: tuple,
     lam: float, pivot: bool, e: FloatArray, J: FloatArray, d: FloatArray,
@@ -156,7 +156,7 @@ def solve_step(
         d[5] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def record(
     P: FloatArray, row: FloatArray, t: float, s: FloatArray, q: FloatArray, tr: tuple, lam: float,
     trocar: FloatArray, tip_t: FloatArray, e: FloatArray, m: int,
@@ -176,7 +176,7 @@ def record(
     put(row, 29, e, 0, m)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def record_curved(
     P: FloatArray, row: FloatArray, t: float, s: FloatArray, q: FloatArray, tr: tuple, lam: float,
     trocar: FloatArray, tip_t: FloatArray, e: FloatArray,
@@ -190,7 +190,7 @@ def record_curved(
     row[35] = e[3]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def converged(e: FloatArray, tol: FloatArray, m: int) -> bool:
     """Every |e_i| within tol_i (False for NaN)."""
     for i in range(m):  # noqa: SIM110 (a plain loop compiles best)
@@ -276,7 +276,7 @@ def iterate(
     return command_status(P, qn, sn, info)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def limit_step(
     P: FloatArray,
     K: FloatArray,
@@ -368,7 +368,7 @@ def qp_step(
     return command_status(P, qn, sn, info)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarray) -> int:
     """The sliders sn of the stepped joints qn, and the iteration's status: BAD_JOINTS if no
     sliders realise qn, SLIDER_LIMIT (the slider in info[2]) beyond travel, else STEPPED."""
@@ -380,7 +380,7 @@ def command_status(P: FloatArray, qn: FloatArray, sn: FloatArray, info: np.ndarr
     return STEPPED
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def keep_record(status: int, k: int, it: int, n: int, irec: np.ndarray, info: np.ndarray) -> int:
     """Keep the record of iteration it of target k, written in row n: from the second
     iteration on and unless the solve failed (QP_FAILED, no record), its (target, iteration)
@@ -392,7 +392,7 @@ def keep_record(status: int, k: int, it: int, n: int, irec: np.ndarray, info: np
     return n
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray,
                  trocar: FloatArray) -> int:  # fmt: skip
     """Fill the target's tip point and trocar (NaN in free space); returns 1 for a pivot
@@ -407,7 +407,7 @@ def target_frame(target: FloatArray, rcm: bool, w: FloatArray, tip_t: FloatArray
     return 1 if target.shape[0] == 6 and is_pivot(tip_t, target) else 0
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def pose_clear(
     P: FloatArray, thr: float, x: FloatArray, a: FloatArray, tip: FloatArray, q: FloatArray,
     s: FloatArray,

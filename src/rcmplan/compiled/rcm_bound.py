@@ -45,7 +45,7 @@ from rcmplan.robot.iramis_kernels import point, trig
 from rcmplan.robot.needle import closest_point
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def rcm_distance(P: FloatArray, q: FloatArray, trocar: FloatArray, w: FloatArray) -> float:
     """Distance in [m] from the trocar to iRAM!S's needle (shaft) at joints q; w (6,) is
     scratch."""
@@ -55,7 +55,7 @@ def rcm_distance(P: FloatArray, q: FloatArray, trocar: FloatArray, w: FloatArray
     return closest_point(w[:3], w[3:], trocar)[1]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def closest_on_needle(
     A: FloatArray, n: int, W: FloatArray, trocar: FloatArray
 ) -> tuple[float, float]:
@@ -64,7 +64,7 @@ def closest_on_needle(
     return closest_point(needle_point(A, n, W, 0.0), needle_point(A, n, W, 1.0), trocar)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def stepped(n: int, ix: IntArray, first: int, m: int, s: FloatArray, d: FloatArray,
             x: FloatArray) -> None:  # fmt: skip
     """An arm's stepped joints s + d (d over the moving joints ix[first:first + m]) into
@@ -75,7 +75,7 @@ def stepped(n: int, ix: IntArray, first: int, m: int, s: FloatArray, d: FloatArr
         x[ix[first + j]] += d[j]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def distance_at(P: FloatArray | None, arm: tuple | None, x: FloatArray, trocar: FloatArray,
                 w: FloatArray) -> float:  # fmt: skip
     """Distance in [m] from the trocar to the needle at joints x (an arm's W then holds the
@@ -89,7 +89,7 @@ def distance_at(P: FloatArray | None, arm: tuple | None, x: FloatArray, trocar: 
     return math.nan
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def stepped_distance(P: FloatArray | None, arm: tuple | None, q: FloatArray, d: FloatArray,
                      first: int, m: int, trocar: FloatArray, x: FloatArray,
                      w: FloatArray) -> float:  # fmt: skip
@@ -103,7 +103,7 @@ def stepped_distance(P: FloatArray | None, arm: tuple | None, q: FloatArray, d: 
     return distance_at(P, arm, x, trocar, w)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def bound_step(P: FloatArray | None, arm: tuple | None, q: FloatArray, d: FloatArray,
                first: int, m: int, trocar: FloatArray, now: float, bound: float,
                x: FloatArray, w: FloatArray) -> float:  # fmt: skip

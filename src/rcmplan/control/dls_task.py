@@ -20,7 +20,7 @@ Point = FloatArray | tuple[float, float, float]  # the kernels' points are array
 PIVOT_DISTANCE = 1e-8
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def is_pivot(tip: FloatArray, target: FloatArray) -> bool:
     """True when the tip point (3,) lies on the X_ext target's trocar point (within
     PIVOT_DISTANCE)."""
@@ -30,7 +30,7 @@ def is_pivot(tip: FloatArray, target: FloatArray) -> bool:
     return math.sqrt(acc) < PIVOT_DISTANCE
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def dls_error(tip: FloatArray, a: FloatArray, pivot: bool, length: float, target: FloatArray,
               p_tip: Point, p: Point, e: FloatArray) -> None:  # fmt: skip
     """e (6,) = (tip - p_tip, trocar - p) in [m], p = p(lambda); for a pivot, (tip - l a) - p

@@ -103,7 +103,7 @@ def limited_step(
     return np.asarray((robot.joints_from_actuators(s + f * ds) - q)[active], dtype=float)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def step_fraction(s: FloatArray, ds: FloatArray, limit: FloatArray, lower: FloatArray,
                   upper: FloatArray, margin: float, f: float) -> float:  # fmt: skip
     """The largest factor in [0, f] (f <= 1) scaling the actuators' increment ds (n,) from s
@@ -121,7 +121,7 @@ def step_fraction(s: FloatArray, ds: FloatArray, limit: FloatArray, lower: Float
     return f
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def tip_fraction(J: FloatArray, r: int, d: FloatArray, m: int, bound: float) -> float:
     """The largest factor in [0, 1] keeping each component of the tip's first-order step
     J[r:r + 3, :m] d within bound [m] (tip speed x dt); 1 for bound <= 0 or no tip motion."""

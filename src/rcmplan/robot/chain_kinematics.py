@@ -45,21 +45,21 @@ def work_shape(n: int, m: int) -> tuple[int, int]:
     return axes_row(n) + n, max(ROWS, m + 1)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def axes_row(n: int) -> int:
     """First row of W's joint axes in the world (row axes_row(n) + k: joint k's, 3 columns,
     and in column 3 q[k] of the frames in W)."""
     return singular_row(n) + 3 * SING + 2
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def singular_row(n: int) -> int:
     """First row of the singularity measure's matrix M in W; its Gram matrix, eigenvectors
     and right singular vectors follow (`chain_singular`)."""
     return 4 * (n + 1) + 2 * ROWS + 6
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def compose(P: FloatArray, p: int, Q: FloatArray, r: int, out: FloatArray, o: int) -> None:
     """Rows o..o+2 of out = (P @ Q)[:3] for rigid transforms at rows p of P and r of Q."""
     for i in range(3):
@@ -70,7 +70,7 @@ def compose(P: FloatArray, p: int, Q: FloatArray, r: int, out: FloatArray, o: in
     out[o + 3, 0], out[o + 3, 1], out[o + 3, 2], out[o + 3, 3] = 0.0, 0.0, 0.0, 1.0
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def move(T: FloatArray, o: int, A: FloatArray, a: int, prismatic: bool, q: float) -> None:
     """T = T @ motion for the transform at rows o of T: a slide by q [m] along, or a turn by
     q [rad] about, the unit axis A[a, :3] of that frame (Rodrigues' formula; about z or y, only
@@ -102,7 +102,7 @@ def move(T: FloatArray, o: int, A: FloatArray, a: int, prismatic: bool, q: float
         T[i, 2] = a0 * r02 + a1 * r12 + a2 * r22
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def rotate(T: FloatArray, o: int, x: float, y: float, z: float) -> tuple[float, float, float]:
     """The rotation at rows o of T applied to (x, y, z)."""
     return (T[o, 0] * x + T[o, 1] * y + T[o, 2] * z,
@@ -110,7 +110,7 @@ def rotate(T: FloatArray, o: int, x: float, y: float, z: float) -> tuple[float, 
             T[o + 2, 0] * x + T[o + 2, 1] * y + T[o + 2, 2] * z)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def frames(A: FloatArray, ix: IntArray, q: FloatArray, W: FloatArray) -> None:
     """Frames 0..n (joints after motion, then the end frame), the joint axes in the world and
     the joints q themselves into W's rows."""
@@ -128,7 +128,7 @@ def frames(A: FloatArray, ix: IntArray, q: FloatArray, W: FloatArray) -> None:
     compose(W, 4 * (n - 1), A, 4 * (n + 1), W, 4 * n)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def holds_frames(ix: IntArray, q: FloatArray, W: FloatArray) -> bool:
     """True if W holds the frames of exactly the joints q (n,) (`frames` left them; a W never
     framed holds NaN there: `blank_work`)."""
@@ -147,7 +147,7 @@ def blank_work(shape: tuple[int, int], n: int) -> FloatArray:
     return W
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def needle_point(A: FloatArray, n: int, W: FloatArray, lam: float) -> tuple[float, float, float]:
     """p(lambda) in [m] (eq. 3.7): the end frame applied to mount origin + lambda l mount z."""
     ml, e = 4 * (n + 2), 4 * n
@@ -157,21 +157,21 @@ def needle_point(A: FloatArray, n: int, W: FloatArray, lam: float) -> tuple[floa
     return x + W[e, 3], y + W[e + 1, 3], z + W[e + 2, 3]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def needle_axis(A: FloatArray, n: int, W: FloatArray) -> tuple[float, float, float]:
     """The unit needle axis (base to tip) in the world: the end frame applied to mount z."""
     ml = 4 * (n + 2)
     return rotate(W, 4 * n, A[ml, 2], A[ml + 1, 2], A[ml + 2, 2])
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def joint_axis(A: FloatArray, n: int, W: FloatArray, k: int) -> tuple[float, float, float]:
     """Joint k's unit axis in the world (stored by `frames`)."""
     r = axes_row(n) + k
     return W[r, 0], W[r, 1], W[r, 2]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def point_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, J: FloatArray,
                    r: int) -> None:  # fmt: skip
     """d p(lambda) / d(q[active], lambda) (eqs. 2.10, 2.11, 3.10) into rows r..r+2 of J."""
@@ -192,7 +192,7 @@ def point_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, J: Fl
     J[r, m], J[r + 1, m], J[r + 2, m] = length * ax, length * ay, length * az  # dp/dlambda
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def angle_rows(A: FloatArray, ix: IntArray, W: FloatArray, thesis: bool, J: FloatArray,
                r: int) -> None:  # fmt: skip
     """d(phi, psi) / d(q[active], lambda) into rows r, r+1 of J: exact (the axis turns
@@ -216,7 +216,7 @@ def angle_rows(A: FloatArray, ix: IntArray, W: FloatArray, thesis: bool, J: Floa
     J[r, m], J[r + 1, m] = 0.0, 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def task_at(A: FloatArray, n: int, W: FloatArray, lam: float, x: FloatArray) -> None:
     """X_ext = (x_tip [m], phi, psi [rad], p_rcm [m]) (eq. 3.14) at the frames in W into x."""
     x[0] = needle_point(A, n, W, 1.0)[0]
@@ -224,7 +224,7 @@ def task_at(A: FloatArray, n: int, W: FloatArray, lam: float, x: FloatArray) -> 
     x[3], x[4], x[5] = needle_point(A, n, W, lam)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def jacobian_at(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, thesis: bool,
                 J: FloatArray, r: int, tip_ready: bool = False) -> None:  # fmt: skip
     """J_a (eq. 3.15; eq. 6.1's angle rows if `thesis`) at the frames in W into
@@ -237,7 +237,7 @@ def jacobian_at(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, thesis: 
     point_jacobian(A, ix, W, lam, J, r + 3)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def evaluate(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: float,
              thesis: bool, x: FloatArray, J: FloatArray) -> None:  # fmt: skip
     """Frames into W, X_ext into x (6,) and J_a into J[:6, :m + 1] at (q, lambda)."""
@@ -246,7 +246,7 @@ def evaluate(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: flo
     jacobian_at(A, ix, W, lam, thesis, J, 0)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: float,
                   thesis: bool, x: FloatArray, J: FloatArray) -> None:  # fmt: skip
     """X_ext (6,) and J_a (6, m + 1) at (q, lambda) into x and J."""
@@ -268,7 +268,7 @@ def pack(
     return np.ascontiguousarray(A, dtype=np.float64), ix
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def angular_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, J: FloatArray, r: int) -> None:
     """The needle's angular velocity per (q[active], lambda) into rows r..r+2 of J: the world
     axis of each active revolute joint (eq. 2.11), zero for prismatic joints and lambda."""

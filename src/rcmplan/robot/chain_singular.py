@@ -33,7 +33,7 @@ CERTIFY = 1e-6  # relative margin of the singularity certificate (rounding is ~1
 SWEEPS = 50  # cap on the Jacobi sweeps (a 5 x 5 matrix converges in fewer than 10)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def needle_normals(ax: float, ay: float, az: float) -> tuple:
     """The normals N of M for the unit needle axis a: (n1 (3,), n2 (3,), the helper axis
     e_k (3,), |a x e_k|), each as a tuple of floats."""
@@ -49,7 +49,7 @@ def needle_normals(ax: float, ay: float, az: float) -> tuple:
     return (n1x, n1y, n1z), n2, (ux, uy, uz), norm
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def singular_gram(A: FloatArray, ix: IntArray, W: FloatArray) -> int:
     """M (5, m) over the active joints at the frames in W and its Gram matrix G = M M^T (5, 5),
     into W; returns G's first row (M's is `singular_row`). J_tip = d p(1) / d theta_ext is left
@@ -74,7 +74,7 @@ def singular_gram(A: FloatArray, ix: IntArray, W: FloatArray) -> int:
     return g
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def jacobi(W: FloatArray, g: int, v: int) -> tuple[int, int]:
     """Diagonalise the symmetric (5, 5) matrix at rows g of W in place by cyclic Jacobi
     rotations; with v >= 0 its eigenvectors go to the columns of the (5, 5) block at rows v.
@@ -124,7 +124,7 @@ def jacobi(W: FloatArray, g: int, v: int) -> tuple[int, int]:
     return lo, hi
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def gram_extremes(W: FloatArray, g: int) -> tuple[float, float]:
     """(smallest, largest) eigenvalue of the symmetric (5, 5) matrix at rows g of W (`jacobi`;
     the matrix is overwritten)."""
@@ -132,7 +132,7 @@ def gram_extremes(W: FloatArray, g: int) -> tuple[float, float]:
     return W[g + lo, lo], W[g + hi, hi]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def singularity_measure(A: FloatArray, ix: IntArray, W: FloatArray) -> float:
     """`SerialArm.singularity_measure` at the frames in W: sigma_min / sigma_max of M, the
     square roots of G's extreme eigenvalues (to about 1e-12 relative where it is 0.01)."""
@@ -140,7 +140,7 @@ def singularity_measure(A: FloatArray, ix: IntArray, W: FloatArray) -> float:
     return math.sqrt(max(lo, 0.0) / hi) if hi > 0.0 else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def measures(A: FloatArray, ix: IntArray, Q: FloatArray, W: FloatArray, out: FloatArray) -> None:
     """`singularity_measure` at each row of Q (N, n) into out (N,); W the work array."""
     for i in range(Q.shape[0]):
@@ -148,7 +148,7 @@ def measures(A: FloatArray, ix: IntArray, Q: FloatArray, W: FloatArray, out: Flo
         out[i] = singularity_measure(A, ix, W)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def is_singular(A: FloatArray, ix: IntArray, W: FloatArray, thr: float) -> bool:
     """True if `SerialArm.singularity_measure` at the frames in W is below thr.
 
@@ -178,7 +178,7 @@ def is_singular(A: FloatArray, ix: IntArray, W: FloatArray, thr: float) -> bool:
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def singular_terms(A: FloatArray, ix: IntArray, W: FloatArray, grad: FloatArray) -> float:
     """kappa = s_min / s_max of M at the frames in W (`singularity_measure`, the same value)
     and its exact gradient over the active joints into grad (m,).
@@ -239,7 +239,7 @@ def singular_terms(A: FloatArray, ix: IntArray, W: FloatArray, grad: FloatArray)
     return math.sqrt(max(W[g + lo, lo], 0.0) / W[g + hi, hi])  # as `singularity_measure`
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def column_term(W: FloatArray, v: int, col: int, dv: tuple, length: float, d3: float,
                 d4: float) -> float:  # fmt: skip
     """u' dM[:, k] for the eigenvector u in column col of the block at rows v of W and the
@@ -248,19 +248,19 @@ def column_term(W: FloatArray, v: int, col: int, dv: tuple, length: float, d3: f
     return acc + W[v + 3, col] * d3 + W[v + 4, col] * d4
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def cross(a: tuple, b: tuple) -> tuple:
     """a x b for 3-tuples."""
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def plus(a: tuple, b: tuple) -> tuple:
     """a + b for 3-tuples."""
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def dot3(a: tuple, b: tuple) -> float:
     """a . b for 3-tuples."""
     return float(a[0] * b[0] + a[1] * b[1] + a[2] * b[2])

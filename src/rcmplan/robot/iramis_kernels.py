@@ -19,13 +19,13 @@ LOWER, UPPER = 7, 13
 HALF_PI = 0.5 * math.pi
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def pcjm_joints(d: float, L1: float, L2: float) -> tuple[float, float]:
     """(q_lin [m], q_rot [rad]) of one PCJM from its sliders (L1, L2) [m] (eqs. 2.1, 2.2)."""
     return 0.5 * (L1 + L2), math.atan((L2 - L1) / d)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def pcjm_sliders(d: float, q_lin: float, q_rot: float) -> tuple[float, float]:
     """(L1, L2) [m] of one PCJM from (q_lin [m], q_rot [rad]), |q_rot| < pi/2: eqs. 2.1 and
     2.2 inverted exactly (eq. 2.3 of the thesis has the sign of tan q_rot wrong)."""
@@ -33,7 +33,7 @@ def pcjm_sliders(d: float, q_lin: float, q_rot: float) -> tuple[float, float]:
     return q_lin - half, q_lin + half
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def joints_from_actuators(P: FloatArray, s: FloatArray, q: FloatArray) -> None:
     """q from s through both PCJMs (eqs. 2.1, 2.2), written into q (6,)."""
     q[0], q[1] = pcjm_joints(P[6], s[0], s[1])
@@ -42,7 +42,7 @@ def joints_from_actuators(P: FloatArray, s: FloatArray, q: FloatArray) -> None:
     q[5] = s[5]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def actuators_from_joints(P: FloatArray, q: FloatArray, s: FloatArray) -> bool:
     """s from q (inverse PCJM maps) into s (6,); False if q is not finite or |q1|, |q3| >= pi/2."""
     for i in range(6):
@@ -57,7 +57,7 @@ def actuators_from_joints(P: FloatArray, q: FloatArray, s: FloatArray) -> bool:
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def first_beyond_travel(P: FloatArray, s: FloatArray) -> int:
     """Index of the first slider outside its travel, or -1."""
     for i in range(6):
@@ -66,13 +66,13 @@ def first_beyond_travel(P: FloatArray, s: FloatArray) -> int:
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def trig(q: FloatArray) -> tuple[float, float, float, float]:
     """(cos q1, sin q1, cos q3, sin q3): computed once per configuration, passed as `tr`."""
     return math.cos(q[1]), math.sin(q[1]), math.cos(q[3]), math.sin(q[3])
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def point(P: FloatArray, q: FloatArray, tr: tuple, lam: float, out: FloatArray) -> None:
     """p(lambda) in [m], base frame (eqs. 2.7, 3.7), written into out (3,); tr = trig(q)."""
     c1, s1, c3, s3 = tr
@@ -82,14 +82,14 @@ def point(P: FloatArray, q: FloatArray, tr: tuple, lam: float, out: FloatArray) 
     out[2] = P[0] + q[0] + P[1] * c1 + s1 * c3 * w + P[4] * s1 * s3
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def singular_measure(c1: float, c3: float) -> float:
     """min(|cos q1|, |cos q3|) from c1 = cos q1, c3 = cos q3 (`trig`'s tr[0], tr[2]): zero
     exactly on the singular set of J_a and J_0^5 (NOTES.md)."""
     return min(abs(c1), abs(c3))
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def pose_joints(P: FloatArray, phi: float, psi: float, tip: FloatArray, q: FloatArray) -> None:
     """Joints (q5 = 0) putting the tip at `tip` (3,) [m] with needle angles (phi, psi) [rad]
     into q (6,): phi = q1, psi = q3, then w = q4 + l6 from the x row of eq. 2.7 (`point` at
@@ -101,13 +101,13 @@ def pose_joints(P: FloatArray, phi: float, psi: float, tip: FloatArray, q: Float
     q[2] = tip[1] - (P[2] + P[3] - s3 * w + P[4] * c3)  # y row
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def needle_point(P: FloatArray, q: FloatArray, lam: float, out: FloatArray) -> None:
     """p(lambda) in [m] into out (3,)."""
     point(P, q, trig(q), lam, out)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def point_jacobian(
     P: FloatArray, q: FloatArray, tr: tuple, lam: float, J: FloatArray, r: int
 ) -> None:
@@ -136,7 +136,7 @@ def point_jacobian(
     J[r + 2, 5] = l6 * s1 * c3
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def tip_jacobian(P: FloatArray, q: FloatArray, tr: tuple, J: FloatArray, r: int) -> None:
     """d p_tip / d theta_ext with a zero lambda column into rows r..r+2 of J."""
     point_jacobian(P, q, tr, 1.0, J, r)
@@ -145,7 +145,7 @@ def tip_jacobian(P: FloatArray, q: FloatArray, tr: tuple, J: FloatArray, r: int)
     J[r + 2, 5] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def needle_axis(q: FloatArray, a: FloatArray) -> None:
     """The unit needle axis a(q) = (-cos q1 cos q3, -sin q3, sin q1 cos q3) into a (3,)."""
     c1, s1, c3, s3 = trig(q)

@@ -65,7 +65,7 @@ def needle_point(p_base: FloatArray, p_tip: FloatArray, lam: float) -> FloatArra
     return p_base + lam * (p_tip - p_base)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def closest_point(p_base: Any, p_tip: Any, point: Any) -> tuple[float, float]:
     """(lambda in [0, 1], distance [m]) of the needle point closest to `point`: the drift
     correction of thesis chapter 5 and the RCM deviation. Points are (3,) arrays or 3-tuples
@@ -101,14 +101,14 @@ def angles_from_axis(axis: FloatArray) -> tuple[float, float]:
     return axis_angles(float(axis[0]), float(axis[1]), float(axis[2]))
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def axis_angles(ax: float, ay: float, az: float) -> tuple[float, float]:
     """(phi, psi) in [rad] of the needle axis (ax, ay, az): the one definition, which Python
     and compiled code call alike (libm's hypot, not CPython's, which differs in the last bit)."""
     return math.atan2(az, -ax), math.atan2(-ay, math.hypot(ax, az))
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def axes_angles(axes: FloatArray, out: FloatArray) -> None:
     """`axis_angles` of each row of axes (N, 3) into the rows of out (N, 2) [rad] (NaN for a
     NaN axis)."""
@@ -116,7 +116,7 @@ def axes_angles(axes: FloatArray, out: FloatArray) -> None:
         out[k, 0], out[k, 1] = axis_angles(axes[k, 0], axes[k, 1], axes[k, 2])
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def axis_into(phi: float, psi: float, a: FloatArray) -> None:
     """The unit needle axis with needle angles (phi, psi) into a (3,)."""
     a[0] = -math.cos(phi) * math.cos(psi)
@@ -131,7 +131,7 @@ def axis_from_angles(phi: float, psi: float) -> FloatArray:
     return a
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def x_ext_tip(x: FloatArray, a: FloatArray, tip: FloatArray) -> bool:
     """The tip point X_ext (6,) implies, on the line through p_rcm along the axis at x = x_tip,
     into tip (3,) (a (3,) receives the axis); False if the axis is perpendicular to x."""
@@ -144,7 +144,7 @@ def x_ext_tip(x: FloatArray, a: FloatArray, tip: FloatArray) -> bool:
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def target_tip_into(target: FloatArray, a: FloatArray, tip: FloatArray) -> bool:
     """The tip point an RCM target states into tip (3,): a curved needle's X_c (7,) its first
     three entries, X_ext (6,) the one it implies (`x_ext_tip`, a (3,) receiving the axis);

@@ -52,8 +52,9 @@ class Pcjm:
 
     def joints_jacobian(self, L1: float, L2: float) -> FloatArray:
         """d(q_lin, q_rot) / d(L1, L2), a (2, 2) array."""
-        u = (scalar("L2", L2) - scalar("L1", L1)) / self.spacing
-        g = 1.0 / (self.spacing * (1.0 + u * u))
+        d = float(self.spacing)  # Python floats: u * u goes to inf (g to its limit 0) silently
+        u = float(scalar("L2", L2) - scalar("L1", L1)) / d
+        g = 1.0 / (d * (1.0 + u * u))
         return np.array([[0.5, 0.5], [-g, g]])
 
     def sliders_jacobian(self, q_rot: float) -> FloatArray:
