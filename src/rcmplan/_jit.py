@@ -17,9 +17,11 @@ say) cannot use this decorator; none does.
 returns none and takes none from a call) is compiled without numba's reference counts (numba's
 `_nrt=False`). numba otherwise counts a reference to each array argument as a kernel starts
 and releases it as it ends, with an atomic add each, unless the kernel calls nothing in
-between: in the arm's compiled loop some 95 of them per iteration, 40 % of its time under
-`perf` (a 7-joint arm, p3-p4: 3.5 us per record, 2.4 us with its kinematics, solves, RCM
-bound and records borrowing; docs/benchmarks.md). What such a kernel must not do is checked
+between (numba's reference-count pruning then drops the pair): in the arm's compiled loop
+some 97 such adds per iteration, and as many releases, 38 % of its samples under `perf`; with
+its kinematics, solves, RCM bound and records borrowing, the Panda's loop takes 0.69-0.70 of
+the time per record and about 19 adds per iteration are left, those of the iteration's own
+arguments (docs/benchmarks.md). What such a kernel must not do is checked
 when it compiles (`check_borrows`): numba refuses an allocation without reference counts, and
 an array in its result, or in the result of a call it makes, raises TypeError. numba compiles a
 kernel called first from such a kernel without reference counts as well (and keeps that
