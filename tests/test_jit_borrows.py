@@ -55,3 +55,11 @@ def test_a_borrowing_kernel_computes_as_the_counted_one() -> None:
 
     a = np.linspace(-1.0, 2.0, 7)
     assert njit(borrows=True)(total)(a) == njit()(total)(a) == total(a)
+
+
+def test_a_borrowing_kernel_may_view_its_own_arguments() -> None:
+    @njit(borrows=True)
+    def low_word(a):  # type: ignore[no-untyped-def]
+        return a.view(np.int32)[0]  # a view of the argument: borrowed, not a new reference
+
+    assert low_word(np.array([7], dtype=np.int64)) == 7

@@ -98,8 +98,12 @@ def check_borrows(fn: Callable[..., Any], cres: Any) -> None:
     if holds_array(returned):
         raise TypeError(f"{name}: compiled without reference counts but returns {returned}")
     annotation = getattr(cres, "type_annotation", None)
+    typemap = getattr(annotation, "typemap", {})
     for expr, sig in getattr(annotation, "calltypes", {}).items():
-        if getattr(expr, "op", None) == "call" and sig is not None and holds_array(sig.return_type):
+        if getattr(expr, "op", None) != "call" or sig is None or not holds_array(sig.return_type):
+            continue
+        callee = typemap.get(expr.func.name)  # another kernel, compiled with its own counts;
+        if isinstance(callee, types.Dispatcher):  # a view of an argument (`a.view`) borrows
             raise TypeError(f"{name}: compiled without reference counts but takes an array "
                             f"({sig.return_type}) from the call {expr}")  # fmt: skip
 
