@@ -17,6 +17,9 @@ target. Times are medians per call from Python (`_common.per_call`).
   loop in numba (the <= 1.5 us floor is for the 7-DOF arm); "phase": the same through
   `arm_phase.run_arm_phase_compiled` from Python (setup, log, plant state); both against the
   reference loop (`Controller.converge` per target, no target check).
+- QP loop per record: the same phase with `QpSolver(arm, default_eye(arm))` through
+  `algorithm.run_targets` (the arm's compiled QP in the loop), against the reference loop
+  with the same solver.
 - Phase per record: the UR5's p3-p4 phase through `Controller.run` (`Controller.phase_times`:
   planning, the loop and the RCM bound check; its fixed targets are checked before the phases,
   outside this time), fast path on against off.
@@ -40,6 +43,7 @@ from rcmplan.compiled import arm_phase
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.arm import FastArm, check_arm_targets
 from rcmplan.control import PinvSolver, extended_task, rcm_target, solve_pose
+from rcmplan.control.qp import QpSolver
 from rcmplan.controller import Controller
 from rcmplan.robot.shipped import robot_chain, robot_file, shipped_arm
 from rcmplan.scene.eye import default_eye, default_points
@@ -161,9 +165,10 @@ def median_us(fn: Any, repeat: int) -> float:
     return 1e6 * statistics.median(t / c for t, c in runs)
 
 
-def loop_rows(name: str) -> list[dict[str, Any]]:
+def loop_rows(name: str, qp: bool = False) -> list[dict[str, Any]]:
     """The compiled arm loop per record (kernel alone; from Python) against the reference loop,
-    and the target screen per target against the Python check, on one arm's p3-p4 phase."""
+    and the target screen per target against the Python check, on one arm's p3-p4 phase; with
+    `qp`, the kernel row alone with the QP controller (`QpSolver`, the default eye's limits)."""
     arm = shipped_arm(name)
     label, many = ARMS[name][0], not quick()
     phase, q0 = p3_p4(arm)
@@ -172,7 +177,7 @@ def loop_rows(name: str) -> list[dict[str, Any]]:
     def controller() -> Controller:
         plant = KinematicPlant(arm)
         plant.reset(q0)
-        ctl = Controller(plant, PinvSolver())
+        ctl = Controller(plant, QpSolver(arm, default_eye(arm)) if qp else PinvSolver())
         ctl.lam = ctl._closest_lambda(q0, targets[0][3:])
         return ctl
 
@@ -192,18 +197,22 @@ def loop_rows(name: str) -> list[dict[str, Any]]:
 
     ctl = controller()
     setup = arm_phase._Setup(ctl, ctl.solver)
-    rec = np.empty((4 * len(targets) + 100, 2 * arm.chain.n + 23))
+    rec = np.empty((20 * len(targets) + 100, setup.width))
     irec, info = np.empty((rec.shape[0], 2), dtype=np.int64), np.zeros(3, dtype=np.int64)
     head, plant = setup.head(targets), exact_plant()
-    kernel = fast_cache.algorithm().run_targets
+    kernel, work = fast_cache.algorithm().run_targets, fast_cache.algorithm().work_arrays(len(q0))
 
     def kernel_run() -> tuple[float, int]:
         s, state = q0.copy(), np.array([ctl.lam, 0.0, 1e-3])
         t = time.perf_counter()
-        kernel(*head, 0, 0, s, s.copy(), state, rec, irec, info, setup.fail, plant)
+        kernel(*head, 0, 0, s, s.copy(), state, rec, irec, info, setup.fail, plant, work)
         return time.perf_counter() - t, int(info[0])
 
     ref_us = median_us(lambda: loop(reference), 5 if many else 2)
+    if qp:
+        return [row(f"{label} p3-p4 QP loop per record, compiled (kernel)",
+                    median_us(kernel_run, 51 if many else 5), "us",
+                    "rcmplan reference loop, same QP", ref_us)]  # fmt: skip
     target = f"<= {LOOP_FLOOR_US:g} us" if name == "panda" else ""
     free = np.ascontiguousarray(phase.plan(arm.home))
 
@@ -232,14 +241,16 @@ def loop_rows(name: str) -> list[dict[str, Any]]:
 
 
 def rows() -> list[dict[str, Any]]:
-    """The Panda's and the UR5's step rows, their p3-p4 loops and target screens, then the UR5's
-    p3-p4 phase through the controller."""
+    """The Panda's and the UR5's step rows, their p3-p4 loops (pinv, then the QP) and target
+    screens, then the UR5's p3-p4 phase through the controller."""
     ur5 = shipped_arm("ur5")
     phase_us(ur5, "on")  # load the compiled loop and probe the arm (once per robot object)
     loop = row("UR5 p3-p4 phase per record through Controller.run (Controller.phase_times)",
                phase_us(ur5, "on"), "us", "rcmplan reference loop", phase_us(ur5, "off"),
                "ratio <= 1")  # fmt: skip
-    return [*arm_rows("panda"), *arm_rows("ur5"), *loop_rows("panda"), *loop_rows("ur5"), loop]
+    arms = ("panda", "ur5")
+    return [*arm_rows("panda"), *arm_rows("ur5"), *(r for a in arms for r in loop_rows(a)),
+            *(r for a in arms for r in loop_rows(a, qp=True)), loop]  # fmt: skip
 
 
 if __name__ == "__main__":

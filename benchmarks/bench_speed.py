@@ -87,11 +87,12 @@ def loop_rows() -> list[dict[str, Any]]:
         0,
     )
     s0, plant = robot.actuators_from_joints(pose.q), exact_plant()
+    work = loop.work_arrays(6)
 
     def once() -> float:
         t = time.perf_counter()
         state = np.array([pose.lam, 0.0, 1e-3])
-        loop.run_targets(*args, s0.copy(), np.empty(6), state, rec, irec, info, fail, plant)
+        loop.run_targets(*args, s0.copy(), np.empty(6), state, rec, irec, info, fail, plant, work)
         return time.perf_counter() - t
 
     once()

@@ -400,4 +400,5 @@ def test_the_arm_loop_takes_the_qps_arrays_with_the_qp_only(arm: SerialArm, give
             *head, 0, 0, arm.home.copy(), np.empty(n), np.array([0.5, 0.0, 1e-3]),
             np.empty((20, setup.width)), np.empty((20, 2), dtype=np.int64),
             np.zeros(3, dtype=np.int64), setup.fail, exact_plant(),
+            fast_cache.algorithm().work_arrays(n),
         )  # fmt: skip

@@ -276,7 +276,8 @@ def test_the_loop_refuses_a_method_without_the_arrays_it_reads(robot: Iramis, co
             True, np.array([0.1, 0.0]), qpa, C, target[None, :], 0, 0,
             robot.home_actuators.copy(), np.empty(6), np.array([1.0, 0.0, 1e-3]),
             np.empty((20, 36)), np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
-            np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip
+            np.empty(records.FAIL_WIDTH), exact_plant(),
+            fast_cache.algorithm().work_arrays(6))  # fmt: skip
     with pytest.raises(ValueError, match="need qpa, a curved needle's methods C"):
         fast_cache.algorithm().run_targets(*args)
 
@@ -291,9 +292,29 @@ def test_the_loop_refuses_a_call_without_a_robot(robot: Iramis) -> None:
             np.array([0.1, 0.0]), None, None, x0[None, :], 0, 0, robot.home_actuators.copy(),
             np.empty(6), np.array([1.0, 0.0, 1e-3]), np.empty((20, 35)),
             np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
-            np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip
+            np.empty(records.FAIL_WIDTH), exact_plant(),
+            fast_cache.algorithm().work_arrays(6))  # fmt: skip
     with pytest.raises(ValueError, match="give iRAM!S's P or an arm's arrays"):
         fast_cache.algorithm().run_targets(*args)
+
+
+def test_the_loop_refuses_scratch_made_for_another_robot(robot: Iramis) -> None:
+    """The loop allocates nothing: its scratch comes from the caller (`work_arrays(n)`), and
+    scratch for a 7-joint arm given to iRAM!S's six actuators is refused before any record."""
+    from rcmplan.compiled import records
+
+    x0 = extended_task(robot, robot.home, 1.0)
+    rec = np.full((20, 35), -1.0)
+    args = (robot_params(robot), None, records.PINV, np.ones(6), 0.0, np.full(6, 1e-8), 10,
+            True, np.array([0.1, 0.0]), None, None, x0[None, :], 0, 0,
+            robot.home_actuators.copy(), np.empty(6), np.array([1.0, 0.0, 1e-3]), rec,
+            np.empty((20, 2), dtype=np.int64), np.zeros(3, dtype=np.int64),
+            np.empty(records.FAIL_WIDTH), exact_plant())  # fmt: skip
+    with pytest.raises(ValueError, match=r"work must be work_arrays\(s.shape\[0\]\)"):
+        fast_cache.algorithm().run_targets(*args, fast_cache.algorithm().work_arrays(7))
+    assert np.all(rec == -1.0)  # nothing written
+    status = fast_cache.algorithm().run_targets(*args, fast_cache.algorithm().work_arrays(6))
+    assert status == records.DONE
 
 
 def test_the_compile_line_is_said_once_by_the_command_not_by_its_workers(

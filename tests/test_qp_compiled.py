@@ -412,7 +412,6 @@ def test_the_period_step_with_a_servo_equals_the_reference_step(robot: Iramis, r
     whose tip and angles lie up to 0.2 mm and mrad away, their RCM point the needle's own)."""
     from rcmplan.compiled.qp_period import period_step
     from rcmplan.control.cost import synchronise
-    from rcmplan.control.limits.base import SCALE as LIMIT_SCALE
 
     eye = default_eye(robot)
     servo = LaggingServo(robot.home_actuators.copy())
@@ -420,7 +419,7 @@ def test_the_period_step_with_a_servo_equals_the_reference_step(robot: Iramis, r
     solver = QpSolver(robot, None, servo=servo, extra_limits=(depth,))
     step = period_step(solver)
     assert step is not None
-    window = robot.speed[list(robot.active)] * solver.dt / LIMIT_SCALE
+    speed = np.ascontiguousarray(robot.speed[list(robot.active)])
     checked = synchronised = 0
     for q, lam, target in states(robot, rng, 60, spread=2e-4):
         target[3:] = robot.needle_point(q, lam)  # the RCM box holds at the start
@@ -434,6 +433,7 @@ def test_the_period_step_with_a_servo_equals_the_reference_step(robot: Iramis, r
         e = solver.task_error(robot, plan, lam, target)
         inp = StepInput(plan, lam, target, e, solver.K, solver.damping, solver.dt, solver.weights)
         free = build_step(robot, inp, solver.rows, solver.bounds).problem  # not synchronised
-        synchronised += synchronise(np.array(free.P), np.array(free.q), window) > 1.0
+        M = np.empty((free.q.shape[0] + 1, free.q.shape[0]))
+        synchronised += synchronise(np.array(free.P), np.array(free.q), speed, solver.dt, M) > 1.0
         checked += 1
     assert checked > 30 and synchronised > 10, (checked, synchronised)

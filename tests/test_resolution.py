@@ -97,15 +97,16 @@ def test_a_command_is_rounded_to_whole_steps_ties_to_even_and_a_zero_step_keeps_
     res = np.array([1e-9, 1e-9, 1e-9, 2.0, 0.0, 1e-3])
     s = np.array([1.49e-9, -2.6e-9, 0.0, 3.0, 0.123456789, 0.5e-3])
     out = np.full(6, np.nan)
-    got = quantised(s, res, out)
-    assert got is out
+    assert quantised(s, res, out) is None  # into out
+    got = out
     # 3.0 / 2.0 = 1.5 and 0.5e-3 / 1e-3 = 0.5 are exact ties: to the even step (2 and 0 steps)
     np.testing.assert_allclose(got, [1e-9, -3e-9, 0.0, 4.0, 0.123456789, 0.0], rtol=0, atol=1e-21)
     assert got[4] == s[4]  # a zero step: the command exactly as it is
     steps = np.array([1e-9] * 5 + [1e-6])
     many = np.random.default_rng(3).uniform(-1e-3, 1e-3, (200, 6))
     for x in many:  # whole steps, within half a step of the command
-        y = quantised(x, steps, np.empty(6))
+        y = np.empty(6)
+        quantised(x, steps, y)
         assert np.all(np.abs(y - x) <= 0.5 * steps * (1 + 1e-9))
         np.testing.assert_allclose(y / steps, np.round(y / steps), rtol=0, atol=1e-6)
 

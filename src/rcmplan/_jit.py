@@ -18,10 +18,11 @@ returns none and takes none from a call) is compiled without numba's reference c
 `_nrt=False`). numba otherwise counts a reference to each array argument as a kernel starts
 and releases it as it ends, with an atomic add each, unless the kernel calls nothing in
 between (numba's reference-count pruning then drops the pair): in the arm's compiled loop
-some 97 such adds per iteration, and as many releases, 38 % of its samples under `perf`; with
-its kinematics, solves, RCM bound and records borrowing, the Panda's loop takes 0.69-0.70 of
-the time per record and about 19 adds per iteration are left, those of the iteration's own
-arguments (docs/benchmarks.md). What such a kernel must not do is checked
+some 97 such adds per iteration, and as many releases, 38 % of its samples under `perf`. The
+loop (`algorithm.run_targets`) and every kernel it reaches borrow, the QP's assembly and solve
+among them: their scratch comes from the caller (`algorithm.work_arrays`, the QP's
+`qp_rows.buffers`), so an iteration counts no reference at all (docs/benchmarks.md). What
+such a kernel must not do is checked
 when it compiles (`check_borrows`): numba refuses an allocation without reference counts, and
 an array in its result, or in the result of a call it makes, raises TypeError. numba compiles a
 kernel called first from such a kernel without reference counts as well (and keeps that

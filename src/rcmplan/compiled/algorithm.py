@@ -45,19 +45,20 @@ from rcmplan.robot.curved_block import BLOCK_ROWS
 from rcmplan.sim.mujoco.compiled import OK, advance
 
 
-@njit(cache=True)
-def work_arrays() -> tuple:
-    """iRAM!S's iteration's scratch and work block (w, d, f, J), made once per loop call."""
-    return np.empty(6), np.empty(7), np.empty(7), np.empty((BLOCK_ROWS, 7))
+def work_arrays(n: int) -> tuple[FloatArray, ...]:
+    """The loop's scratch for n actuators (`run_targets`' `work`): iRAM!S's iteration's (w,
+    d, f and its work block J), the plant's (w, v) and the target's trocar and tip."""
+    return (np.empty(6), np.empty(7), np.empty(7), np.empty((BLOCK_ROWS, 7)), np.empty(6),
+            np.empty((4, n)), np.empty(3), np.empty(3))  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def run_targets(
     P: FloatArray | None, arm: tuple | None, method: int, K: FloatArray, damping: float,
     tol: FloatArray, max_it: int, drift: bool, bounds: FloatArray, qpa: tuple | None,
     C: FloatArray | None, targets: FloatArray, k0: int, it0: int, s: FloatArray,
     cmd: FloatArray, state: FloatArray, rec: FloatArray, irec: np.ndarray, info: np.ndarray,
-    fail: FloatArray, plant: tuple,
+    fail: FloatArray, plant: tuple, work: tuple,
 ) -> int:  # fmt: skip
     """Algorithm 1 on targets[k0:] (from iteration it0 of target k0); returns a status.
 
@@ -70,14 +71,21 @@ def run_targets(
     index reached, actuator index for SLIDER_LIMIT, DAQP's exit flag for iRAM!S's QP_FAILED or
     the plant's check for PLANT_STOPPED) and fail the last iteration's joints, command and
     error. PAUSED means the record block rec is full, or (a plant stepping in Python) an
-    iteration ran: call again from target info[1], iteration info[2].
+    iteration ran: call again from target info[1], iteration info[2]. work: the loop's
+    scratch (`work_arrays(n)`, n = s.shape[0]).
+
+    The loop allocates nothing and is compiled without reference counts (`_jit`'s borrows):
+    the counts numba otherwise adds at every view it takes (a target's row, a record's row,
+    the command's slice of fail) were the last ones of an iteration.
     """
     if P is None and arm is None:
         raise ValueError("algorithm.run_targets: give iRAM!S's P or an arm's arrays")
     na = s.shape[0]
-    w6, d7, f7, J = work_arrays()  # iRAM!S's iteration's scratch and work block
-    w, v = np.empty(6), np.empty((4, na))
-    trocar, tip_t = np.full(3, np.nan), np.empty(3)
+    w6, d7, f7, J, w, v, trocar, tip_t = work
+    if v.shape[1] != na:
+        raise ValueError("algorithm.run_targets: work must be work_arrays(s.shape[0])")
+    for i in range(3):  # no trocar until a target states one
+        trocar[i] = np.nan
     reads, fns, address, data, substeps, dt, steps, speed, ramp, gap2 = plant[:10]
     clip_lo, clip_hi, act, ctrl, qpos, qvel, xpos, warn, act_idx, servo = plant[10:20]
     feedforward, slot, pin = plant[20:]

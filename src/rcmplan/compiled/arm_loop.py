@@ -225,9 +225,9 @@ def arm_iterate(
     else:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
     if qpa is None and method == TIP_LIMITED:
-        limit_step(K, ix, W, s, d, first, m)
+        limit_step(K, ix, W, s, d, first, m, fail[n : 2 * n])
     elif C is not None and method == CURVED_POSE_LIMITED:  # K: the gains (7,), the bounds
-        limit_step(K[7:], ix, W, s, d, first, m)
+        limit_step(K[7:], ix, W, s, d, first, m, fail[n : 2 * n])
     if holds_rcm(method):
         bound_step(None, (A, ix, W), s, d, first, m, trocar, now, bounds[1], fail[n : 2 * n], d)
     stepped(n, ix, first, m, s, d, fail[n : 2 * n])
@@ -250,9 +250,9 @@ def held_packed(F: FloatArray, Z: IntArray, q: FloatArray, lam: float, target: F
     return f != 1.0 or narrower
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def limit_step(K: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: FloatArray,
-               first: int, m: int) -> None:  # fmt: skip
+               first: int, m: int, x: FloatArray) -> None:  # fmt: skip
     """`LimitedTipSolver.step` on an arm (its actuators are its joints s), or
     `LimitedPoseSolver.step` on a curved needle's whole-pose step: the step d of the m moving
     joints ix[first:first + m] scaled by the largest f in [0, 1] that keeps each one's move
@@ -260,10 +260,10 @@ def limit_step(K: FloatArray, ix: IntArray, W: FloatArray, s: FloatArray, d: Flo
     (a joint outside that band may only move back), and with a tip speed bound K[3m + 1] > 0
     (tip speed x dt) each component of the tip's first-order step J_tip d (W's J rows, left
     by the tip step) within it; d becomes (s + f ds) - s, ds = (s + d) - s
-    (`limited_tip.step_fraction`, `tip_fraction`)."""
+    (`limited_tip.step_fraction`, `tip_fraction`). x (>= m,) is scratch."""
     n = ix[0]
     f = tip_fraction(W, 4 * (n + 1), d, m, K[3 * m + 1])
-    s_active = np.empty(m)
+    s_active = x[:m]
     for j in range(m):
         k = ix[first + j]
         s_active[j] = s[k]

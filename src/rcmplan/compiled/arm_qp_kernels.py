@@ -54,7 +54,7 @@ __all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step",
            "solve_curved_arm_step", "solve_packed", "solve_servo_step", "step_arrays"]  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def arm_kinematics(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, J: FloatArray,
                    JT: FloatArray, pts: FloatArray) -> None:  # fmt: skip
     """What the rows read (`limits.base.kinematics`) at the frames in W: J (6, w) the tip's and
@@ -75,7 +75,7 @@ def arm_kinematics(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, J: Fl
     pts[2, 0], pts[2, 1], pts[2, 2] = needle_axis(A, n, W)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def build_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
                    Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray, lam: float,
                    target: FloatArray, s: FloatArray, e: FloatArray,
@@ -85,7 +85,7 @@ def build_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
     A (`qp_rows.assemble`)."""
     n, m = ix[0], ix[1]
     J = qp[8]
-    JT, pts, _, grads = qp[15:]
+    JT, pts, _, grads = qp[15:19]
     if not holds_frames(ix, q, W):  # the loop's iteration left those of q
         frames(A, ix, q, W)
     for j in range(m):
@@ -102,7 +102,7 @@ def build_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
                     values, qp)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
                    Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray, lam: float,
                    target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray,
@@ -124,15 +124,14 @@ def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
     return flag
 
 
-@njit(cache=True)
-def planned_joints(servo: FloatArray, n: int) -> FloatArray:
+@njit(cache=True, borrows=True)
+def planned_joints(servo: FloatArray, n: int) -> None:
     """`QpSolver.planned_joints`: the servo's last command servo[:n] rounded to its resolution
-    servo[n:2n] (0: none; `control.resolution.quantised`), into servo[2n:3n], which is
-    returned."""
-    return quantised(servo[:n], servo[n : 2 * n], servo[2 * n : 3 * n])
+    servo[n:2n] (0: none; `control.resolution.quantised`), into servo[2n:3n]."""
+    quantised(servo[:n], servo[n : 2 * n], servo[2 * n : 3 * n])
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
                      Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
                      lam: float, target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray,
@@ -145,7 +144,8 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
     error at q when a joint moves at full speed), d the active joints' increments from q to
     the planned joints moved by the solution, and d lambda; W the frames of q."""
     n, m = ix[0], ix[1]
-    plan, e_plan, now = planned_joints(servo, n), servo[3 * n : 3 * n + 6], servo[3 * n + 6 :]
+    planned_joints(servo, n)
+    plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 6], servo[3 * n + 6 :]
     rows = build_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e, qp)
     flag = solve_planned(Q, K, rows, e, e_plan, qp)
     if flag != 1:
@@ -164,7 +164,7 @@ def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatAr
     return flag
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def build_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
                           Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
                           lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
@@ -206,7 +206,7 @@ def build_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
                     values, qp)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
                           Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
                           lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
@@ -222,7 +222,8 @@ def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
         flag = solve_assembled(Q, K, rows, e, qp)
         plan = q
     else:
-        plan, e_plan, now = planned_joints(servo, n), servo[3 * n : 3 * n + 7], servo[3 * n + 7 :]
+        planned_joints(servo, n)
+        plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 7], servo[3 * n + 7 :]
         rows = build_curved_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e,
                                      qp)  # fmt: skip
         flag = solve_planned(Q, K, rows, e, e_plan, qp)
@@ -252,7 +253,7 @@ def step_arrays(F: FloatArray, Z: IntArray) -> tuple:
             vec(F, Z, 6), vec(F, Z, 7), vec(F, Z, 8), vec(F, Z, 9), vec(F, Z, 10), qp)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_packed(F: FloatArray, Z: IntArray, q: FloatArray, lam: float,
                  target: FloatArray) -> int:  # fmt: skip
     """`solve_arm_step`, or with a servo (a servo array of any length) `solve_servo_step`, on

@@ -139,7 +139,7 @@ def default_settings() -> FloatArray:
     return buf
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def quadprog(
     H: FloatArray, f: FloatArray, A: FloatArray, upper: FloatArray, lower: FloatArray,
     sense: np.ndarray, n_bounds: int, n_rows: int, x: FloatArray, lam: FloatArray,

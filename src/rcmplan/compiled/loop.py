@@ -37,7 +37,7 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled.kernels import jacobian_a, solve_augmented, task
 from rcmplan.compiled.packed import mat, vec
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
-from rcmplan.compiled.qp_rows import views
+from rcmplan.compiled.qp_rows import N_BUFFERS, views
 from rcmplan.compiled.rcm_bound import bound_step, hold_box
 from rcmplan.compiled.records import (
     BAD_JOINTS,
@@ -311,7 +311,7 @@ def limit_step(
         d[i] = x[i] - q[i]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def period_step(P: FloatArray, K: FloatArray, q: FloatArray, lam: float, target: FloatArray,
                 fail: FloatArray, qpa: tuple, w: FloatArray, d: FloatArray) -> int:  # fmt: skip
     """`QpSolver.step` at joints q, lambda towards the X_ext target (6,) as the loop takes it
@@ -332,11 +332,12 @@ def period_step(P: FloatArray, K: FloatArray, q: FloatArray, lam: float, target:
 def period_arrays(F: FloatArray, Z: np.ndarray) -> tuple:
     """Views of the arrays `packed.pack` holds in F and Z, in `qp_period.period_buffers`'
     order: (P, K, fail, qpa, w, d), qpa as `qp_kernels.loop_qp` makes it."""
-    qpa = (vec(F, Z, 5), mat(F, Z, 6), views(F, Z, 7), vec(F, Z, 26), vec(F, Z, 27))
+    end = 7 + N_BUFFERS  # the solve's buffers from array 7 on, then the servo's two
+    qpa = (vec(F, Z, 5), mat(F, Z, 6), views(F, Z, 7), vec(F, Z, end), vec(F, Z, end + 1))
     return vec(F, Z, 0), vec(F, Z, 1), vec(F, Z, 2), qpa, vec(F, Z, 3), vec(F, Z, 4)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def period_packed(F: FloatArray, Z: np.ndarray, q: FloatArray, lam: float,
                   target: FloatArray) -> int:  # fmt: skip
     """`period_step` on the arrays packed in F and Z (`period_arrays`): a call from Python
@@ -345,7 +346,7 @@ def period_packed(F: FloatArray, Z: np.ndarray, q: FloatArray, lam: float,
     return period_step(P, K, q, lam, target, fail, qpa, w, d)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def qp_step(
     P: FloatArray, K: FloatArray, q: FloatArray, target: FloatArray, trocar: FloatArray,
     moved: int, bounds: FloatArray, state: FloatArray, fail: FloatArray, qpa: tuple,

@@ -117,10 +117,14 @@ def loop_runner(
     every plant run the one compiled loop."""
     loop = fast_cache.algorithm()
     args = exact_plant() if plant is None else plant
+    work: list[tuple[FloatArray, ...]] = []  # the loop's scratch, made at the first call
 
     def run(k0: int, it0: int, s: FloatArray, cmd: FloatArray, state: FloatArray,
             rec: FloatArray, irec: IntArray, info: IntArray) -> int:  # fmt: skip
-        return int(loop.run_targets(*head, k0, it0, s, cmd, state, rec, irec, info, fail, args))
+        if not work:
+            work.append(loop.work_arrays(s.shape[0]))
+        return int(loop.run_targets(*head, k0, it0, s, cmd, state, rec, irec, info, fail, args,
+                                    work[0]))  # fmt: skip
 
     return run
 

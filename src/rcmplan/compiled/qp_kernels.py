@@ -79,7 +79,7 @@ def loop_qp(
             np.zeros(6) if cmd is None else cmd)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def variable_map(P: FloatArray, tr: tuple, T: FloatArray) -> None:
     """T = d(q[active], lambda) / d(s[active], l lambda) (`limits.base.variable_map`) into T
     (w, w), whose other entries stay zero: the PCJM rates (`Iramis.joint_rates`), 1 for q4 (and
@@ -94,21 +94,19 @@ def variable_map(P: FloatArray, tr: tuple, T: FloatArray) -> None:
     T[w - 1, w - 1] = 1.0 / P[5]
 
 
-@njit(cache=True)
-def singular_rows(q: FloatArray, tr: tuple, T: FloatArray, qp: tuple) -> FloatArray:
-    """`Iramis.singular_terms` (cos q1, cos q3) into qp's values, their gradients times T into
-    its gradient rows; returns the values."""
+@njit(cache=True, borrows=True)
+def singular_rows(q: FloatArray, tr: tuple, T: FloatArray, qp: tuple) -> None:
+    """`Iramis.singular_terms` (cos q1, cos q3) into qp's values (qp[9][:2]), their gradients
+    times T into its gradient rows."""
     grads = qp[18]
     for a in range(2):
         j_q = 1 + 2 * a
         for j in range(T.shape[0]):
             grads[a, j] = -np.sin(q[j_q]) * T[j_q, j]
-    values = qp[9][:2]
-    values[0], values[1] = tr[0], tr[2]
-    return values
+    qp[9][0], qp[9][1] = tr[0], tr[2]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def kinematics(P: FloatArray, q: FloatArray, tr: tuple, lam: float, T: FloatArray,
                J: FloatArray, JT: FloatArray, pts: FloatArray) -> None:  # fmt: skip
     """What the rows read (`limits.base.kinematics`): T; J (6, 6) the tip's and the RCM
@@ -127,7 +125,7 @@ def kinematics(P: FloatArray, q: FloatArray, tr: tuple, lam: float, T: FloatArra
     pts[2, 0], pts[2, 1], pts[2, 2] = -c1 * c3, -s3, s1 * c3
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def build_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
                q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
                e: FloatArray, qp: tuple) -> int:  # fmt: skip
@@ -142,12 +140,12 @@ def build_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray
         e[i] = target[i] - e[i]
     kinematics(P, q, tr, lam, T, J, JT, pts)
     x_ext_jacobian(JT[:3], JT[6:8], JT[3:6], qp[6])
-    values = singular_rows(q, tr, T, qp)
-    return assemble(Q, contacts, K, lam, target, e, s[:5], P[7:12], P[13:18], P[5], values,
+    singular_rows(q, tr, T, qp)
+    return assemble(Q, contacts, K, lam, target, e, s[:5], P[7:12], P[13:18], P[5], qp[9][:2],
                     qp)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def build_curved_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
                       q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
                       e: FloatArray, qp: tuple, C: FloatArray) -> int:  # fmt: skip
@@ -169,11 +167,11 @@ def build_curved_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: Flo
     pts[0, 0], pts[0, 1], pts[0, 2] = tip
     point(P, q, tr, lam, pts[1])
     pts[2, 0], pts[2, 1], pts[2, 2] = a
-    values = singular_rows(q, tr, T, qp)
-    return assemble(Q, contacts, K, lam, target, e, s, P[7:13], P[13:19], P[5], values, qp)
+    singular_rows(q, tr, T, qp)
+    return assemble(Q, contacts, K, lam, target, e, s, P[7:13], P[13:19], P[5], qp[9][:2], qp)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
                q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
                e: FloatArray, qp: tuple) -> int:  # fmt: skip
@@ -184,7 +182,7 @@ def solve_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray
     return solve_assembled(Q, K, rows, e, qp)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_servo_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
                      q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
                      e: FloatArray, e_plan: FloatArray, qp: tuple) -> int:  # fmt: skip
@@ -196,7 +194,7 @@ def solve_servo_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: Floa
     return solve_planned(Q, K, rows, e, e_plan, qp)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam: float,
                     target: FloatArray, fail: FloatArray, qpa: tuple,
                     C: FloatArray | None) -> int:  # fmt: skip
@@ -240,7 +238,7 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
     return flag
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def step_joints(P: FloatArray, q: FloatArray, s: FloatArray, x: FloatArray, qn: FloatArray,
                 w: FloatArray) -> float:  # fmt: skip
     """The step of a solution x (`QpSolver.step`): joints q + (q(s + x SCALE) - q) into qn,

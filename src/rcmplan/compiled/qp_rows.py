@@ -74,6 +74,7 @@ MAX_SINGULAR = 2  # singular terms of a robot (iRAM!S: cos q1, cos q3; an arm: i
 MAX_ROWS = 4 + 1 + MAX_SINGULAR + 6 + 6 * MAX_EXTRA  # RCM box, retina, singular, tip, extras
 
 X = 10  # index of the solution x in `buffers()`
+N_BUFFERS = 20  # the arrays of `buffers()`
 
 
 def buffers(w: int, k: int = 6) -> tuple:
@@ -82,14 +83,15 @@ def buffers(w: int, k: int = 6) -> tuple:
     scratch (6,); DAQP's x,
     duals, problem, result and settings (`daqp_c.quadprog`); JT (8, w): J T's tip rows, RCM
     rows and the angle rows; the points (5, 3): tip, RCM, needle axis, target tip, the target's
-    axis; N (2, 3) and the singular terms' gradients (MAX_SINGULAR, w), scratch of the rows."""
+    axis; N (2, 3) and the singular terms' gradients (MAX_SINGULAR, w), scratch of the rows;
+    M (w + 1, w), the scratch of `cost.synchronise`."""
     rows = w + MAX_ROWS
     return (np.empty((w, w)), np.empty(w), np.zeros((MAX_ROWS, w)), np.empty(rows),
             np.empty(rows), np.zeros(rows, dtype=np.int32), np.empty((k, w)), np.zeros((w, w)),
             np.empty((6, w)), np.empty(6), np.empty(w), np.empty(rows),
             np.zeros(PROBLEM_WORDS, dtype=np.int64), np.zeros(RESULT_WORDS, dtype=np.int64),
             default_settings(), np.empty((8, w)), np.empty((5, 3)), np.empty((2, 3)),
-            np.empty((MAX_SINGULAR, w)))  # fmt: skip
+            np.empty((MAX_SINGULAR, w)), np.empty((w + 1, w)))  # fmt: skip
 
 
 @njit(cache=True, inline="always")
@@ -99,10 +101,11 @@ def views(F: FloatArray, Z: np.ndarray, k: int) -> tuple:
             vec(F, Z, k + 4), int32s(Z, k + 5), mat(F, Z, k + 6), mat(F, Z, k + 7),
             mat(F, Z, k + 8), vec(F, Z, k + 9), vec(F, Z, k + 10), vec(F, Z, k + 11),
             ints(Z, k + 12), ints(Z, k + 13), vec(F, Z, k + 14), mat(F, Z, k + 15),
-            mat(F, Z, k + 16), mat(F, Z, k + 17), mat(F, Z, k + 18))  # fmt: skip
+            mat(F, Z, k + 16), mat(F, Z, k + 17), mat(F, Z, k + 18),
+            mat(F, Z, k + 19))  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def retina_row(Q: FloatArray, contacts: FloatArray, pts: FloatArray, JT: FloatArray,
                target: FloatArray, A: FloatArray, h: FloatArray, r: int) -> int:  # fmt: skip
     """The retina barrier's row at r (`RetinaBarrier`), or none; returns the next row."""
@@ -118,7 +121,7 @@ def retina_row(Q: FloatArray, contacts: FloatArray, pts: FloatArray, JT: FloatAr
                       Q[EYE_GAIN], Q[RETINA_RECOVERY], A, h, r)  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def extra_rows(Q: FloatArray, pts: FloatArray, JT: FloatArray, A: FloatArray, h: FloatArray,
                r: int) -> int:  # fmt: skip
     """The extra limits' rows from r in the solver's order (`qp_params.EXTRA_KINDS`)."""
@@ -133,7 +136,7 @@ def extra_rows(Q: FloatArray, pts: FloatArray, JT: FloatArray, A: FloatArray, h:
     return r
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def assemble(Q: FloatArray, contacts: FloatArray, K: FloatArray, lam: float,
              target: FloatArray, e: FloatArray, s: FloatArray, lower: FloatArray,
              upper: FloatArray, length: float, values: FloatArray, qp: tuple) -> int:  # fmt: skip
@@ -144,7 +147,7 @@ def assemble(Q: FloatArray, contacts: FloatArray, K: FloatArray, lam: float,
     gradient rows, and the kinematics in qp's JT and points. Returns the number of rows of A
     (inequalities first; an RCM equality last, marked in `sense`)."""
     H, f, A, up, lo, sense, task_ = qp[:7]
-    JT, pts, N, grads = qp[15:]
+    JT, pts, N, grads = qp[15:19]
     nb, k = H.shape[0], task_.shape[0]
     weighted_cost(task_, Q[WEIGHTS : WEIGHTS + k], K, e, Q[DAMPING], H, f)
     actuator_bounds(s, lower, upper, Q[SPEED : SPEED + nb - 1], Q[TRAVEL_MARGIN], Q[DT], lam,
@@ -171,7 +174,7 @@ def assemble(Q: FloatArray, contacts: FloatArray, K: FloatArray, lam: float,
     return r
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def full_speed(Q: FloatArray, x: FloatArray) -> bool:
     """True if an active actuator moves at its full speed over dt in the solution x (w,), the
     last variable lambda's (`QpSolver.speed_limited`)."""
@@ -181,7 +184,7 @@ def full_speed(Q: FloatArray, x: FloatArray) -> bool:
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_assembled(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, qp: tuple) -> int:
     """Solve the QP `assemble` left in the buffers; returns DAQP's exit flag (1: optimal). The
     solution is in qp[X]; e (k,), the task's error on entry, becomes the error a feasible step
@@ -200,7 +203,7 @@ def solve_assembled(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, qp: 
     return flag
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solve_planned(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, e_plan: FloatArray,
                   qp: tuple) -> int:  # fmt: skip
     """`solve_assembled` for a step built at a servo's planned command (`QpSolver`'s `servo`):
@@ -210,11 +213,11 @@ def solve_planned(Q: FloatArray, K: FloatArray, rows: int, e: FloatArray, e_plan
     for i in range(e.shape[0]):
         e_plan[i] = e[i]
     nb = qp[0].shape[0]
-    synchronise(qp[0], qp[1], Q[SPEED : SPEED + nb - 1] * Q[DT] / SCALE)
+    synchronise(qp[0], qp[1], Q[SPEED : SPEED + nb - 1], Q[DT], qp[19])
     return solve_assembled(Q, K, rows, e, qp)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def lead_error(Q: FloatArray, x: FloatArray, now: FloatArray, e_plan: FloatArray,
                e: FloatArray) -> None:  # fmt: skip
     """`QpSolver.error` with a servo, from a `solve_planned` solution x: e (k,) plus the

@@ -127,7 +127,7 @@ def bound_step(P: FloatArray | None, arm: tuple | None, q: FloatArray, d: FloatA
     return total
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def arm_qp_solve(A: FloatArray, ix: IntArray, W: FloatArray, C: FloatArray | None, qpa: tuple,
                  K: FloatArray, s: FloatArray, lam: float, target: FloatArray, e: FloatArray,
                  d: FloatArray) -> int:  # fmt: skip
@@ -161,7 +161,7 @@ def qp_solve(P: FloatArray | None, arm: tuple | None, K: FloatArray, q: FloatArr
     return 0
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def solution_step(P: FloatArray | None, arm: tuple | None, q: FloatArray, first: int, m: int,
                   fail: FloatArray, qpa: tuple, d: FloatArray, x: FloatArray,
                   w: FloatArray) -> None:  # fmt: skip

@@ -50,7 +50,7 @@ def error(x: FloatArray, target: FloatArray, e: FloatArray) -> None:
     e[ROLL] = wrap(e[ROLL])
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def normal(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
     """The least-squares d[:cols] of J[:, :cols] d = (row c + B) for a tall J (cols < 7):
     (J^T J) d = J^T b."""
@@ -72,7 +72,8 @@ def normal(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
         d[i] = C[c + B, i]
 
 
-@njit(cache=True, error_model="numpy")  # a degenerate J: NaN (the loop then stops), no exception
+# a degenerate J: NaN (the loop then stops), no exception
+@njit(cache=True, borrows=True, error_model="numpy")
 def least_norm(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
     """The minimum-norm least-squares d[:cols] of J[:, :cols] d = b (row c + B) for the
     whole-pose task of seven or more joints, whose seven rows (tip, roll, needle base) have
@@ -118,7 +119,7 @@ def least_norm(C: FloatArray, c: int, cols: int, d: FloatArray) -> None:
     damped(C, r0, WIDTH - 1, cols, 0.0, c + S, rb, d)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def step(C: FloatArray, c: int, method: int, m: int, K: FloatArray, damping: float,
          shaft: float, e: FloatArray, d: FloatArray) -> None:  # fmt: skip
     """The solver's step d (m + 1,) from J_c in rows c + J.. and the error e (7,):
@@ -218,7 +219,7 @@ def arm_task_error(A: FloatArray, ix: IntArray, W: FloatArray, method: int, lam:
     return WIDTH
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def arm_step(A: FloatArray, ix: IntArray, W: FloatArray, method: int, K: FloatArray, gain: float,
          damping: float, s: FloatArray, lam: float, e: FloatArray,
          d: FloatArray) -> None:  # fmt: skip

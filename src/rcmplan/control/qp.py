@@ -235,7 +235,8 @@ class QpSolver:
             return q
         s = np.asarray(self.servo.command, dtype=float)
         if self._resolution is not None:
-            s = quantised(s, self._resolution, np.empty(s.shape[0]))
+            s, command = np.empty(s.shape[0]), s
+            quantised(command, self._resolution, s)
         key = s.tobytes()
         if key != self._plan_key:  # `error` and `step` ask in turn for the same command
             self._plan, self._plan_key = robot.joints_from_actuators(s), key
@@ -338,9 +339,10 @@ def synchronised_step(robot: RobotModel, step: StepQP, dt: float) -> StepQP:
     acceleration cannot follow such reversals, and leaves the commanded (RCM-holding) path.
     Only the linear cost term changes (it is linear in e); the limits are untouched.
     """
-    window = np.ascontiguousarray(robot.speed[list(robot.active)] * dt / SCALE)  # [QP units]
+    speed = np.ascontiguousarray(robot.speed[list(robot.active)], dtype=np.float64)
     f = np.array(step.problem.q, dtype=np.float64)
-    if synchronise(np.ascontiguousarray(step.problem.P, dtype=np.float64), f, window) <= 1.0:
+    H = np.ascontiguousarray(step.problem.P, dtype=np.float64)
+    if synchronise(H, f, speed, dt, np.empty((f.shape[0] + 1, f.shape[0]))) <= 1.0:
         return step
     return replace(step, problem=replace(step.problem, q=f))
 

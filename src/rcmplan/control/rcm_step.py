@@ -40,7 +40,7 @@ BOX_TRIES = 3  # the QP is solved again with a narrower RCM box at most this man
 BOX_GROWTH = 1.25  # the margin grows by this multiple of the excess over the box
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def step_scale(after: float, before: float, bound: float) -> float:
     """1.0 if a step leaves the needle within `bound` [m] of the trocar, or no farther than
     `before` [m]; else the factor (at least SHRINK_FLOOR) that brings a deviation `after` [m],
@@ -50,7 +50,7 @@ def step_scale(after: float, before: float, bound: float) -> float:
     return max(SHRINK_FLOOR, 0.9 * math.sqrt(bound / after))
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def box_margin(after: float, before: float, tol: float, margin: float) -> float:
     """0.0 if a QP step solved with the RCM tolerance `tol` [m] less `margin` [m] leaves the
     needle within `tol` of the trocar (`after` [m]), or no farther than `before` [m]; else

@@ -31,16 +31,15 @@ from rcmplan.robot.model import RobotModel
 MARGIN = 2.0  # the tolerance over the grid's first-order error bound at the home pose
 
 
-@njit(cache=True)
-def quantised(s: FloatArray, res: FloatArray, out: FloatArray) -> FloatArray:
+@njit(cache=True, borrows=True)
+def quantised(s: FloatArray, res: FloatArray, out: FloatArray) -> None:
     """The command s (n,) as a plant with resolution res (n,) reaches it: each s[i] rounded to
     a whole number of steps res[i] (to even on a tie; res[i] = 0: s[i] as it is), into out
-    (n,), which is returned. ValueError if res or out is not as long as s."""
+    (n,). ValueError if res or out is not as long as s."""
     if res.shape[0] != s.shape[0] or out.shape[0] != s.shape[0]:
         raise ValueError("quantised: s, res and out must have the same length")
     for i in range(s.shape[0]):
         out[i] = s[i] if res[i] == 0.0 else np.rint(s[i] / res[i]) * res[i]
-    return out
 
 
 def plant_resolution(plant: Any) -> FloatArray | None:

@@ -49,7 +49,7 @@ def work_shape(n: int, m: int, m_c: int) -> tuple[int, int]:
     return axes_row(n) + n + ck.BLOCK_ROWS, max(ck.WIDTH, m + 1, m_c + 1)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def block_row(n: int) -> int:
     """First row of the curved work block in W."""
     return axes_row(n) + n
@@ -75,7 +75,7 @@ def frame(A: FloatArray, n: int, W: FloatArray) -> tuple[tuple, tuple, tuple, tu
     return o, a, b, tip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def jacobian(A: FloatArray, ix: IntArray, W: FloatArray, lam: float, pose: bool) -> None:
     """J_c (7, m_c + 1) at the frames in W into the curved work block."""
     n = ix[0]
@@ -112,7 +112,7 @@ def tip(A: FloatArray, n: int, W: FloatArray) -> tuple[float, float, float]:
     return frame(A, n, W)[3]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam: float,
                   pose: bool, x: FloatArray) -> None:  # fmt: skip
     """Frames of q into W, X_c (or the whole pose) into x (7,) and J_c into the curved work
@@ -122,7 +122,7 @@ def task_jacobian(A: FloatArray, ix: IntArray, W: FloatArray, q: FloatArray, lam
     jacobian(A, ix, W, lam, pose)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def needle_frames(A: FloatArray, ix: IntArray, W: FloatArray, Q: FloatArray,
                   out: FloatArray) -> None:  # fmt: skip
     """For each joints row of Q (R, n): the needle base p(0), the shaft's end p(1), the shaft

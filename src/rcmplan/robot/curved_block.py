@@ -43,7 +43,7 @@ def wrap(x: float) -> float:
     return y % (2.0 * math.pi) - math.pi
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def assemble(C: FloatArray, c: int, m: int, o: tuple, tip: tuple, p: tuple, a: tuple,
              shaft: float, pose: bool) -> None:  # fmt: skip
     """J_c (7, m + 1) into rows c + J.. from the base frame's Jacobian in rows c + G..: the

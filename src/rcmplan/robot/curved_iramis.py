@@ -78,7 +78,7 @@ def task(P: FloatArray, q: FloatArray, tr: tuple, lam: float, pose: bool, x: Flo
     x[4], x[5], x[6] = o
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def jacobian(P: FloatArray, q: FloatArray, tr: tuple, lam: float, pose: bool, C: FloatArray,
              c: int, w: FloatArray) -> None:  # fmt: skip
     """J_c (7, 7) into the work block at rows c.. of C (`curved_block`)."""

@@ -13,7 +13,7 @@ from rcmplan.control.limits.rows import SCALE
 from rcmplan.robot.model import RobotModel
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def actuator_bounds(s: FloatArray, lower: FloatArray, upper: FloatArray, speed: FloatArray,
                     margin: float, dt: float, lam: float, length: float, lb: FloatArray,
                     ub: FloatArray) -> None:  # fmt: skip

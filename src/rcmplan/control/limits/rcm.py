@@ -15,7 +15,7 @@ from rcmplan.robot.chain_singular import needle_normals
 from rcmplan.robot.model import RobotModel
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def normal_basis(axis: FloatArray, N: FloatArray) -> None:
     """Two unit vectors N (2, 3) normal to a unit axis (3,) and to each other
     (`chain_singular.needle_normals`: n1 = axis x e_k normalised, e_k the first axis of smallest
@@ -25,7 +25,7 @@ def normal_basis(axis: FloatArray, N: FloatArray) -> None:
         N[0, i], N[1, i] = n1[i], n2[i]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def rcm_rows(JT_rcm: FloatArray, rcm: FloatArray, trocar: FloatArray, axis: FloatArray,
              tol: float, N: FloatArray, G: FloatArray, h: FloatArray, r: int) -> int:  # fmt: skip
     """The RCM's rows from row r: normal to the needle, N JT_rcm x = -N (p(lambda) - trocar) /

@@ -15,7 +15,7 @@ from rcmplan.control.targets import target_tip
 from rcmplan.robot.model import RobotModel
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def contact_floor(margin: float, target_depth: float, tip_target: FloatArray,
                   contacts: FloatArray, tol: float) -> float:  # fmt: skip
     """The retina floor of a step [m]: `margin`, or at a contact target (its tip within `tol`

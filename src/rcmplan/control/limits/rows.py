@@ -17,7 +17,7 @@ SCALE = 1e-6  # [m] or [rad] per unit of the decision variables
 RECOVERY = 1e-6  # [m] largest push back per step when a damped quantity is past its floor
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def damper_bound(value: float, floor: float, gain: float, recovery: float) -> float:
     """h of the row -grad x <= h that keeps value + grad x SCALE >= floor, approached at `gain`.
 
@@ -31,7 +31,7 @@ def damper_bound(value: float, floor: float, gain: float, recovery: float) -> fl
     return -need / SCALE
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def damper_rows(grads: FloatArray, values: FloatArray, floor: float, gain: float,
                 G: FloatArray, h: FloatArray, r: int) -> int:  # fmt: skip
     """One damper row per value (k,) with its gradient row grads (k, w), each kept above
@@ -43,7 +43,7 @@ def damper_rows(grads: FloatArray, values: FloatArray, floor: float, gain: float
     return r + values.shape[0]
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def sphere_row(J_point: FloatArray, point: FloatArray, center: FloatArray, value: float,
                floor: float, gain: float, recovery: float, G: FloatArray, h: FloatArray,
                r: int) -> int:  # fmt: skip
@@ -59,14 +59,14 @@ def sphere_row(J_point: FloatArray, point: FloatArray, center: FloatArray, value
     return r + 1
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def radial_gap(center: FloatArray, radius: float, point: FloatArray) -> float:
     """radius - |point - center| [m]: positive inside the sphere."""
     d0, d1, d2 = point[0] - center[0], point[1] - center[1], point[2] - center[2]
     return radius - math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def near_any(point: FloatArray, points: FloatArray, tol: float) -> bool:
     """True if `point` (3,) lies within `tol` of a row of `points` (k, 3)."""
     for c in range(points.shape[0]):
@@ -78,7 +78,7 @@ def near_any(point: FloatArray, points: FloatArray, tol: float) -> bool:
     return False
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def times(A: FloatArray, B: FloatArray, out: FloatArray) -> None:
     """out = A @ B for small matrices (compiled callers; numpy's @ from Python)."""
     for i in range(A.shape[0]):

@@ -13,7 +13,7 @@ from rcmplan.control.limits.rows import SCALE
 from rcmplan.robot.model import RobotModel
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def speed_rows(JT_tip: FloatArray, step: float, G: FloatArray, h: FloatArray, r: int) -> int:
     """Six rows from r: -step <= JT_tip x SCALE <= step per base axis (`step` [m], to first
     order). Returns r + 6."""

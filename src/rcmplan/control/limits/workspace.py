@@ -19,7 +19,7 @@ from rcmplan.robot.model import RobotModel
 PACKED = 19
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def box_rows(JT_tip: FloatArray, tip: FloatArray, box: FloatArray, G: FloatArray, h: FloatArray,
              r: int) -> int:  # fmt: skip
     """Six damper rows from row r keeping the tip's box coordinates c = R^T (tip - origin)

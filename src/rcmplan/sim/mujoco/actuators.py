@@ -109,10 +109,12 @@ class PiezoParameters:
     def quantise(self, s: FloatArray) -> FloatArray:
         """The command s (6,) rounded to the slider resolution (`control.resolution.quantised`),
         a new array."""
-        return quantised(vector("s", s, 6), self.steps(), np.empty(6))
+        out = np.empty(6)
+        quantised(vector("s", s, 6), self.steps(), out)
+        return out
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def velocity_into(target: FloatArray, s_ref: FloatArray, v_prev: FloatArray, dt: float,
                   speed: FloatArray, ramp: float, v: FloatArray) -> None:  # fmt: skip
     """The reference velocity of one period of dt [s] into v (n,): from the reference s_ref,

@@ -175,7 +175,7 @@ def plant_arrays(plant: Any) -> PlantArrays | None:
     )  # fmt: skip
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def reference_velocity(
     cmd: FloatArray, v: FloatArray, dt: float, steps: FloatArray, speed: FloatArray,
     ramp: float, lower: FloatArray, upper: FloatArray, act: FloatArray,
@@ -193,7 +193,7 @@ def reference_velocity(
     velocity_into(v[1], v[2], v[3], dt, speed, ramp, v[0])
 
 
-@njit(cache=True)
+@njit(cache=True, borrows=True)
 def advance(
     cmd: FloatArray, v: FloatArray, fns: NDArray[np.intp], model: int, data: int,
     substeps: int, dt: float, steps: FloatArray, speed: FloatArray, ramp: float, gap2: float,
