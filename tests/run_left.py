@@ -70,6 +70,8 @@ def faults(out: Path, command: str, code: int, sig: int, err: str = "", late: bo
     named = command.split("-")[0]  # "inject-mujoco": a run of inject
     if doc.get("command") != named:
         found.append(f"command {doc.get('command')!r} named by the summary of `rcmplan {named}`")
+    elif next(iter(doc)) != "command":
+        found.append(f"command named after {next(iter(doc))!r} in the summary, not first")
     found += [f"records: {f}" for f in RECORDS.get(command, run_log)(out, doc)]
     found += [f"temporary file {p.name}" for p in out.rglob("*") if ".tmp" in p.name]
     return found

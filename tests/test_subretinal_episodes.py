@@ -165,6 +165,7 @@ def test_an_interrupted_run_resumes_and_its_summary_matches_its_log(
         run_cli([*CLI, "--out", str(tmp_path)])
     cut = json.loads((tmp_path / "summary.json").read_text())
     assert cut["status"] == "interrupted" and "--resume" in cut["message"]
+    assert list(cut)[:3] == ["command", "status", "message"]  # as every command's summary
     assert cut["jobs_run"] == 3 and len(read_log(tmp_path)) == 3
 
     resumed: list[int] = []
@@ -177,6 +178,7 @@ def test_an_interrupted_run_resumes_and_its_summary_matches_its_log(
     assert doc["resumed"] == {"requested": True, "resumed_from_checkpoint": 3,
                               "started_afresh": False, "message": ""}  # fmt: skip
     assert doc["status"] == "ok" and doc["episodes_planned"] == 2 and doc["jobs_run"] == 8
+    assert list(doc)[:3] == ["command", "status", "message"]
     rows = read_log(tmp_path)
     assert sorted(int(r["id"]) for r in rows) == list(range(8))
     for method, m in doc["methods"].items():
@@ -212,6 +214,7 @@ def test_a_failed_run_writes_its_partial_summary_and_says_why(tmp_path: Path) ->
         run_cli([*CLI, "--scheduler", address, "--timeout", "1", "--out", str(tmp_path)])
     doc = json.loads((tmp_path / "summary.json").read_text())
     assert doc["status"] == "failed" and "SchedulerError" in doc["message"]
+    assert list(doc)[:3] == ["command", "status", "message"]
     assert doc["jobs_run"] == 0 and doc["episodes_planned"] == 2
     assert "success_rate" in doc["methods"]["kalman"]
 

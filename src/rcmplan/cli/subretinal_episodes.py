@@ -123,7 +123,7 @@ def write_outputs(
     from rcmplan.subretinal.episode_report import batch_summary, write_records
 
     records = result.ordered()
-    doc: dict[str, Any] = {"status": "ok", "message": "",
+    doc: dict[str, Any] = {"command": "subretinal", "status": "ok", "message": "",
                            **batch_summary(result.settings, records)}  # fmt: skip
     per_run = [r.wall_time_s for r in records]
     doc.update(executor=result.executor, wall_time_s=result.wall_time_s, resumed=resumed,
@@ -153,7 +153,8 @@ def write_partial(out: Path, batch: BatchSettings, checkpoint: EpisodeCheckpoint
             records = []
         message = (f"{one_line(why)}; {len(records)} of {batch.n_items} finished episode runs "
                    f"are kept in {checkpoint.path}; rerun with --resume to continue")  # fmt: skip
-        doc = {"status": status, "message": message, **batch_summary(batch, records),
+        doc = {"command": "subretinal", "status": status, "message": message,
+               **batch_summary(batch, records),
                "checkpoint": str(checkpoint.path)}  # fmt: skip
         write_records(records, out)
         write_json(out / "summary.json", doc)
