@@ -22,11 +22,10 @@ some 97 such adds per iteration, and as many releases, 38 % of its samples under
 loop (`algorithm.run_targets`) and every kernel it reaches borrow, the QP's assembly and solve
 among them: their scratch comes from the caller (`algorithm.work_arrays`, the QP's
 `qp_rows.buffers`), so an iteration counts no reference at all (docs/benchmarks.md). What
-such a kernel must not do is checked
-when it compiles (`check_borrows`): numba refuses an allocation without reference counts, and
-an array in its result, or in the result of a call it makes, raises TypeError. numba compiles a
-kernel called first from such a kernel without reference counts as well (and keeps that
-version for every caller): the same check holds it.
+such a kernel must not do is checked when it compiles (`check_borrows`): numba refuses an
+allocation without reference counts, and an array in its result, or in the result of a call
+it makes, raises TypeError. numba compiles a kernel called first from such a kernel without
+reference counts as well (and keeps that version for every caller): the same check holds it.
 
 numba compiles a kernel at its first call with a set of argument types and keeps it in its cache
 (`cache=True`); a later process loads it. The first compile of one of rcmplan's kernels in a

@@ -233,9 +233,10 @@ class QpSolver:
         plant's last command rounded to its resolution."""
         if self.servo is None:
             return q
-        s = np.asarray(self.servo.command, dtype=float)
-        if self._resolution is not None:
-            s, command = np.empty(s.shape[0]), s
+        command = np.asarray(self.servo.command, dtype=float)
+        s = command
+        if self._resolution is not None:  # the command as the plant rounds it
+            s = np.empty(command.shape[0])
             quantised(command, self._resolution, s)
         key = s.tobytes()
         if key != self._plan_key:  # `error` and `step` ask in turn for the same command
