@@ -13,6 +13,7 @@ from heavy import HEAVY
 from rcmplan import Iramis
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled import qp_phase
+from rcmplan.compiled.phase import free_step_qpa
 from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.runner import fast_converge_phase
 from rcmplan.control import LoopSettings, Phase, PinvSolver
@@ -286,6 +287,23 @@ def test_the_limited_free_step_runs_compiled_and_equals_the_reference(robot: Ira
     bound = robot.speed * 1e-3
     assert np.all(moves <= bound * (1 + 1e-9))
     assert np.any(moves >= bound * (1 - 1e-9))  # the speed bound was active
+
+
+def test_a_qp_runs_free_step_runs_the_qps_loop_with_the_same_records(robot: Iramis) -> None:
+    """In a run the QP drives, a phase of its free-space step passes the QP's arrays to the
+    compiled loop (`phase.free_step_qpa`), unread: its records equal to the bit those of the
+    same step in a run the pinv solver drives, which passes none."""
+    eye = default_eye(robot)
+    qp = QpSolver(robot, eye)
+    phases = injection(robot, eye, default_points(eye))[:1]  # the approach, in free space
+    with_qp = Controller(KinematicPlant(robot), qp)
+    without = Controller(KinematicPlant(robot), PinvSolver(), qp.free_solver())
+    assert free_step_qpa(with_qp, with_qp.free_solver) is not None
+    assert free_step_qpa(without, without.free_solver) is None
+    a, b = with_qp.run(phases), without.run(phases)
+    assert with_qp.phase_paths == without.phase_paths == {"approach": "compiled"}
+    assert len(a) > 100
+    same_log(a, b, 0.0, nonempty=True)
 
 
 def test_the_limited_free_step_with_a_tip_speed_runs_compiled_and_equals_the_reference(
