@@ -96,10 +96,9 @@ def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:
     axis = tips - trocar
     with np.errstate(invalid="ignore", divide="ignore"):
         u = axis / np.linalg.norm(axis, axis=1, keepdims=True)
-    out = np.empty((tips.shape[0], 6))
-    out[:, 0] = tips[:, 0]
-    axes_angles(u, out[:, 1:3])
-    out[:, 3:] = trocar
+    out, angles = np.empty((tips.shape[0], 6)), np.empty((tips.shape[0], 2))
+    axes_angles(u, angles)  # a C-contiguous array for any N: one compiled version
+    out[:, 0], out[:, 1:3], out[:, 3:] = tips[:, 0], angles, trocar
     return out
 
 
