@@ -74,7 +74,8 @@ def _steps(P: Any, Q: Any, contacts: Any, K: Any, states: Any, s: Any, e: Any, q
     ok = 0
     for i in range(states.shape[0]):
         q = states[i, :6]
-        ok += solve_step(P, Q, contacts, K, q, trig(q), states[i, 6], states[i, 7:], s, e, qp) == 1
+        x, lam = states[i, 7:], states[i, 6]
+        ok += solve_step(P, Q, contacts, K, q, trig(q), lam, x, s, e, qp, e[:0]) == 1
     return ok
 
 

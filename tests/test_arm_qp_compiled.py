@@ -210,7 +210,7 @@ def test_the_qp_with_a_servo_on_the_dynamic_mujoco_arm_runs_in_the_arm_loop(
     arm: SerialArm,
 ) -> None:
     """On the dynamic MuJoCo plant the QP plans from the servo's last command
-    (`arm_qp_kernels.solve_servo_step`), one compiled call per period."""
+    (`arm_qp_kernels.solve_arm_step` with its servo array), one compiled call per period."""
     from rcmplan.control.methods import make_solver
     from rcmplan.sim.registry import make_plant
 
@@ -286,7 +286,7 @@ def test_error_and_step_at_one_state_share_one_servo_solve(
     plant = ServoPlant(arm)
     fast = ArmQpStep(QpSolver(arm, None, servo=plant))
     calls: list[int] = []
-    solve = fast._k.solve_packed  # the one compiled call per solve (`solve_servo_step` inside)
+    solve = fast._k.solve_packed  # the one compiled call per solve (`solve_arm_step` inside)
     monkeypatch.setattr(fast._k, "solve_packed", lambda *a: calls.append(1) or solve(*a))
     q, lam, target = next(states(arm, np.random.default_rng(1), 1, spread=1e-6))
     plant.lead = q + 1e-4
@@ -302,7 +302,7 @@ def test_the_compiled_arm_step_plans_from_a_servos_command_as_the_solver_does(
 ) -> None:
     """With a servo the QP is built at its last command rounded to its resolution, the cost
     synchronised to the speed window, the error J x* / K plus the command's lead, the step from
-    the measured joints (`QpSolver`'s servo plan; `arm_qp_kernels.solve_servo_step`)."""
+    the measured joints (`QpSolver`'s servo plan; `arm_qp_kernels.solve_arm_step`)."""
     from rcmplan.compiled.qp_period import period_step
 
     plant = ServoPlant(arm)

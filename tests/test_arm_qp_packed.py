@@ -55,12 +55,10 @@ def separate_solve(fast: ArmQpStep, solver: QpSolver, q: np.ndarray, lam: float,
     """The step's kernel called on freshly allocated arrays (not packed), as before the
     packing: (flag, e, d)."""
     A, ix, W, travel, Q, contacts, K, s, e, d, servo, *qp = step_buffers(solver, fast.K.copy())
-    args = (A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d, tuple(qp))
     if servo.shape[0]:
         servo[: fast.n] = np.asarray(solver.servo.command)  # type: ignore[union-attr]
-        flag = fast._k.solve_servo_step(*args, servo)
-    else:
-        flag = fast._k.solve_arm_step(*args)
+    flag = fast._k.solve_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d,
+                                  tuple(qp), servo)  # fmt: skip
     return flag, e, d
 
 

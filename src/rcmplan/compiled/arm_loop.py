@@ -16,8 +16,8 @@ NaN-padded. Stops return the status codes of `rcmplan.compiled.records`.
 
 The QP controller (method QP, a `QpSolver` that `arm_qp.arm_qp_applies` accepts) takes the same
 loop: its error (J x* / K) and step come from one solve (`arm_qp_kernels.solve_arm_step`) in place
-of the error and step kernels (with a servo, planned from the plant's last command:
-`solve_servo_step`); `qpa` carries what the solve reads (`arm_phase.qp_arrays`), and a solve
+of the error and step kernels (with a servo, planned from the plant's last command);
+`qpa` carries what the solve reads (`arm_phase.qp_arrays`), and a solve
 DAQP does not finish optimally stops the loop with QP_FAILED (DAQP's exit flag in qpa[5]).
 A curved needle (method codes from CURVED on, the arrays of `rcmplan.compiled.curved`) takes the
 same loop: its error, step and tip come from `curved_arm`, the roll joint moves with the others

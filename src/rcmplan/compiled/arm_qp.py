@@ -68,7 +68,7 @@ def qp_arrays(solver: object, n: int) -> tuple | None:
     active joints of the solver's robot (a curved needle's robot: the roll among them):
     travel (2, m), the settings Q and contacts (`qp_params`, extra limits as they are now), the
     solve's buffers (`qp_rows.buffers`), the active joints (m,), DAQP's exit flag (1,) and with
-    a servo its array (`arm_qp_kernels.solve_servo_step`: the command, filled before each
+    a servo its array (`arm_qp_kernels.solve_arm_step`'s: the command, filled before each
     solve by `servo_command`, the resolution, scratch), else (0,). None for another solver."""
     curved = isinstance(solver, QpSolver) and curved_qp_applies(solver)
     if not (isinstance(solver, QpSolver) and (curved or arm_qp_applies(solver))):

@@ -51,7 +51,7 @@ from rcmplan.robot.chain_kinematics import (
 from rcmplan.robot.chain_singular import singular_terms
 
 __all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step",
-           "solve_curved_arm_step", "solve_packed", "solve_servo_step", "step_arrays"]  # fmt: skip
+           "solve_curved_arm_step", "solve_packed", "step_arrays"]  # fmt: skip
 
 
 @njit(cache=True, borrows=True)
@@ -103,28 +103,6 @@ def build_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArra
 
 
 @njit(cache=True, borrows=True)
-def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
-                   Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray, lam: float,
-                   target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray,
-                   qp: tuple) -> int:  # fmt: skip
-    """One QP step at (q, lambda): build and solve the QP; returns DAQP's exit flag (1:
-    optimal). Then e (6,) holds `QpSolver.error` (J x* / K, or the plain X_ext error when a
-    joint moves at full speed) and d (m + 1,) `QpSolver.step`: the active joints' increments
-    (q + x SCALE) - q and d lambda."""
-    rows = build_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, qp)
-    flag = solve_assembled(Q, K, rows, e, qp)
-    if flag != 1:
-        return flag
-    n, m = ix[0], ix[1]
-    x = qp[X]
-    for j in range(m):  # `qp.joints_step`: the actuators moved by x, as joints
-        k = ix[2 + n + j]
-        d[j] = (q[k] + x[j] * SCALE) - q[k]
-    d[m] = x[m] * SCALE / A[5 * n + 12, 0]
-    return flag
-
-
-@njit(cache=True, borrows=True)
 def planned_joints(servo: FloatArray, n: int) -> None:
     """`QpSolver.planned_joints`: the servo's last command servo[:n] rounded to its resolution
     servo[n:2n] (0: none; `control.resolution.quantised`), into servo[2n:3n]."""
@@ -132,32 +110,42 @@ def planned_joints(servo: FloatArray, n: int) -> None:
 
 
 @njit(cache=True, borrows=True)
-def solve_servo_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
-                     Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
-                     lam: float, target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray,
-                     qp: tuple, servo: FloatArray) -> int:  # fmt: skip
-    """One QP step at the measured joints q with a servo (`QpSolver`'s `servo`, `control/qp.py`'s
-    module docstring): the QP built at the plant's last command rounded to its resolution
-    (servo = (command (n,), resolution (n,), 0: none), then scratch (n + 12,)), its cost
-    synchronised to the speed window (`cost.synchronise`); returns DAQP's exit flag. Then e
-    holds `QpSolver.error` (J x* / K plus the command's lead X(q) - X(plan), or the plain X_ext
-    error at q when a joint moves at full speed), d the active joints' increments from q to
-    the planned joints moved by the solution, and d lambda; W the frames of q."""
+def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
+                   Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray, lam: float,
+                   target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray, qp: tuple,
+                   servo: FloatArray) -> int:  # fmt: skip
+    """One QP step at the measured joints q: build and solve the QP; returns DAQP's exit flag
+    (1: optimal). Then e (6,) holds `QpSolver.error` (J x* / K, or the plain X_ext error at q
+    when a joint moves at full speed) and d (m + 1,) `QpSolver.step`: the active joints'
+    increments and d lambda.
+
+    Without a servo (servo (0,)) the QP is built at q and d = (q + x SCALE) - q. With one
+    (`QpSolver`'s `servo`, `control/qp.py`'s module docstring; servo = (command (n,),
+    resolution (n,), 0: none), then scratch (n + 12,)) it is built at the plant's last command
+    rounded to its resolution, its cost synchronised to the speed window (`cost.synchronise`);
+    e adds the command's lead X(q) - X(plan), d runs from q to the plan moved by the solution,
+    and W holds the frames of q."""
     n, m = ix[0], ix[1]
-    planned_joints(servo, n)
-    plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 6], servo[3 * n + 6 :]
-    rows = build_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e, qp)
-    flag = solve_planned(Q, K, rows, e, e_plan, qp)
+    if servo.shape[0] == 0:
+        rows = build_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, qp)
+        flag = solve_assembled(Q, K, rows, e, qp)
+        plan = q
+    else:
+        planned_joints(servo, n)
+        plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 6], servo[3 * n + 6 :]
+        rows = build_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e, qp)
+        flag = solve_planned(Q, K, rows, e, e_plan, qp)
+        if flag == 1:  # X_ext's error at the measured joints, and the command's lead
+            if not holds_frames(ix, q, W):  # the plan's are there, unless it is q
+                frames(A, ix, q, W)
+            task_at(A, n, W, lam, now)
+            for i in range(6):
+                now[i] = target[i] - now[i]
+            lead_error(Q, qp[X], now, e_plan, e)
     if flag != 1:
         return flag
-    if not holds_frames(ix, q, W):  # the plan's are there, unless it is q
-        frames(A, ix, q, W)
-    task_at(A, n, W, lam, now)  # X_ext at the measured joints, then its error
-    for i in range(6):
-        now[i] = target[i] - now[i]
     x = qp[X]
-    lead_error(Q, x, now, e_plan, e)
-    for j in range(m):  # `qp.joints_step` from q
+    for j in range(m):  # `qp.joints_step`: the active joints moved by x, from the plan
         k = ix[2 + n + j]
         d[j] = (plan[k] + x[j] * SCALE) - q[k]
     d[m] = x[m] * SCALE / A[5 * n + 12, 0]
@@ -211,7 +199,7 @@ def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
                           Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
                           lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
                           d: FloatArray, qp: tuple, servo: FloatArray) -> int:  # fmt: skip
-    """`solve_arm_step` (or with a servo, a servo array of any length, `solve_servo_step`) for
+    """`solve_arm_step` (with a servo if the servo array has a length) for
     a curved needle on the arm (`build_curved_arm_step`): e (7,) holds the X_c error (J_c x*
     / K, with a servo plus the command's lead), d (m_c + 1,) the step from q. With a servo,
     servo = (command (n,), resolution (n,), then scratch (n + 14,))."""
@@ -256,10 +244,7 @@ def step_arrays(F: FloatArray, Z: IntArray) -> tuple:
 @njit(cache=True, borrows=True)
 def solve_packed(F: FloatArray, Z: IntArray, q: FloatArray, lam: float,
                  target: FloatArray) -> int:  # fmt: skip
-    """`solve_arm_step`, or with a servo (a servo array of any length) `solve_servo_step`, on
-    the arrays packed in F and Z (`step_arrays`); returns DAQP's exit flag."""
+    """`solve_arm_step` (with a servo if the servo array has a length) on the arrays packed in
+    F and Z (`step_arrays`); returns DAQP's exit flag."""
     A, ix, W, travel, Q, contacts, K, s, e, d, servo, qp = step_arrays(F, Z)
-    if servo.shape[0] > 0:
-        return solve_servo_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d, qp,
-                                servo)  # fmt: skip
-    return solve_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d, qp)
+    return solve_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d, qp, servo)

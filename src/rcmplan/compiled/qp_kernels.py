@@ -47,7 +47,6 @@ __all__ = [
     "build_step",
     "iteration_error",
     "loop_qp",
-    "solve_servo_step",
     "solve_step",
     "step_joints",
 ]
@@ -174,23 +173,16 @@ def build_curved_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: Flo
 @njit(cache=True, borrows=True)
 def solve_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
                q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
-               e: FloatArray, qp: tuple) -> int:  # fmt: skip
-    """Build and solve the step's QP; returns DAQP's exit flag (1: optimal). The solution is
-    in qp[X]; e (6,) holds the error a feasible step removes, J x* / K, or the plain X_ext
-    error when an actuator moves at full speed (`QpSolver.error`)."""
+               e: FloatArray, qp: tuple, e_plan: FloatArray) -> int:  # fmt: skip
+    """Build and solve the step's QP at joints q; returns DAQP's exit flag (1: optimal). The
+    solution is in qp[X]; e (6,) holds the error a feasible step removes, J x* / K, or the
+    plain X_ext error when an actuator moves at full speed (`QpSolver.error`). e_plan (0,):
+    no servo; on a plant whose servos follow the command (`QpSolver`'s `servo`), q are the
+    joints of the plant's last command, e_plan (6,) keeps the X_ext error there and the cost
+    is synchronised to the actuators' speed window (`qp_rows.solve_planned`)."""
     rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
-    return solve_assembled(Q, K, rows, e, qp)
-
-
-@njit(cache=True, borrows=True)
-def solve_servo_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
-                     q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
-                     e: FloatArray, e_plan: FloatArray, qp: tuple) -> int:  # fmt: skip
-    """`solve_step` on a plant whose servos follow the command (`QpSolver`'s `servo`): the QP
-    built at q, the joints of the plant's last command, its X_ext error there kept in e_plan
-    (6,), its cost synchronised to the actuators' speed window (`qp.synchronised_step`), then
-    solved; returns DAQP's exit flag (1: optimal)."""
-    rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
+    if e_plan.shape[0] == 0:
+        return solve_assembled(Q, K, rows, e, qp)
     return solve_planned(Q, K, rows, e, e_plan, qp)
 
 
@@ -212,7 +204,7 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
     e, s_qp = fail[18 : 18 + k], fail[18 + k : 24 + k]
     if res.shape[0] == 0:
         if C is None:
-            return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp)
+            return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp, fail[:0])
         rows = build_curved_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp, C)
         return solve_assembled(Q, K, rows, e, qp)
     e_plan, q_plan = fail[24 + k : 24 + 2 * k], fail[24 + 2 * k : 30 + 2 * k]
@@ -220,8 +212,8 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
     quantised(cmd, res, now[:6])  # the command as the plant rounds it (`QpSolver.planned_joints`)
     joints_from_actuators(P, now[:6], q_plan)
     if C is None:
-        flag = solve_servo_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,
-                                e_plan, qp)  # fmt: skip
+        flag = solve_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e, qp,
+                          e_plan)  # fmt: skip
     else:
         rows = build_curved_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,
                                  qp, C)  # fmt: skip

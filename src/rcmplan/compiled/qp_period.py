@@ -44,7 +44,7 @@ def period_step(solver: QpSolver) -> StepFunction | None:
     if type(solver) is not QpSolver or solver.backend != "daqp" or solver.curved:
         return None
     robot = solver.robot
-    if arm_qp_applies(solver):  # with a servo too (`arm_qp_kernels.solve_servo_step`)
+    if arm_qp_applies(solver):  # with a servo too (`arm_qp_kernels.solve_arm_step`)
         return _arm_period_step(solver)
     loop = fast_cache.qp_loop() if kernel_params(robot) is not None else None
     params = None if loop is None else qp_params(robot, solver)

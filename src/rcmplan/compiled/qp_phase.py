@@ -162,7 +162,7 @@ class FastQpStep:
     """One QP step of a QpSolver assembled and solved in compiled code, from Python (tests and
     benchmarks; the loop calls the kernels directly). With a servo (`QpSolver.servo`) `solve`
     takes the joints the step is planned from (`QpSolver.planned_joints`) and synchronises the
-    cost as the reference does (`qp_kernels.solve_servo_step`).
+    cost as the reference does (`qp_kernels.solve_step`).
 
     Args:
         solver: The QP solver whose step is reproduced; its robot must be an Iramis and its eye
@@ -199,13 +199,10 @@ class FastQpStep:
         tr = self._trig(q)
         if self.solver.extra_limits:  # a moving limit's parameters as they are now
             pack_extras(self.solver, self.Q)
-        if self.solver.servo is None:
-            flag = self._k.solve_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam),
-                                      target, self.s, self.e, self.qp)  # fmt: skip
-        else:  # q: the joints of the servo's command (`QpSolver.planned_joints`)
-            flag = self._k.solve_servo_step(self.P, self.Q, self.contacts, self.K, q, tr,
-                                            float(lam), target, self.s, self.e, self.e_plan,
-                                            self.qp)  # fmt: skip
+        # with a servo q are the joints of its command (`QpSolver.planned_joints`)
+        e_plan = self.e_plan if self.solver.servo is not None else self.e_plan[:0]
+        flag = self._k.solve_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam), target,
+                                  self.s, self.e, self.qp, e_plan)  # fmt: skip
         if flag != 1:
             from rcmplan.compiled.daqp_c import exit_name
 

@@ -35,7 +35,6 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled.arm_qp_kernels import (
     solve_arm_step,
     solve_curved_arm_step,
-    solve_servo_step,
 )
 from rcmplan.compiled.chain_kernels import IntArray, frames, needle_point
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
@@ -138,12 +137,9 @@ def arm_qp_solve(A: FloatArray, ix: IntArray, W: FloatArray, C: FloatArray | Non
     if C is not None:
         flag[0] = solve_curved_arm_step(A, ix, C, travel, Q, contacts, K, s, lam, target, act,
                                         e, d, bufs, servo)  # fmt: skip
-    elif servo.shape[0] > 0:
-        flag[0] = solve_servo_step(A, ix, W, travel, Q, contacts, K, s, lam, target, act, e, d,
-                                   bufs, servo)  # fmt: skip
     else:
         flag[0] = solve_arm_step(A, ix, W, travel, Q, contacts, K, s, lam, target, act, e, d,
-                                 bufs)  # fmt: skip
+                                 bufs, servo)  # fmt: skip
     return flag[0]
 
 
