@@ -57,8 +57,8 @@ def separate_solve(fast: ArmQpStep, solver: QpSolver, q: np.ndarray, lam: float,
     A, ix, W, travel, Q, contacts, K, s, e, d, servo, *qp = step_buffers(solver, fast.K.copy())
     if servo.shape[0]:
         servo[: fast.n] = np.asarray(solver.servo.command)  # type: ignore[union-attr]
-    flag = fast._k.solve_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d,
-                                  tuple(qp), servo)  # fmt: skip
+    flag = fast._k.solve_arm_step(A, ix, W, None, travel, Q, contacts, K, q, lam, target, s, e,
+                                  d, tuple(qp), servo)  # fmt: skip
     return flag, e, d
 
 

@@ -108,7 +108,7 @@ def test_a_curved_needle_on_an_arms_mujoco_plant_runs_compiled_with_the_python_l
 ) -> None:
     """The same on the UR5's dynamic plant: the arm's iteration in the one compiled loop, which
     runs the `ArmPlant`'s period (`arm_phase.run_arm_phase_compiled`); the QP planned from the
-    plant's last command (`arm_qp_kernels.solve_curved_arm_step` with the servo's array)."""
+    plant's last command (`arm_qp_kernels.solve_arm_step` with the servo's array)."""
     ref, ref_plant, ref_ctl = run("off", solver, "ur5")
     got, plant, ctl = run("on", solver, "ur5")
     assert ref_ctl.phase_paths == {"aside": "reference", "along": "reference"}

@@ -101,7 +101,7 @@ def test_the_compiled_curved_step_equals_build_step_at_many_states(robot: Curved
 
 def test_the_arm_s_compiled_curved_step_equals_the_python_qp(rng) -> None:  # type: ignore[no-untyped-def]
     """The UR5 holding the curved needle: the cost, the variable bounds, the solution, the
-    error and the step of the arm loop's solve (`arm_qp_kernels.solve_curved_arm_step`)
+    error and the step of the arm loop's solve (`arm_qp_kernels.solve_arm_step` given its work array)
     against `qp_problem.build_step` solved by DAQP through `qp_backends` (`QpSolver._solve`'s
     path: the random states' targets need not pass the solver's target check)."""
     base = make_robot("ur5")
@@ -119,8 +119,8 @@ def test_the_arm_s_compiled_curved_step_equals_the_python_qp(rng) -> None:  # ty
             q = robot.home + rng.normal(0.0, 0.05, arrays.n)
             lam = float(rng.uniform(0.2, 0.9))
             target = stack_value(CURVED_TASKS, robot, q + rng.normal(0.0, 1e-3, arrays.n), lam)
-            flag = k.solve_curved_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s,
-                                           e, d, qp, np.zeros(0))  # fmt: skip
+            flag = k.solve_arm_step(A, ix, W, W, travel, Q, contacts, K, q, lam, target, s, e, d,
+                                    qp, np.zeros(0))  # fmt: skip
             e_ref = solver.task_error(robot, q, lam, target)
             inp = StepInput(q, lam, target, e_ref, solver.K, solver.damping, solver.dt,
                             solver.weights)  # fmt: skip

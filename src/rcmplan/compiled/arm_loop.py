@@ -23,8 +23,9 @@ A curved needle (method codes from CURVED on, the arrays of `rcmplan.compiled.cu
 same loop: its error, step and tip come from `curved_arm`, the roll joint moves with the others
 (the curved needle's active joints), its rows have the roll error column
 (`record_columns(n, roll=True)`) and `fail` a 7-row error. Its QP (CURVED_QP) solves on X_c's
-rows (`arm_qp_kernels.solve_curved_arm_step`), its QP's free-space step (CURVED_POSE_LIMITED) is
-the whole-pose step limited as TIP_LIMITED limits the tip step (`limit_step`).
+rows (`arm_qp_kernels.solve_arm_step` given its work array), its QP's free-space step
+(CURVED_POSE_LIMITED) is the whole-pose step limited as TIP_LIMITED limits the tip step
+(`limit_step`).
 """
 
 from __future__ import annotations

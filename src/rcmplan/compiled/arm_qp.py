@@ -54,7 +54,7 @@ def curved_qp_applies(solver: object) -> bool:
     """True for a curved needle's QpSolver the arm loop runs (method CURVED_QP): the DAQP back
     end, a `CurvedTipRobot` itself holding the needle on an arm (`curved.curved_arrays`: an
     arm's arrays), the settings the kernels hold (`qp_params`); with a servo the QP is planned
-    from its command (`arm_qp_kernels.solve_curved_arm_step`)."""
+    from its command (`arm_qp_kernels.solve_arm_step` given its work array)."""
     if type(solver) is not QpSolver or solver.backend != "daqp" or not solver.curved:
         return False
     arrays = curved_arrays(solver.robot)

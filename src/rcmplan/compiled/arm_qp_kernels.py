@@ -50,8 +50,8 @@ from rcmplan.robot.chain_kinematics import (
 )
 from rcmplan.robot.chain_singular import singular_terms
 
-__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step",
-           "solve_curved_arm_step", "solve_packed", "step_arrays"]  # fmt: skip
+__all__ = ["arm_kinematics", "buffers", "build_arm_step", "solve_arm_step", "solve_packed",
+           "step_arrays"]  # fmt: skip
 
 
 @njit(cache=True, borrows=True)
@@ -110,49 +110,6 @@ def planned_joints(servo: FloatArray, n: int) -> None:
 
 
 @njit(cache=True, borrows=True)
-def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
-                   Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray, lam: float,
-                   target: FloatArray, s: FloatArray, e: FloatArray, d: FloatArray, qp: tuple,
-                   servo: FloatArray) -> int:  # fmt: skip
-    """One QP step at the measured joints q: build and solve the QP; returns DAQP's exit flag
-    (1: optimal). Then e (6,) holds `QpSolver.error` (J x* / K, or the plain X_ext error at q
-    when a joint moves at full speed) and d (m + 1,) `QpSolver.step`: the active joints'
-    increments and d lambda.
-
-    Without a servo (servo (0,)) the QP is built at q and d = (q + x SCALE) - q. With one
-    (`QpSolver`'s `servo`, `control/qp.py`'s module docstring; servo = (command (n,),
-    resolution (n,), 0: none), then scratch (n + 12,)) it is built at the plant's last command
-    rounded to its resolution, its cost synchronised to the speed window (`cost.synchronise`);
-    e adds the command's lead X(q) - X(plan), d runs from q to the plan moved by the solution,
-    and W holds the frames of q."""
-    n, m = ix[0], ix[1]
-    if servo.shape[0] == 0:
-        rows = build_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, qp)
-        flag = solve_assembled(Q, K, rows, e, qp)
-        plan = q
-    else:
-        planned_joints(servo, n)
-        plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 6], servo[3 * n + 6 :]
-        rows = build_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e, qp)
-        flag = solve_planned(Q, K, rows, e, e_plan, qp)
-        if flag == 1:  # X_ext's error at the measured joints, and the command's lead
-            if not holds_frames(ix, q, W):  # the plan's are there, unless it is q
-                frames(A, ix, q, W)
-            task_at(A, n, W, lam, now)
-            for i in range(6):
-                now[i] = target[i] - now[i]
-            lead_error(Q, qp[X], now, e_plan, e)
-    if flag != 1:
-        return flag
-    x = qp[X]
-    for j in range(m):  # `qp.joints_step`: the active joints moved by x, from the plan
-        k = ix[2 + n + j]
-        d[j] = (plan[k] + x[j] * SCALE) - q[k]
-    d[m] = x[m] * SCALE / A[5 * n + 12, 0]
-    return flag
-
-
-@njit(cache=True, borrows=True)
 def build_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
                           Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
                           lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
@@ -195,39 +152,63 @@ def build_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: Fl
 
 
 @njit(cache=True, borrows=True)
-def solve_curved_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, travel: FloatArray,
-                          Q: FloatArray, contacts: FloatArray, K: FloatArray, q: FloatArray,
-                          lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
-                          d: FloatArray, qp: tuple, servo: FloatArray) -> int:  # fmt: skip
-    """`solve_arm_step` (with a servo if the servo array has a length) for
-    a curved needle on the arm (`build_curved_arm_step`): e (7,) holds the X_c error (J_c x*
-    / K, with a servo plus the command's lead), d (m_c + 1,) the step from q. With a servo,
-    servo = (command (n,), resolution (n,), then scratch (n + 14,))."""
+def solve_arm_step(A: FloatArray, ix: IntArray, W: FloatArray, C: FloatArray | None,
+                   travel: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
+                   q: FloatArray, lam: float, target: FloatArray, s: FloatArray, e: FloatArray,
+                   d: FloatArray, qp: tuple, servo: FloatArray) -> int:  # fmt: skip
+    """One QP step at the measured joints q: build and solve the QP; returns DAQP's exit flag
+    (1: optimal). Then e holds `QpSolver.error` (J x* / K, or the plain task error at q when a
+    joint moves at full speed) and d `QpSolver.step`: the moving joints' increments and
+    d lambda.
+
+    C None: a straight needle (`build_arm_step`: X_ext's error (6,), the active joints'
+    step (m + 1,)); else a curved needle's work array, used in W's place
+    (`build_curved_arm_step`: X_c's error (7,), the step (m_c + 1,) of its active joints, the
+    roll among them). Without a servo (servo (0,)) the QP is built at q and d = (q + x SCALE)
+    - q. With one (`QpSolver`'s `servo`, `control/qp.py`'s module docstring; servo = (command
+    (n,), resolution (n,), 0: none), then scratch (n + 12,), a curved needle's (n + 14,)) it
+    is built at the plant's last command rounded to its resolution, its cost synchronised to
+    the speed window (`cost.synchronise`); e adds the command's lead X(q) - X(plan), d runs
+    from q to the plan moved by the solution, and the work array holds the frames of q."""
     n = ix[0]
-    first, mc = curved_arm.active_span(ix)
-    if servo.shape[0] == 0:
-        rows = build_curved_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, qp)
-        flag = solve_assembled(Q, K, rows, e, qp)
-        plan = q
-    else:
+    first, m, k = 2 + n, ix[1], 6  # the moving joints ix[first:first + m]; the task's rows
+    if C is not None:
+        first, m = curved_arm.active_span(ix)
+        k = 7
+    plan = q
+    if servo.shape[0] > 0:
         planned_joints(servo, n)
-        plan, e_plan, now = servo[2 * n : 3 * n], servo[3 * n : 3 * n + 7], servo[3 * n + 7 :]
-        rows = build_curved_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e,
+        plan = servo[2 * n : 3 * n]
+    if C is None:
+        rows = build_arm_step(A, ix, W, travel, Q, contacts, K, plan, lam, target, s, e, qp)
+    else:
+        rows = build_curved_arm_step(A, ix, C, travel, Q, contacts, K, plan, lam, target, s, e,
                                      qp)  # fmt: skip
+    if servo.shape[0] == 0:
+        flag = solve_assembled(Q, K, rows, e, qp)
+    else:
+        e_plan, now = servo[3 * n : 3 * n + k], servo[3 * n + k :]
         flag = solve_planned(Q, K, rows, e, e_plan, qp)
-        if flag == 1:  # X_c's error at the measured joints, and the command's lead
-            if not holds_frames(ix, q, W):  # the plan's are there, unless it is q
-                frames(A, ix, q, W)
-            curved_arm.task(A, n, W, lam, False, now)
-            curved_step.error(now, target, now)
-            lead_error(Q, qp[X], now[:7], e_plan, e)
+        if flag == 1:  # the task's error at the measured joints, and the command's lead
+            if C is None:
+                if not holds_frames(ix, q, W):  # the plan's are there, unless it is q
+                    frames(A, ix, q, W)
+                task_at(A, n, W, lam, now)
+                for i in range(6):
+                    now[i] = target[i] - now[i]
+            else:
+                if not holds_frames(ix, q, C):
+                    frames(A, ix, q, C)
+                curved_arm.task(A, n, C, lam, False, now)
+                curved_step.error(now, target, now)
+            lead_error(Q, qp[X], now[:k], e_plan, e)
     if flag != 1:
         return flag
     x = qp[X]
-    for j in range(mc):  # `qp.joints_step`: the joints moved by x, from the plan
-        k = ix[first + j]
-        d[j] = (plan[k] + x[j] * SCALE) - q[k]
-    d[mc] = x[mc] * SCALE / A[5 * n + 12, 0]
+    for j in range(m):  # `qp.joints_step`: the moving joints moved by x, from the plan
+        i = ix[first + j]
+        d[j] = (plan[i] + x[j] * SCALE) - q[i]
+    d[m] = x[m] * SCALE / A[5 * n + 12, 0]
     return flag
 
 
@@ -247,4 +228,5 @@ def solve_packed(F: FloatArray, Z: IntArray, q: FloatArray, lam: float,
     """`solve_arm_step` (with a servo if the servo array has a length) on the arrays packed in
     F and Z (`step_arrays`); returns DAQP's exit flag."""
     A, ix, W, travel, Q, contacts, K, s, e, d, servo, qp = step_arrays(F, Z)
-    return solve_arm_step(A, ix, W, travel, Q, contacts, K, q, lam, target, s, e, d, qp, servo)
+    return solve_arm_step(A, ix, W, None, travel, Q, contacts, K, q, lam, target, s, e, d, qp,
+                          servo)  # fmt: skip

@@ -32,10 +32,7 @@ import math
 
 from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
-from rcmplan.compiled.arm_qp_kernels import (
-    solve_arm_step,
-    solve_curved_arm_step,
-)
+from rcmplan.compiled.arm_qp_kernels import solve_arm_step
 from rcmplan.compiled.chain_kernels import IntArray, frames, needle_point
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
 from rcmplan.compiled.qp_params import RCM_TOL
@@ -134,12 +131,8 @@ def arm_qp_solve(A: FloatArray, ix: IntArray, W: FloatArray, C: FloatArray | Non
     array) or a straight one's, planned from its servo's command if it has one; returns DAQP's
     exit flag, kept in qpa's flag."""
     travel, Q, contacts, bufs, act, flag, servo = qpa
-    if C is not None:
-        flag[0] = solve_curved_arm_step(A, ix, C, travel, Q, contacts, K, s, lam, target, act,
-                                        e, d, bufs, servo)  # fmt: skip
-    else:
-        flag[0] = solve_arm_step(A, ix, W, travel, Q, contacts, K, s, lam, target, act, e, d,
-                                 bufs, servo)  # fmt: skip
+    flag[0] = solve_arm_step(A, ix, W, C, travel, Q, contacts, K, s, lam, target, act, e, d, bufs,
+                             servo)  # fmt: skip
     return flag[0]
 
 
