@@ -75,7 +75,7 @@ def _steps(P: Any, Q: Any, contacts: Any, K: Any, states: Any, s: Any, e: Any, q
     for i in range(states.shape[0]):
         q = states[i, :6]
         x, lam = states[i, 7:], states[i, 6]
-        ok += solve_step(P, Q, contacts, K, q, trig(q), lam, x, s, e, qp, e[:0]) == 1
+        ok += solve_step(P, Q, contacts, K, q, trig(q), lam, x, s, e, qp, None, e[:0]) == 1
     return ok
 
 

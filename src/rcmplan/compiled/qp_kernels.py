@@ -173,14 +173,20 @@ def build_curved_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: Flo
 @njit(cache=True, borrows=True)
 def solve_step(P: FloatArray, Q: FloatArray, contacts: FloatArray, K: FloatArray,
                q: FloatArray, tr: tuple, lam: float, target: FloatArray, s: FloatArray,
-               e: FloatArray, qp: tuple, e_plan: FloatArray) -> int:  # fmt: skip
+               e: FloatArray, qp: tuple, C: FloatArray | None,
+               e_plan: FloatArray) -> int:  # fmt: skip
     """Build and solve the step's QP at joints q; returns DAQP's exit flag (1: optimal). The
-    solution is in qp[X]; e (6,) holds the error a feasible step removes, J x* / K, or the
-    plain X_ext error when an actuator moves at full speed (`QpSolver.error`). e_plan (0,):
-    no servo; on a plant whose servos follow the command (`QpSolver`'s `servo`), q are the
-    joints of the plant's last command, e_plan (6,) keeps the X_ext error there and the cost
-    is synchronised to the actuators' speed window (`qp_rows.solve_planned`)."""
-    rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
+    solution is in qp[X]; e holds the error a feasible step removes, J x* / K, or the plain
+    task error when an actuator moves at full speed (`QpSolver.error`). C: None for a straight
+    needle (`build_step`, X_ext's error (6,)), a curved needle's work block for its step
+    (`build_curved_step`, X_c's (7,)). e_plan (0,): no servo; on a plant whose servos follow
+    the command (`QpSolver`'s `servo`), q are the joints of the plant's last command, e_plan
+    keeps the task's error there and the cost is synchronised to the actuators' speed window
+    (`qp_rows.solve_planned`)."""
+    if C is None:
+        rows = build_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp)
+    else:
+        rows = build_curved_step(P, Q, contacts, K, q, tr, lam, target, s, e, qp, C)
     if e_plan.shape[0] == 0:
         return solve_assembled(Q, K, rows, e, qp)
     return solve_planned(Q, K, rows, e, e_plan, qp)
@@ -203,21 +209,13 @@ def iteration_error(P: FloatArray, K: FloatArray, q: FloatArray, tr: tuple, lam:
     k = 6 if C is None else 7  # the task's rows: X_ext's, or a curved needle's X_c
     e, s_qp = fail[18 : 18 + k], fail[18 + k : 24 + k]
     if res.shape[0] == 0:
-        if C is None:
-            return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp, fail[:0])
-        rows = build_curved_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp, C)
-        return solve_assembled(Q, K, rows, e, qp)
+        return solve_step(P, Q, contacts, K, q, tr, lam, target, s_qp, e, qp, C, fail[:0])
     e_plan, q_plan = fail[24 + k : 24 + 2 * k], fail[24 + 2 * k : 30 + 2 * k]
     now = fail[30 + 2 * k : 37 + 2 * k]
     quantised(cmd, res, now[:6])  # the command as the plant rounds it (`QpSolver.planned_joints`)
     joints_from_actuators(P, now[:6], q_plan)
-    if C is None:
-        flag = solve_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e, qp,
-                          e_plan)  # fmt: skip
-    else:
-        rows = build_curved_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e,
-                                 qp, C)  # fmt: skip
-        flag = solve_planned(Q, K, rows, e, e_plan, qp)
+    flag = solve_step(P, Q, contacts, K, q_plan, trig(q_plan), lam, target, s_qp, e, qp, C,
+                      e_plan)  # fmt: skip
     if flag == 1:  # the task's error at the measured joints
         if C is None:
             task(P, q, tr, lam, now[:6])

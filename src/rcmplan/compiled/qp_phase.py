@@ -202,7 +202,7 @@ class FastQpStep:
         # with a servo q are the joints of its command (`QpSolver.planned_joints`)
         e_plan = self.e_plan if self.solver.servo is not None else self.e_plan[:0]
         flag = self._k.solve_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam), target,
-                                  self.s, self.e, self.qp, e_plan)  # fmt: skip
+                                  self.s, self.e, self.qp, None, e_plan)  # fmt: skip
         if flag != 1:
             from rcmplan.compiled.daqp_c import exit_name
 
