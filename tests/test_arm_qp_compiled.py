@@ -377,24 +377,6 @@ def test_a_solve_that_fails_in_the_arm_loop_raises_the_reference_qp_error(arm: S
     assert outcomes.get("qp_error", 0) > 0, outcomes
 
 
-def test_a_qp_runs_free_step_runs_the_qps_arm_loop_with_the_same_records(arm: SerialArm) -> None:
-    """In a run the arm's QP drives, a phase of its free-space step passes the QP's arrays to
-    the compiled loop (`arm_phase._Setup`), unread: its records equal to the bit those of the
-    same step in a run the pinv solver drives, which passes none."""
-    from rcmplan.control.solvers import PinvSolver
-
-    eye = default_eye(arm)
-    qp = QpSolver(arm, eye)
-    phases = injection(arm, eye, default_points(eye))[:1]  # the approach, in free space
-    with_qp = Controller(KinematicPlant(arm), qp)
-    without = Controller(KinematicPlant(arm), PinvSolver(), qp.free_solver())
-    assert arm_phase._Setup(with_qp, with_qp.free_solver).args[9] is not None  # qpa
-    assert arm_phase._Setup(without, without.free_solver).args[9] is None
-    a, b = with_qp.run(phases), without.run(phases)
-    assert with_qp.phase_paths == without.phase_paths == {"approach": "compiled"}
-    assert_same_log(a, b, 0.0, nonempty=True)
-
-
 @pytest.mark.parametrize("given", ["QP without its arrays", "pinv with the QP's arrays"])
 def test_the_arm_loop_takes_the_qps_arrays_with_the_qp_only(arm: SerialArm, given: str) -> None:
     """The arm loop picks the QP's code by its arrays alone (numba prunes the other methods'
