@@ -11,9 +11,8 @@ import pytest
 
 from heavy import HEAVY
 from rcmplan import Iramis
-from rcmplan.compiled import arm_phase, qp_phase
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.phase import free_step_qpa
+from rcmplan.compiled import qp_phase
 from rcmplan.compiled.qp_phase import FastQpStep
 from rcmplan.compiled.runner import fast_converge_phase
 from rcmplan.control import LoopSettings, Phase, PinvSolver
@@ -30,8 +29,6 @@ from rcmplan.control.qp_problem import SCALE, StepInput, StepQP, build_step
 from rcmplan.control.targets import rcm_target
 from rcmplan.controller import Controller
 from rcmplan.exceptions import ConvergenceError, InvalidInputError, QPError
-from rcmplan.robot.model import SerialArm
-from rcmplan.robot.registry import make_robot
 from rcmplan.scene.constrained import grazing_spiral
 from rcmplan.scene.eye import default_eye, default_points, eye_frame
 from rcmplan.scene.procedures import injection
@@ -289,31 +286,6 @@ def test_the_limited_free_step_runs_compiled_and_equals_the_reference(robot: Ira
     bound = robot.speed * 1e-3
     assert np.all(moves <= bound * (1 + 1e-9))
     assert np.any(moves >= bound * (1 - 1e-9))  # the speed bound was active
-
-
-@pytest.mark.parametrize("name", ["iramis", "ur5", "panda"])
-def test_a_qp_runs_free_step_runs_the_qps_loop_with_the_same_records(name: str) -> None:
-    """In a run the QP drives, a phase of its free-space step passes the QP's arrays to the
-    compiled loop (iRAM!S: `phase.free_step_qpa`; an arm: `arm_phase._Setup`), unread: its
-    records equal to the bit those of the same step in a run the pinv solver drives, which
-    passes none."""
-    robot = make_robot(name)
-    eye = default_eye(robot)
-    qp = QpSolver(robot, eye)
-    phases = injection(robot, eye, default_points(eye))[:1]  # the approach, in free space
-    with_qp = Controller(KinematicPlant(robot), qp)
-    without = Controller(KinematicPlant(robot), PinvSolver(), qp.free_solver())
-
-    def loop_qpa(ctl: Controller) -> object:
-        if isinstance(robot, SerialArm):
-            return arm_phase._Setup(ctl, ctl.free_solver).args[9]
-        return free_step_qpa(ctl, ctl.free_solver)
-
-    assert loop_qpa(with_qp) is not None
-    assert loop_qpa(without) is None
-    a, b = with_qp.run(phases), without.run(phases)
-    assert with_qp.phase_paths == without.phase_paths == {"approach": "compiled"}
-    same_log(a, b, 0.0, nonempty=True)
 
 
 def test_the_limited_free_step_with_a_tip_speed_runs_compiled_and_equals_the_reference(

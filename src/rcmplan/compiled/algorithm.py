@@ -64,8 +64,7 @@ def run_targets(
 
     P, arm: the robot's kernel arrays, one of them None (see the module docstring); method,
     K, damping, tol: the solver's code and constants (`records.solver_arrays`); bounds:
-    (singularity threshold, RCM bound [m]); qpa: the QP's arrays for its methods (and its
-    free-space step's phases, unread), else None;
+    (singularity threshold, RCM bound [m]); qpa: the QP's arrays for its methods, else None;
     C: a curved needle's work block for its methods, else None. s (n,) and state = (lambda,
     time [s], dt [s]) are updated in place; cmd (n,) holds the last command (for a QP planned
     from its servo, the servo's command array). On return info holds (records written, target

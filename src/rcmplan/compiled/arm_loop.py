@@ -173,18 +173,16 @@ def arm_iterate(
     """One iteration from joints s (n,). Returns DONE, STEPPED (the next joints in fail[n:2n]),
     NO_CONVERGENCE, SINGULAR or QP_FAILED. state = (lambda, time [s], ...); lambda is updated.
     fail holds (q (n,), q_new (n,), error (6,), or (7,) for a curved needle). qpa: the QP's
-    arrays (`arm_phase.qp_arrays`) for the QP's methods, and unread for the free-space step of a
-    run the QP drives (`arm_phase._Setup`), else None; C: for a curved needle's methods only,
-    its work array (W itself), else None (numba leaves out the code of a branch on one of them
-    that is None: `loop.iterate`). The frames of s are computed unless W holds them
-    (`holds_frames`: the last iteration's, or its step's RCM bound's when the plant reached
-    that step exactly)."""
+    arrays (`arm_phase.qp_arrays`) for the QP's methods only, else None; C: for a curved
+    needle's methods only, its work array (W itself), else None (each picks its branches alone,
+    so that numba leaves out the other methods' code: `loop.iterate`). The frames of s are
+    computed unless W holds them (`holds_frames`: the last iteration's, or its step's RCM
+    bound's when the plant reached that step exactly)."""
     qp = method in (QP, CURVED_QP)
-    free = method in (TIP_LIMITED, CURVED_POSE_LIMITED)  # the QP's free-space steps
-    if (qp == (qpa is None) and not free) or (method >= CURVED) == (C is None):
+    if qp == (qpa is None) or (method >= CURVED) == (C is None):
         raise ValueError(
-            "arm_loop.arm_iterate: QP methods need qpa, a curved needle's methods C; "
-            "no other method takes them (the QP's free-space steps may take qpa)"
+            "arm_loop.arm_iterate: QP methods need qpa, a curved needle's methods "
+            "C, and no other method takes them"
         )
     n, m = ix[0], ix[1]
     first = 2 + n  # the moving joints: the arm's active ones
@@ -201,7 +199,7 @@ def arm_iterate(
         lam, now = closest_on_needle(A, n, W, trocar)
         if drift:
             state[0] = lam
-    if qpa is not None and qp:  # error and step from one solve (`ArmQpStep`)
+    if qpa is not None:  # error and step from one solve (`ArmQpStep`)
         ne = 6 if C is None else 7
         if arm_qp_solve(A, ix, W, C, qpa, K, s, state[0], target, e, d) != 1:
             return QP_FAILED
@@ -220,14 +218,14 @@ def arm_iterate(
         return NO_CONVERGENCE
     if is_singular(A, ix, W, bounds[0]):
         return SINGULAR
-    if qpa is not None and qp:  # the solve's step, the RCM box held on the true kinematics
+    if qpa is not None:  # the solve's step, the RCM box held on the true kinematics
         hold_box(None, (A, ix, W), K, s, state[0], target, trocar, now, first, m, fail, qpa, qpa[1],
                  C, e, d, fail[n : 2 * n], d)  # fmt: skip
     elif C is not None:
         curved_step.arm_step(A, ix, C, cm, K, gain, damping, s, state[0], e, d)
     else:
         step(A, ix, W, method, K, gain, damping, s, state[0], pivot, e, d)
-    if method == TIP_LIMITED:
+    if qpa is None and method == TIP_LIMITED:
         limit_step(K, ix, W, s, d, first, m, fail[n : 2 * n])
     elif C is not None and method == CURVED_POSE_LIMITED:  # K: the gains (7,), the bounds
         limit_step(K[7:], ix, W, s, d, first, m, fail[n : 2 * n])

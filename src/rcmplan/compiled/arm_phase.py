@@ -138,7 +138,7 @@ class _Setup:
 
     def __init__(self, controller: Controller, solver: Solver,
                  curved: CurvedArrays | None = None) -> None:  # fmt: skip
-        cfg, robot = controller.settings, controller.robot
+        cfg = controller.settings
         packed = arm_arrays(controller.robot) if curved is None else curved.arm()
         A, ix = packed  # type: ignore[misc]
         self.n, m = int(ix[0]), int(ix[1])
@@ -148,13 +148,6 @@ class _Setup:
             K = limited_K(controller.robot, solver)  # type: ignore[arg-type]
         gain = float(getattr(solver, "posture_gain", 0.0))
         self.qpa = qp_arrays(solver, self.n)
-        # A QP run's free-space step passes the QP's arrays, unread (the method is not the
-        # QP's): its phases then run the loop's version the QP's phases compiled
-        # (`phase.free_step_qpa`, iRAM!S's).
-        loop_qpa = self.qpa
-        rcm = getattr(controller, "solver", None)
-        if code in (TIP_LIMITED, CURVED_POSE_LIMITED) and getattr(rcm, "robot", None) is robot:
-            loop_qpa = qp_arrays(rcm, self.n)
         kin = fast_cache.chain_kernels()  # W holds no frames yet (`holds_frames`)
         if curved is None:
             self.W = kin.blank_work(kin.work_shape(self.n, m), self.n)
@@ -162,11 +155,12 @@ class _Setup:
         else:
             self.W = kin.blank_work(curved.work_shape(), self.n)
             self.fail, self.d = np.empty(2 * self.n + 7), np.empty(curved.m + 1)
+        robot = controller.robot
         lower = np.ascontiguousarray(robot.lower, dtype=np.float64)
         upper = np.ascontiguousarray(robot.upper, dtype=np.float64)
         arm = (A, ix, gain, lower, upper, self.W, self.d)  # `algorithm.run_targets`' arm
         self.args = (None, arm, self.code, K, damping, tol, cfg.max_iterations,
-                     bool(cfg.drift_correction), loop_bounds(controller), loop_qpa,
+                     bool(cfg.drift_correction), loop_bounds(controller), self.qpa,
                      None if curved is None else self.W)  # fmt: skip
         self.roll = curved is not None
         self.width = record_width(self.n, roll=self.roll)

@@ -216,20 +216,18 @@ def iterate(
     the actuators it was built at and its scratch after the error. J: the straight needle's
     work block (`curved_block`'s shape).
 
-    qpa: the QP's arrays (`qp_kernels.loop_qp`) for the QP's methods, and unread for the
-    free-space step of a run the QP drives (`phase.free_step_qpa`: its phases then run the
-    QP's version of the loop), else None; C: a curved needle's work block (`curved_block`) for
-    its methods only, else None (checked). numba decides `is None` on an argument while it
-    compiles, and each QP or curved branch tests it first: a loop without the QP or the curved
-    needle compiles without their code (a first default run: `docs/benchmarks.md`, the cold
-    compile row), and one with the curved needle without the straight needle's steps.
+    qpa: the QP's arrays (`qp_kernels.loop_qp`) for the QP's methods only, else None; C: a
+    curved needle's work block (`curved_block`) for its methods only, else None (checked). Each
+    branch is picked by these arrays alone, and numba decides `is None` on an argument while it
+    compiles: a loop without the QP or the curved needle compiles without their code (a first
+    default run: `docs/benchmarks.md`, the cold compile row), and one with them without the
+    other methods' code.
     """
     qp = method in (QP, CURVED_QP)
-    free = method in (TIP_LIMITED, CURVED_POSE_LIMITED)  # the QP's free-space steps
-    if (qp == (qpa is None) and not free) or (method >= CURVED) == (C is None):
+    if qp == (qpa is None) or (method >= CURVED) == (C is None):
         raise ValueError(
-            "loop.iterate: QP methods need qpa, a curved needle's methods C; "
-            "no other method takes them (the QP's free-space steps may take qpa)"
+            "loop.iterate: QP methods need qpa, a curved needle's methods C, and no "
+            "other method takes them"
         )
     q, qn, sn, e = fail[0:6], fail[6:12], fail[12:18], fail[18:]
     cm = CURVED_POSE if method == CURVED_POSE_LIMITED else method  # the curved step's method
@@ -237,7 +235,7 @@ def iterate(
     tr = trig(q)
     if holds_rcm(method) and drift:
         state[0] = closest_lambda(P, q, tr, trocar, w)
-    if qpa is not None and qp:  # error and step from one solve
+    if qpa is not None:  # error and step from one solve
         info[2] = iteration_error(P, K, q, tr, state[0], target, fail, qpa, C)
         if info[2] != 1:
             return QP_FAILED
@@ -257,7 +255,7 @@ def iterate(
         return NO_CONVERGENCE
     if singular_measure(tr[0], tr[2]) < bounds[0]:
         return SINGULAR
-    if qpa is not None and qp:  # a curved needle's QP moves the roll q5 too
+    if qpa is not None:  # a curved needle's QP moves the roll q5 too
         moved = 5 if C is None else 6
         return qp_step(P, K, q, target, trocar, moved, bounds, state, fail, qpa, C, info, w, d)
     moved = 5

@@ -20,7 +20,6 @@ from numpy.typing import NDArray
 
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.records import (
     BLOCK,
     DONE,
@@ -38,9 +37,6 @@ from rcmplan.compiled.records import (
     solver_arrays,
     where,
 )
-from rcmplan.control.curved import LimitedPoseSolver
-from rcmplan.control.limited_tip import LimitedTipSolver
-from rcmplan.control.qp import QpSolver
 from rcmplan.control.solvers import Solver
 from rcmplan.exceptions import SimulationError
 from rcmplan.robot.curved_block import BLOCK_ROWS
@@ -69,27 +65,10 @@ def run_phase_compiled(
         raise ValueError(f"the iRAM!S loop does not run solver {solver.name!r}")
     P = robot_params(controller.robot) if P is None else P
     status, info, fail, tol = run_phase_loop(controller, solver, targets, pid, sid, method, P,
-                                             free_step_qpa(controller, solver), plant,
-                                             per_target=per_target)  # fmt: skip
+                                             plant=plant, per_target=per_target)  # fmt: skip
     if status != DONE:
         k, m = int(info[1]), solver.tolerance().shape[0]
         raise_stop(controller, status, k, targets, fail, tol[:m], where(controller, pid, k))
-
-
-def free_step_qpa(controller: Controller, solver: Solver) -> tuple[Any, ...] | None:
-    """The QP's arrays (`qp_kernels.loop_qp`) for a phase of the QP's free-space step
-    (`LimitedTipSolver`, a curved needle's `LimitedPoseSolver`) in a run whose RCM solver is a
-    `QpSolver` on iRAM!S that the compiled loop runs, else None. The loop does not read them
-    (the phase's method is not the QP's), but with them the phase runs the version of the loop
-    that the QP's phases compiled (`loop.iterate`), instead of one compiled for it alone:
-    docs/benchmarks.md, the first QP run."""
-    qp = getattr(controller, "solver", None)
-    if type(solver) not in (LimitedTipSolver, LimitedPoseSolver) or type(qp) is not QpSolver:
-        return None
-    if qp.backend != "daqp" or fast_cache.qp_loop() is None:
-        return None
-    params = qp_params(controller.robot, qp)
-    return None if params is None else fast_cache.qp_kernels().loop_qp(params, curved=qp.curved)
 
 
 def run_phase_loop(
