@@ -77,6 +77,32 @@ def test_workers_must_be_positive() -> None:
         LocalExecutor(0)
 
 
+# A worker stopped while it sends a result: the length of a message and only part of it in the
+# pool's result pipe, as `terminate` can leave them (SIGTERM lands in the worker's write).
+CUT_MESSAGE = """
+import os, struct, sys, time
+from rcmplan.sweep.executors import LocalExecutor
+
+ex = LocalExecutor(2, preload=())
+pool = ex._get_pool()
+pool.submit(time.sleep, 0.01).result()  # the workers and the pool thread run
+os.write(pool._result_queue._writer.fileno(), struct.pack("!i", 1000) + bytes(10))
+time.sleep(0.2)  # the pool thread has read the 10 bytes and waits for the other 990
+ex.terminate()
+ex.close()
+print("closed")
+"""
+
+
+def test_terminating_workers_that_left_half_a_result_in_the_pipe_does_not_hang() -> None:
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-c", CUT_MESSAGE], capture_output=True, text=True,
+                          timeout=60)  # fmt: skip
+    assert done.returncode == 0 and done.stdout.strip() == "closed", done.stderr[-2000:]
+
+
 def kill_one_worker(cluster) -> None:
     """SIGKILL one worker process (its nanny starts a new one, at a new address)."""
     import os

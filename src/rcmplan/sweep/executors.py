@@ -176,6 +176,14 @@ class LocalExecutor(_ExecutorBase):
             if proc.is_alive():
                 proc.kill()
                 proc.join()
+        # A worker stopped while it sent a result leaves part of a message in the result pipe,
+        # and the pool thread waits for the rest forever (and `close`, and Python's exit, for
+        # that thread). The workers are gone, so this process holds the pipe's only write end:
+        # closing it ends that wait (end of file: the pool is broken and the thread finishes).
+        results = getattr(pool, "_result_queue", None)
+        writer = getattr(results, "_writer", None)
+        if workers and writer is not None:
+            writer.close()
 
 
 class DaskExecutor(_ExecutorBase):
