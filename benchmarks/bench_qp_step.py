@@ -7,8 +7,7 @@ Run alone: python benchmarks/bench_qp_step.py [--states N]  (or: python benchmar
   `QpSolver` (build_step in Python + daqp.solve), timed per state, against the compiled step
   (`qp_kernels.solve_step`: assembly in numba, DAQP's C function called directly), timed over
   batches of BATCH consecutive states inside compiled code (what the compiled loop pays), and
-  once per call from Python (`FastQpStep.solve`, which adds the call from Python), and the
-  step one period at a time that teleoperation and the subretinal episode call from Python
+  the step one period at a time that teleoperation and the subretinal episode call from Python
   (`qp_period.period_step`: the solve, the RCM box held, the joints' step) against the
   reference `QpSolver.step`.
 - The whole default injection with `--method qp`: `wall_time_s` of `rcmplan inject` in a new
@@ -34,8 +33,10 @@ from _common import quick, row, use_path
 from _recording import RecordingQp
 from rcmplan import Iramis
 from rcmplan._validate import FloatArray
+from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.qp_kernels import solve_step
-from rcmplan.compiled.qp_phase import FastQpStep
+from rcmplan.compiled.qp_params import qp_params
+from rcmplan.compiled.records import robot_params
 from rcmplan.control.qp import QpSolver
 from rcmplan.controller import Controller
 from rcmplan.robot.iramis_kernels import trig
@@ -79,29 +80,23 @@ def _steps(P: Any, Q: Any, contacts: Any, K: Any, states: Any, s: Any, e: Any, q
     return ok
 
 
-def compiled_step_s(fast: FastQpStep, states: FloatArray) -> FloatArray:
+def compiled_step_s(solver: QpSolver, states: FloatArray) -> FloatArray:
     """Mean time [s] per step over each batch of BATCH consecutive states, in compiled code."""
-    args = (fast.P, fast.Q, fast.contacts, fast.K)
-    _steps(*args, states[:BATCH], fast.s, fast.e, fast.qp)
+    params = qp_params(solver.robot, solver)
+    if params is None:
+        raise RuntimeError("the compiled QP step does not apply to the recorded solver")
+    K = np.ascontiguousarray(solver.K, dtype=np.float64)
+    args = (robot_params(solver.robot), *params, K)
+    s, e, qp = np.empty(6), np.empty(6), fast_cache.qp_kernels().buffers()
+    _steps(*args, states[:BATCH], s, e, qp)
     times = []
     for i in range(0, len(states) - BATCH + 1, BATCH):
         chunk = states[i : i + BATCH]
         t = time.perf_counter()
-        if _steps(*args, chunk, fast.s, fast.e, fast.qp) != BATCH:
+        if _steps(*args, chunk, s, e, qp) != BATCH:
             raise RuntimeError("a recorded step QP failed compiled")
         times.append((time.perf_counter() - t) / BATCH)
     return np.array(times)
-
-
-def python_call_s(fast: FastQpStep, states: FloatArray) -> FloatArray:
-    """Time [s] of one `FastQpStep.solve` call from Python per state."""
-    times = np.empty(len(states))
-    for i, x in enumerate(states):
-        q, lam, target = x[:6], float(x[6]), x[7:]
-        t = time.perf_counter()
-        fast.solve(q, lam, target)
-        times[i] = time.perf_counter() - t
-    return times
 
 
 def period_step_s(solver: QpSolver, states: FloatArray, passes: int = 3) -> tuple[float, float]:
@@ -139,20 +134,16 @@ def step_rows(n_states: int) -> list[dict[str, Any]]:
     """The QP step, reference against compiled, at states of the default injection."""
     states, solver = record_states()
     picked = states[np.linspace(0, len(states) - 1, n_states).astype(int)]
-    fast = FastQpStep(solver)
     ref = 1e6 * statistics.median(reference_step_s(solver, picked))
     # Consecutive states (as the loop meets them), from evenly spaced starts.
     starts = np.linspace(0, len(states) - 64, max(1, n_states // 64)).astype(int)
     runs = np.concatenate([states[s : s + 64] for s in starts])
-    comp = 1e6 * statistics.median(compiled_step_s(fast, runs))
-    call = 1e6 * statistics.median(python_call_s(fast, picked))
+    comp = 1e6 * statistics.median(compiled_step_s(solver, runs))
     period, period_ref = (1e6 * t for t in period_step_s(solver, picked))
     tag = f"default injection, {len(runs)} of {len(states)} recorded states"
     return [
         row(f"QP step (assembly + DAQP solve), compiled, median over batches of {BATCH}; {tag}",
             comp, "us", "reference Python (build_step + daqp.solve)", ref, "<= 30 us"),
-        row(f"QP step called from Python (FastQpStep.solve), median; {n_states} states", call,
-            "us", "reference Python (build_step + daqp.solve)", ref),
         row(f"QP step one period at a time from Python (qp_period.period_step: solve, RCM box "
             f"held, joints' step), lowest median of 3 passes; {n_states} states", period, "us",
             "reference Python (QpSolver.task_error + step)", period_ref, "<= 10 us"),

@@ -13,10 +13,9 @@ import numpy as np
 import pytest
 
 from rcmplan.compiled import cache as fast_cache
-from rcmplan.compiled.arm_qp import qp_arrays
+from rcmplan.compiled.arm_qp import assembled_step, qp_arrays
 from rcmplan.compiled.curved import curved_arrays
 from rcmplan.compiled.qp_params import qp_params
-from rcmplan.compiled.qp_phase import assembled_step
 from rcmplan.compiled.qp_rows import X
 from rcmplan.control import LoopSettings
 from rcmplan.control.curved import CURVED_TASKS, LimitedPoseSolver

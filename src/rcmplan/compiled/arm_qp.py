@@ -27,10 +27,10 @@ from rcmplan.compiled.arm import arm_arrays
 from rcmplan.compiled.curved import curved_arrays
 from rcmplan.compiled.packed import pack
 from rcmplan.compiled.qp_params import pack_extras, qp_params
-from rcmplan.compiled.qp_phase import assembled_step
 from rcmplan.compiled.qp_rows import buffers
+from rcmplan.control.limits.base import SCALE
 from rcmplan.control.qp import QpSolver
-from rcmplan.control.qp_problem import StepQP
+from rcmplan.control.qp_problem import QPProblem, StepQP
 from rcmplan.control.solvers import SolverKind
 from rcmplan.control.targets import checked_target
 from rcmplan.exceptions import InvalidInputError
@@ -224,3 +224,17 @@ def _finite(name: str, value: float) -> float:
 def arm_qp_step(solver: QpSolver) -> ArmQpStep | None:
     """The compiled stand-in for `solver` on its arm, or None where it does not apply."""
     return ArmQpStep(solver) if arm_qp_applies(solver) else None
+
+
+def assembled_step(qp: tuple, rows: int, s: FloatArray) -> StepQP:
+    """The QP a compiled assembly left in its buffers `qp` (`qp_rows.buffers`, `rows` rows of
+    A) as `qp_problem.build_step` returns it, at actuators s (contact left False)."""
+    from rcmplan.compiled.daqp_c import EQUALITY
+
+    H, f, A, upper, lower, sense, task = (a.copy() for a in qp[:7])
+    nb = H.shape[0]
+    eq = sense[nb : nb + rows] == EQUALITY
+    G, h = A[:rows][~eq], upper[nb : nb + rows][~eq]
+    problem = QPProblem(H, f, G, h, A[:rows][eq], upper[nb : nb + rows][eq], lower[:nb],
+                        upper[:nb])  # fmt: skip
+    return StepQP(problem, task * SCALE, s.copy(), False)

@@ -21,29 +21,23 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from rcmplan._validate import FloatArray
 from rcmplan.compiled import cache as fast_cache
 from rcmplan.compiled.curved import curved_arrays
 from rcmplan.compiled.phase import IntArray, run_phase_loop
-from rcmplan.compiled.qp_params import pack_extras, qp_params
+from rcmplan.compiled.qp_params import qp_params
 from rcmplan.compiled.records import (
     CURVED_QP,
     DONE,
     QP,
     QP_FAILED,
     raise_stop,
-    robot_params,
     solver_arrays,
     where,
 )
-from rcmplan.control.limits.base import SCALE
 from rcmplan.control.qp import QpSolver
-from rcmplan.control.qp_problem import QPProblem, StepQP
 from rcmplan.control.solvers import Solver
-from rcmplan.exceptions import InvalidInputError, QPError
-from rcmplan.robot import iramis_kernels
+from rcmplan.exceptions import QPError
 from rcmplan.robot.model import RobotModel
 
 if TYPE_CHECKING:
@@ -142,70 +136,3 @@ def raise_qp_failure(
         problem=None,
         result=flag,
     )
-
-
-def assembled_step(qp: tuple, rows: int, s: FloatArray) -> StepQP:
-    """The QP a compiled assembly left in its buffers `qp` (`qp_rows.buffers`, `rows` rows of
-    A) as `qp_problem.build_step` returns it, at actuators s (contact left False)."""
-    from rcmplan.compiled.daqp_c import EQUALITY
-
-    H, f, A, upper, lower, sense, task = (a.copy() for a in qp[:7])
-    nb = H.shape[0]
-    eq = sense[nb : nb + rows] == EQUALITY
-    G, h = A[:rows][~eq], upper[nb : nb + rows][~eq]
-    problem = QPProblem(H, f, G, h, A[:rows][eq], upper[nb : nb + rows][eq], lower[:nb],
-                        upper[:nb])  # fmt: skip
-    return StepQP(problem, task * SCALE, s.copy(), False)
-
-
-class FastQpStep:
-    """One QP step of a QpSolver assembled and solved in compiled code, from Python (tests and
-    benchmarks; the loop calls the kernels directly). With a servo (`QpSolver.servo`) `solve`
-    takes the joints the step is planned from (`QpSolver.planned_joints`) and synchronises the
-    cost as the reference does (`qp_kernels.solve_step`).
-
-    Args:
-        solver: The QP solver whose step is reproduced; its robot must be an Iramis and its eye
-            spherical (InvalidInputError otherwise). MissingExtraError without numba or DAQP.
-    """
-
-    def __init__(self, solver: QpSolver) -> None:
-        params = qp_params(solver.robot, solver)
-        if params is None:
-            valid = "an eye whose retina is a sphere (retina_radius - |p - center|)"
-            raise InvalidInputError("eye", solver.eye, valid)
-        self.solver = solver
-        self.P = robot_params(solver.robot)
-        self.Q, self.contacts = params
-        self.K = np.ascontiguousarray(solver.K, dtype=np.float64)
-        self._k = fast_cache.qp_kernels()
-        self._trig = iramis_kernels.trig
-        self.qp = self._k.buffers()
-        self.s, self.e, self.e_plan = np.empty(6), np.empty(6), np.empty(6)
-
-    def problem(self, q: FloatArray, lam: float, target: FloatArray) -> StepQP:
-        """The step's QP as `qp_problem.build_step` returns it (contact left False)."""
-        q, target = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(target, dtype=float)
-        tr = self._trig(q)
-        if self.solver.extra_limits:
-            pack_extras(self.solver, self.Q)
-        rows = self._k.build_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam), target,
-                                  self.s, self.e, self.qp)  # fmt: skip
-        return assembled_step(self.qp, rows, self.s)
-
-    def solve(self, q: FloatArray, lam: float, target: FloatArray) -> tuple[FloatArray, FloatArray]:
-        """(x, error J x* / K) of the step's QP; QPError naming DAQP's exit flag if not optimal."""
-        q, target = np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(target, dtype=float)
-        tr = self._trig(q)
-        if self.solver.extra_limits:  # a moving limit's parameters as they are now
-            pack_extras(self.solver, self.Q)
-        # with a servo q are the joints of its command (`QpSolver.planned_joints`)
-        e_plan = self.e_plan if self.solver.servo is not None else self.e_plan[:0]
-        flag = self._k.solve_step(self.P, self.Q, self.contacts, self.K, q, tr, float(lam), target,
-                                  self.s, self.e, self.qp, None, e_plan)  # fmt: skip
-        if flag != 1:
-            from rcmplan.compiled.daqp_c import exit_name
-
-            raise QPError(f"QP solve failed: daqp exit flag {flag} ({exit_name(flag)})",
-                          problem=self.problem(q, lam, target).problem, result=flag)  # fmt: skip
-        return self.qp[self._k.X].copy(), self.e.copy()
