@@ -291,3 +291,49 @@ def test_a_sweep_runs_with_the_scenarios_rcm_bound_and_reports_it(tmp_path: Path
     bounded = found[0.05][0]
     assert bounded["rcm_bound_exceeded"] >= 1 and found[0.05][1] == bounded["rcm_bound_exceeded"]
     assert bounded["error"] == 0
+
+
+def test_a_killed_worker_ends_the_sweep_with_its_summary_and_resume_finishes_it(
+    tmp_path: Path,
+) -> None:
+    """A worker process killed mid-sweep (as the system's out-of-memory killer would): the
+    command exits 2 within seconds, its summary names the loss, and --resume runs the rest."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from procstat import children_of
+
+    argv = [sys.executable, "-m", "rcmplan", "sweep", "--targets", "3000", "--workers", "2",
+            "--no-plots", "--out", str(tmp_path / "out")]  # fmt: skip
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1] / "src")}
+    proc = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.monotonic() + 300
+    while len(workers := forkserver_children(proc.pid, children_of)) < 2:
+        assert proc.poll() is None and time.monotonic() < deadline, "no workers within 300 s"
+        time.sleep(0.05)
+    time.sleep(1.0)
+    os.kill(min(workers), signal.SIGKILL)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 2, err.decode()[-2000:]
+    doc = json.loads((tmp_path / "out" / "summary.json").read_text())
+    assert doc["status"] == "worker_lost" and "signal SIGKILL" in doc["message"], doc
+    done = subprocess.run([*argv, "--resume"], env=env, capture_output=True, timeout=600)
+    assert done.returncode == 0, done.stderr.decode()[-2000:]
+    assert json.loads((tmp_path / "out" / "summary.json").read_text())["status"] == "ok"
+
+
+def forkserver_children(pid: int, children_of) -> set[int]:  # type: ignore[no-untyped-def]
+    """The pool's workers among pid's descendants: the forkserver's children."""
+    servers = [p for p in children_of(pid) if b"forkserver" in cmdline(p) and children_of(p)]
+    return {c for s in servers for c in children_of(s)}
+
+
+def cmdline(pid: int) -> bytes:
+    """The process's command line; empty once it has ended."""
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return b""

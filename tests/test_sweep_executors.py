@@ -103,6 +103,71 @@ def test_terminating_workers_that_left_half_a_result_in_the_pipe_does_not_hang()
     assert done.returncode == 0 and done.stdout.strip() == "closed", done.stderr[-2000:]
 
 
+# A job that, in one chunk, writes part of a result into the pool's result pipe and dies (as a
+# worker killed while it sends a result would leave it), and in the others sleeps.
+HALF_RESULT_JOB = """
+import gc, os, struct, time
+from multiprocessing.queues import SimpleQueue
+
+
+def job(context, chunk):
+    if chunk == "die":
+        time.sleep(0.5)  # the other worker has its chunk
+        pipe = next(o for o in gc.get_objects() if isinstance(o, SimpleQueue))  # the results
+        os.write(pipe._writer.fileno(), struct.pack("!i", 1000) + bytes(10))
+        os._exit(1)
+    time.sleep(chunk)
+    return [chunk]
+"""
+
+LOST_WORKER = """
+import operator, os, signal, sys, threading, time
+from rcmplan.sweep.errors import WorkerLostError
+from rcmplan.sweep.executors import LocalExecutor
+
+case = sys.argv[1]
+with LocalExecutor(2, preload=()) as ex:
+    if case == "killed":
+        fn, context, chunks = operator.call, time.sleep, [30.0, 30.0, 30.0]
+
+        def kill_one() -> None:
+            while len(ex._dead_codes()) == 0 and not getattr(ex._pool, "_processes", None):
+                time.sleep(0.01)
+            time.sleep(0.5)
+            os.kill(next(iter(ex._pool._processes)), signal.SIGKILL)
+
+        threading.Thread(target=kill_one, daemon=True).start()
+    else:
+        from halfresult import job
+
+        fn, context, chunks = job, None, ["die", 30.0, 30.0]
+    t = time.monotonic()
+    try:
+        list(ex.map_jobs(fn, context, chunks))
+    except WorkerLostError as exc:
+        print(f"{time.monotonic() - t:.1f}", exc.exit_codes, exc.pending, exc)
+"""
+
+
+@pytest.mark.parametrize("case", ["killed", "half a result"])
+def test_a_local_worker_that_dies_ends_the_run_with_a_clear_error_not_a_hang(
+    case: str, tmp_path
+) -> None:
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "halfresult.py").write_text(HALF_RESULT_JOB)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), *sys.path])}
+    done = subprocess.run([sys.executable, "-c", LOST_WORKER, case], capture_output=True,
+                          text=True, timeout=60, env=env)  # fmt: skip
+    assert done.returncode == 0 and done.stdout, done.stderr[-2000:]
+    seconds, *_ = done.stdout.split()
+    assert float(seconds) < 10  # well before the other chunks' 30 s
+    expected = "signal SIGKILL" if case == "killed" else "exit code 1"
+    assert expected in done.stdout and "chunks not run" in done.stdout, done.stdout
+
+
 def kill_one_worker(cluster) -> None:
     """SIGKILL one worker process (its nanny starts a new one, at a new address)."""
     import os

@@ -49,3 +49,37 @@ class SchedulerError(RcmplanError):
         self.address = address
         self.timeout_s = timeout_s
         super().__init__(f"Dask scheduler {address!r}: {problem}")
+
+
+class WorkerLostError(RcmplanError):
+    """A local worker process died while the run's chunks ran (killed by a signal, the
+    system's out-of-memory killer, a crash): its chunks and those not started are not run.
+
+    Attributes:
+        exit_codes: The dead workers' exit codes (negative: the signal that ended them).
+        pending: Chunks not run.
+    """
+
+    status = "worker_lost"
+
+    def __init__(self, exit_codes: list[int], pending: int) -> None:
+        self.exit_codes = list(exit_codes)
+        self.pending = pending
+        ends = ", ".join(_ending(code) for code in self.exit_codes) or "cause unknown"
+        super().__init__(
+            f"a local worker process died (workers ended: {ends}; the pool stops the others "
+            f"with it); {pending} chunks not run (finished ones are in the checkpoint: rerun "
+            "with --resume)"
+        )
+
+
+def _ending(code: int) -> str:
+    """How a process ended, from its exit code (negative: the signal)."""
+    if code < 0:
+        import signal
+
+        try:
+            return f"signal {signal.Signals(-code).name}"
+        except ValueError:
+            return f"signal {-code}"
+    return f"exit code {code}"

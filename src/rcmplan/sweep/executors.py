@@ -21,7 +21,7 @@ from typing import Any, Protocol, TypeVar
 
 from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import InvalidInputError, require_extra
-from rcmplan.sweep.errors import SchedulerError
+from rcmplan.sweep.errors import SchedulerError, WorkerLostError
 from rcmplan.sweep.settings import MotionSettings
 from rcmplan.sweep.task import TargetItem, TargetResult, run_chunk
 
@@ -32,6 +32,7 @@ R = TypeVar("R")
 ChunkFn = Callable[[C, Sequence[Item]], list[R]]
 DEFAULT_TIMEOUT_S = 10.0
 POLL_S = 0.02  # how often a Dask sweep looks for finished chunks [s]
+POLL_LOST_S = 1.0  # how often a local run, with no chunk finished, looks for a dead worker [s]
 
 
 class Executor(Protocol):
@@ -107,6 +108,7 @@ class LocalExecutor(_ExecutorBase):
         self.label = f"local ({n} process{'es' if n > 1 else ''})"
         self.preload = list(preload)
         self._pool: cf.ProcessPoolExecutor | None = None
+        self._lost: list[int] = []  # exit codes of the workers found dead (`WorkerLostError`)
 
     def _get_pool(self) -> cf.ProcessPoolExecutor:
         if self._pool is None:
@@ -124,7 +126,9 @@ class LocalExecutor(_ExecutorBase):
     def map_jobs(self, fn: ChunkFn[C, Item, R], context: C, chunks: Sequence[Sequence[Item]]
                  ) -> Iterator[list[R]]:  # fmt: skip
         """fn(context, chunk) for each chunk as it finishes; pending chunks are cancelled if we
-        stop early. One worker runs them in this process, in order."""
+        stop early. One worker runs them in this process, in order. A worker process that dies
+        (killed, crashed) raises WorkerLostError, within about POLL_LOST_S even when it died
+        while it sent a result."""
         if self.workers == 1:
             for chunk in chunks:
                 yield fn(context, chunk)
@@ -132,12 +136,53 @@ class LocalExecutor(_ExecutorBase):
         with signals_deferred():  # the pool starts whole: every worker it launches is tracked
             pool = self._get_pool()
             futures = [pool.submit(fn, context, chunk) for chunk in chunks]
+        pending = set(futures)
         try:
-            for fut in cf.as_completed(futures):
-                yield fut.result()
+            while pending:  # each second without a finished chunk, a look for a dead worker
+                finished = cf.as_completed(pending, timeout=POLL_LOST_S)
+                while True:
+                    try:
+                        fut = next(finished)
+                    except (StopIteration, TimeoutError):
+                        break
+                    pending.discard(fut)
+                    yield self._result(fut, len(pending))
+                if pending:
+                    self._unblock_if_a_worker_died()
         finally:
             for fut in futures:
                 fut.cancel()
+
+    def _result(self, fut: cf.Future[R], pending: int) -> R:
+        """The chunk's results, or WorkerLostError if a worker died (the pool is then broken:
+        this chunk and the `pending` others are not run)."""
+        try:
+            return fut.result()
+        except cf.BrokenExecutor as exc:
+            raise WorkerLostError(self._lost or self._dead_codes(), pending + 1) from exc
+
+    def _dead_codes(self) -> list[int]:
+        """Exit codes of the pool's workers that have ended."""
+        procs = dict(getattr(self._pool, "_processes", None) or {}).values()
+        return [p.exitcode for p in procs if p.exitcode is not None]
+
+    def _unblock_if_a_worker_died(self) -> None:
+        """A worker that died while it sent a result leaves part of a message in the result
+        pipe, and the pool thread waits for the rest forever: no future would ever finish.
+        Once a worker has died the pool is broken whatever it was doing: the others are
+        stopped (`terminate`), which ends that wait, and the pool fails every pending future."""
+        dead = self._dead_codes()
+        if dead:
+            self._lost = dead
+            self.terminate()
+
+    def _close_result_writer(self) -> None:
+        """Close this process's write end of the pool's result pipe (CPython's pool internals;
+        nothing in this process writes to it)."""
+        results = getattr(self._pool, "_result_queue", None)
+        writer = getattr(results, "_writer", None)
+        if writer is not None:
+            writer.close()
 
     def close(self) -> None:
         """Shut the pool down, cancelling chunks not yet started."""
@@ -180,10 +225,8 @@ class LocalExecutor(_ExecutorBase):
         # and the pool thread waits for the rest forever (and `close`, and Python's exit, for
         # that thread). The workers are gone, so this process holds the pipe's only write end:
         # closing it ends that wait (end of file: the pool is broken and the thread finishes).
-        results = getattr(pool, "_result_queue", None)
-        writer = getattr(results, "_writer", None)
-        if workers and writer is not None:
-            writer.close()
+        if workers:
+            self._close_result_writer()
 
 
 class DaskExecutor(_ExecutorBase):
