@@ -131,7 +131,7 @@ with LocalExecutor(2, preload=()) as ex:
         fn, context, chunks = operator.call, time.sleep, [30.0, 30.0, 30.0]
 
         def kill_one() -> None:
-            while len(ex._dead_codes()) == 0 and not getattr(ex._pool, "_processes", None):
+            while not getattr(ex._pool, "_processes", None):  # the workers started
                 time.sleep(0.01)
             time.sleep(0.5)
             os.kill(next(iter(ex._pool._processes)), signal.SIGKILL)
