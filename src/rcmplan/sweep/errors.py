@@ -52,28 +52,31 @@ class SchedulerError(RcmplanError):
 
 
 class WorkerLostError(RcmplanError):
-    """A local worker process died while the run's chunks ran (killed by a signal, the
-    system's out-of-memory killer, a crash): its chunks and those not started are not run.
+    """Local worker processes kept dying while the run's chunks ran (killed by a signal, the
+    system's out-of-memory killer, a crash): each time the pool broke, its unfinished chunks
+    ran again on a new one, until it broke `breaks` times.
 
     Attributes:
         exit_codes: The dead workers' exit codes (negative: the signal that ended them).
         pending: Chunks not run.
+        breaks: How many times the pool broke.
     """
 
     status = "worker_lost"
 
-    def __init__(self, exit_codes: list[int], pending: int) -> None:
+    def __init__(self, exit_codes: list[int], pending: int, breaks: int = 1) -> None:
         self.exit_codes = list(exit_codes)
         self.pending = pending
-        ends = ", ".join(_ending(code) for code in self.exit_codes) or "cause unknown"
+        self.breaks = breaks
+        ends = ", ".join(ending(code) for code in self.exit_codes) or "cause unknown"
         super().__init__(
-            f"a local worker process died (workers ended: {ends}; the pool stops the others "
-            f"with it); {pending} chunks not run (finished ones are in the checkpoint: rerun "
-            "with --resume)"
+            f"local worker processes died and the pool broke {breaks} time{'s' * (breaks > 1)} "
+            f"(workers ended: {ends}); {pending} chunks not run (finished ones are in the "
+            "checkpoint: rerun with --resume)"
         )
 
 
-def _ending(code: int) -> str:
+def ending(code: int) -> str:
     """How a process ended, from its exit code (negative: the signal)."""
     if code < 0:
         import signal

@@ -15,13 +15,13 @@ import math
 import multiprocessing
 import os
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Generator, Iterator, Sequence
 from types import TracebackType
 from typing import Any, Protocol, TypeVar
 
 from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import InvalidInputError, require_extra
-from rcmplan.sweep.errors import SchedulerError, WorkerLostError
+from rcmplan.sweep.errors import SchedulerError, WorkerLostError, ending
 from rcmplan.sweep.settings import MotionSettings
 from rcmplan.sweep.task import TargetItem, TargetResult, run_chunk
 
@@ -33,13 +33,18 @@ ChunkFn = Callable[[C, Sequence[Item]], list[R]]
 DEFAULT_TIMEOUT_S = 10.0
 POLL_S = 0.02  # how often a Dask sweep looks for finished chunks [s]
 POLL_LOST_S = 1.0  # how often a local run, with no chunk finished, looks for a dead worker [s]
+MAX_POOL_BREAKS = 3  # pools a local run starts again after a worker died, then WorkerLostError
 
 
 class Executor(Protocol):
     """Runs chunks of targets and yields each chunk's results when it finishes."""
 
     workers: int
-    label: str
+
+    @property
+    def label(self) -> str:
+        """Where the chunks ran (for the run's summary)."""
+        ...
 
     def map_chunks(self, motion: MotionSettings, chunks: Sequence[Chunk]) -> Iterator[
         list[TargetResult]
@@ -105,10 +110,9 @@ class LocalExecutor(_ExecutorBase):
         if not isinstance(n, int) or isinstance(n, bool) or n < 1:
             raise InvalidInputError("workers", workers, "an integer >= 1")
         self.workers = n
-        self.label = f"local ({n} process{'es' if n > 1 else ''})"
         self.preload = list(preload)
         self._pool: cf.ProcessPoolExecutor | None = None
-        self._lost: list[int] = []  # exit codes of the workers found dead (`WorkerLostError`)
+        self.lost: list[list[int]] = []  # each broken pool's dead workers' exit codes
 
     def _get_pool(self) -> cf.ProcessPoolExecutor:
         if self._pool is None:
@@ -127,15 +131,32 @@ class LocalExecutor(_ExecutorBase):
                  ) -> Iterator[list[R]]:  # fmt: skip
         """fn(context, chunk) for each chunk as it finishes; pending chunks are cancelled if we
         stop early. One worker runs them in this process, in order. A worker process that dies
-        (killed, crashed) raises WorkerLostError, within about POLL_LOST_S even when it died
-        while it sent a result."""
+        (killed, crashed) breaks the pool: its chunks and those not finished run again on a new
+        one (`lost` and `label` say so), found within about POLL_LOST_S even when the worker
+        died while it sent a result; after MAX_POOL_BREAKS breaks, WorkerLostError."""
         if self.workers == 1:
             for chunk in chunks:
                 yield fn(context, chunk)
             return
+        todo = dict(enumerate(chunks))  # the chunks not finished yet, by index
+        while todo:
+            if not (yield from self._run_on_pool(fn, context, todo)):
+                return
+            self.lost.append(self._dead_codes())
+            self.terminate()  # the pool's other workers, and the pool thread's wait
+            if len(self.lost) > MAX_POOL_BREAKS:
+                codes = [code for codes in self.lost for code in codes]
+                raise WorkerLostError(codes, len(todo), len(self.lost))
+            self.close()  # a new pool for the chunks left
+
+    def _run_on_pool(
+        self, fn: ChunkFn[C, Item, R], context: C, todo: dict[int, Sequence[Item]]
+    ) -> Generator[list[R], None, bool]:
+        """Run todo's chunks on the pool, yielding each one's results as it finishes (its
+        entry leaves todo); returns True if the pool broke first (a worker died)."""
         with signals_deferred():  # the pool starts whole: every worker it launches is tracked
             pool = self._get_pool()
-            futures = [pool.submit(fn, context, chunk) for chunk in chunks]
+            futures = {pool.submit(fn, context, chunk): i for i, chunk in todo.items()}
         pending = set(futures)
         try:
             while pending:  # each second without a finished chunk, a look for a dead worker
@@ -146,35 +167,37 @@ class LocalExecutor(_ExecutorBase):
                     except (StopIteration, TimeoutError):
                         break
                     pending.discard(fut)
-                    yield self._result(fut, len(pending))
-                if pending:
-                    self._unblock_if_a_worker_died()
+                    try:
+                        results = fut.result()
+                    except cf.BrokenExecutor:
+                        return True
+                    del todo[futures[fut]]
+                    yield results
+                # A worker that died while it sent a result leaves part of a message in the
+                # result pipe, and the pool thread waits for the rest forever: no future would
+                # ever finish. A dead worker means a broken pool, whatever it was doing.
+                if pending and self._dead_codes():
+                    return True
+            return False
         finally:
             for fut in futures:
                 fut.cancel()
 
-    def _result(self, fut: cf.Future[R], pending: int) -> R:
-        """The chunk's results, or WorkerLostError if a worker died (the pool is then broken:
-        this chunk and the `pending` others are not run)."""
-        try:
-            return fut.result()
-        except cf.BrokenExecutor as exc:
-            raise WorkerLostError(self._lost or self._dead_codes(), pending + 1) from exc
+    @property
+    def label(self) -> str:
+        """Where the chunks ran: the processes, and the workers lost meanwhile."""
+        base = f"local ({self.workers} process{'es' if self.workers > 1 else ''}"
+        if not self.lost:
+            return base + ")"
+        ends = "; ".join(", ".join(ending(c) for c in codes) or "cause unknown"
+                         for codes in self.lost)  # fmt: skip
+        times = f"{len(self.lost)} time{'s' if len(self.lost) > 1 else ''}"
+        return f"{base}; a worker died, the pool broke {times} ({ends}): its chunks re-ran)"
 
     def _dead_codes(self) -> list[int]:
         """Exit codes of the pool's workers that have ended."""
         procs = dict(getattr(self._pool, "_processes", None) or {}).values()
         return [p.exitcode for p in procs if p.exitcode is not None]
-
-    def _unblock_if_a_worker_died(self) -> None:
-        """A worker that died while it sent a result leaves part of a message in the result
-        pipe, and the pool thread waits for the rest forever: no future would ever finish.
-        Once a worker has died the pool is broken whatever it was doing: the others are
-        stopped (`terminate`), which ends that wait, and the pool fails every pending future."""
-        dead = self._dead_codes()
-        if dead:
-            self._lost = dead
-            self.terminate()
 
     def _close_result_writer(self) -> None:
         """Close this process's write end of the pool's result pipe (CPython's pool internals;
