@@ -213,7 +213,7 @@ def test_a_failed_run_writes_its_partial_summary_and_says_why(tmp_path: Path) ->
     with pytest.raises(SchedulerError):
         run_cli([*CLI, "--scheduler", address, "--timeout", "1", "--out", str(tmp_path)])
     doc = json.loads((tmp_path / "summary.json").read_text())
-    assert doc["status"] == "failed" and "SchedulerError" in doc["message"]
+    assert doc["status"] == "scheduler_error" and "SchedulerError" in doc["message"]
     assert list(doc)[:3] == ["command", "status", "message"]
     assert doc["jobs_run"] == 0 and doc["episodes_planned"] == 2
     assert "success_rate" in doc["methods"]["kalman"]

@@ -4,7 +4,8 @@ on each, on local processes or a Dask cluster, checkpointed (--resume continues)
 An option among --ioct-rate-hz, --latency-ms, --motion-um, --eye-drift-um and --target-fraction
 fixes that condition instead of drawing it. Interrupted (SIGINT, SIGTERM) or failed, the run
 writes summary.json and the per-episode log of what finished, with status "interrupted" or
-"failed" and why; the finished episodes stay in the checkpoint.
+the error's own (`scheduler_error`, `worker_lost`, ...) and why; the finished episodes stay in
+the checkpoint.
 """
 
 from __future__ import annotations
@@ -89,7 +90,7 @@ def run_episodes(args: argparse.Namespace) -> int:
         write_partial(out, batch, checkpoint, "interrupted", why)
         raise
     except RcmplanError as exc:
-        write_partial(out, batch, checkpoint, "failed", f"{type(exc).__name__}: {exc}")
+        write_partial(out, batch, checkpoint, exc.status, f"{type(exc).__name__}: {exc}")
         raise
     return finish(args, out, doc, lambda: print_tables(doc), None)
 
