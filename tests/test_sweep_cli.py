@@ -304,8 +304,6 @@ def test_a_killed_worker_costs_the_sweep_a_new_pool_and_not_its_results(tmp_path
     import sys
     import time
 
-    from procstat import children_of
-
     def argv(out: str) -> list[str]:
         return [sys.executable, "-m", "rcmplan", "sweep", "--targets", "2000", "--workers", "2",
                 "--no-plots", "--out", str(tmp_path / out)]  # fmt: skip
@@ -314,7 +312,7 @@ def test_a_killed_worker_costs_the_sweep_a_new_pool_and_not_its_results(tmp_path
     proc = subprocess.Popen(argv("broken"), env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE)  # fmt: skip
     deadline = time.monotonic() + 300
-    while len(workers := forkserver_children(proc.pid, children_of)) < 2:
+    while len(workers := forkserver_children(proc.pid)) < 2:
         assert proc.poll() is None and time.monotonic() < deadline, "no workers within 300 s"
         time.sleep(0.05)
     time.sleep(1.0)
@@ -332,8 +330,10 @@ def test_a_killed_worker_costs_the_sweep_a_new_pool_and_not_its_results(tmp_path
     assert rows("broken") == rows("whole")
 
 
-def forkserver_children(pid: int, children_of) -> set[int]:  # type: ignore[no-untyped-def]
+def forkserver_children(pid: int) -> set[int]:
     """The pool's workers among pid's descendants: the forkserver's children."""
+    from procstat import children_of
+
     servers = [p for p in children_of(pid) if b"forkserver" in cmdline(p) and children_of(p)]
     return {c for s in servers for c in children_of(s)}
 

@@ -194,18 +194,13 @@ class LocalExecutor(_ExecutorBase):
         times = f"{len(self.lost)} time{'s' if len(self.lost) > 1 else ''}"
         return f"{base}; a worker died, the pool broke {times} ({ends}): its chunks re-ran)"
 
+    def _workers(self) -> list[Any]:
+        """The pool's worker processes (CPython's pool internals; none without a pool)."""
+        return list(dict(getattr(self._pool, "_processes", None) or {}).values())
+
     def _dead_codes(self) -> list[int]:
         """Exit codes of the pool's workers that have ended."""
-        procs = dict(getattr(self._pool, "_processes", None) or {}).values()
-        return [p.exitcode for p in procs if p.exitcode is not None]
-
-    def _close_result_writer(self) -> None:
-        """Close this process's write end of the pool's result pipe (CPython's pool internals;
-        nothing in this process writes to it)."""
-        results = getattr(self._pool, "_result_queue", None)
-        writer = getattr(results, "_writer", None)
-        if writer is not None:
-            writer.close()
+        return [p.exitcode for p in self._workers() if p.exitcode is not None]
 
     def close(self) -> None:
         """Shut the pool down, cancelling chunks not yet started."""
@@ -222,8 +217,8 @@ class LocalExecutor(_ExecutorBase):
 
     def terminate(self) -> None:
         """Stop the pool's workers now (SIGTERM, then reaped), dropping the chunks they run:
-        an interrupted sweep waits for no chunk and leaves no worker behind. Finished chunks
-        are in the checkpoint already."""
+        an interrupted sweep waits for no chunk and leaves no worker behind, and a pool broken
+        by a dead worker ends at once. Finished chunks are in the checkpoint already."""
         pool = self._pool
         if pool is None:
             return
@@ -236,7 +231,7 @@ class LocalExecutor(_ExecutorBase):
         for item in list(pending.values()):
             if item.future.cancelled():
                 item.future = cf.Future()
-        workers = list(dict(getattr(pool, "_processes", None) or {}).values())
+        workers = self._workers()
         for proc in workers:
             proc.terminate()
         for proc in workers:
@@ -248,8 +243,9 @@ class LocalExecutor(_ExecutorBase):
         # and the pool thread waits for the rest forever (and `close`, and Python's exit, for
         # that thread). The workers are gone, so this process holds the pipe's only write end:
         # closing it ends that wait (end of file: the pool is broken and the thread finishes).
-        if workers:
-            self._close_result_writer()
+        writer = getattr(getattr(pool, "_result_queue", None), "_writer", None)
+        if workers and writer is not None:
+            writer.close()
 
 
 class DaskExecutor(_ExecutorBase):
