@@ -10,7 +10,11 @@ from pathlib import Path
 
 import pytest
 
+import rcmplan
 from rcmplan.cli import main
+from rcmplan.robot.registry import make_robot
+from rcmplan.scene.eye_text import to_eye_mm
+from rcmplan.scene.scenario import load_scenario
 
 BASE_FRAME_TUPLE = re.compile(r"\(target \(")  # the base-frame X_ext the core appends
 
@@ -149,4 +153,35 @@ def test_a_scenario_point_out_of_reach_is_refused_before_motion_in_eye_frame_mil
     assert line.startswith("rcmplan inject: refused before motion: ")
     assert re.search(r"point p4 at \(-?[\d.]+, -?[\d.]+, -?[\d.]+\) mm \(eye frame\) is out of "
                      r"reach: slider L1 would be at -99\.8\d* mm", line), line  # fmt: skip
+    assert not BASE_FRAME_TUPLE.search(line)
+
+
+def test_a_planned_target_refused_before_motion_names_its_phase_and_its_tip_in_the_eye_frame(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The Panda's curved needle bent along the flange's x asks joint 7 for the bend-down roll
+    of p5, 0.49 rad it cannot turn (`panda.toml` bends it along +y for that reason): the
+    controller's check before motion refuses the first target beyond travel, and the line
+    names the phase, the target's index and its tip in the eye frame, not X_c in the base
+    frame."""
+    shipped = Path(rcmplan.__file__).parent / "robots" / "panda.toml"
+    text = shipped.read_text().replace('needle_bend = "+y"\n', "")
+    (tmp_path / "panda_x.toml").write_text(text)
+    line = refused(["inject", "--scenario", "curved", "--robot", str(tmp_path / "panda_x.toml"),
+                    "--no-plots"], tmp_path / "out", capsys)  # fmt: skip
+    assert line.startswith("rcmplan inject: refused before motion: UnreachableTargetError: ")
+    found = re.search(r"phase 'p3-p5', target (\d+) of 0\.\.(\d+): joint panda_joint7 = "
+                      r"(-?[\d.]+) rad is beyond its travel \[-2\.8973, 2\.8973\] rad \(its tip "
+                      r"at x = (-?[\d.]+), y = (-?[\d.]+), z = (-?[\d.]+) mm in the eye frame, "
+                      r"the needle's roll (-?[\d.]+) rad\)$", line)  # fmt: skip
+    assert found, line
+    k, last = int(found[1]), int(found[2])
+    assert abs(float(found[3])) > 2.8973
+    sc = load_scenario("curved").with_robot(str(tmp_path / "panda_x.toml"))
+    robot = sc.needle.fit(make_robot(sc.robot))
+    (plan,) = [ph.plan(robot.home) for ph in sc.phases(robot) if ph.name == "p3-p5"]
+    assert last == len(plan) - 1 and 0 < k < last  # the named target of that phase
+    stated = [float(found[i]) for i in (4, 5, 6, 7)]
+    expected = [*to_eye_mm(sc.eye(robot), plan[k, :3]), plan[k, 3]]
+    assert stated == pytest.approx(expected, rel=1e-3, abs=1e-3)  # 4 significant digits
     assert not BASE_FRAME_TUPLE.search(line)

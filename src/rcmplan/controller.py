@@ -32,7 +32,13 @@ from rcmplan.control.rcm_step import bounded_step
 from rcmplan.control.runner import Runner, registered_default
 from rcmplan.control.solvers import Solver, TipSolver
 from rcmplan.control.targets import solve_pose, target_tip, target_tips
-from rcmplan.exceptions import ConvergenceError, InvalidInputError, RcmBoundError, RcmplanError
+from rcmplan.exceptions import (
+    ConvergenceError,
+    InvalidInputError,
+    RcmBoundError,
+    RcmplanError,
+    UnreachableTargetError,
+)
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.needle import closest_lambda
 
@@ -103,6 +109,19 @@ class Controller:
         if solver_check is not None:
             solver_check(targets)
 
+    def _check_phase_targets(self, name: str, targets: FloatArray) -> None:
+        """`check_targets` on a phase's targets; a refusal names the phase and the target
+        (its first row equal to the refused target, counted from 0)."""
+        try:
+            self.check_targets(targets)
+        except UnreachableTargetError as exc:
+            where = f"phase {name!r}"
+            if exc.target is not None and np.shape(exc.target) == targets.shape[1:]:
+                rows = np.flatnonzero(np.all(targets == np.asarray(exc.target), axis=1))
+                if rows.size:
+                    where += f", target {rows[0]} of 0..{len(targets) - 1}"
+            raise exc.restated(f"{where}: {exc.reason}") from exc
+
     def _check_curved_targets(self, targets: FloatArray) -> None:
         """A curved needle's poses are found by Newton's method: each target's solve continues
         from the last target's joints, across phases."""
@@ -127,7 +146,7 @@ class Controller:
             self._planned = check_plan_size(sum(sizes), "targets of the run")
             for ph in phases:
                 if ph.kind == "rcm" and not callable(ph.targets):
-                    self.check_targets(ph.plan(self.robot.home))
+                    self._check_phase_targets(ph.name, ph.plan(self.robot.home))
             for ph in phases:
                 self.run_phase(ph)
                 if self.on_phase is not None:
@@ -158,7 +177,7 @@ class Controller:
                 check_plan_size(self._planned, "targets of the run")
             if phase.kind == "rcm":
                 if callable(phase.targets):
-                    self.check_targets(targets)
+                    self._check_phase_targets(phase.name, targets)
                 self._check_target_steps(phase.name, q, targets)
                 self.lam = self._closest_lambda(q, targets[0][-3:])
             first = len(self.log)

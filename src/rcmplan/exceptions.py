@@ -5,6 +5,7 @@ Every message names the offending value and, where one exists, the valid range o
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Iterable
 from typing import Any
 
@@ -137,15 +138,35 @@ class UnreachableTargetError(RcmplanError):
     Attributes:
         reason: Which condition failed, with the numbers.
         target: The target as stated by the user.
+        stated: How the message states the target (default: its numbers, in the robot base
+            frame for an X_ext target), or None.
     """
 
     status = "unreachable_target"
 
-    def __init__(self, reason: str, target: Any = None) -> None:
+    def __init__(self, reason: str, target: Any = None, stated: str | None = None) -> None:
         self.reason = reason
         self.target = target
-        suffix = "" if target is None else f" (target {_short(target)})"
-        super().__init__(f"target unreachable: {reason}{suffix}")
+        if stated is None and target is not None:
+            stated = f"target {_short(target)}"
+        self.stated = stated
+        super().__init__(self._message())
+
+    def _message(self) -> str:
+        return f"target unreachable: {self.reason}" + (f" ({self.stated})" if self.stated else "")
+
+    def restated(
+        self, reason: str | None = None, stated: str | None = None
+    ) -> UnreachableTargetError:
+        """A copy of this refusal (its class, target, log, cause and other attributes) with
+        another reason and/or another statement of its target in the message (`stated`: for
+        example its tip in the eye frame where the base frame's numbers would stand)."""
+        out = copy.copy(self)
+        out.reason = self.reason if reason is None else reason
+        out.stated = self.stated if stated is None else stated
+        out.args = (out._message(),)
+        out.__cause__ = self.__cause__
+        return out
 
 
 class ConvergenceError(RcmplanError):

@@ -27,12 +27,14 @@ from rcmplan.control.log import LogBuilder, RunLog
 from rcmplan.control.methods import make_free_solver, make_solver
 from rcmplan.control.phase import Phase
 from rcmplan.controller import Controller
-from rcmplan.exceptions import InvalidInputError, RcmplanError
+from rcmplan.exceptions import InvalidInputError, RcmplanError, UnreachableTargetError
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.curved_figures import curved_figures
+from rcmplan.scene.eye import Eye
+from rcmplan.scene.eye_text import in_eye_frame
 from rcmplan.scene.scenario import Scenario
 from rcmplan.sim.registry import make_plant
 
@@ -66,6 +68,7 @@ def run_scenario(
     controller: Controller | None = None
     robot = scenario.needle.fit(robot or make_robot(scenario.robot))
     extra: dict[str, Any] = {}
+    eye: Eye | None = None
     try:
         shaft = plant_model(robot)
         eye = scenario.eye(robot)
@@ -83,6 +86,8 @@ def run_scenario(
             extra = curved_figures(robot, scenario, eye, log)
     except RcmplanError as exc:
         error = exc
+        if isinstance(exc, UnreachableTargetError) and eye is not None:
+            error = in_eye_frame(exc, eye)
         log = exc.log if exc.log is not None else LogBuilder.for_robot(robot).finish()
     except BaseException as exc:  # an interrupt carries the records so far, as `result`
         ctl = controller

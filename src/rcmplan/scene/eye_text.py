@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.control.targets import target_tips
 from rcmplan.exceptions import ActuatorLimitError, UnreachableTargetError
 from rcmplan.robot.model import RobotModel
 from rcmplan.scene.eye import Eye, eye_frame
@@ -56,3 +57,21 @@ def eye_frame_reason(
 
 
 FRAMELESS_REASONS = ("lambda = ", "needle angles ", "the point lies")  # refusals without positions
+
+
+def in_eye_frame(exc: UnreachableTargetError, eye: Eye) -> UnreachableTargetError:
+    """The refusal of an RCM target (X_ext (6,) or a curved needle's X_c (7,), its roll then
+    too) with its tip stated in the eye frame in mm, as a user states points, in place of the
+    target's numbers in the robot base frame; exc itself when it carries no such target."""
+    target = exc.target
+    if target is None or np.shape(target) not in ((6,), (7,)):
+        return exc
+    try:
+        tip = target_tips(np.asarray(target, dtype=float)[None, :])[0]
+    except UnreachableTargetError:  # X_ext that fixes no tip: its numbers stay
+        return exc
+    if not np.all(np.isfinite(tip)):
+        return exc
+    x, y, z = (f"{v:.4g}" for v in to_eye_mm(eye, tip))
+    roll = f", the needle's roll {target[3]:.4g} rad" if len(target) == 7 else ""
+    return exc.restated(stated=f"its tip at x = {x}, y = {y}, z = {z} mm in the eye frame{roll}")
