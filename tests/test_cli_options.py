@@ -25,7 +25,7 @@ RUN_COMMANDS = {
     "sweep": SHARED,
     "teleop": SHARED - {"method"},  # the QP step at every 1 kHz period is the session
     "subretinal": SHARED - {"scenario", "method"},  # its own layered retina; the QP depth limit
-    "render": SHARED - {"robot", "no_plots"},  # the iRAM!S MuJoCo scene; images are the output
+    "render": SHARED - {"no_plots"},  # images are its output
     "reproduce": frozenset({"out", "json", "no_plots"}),  # the thesis's robot and settings
 }
 

@@ -13,6 +13,8 @@ import pytest
 from rcmplan.cli import render as render_cli
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError
+from rcmplan.robot.registry import make_robot
+from rcmplan.sim.mujoco.arm_plant import ArmPlant
 from rcmplan.sim.mujoco.plant import MujocoPlant
 from rcmplan.sim.mujoco.render import SceneRenderer, animate, save_animation, save_png
 
@@ -135,3 +137,67 @@ def test_render_command_writes_snapshots_and_an_animation(tmp_path: Path) -> Non
     assert summary["command"] == "render"
     assert sorted(Path(p).name for p in summary["figures"].values()) == names
     assert len(RunLog.load_npz(tmp_path / "log.npz")) == summary["iterations"]
+
+
+# An arm's scene: the physics model with what a camera needs (`arm_model`'s scenery).
+
+
+@pytest.fixture(scope="module")
+def arm_plant() -> ArmPlant:
+    return ArmPlant(make_robot("ur5"), mode="kinematic")
+
+
+def test_an_arms_scene_adds_only_what_a_camera_sees_to_its_physics(arm_plant: ArmPlant) -> None:
+    """The scene's links, floor, light and cameras carry no mass and make no contact: the
+    bodies, joints, actuators and inertias are the physics model's (which has no camera)."""
+    physics, (scene, _) = arm_plant.model, arm_plant.scene()
+    assert physics.ncam == 0 and scene.ncam == 2
+    assert (scene.nbody, scene.nq, scene.nu) == (physics.nbody, physics.nq, physics.nu)
+    assert np.array_equal(scene.body_mass, physics.body_mass)
+    assert np.array_equal(scene.body_inertia, physics.body_inertia)
+    drawn = scene.ngeom - physics.ngeom
+    assert drawn > arm_plant.robot.chain.n  # a capsule or a sphere per link, and the floor
+    assert scene.geom_contype.sum() == physics.geom_contype.sum()  # none of them collides
+    assert scene.geom_conaffinity.sum() == physics.geom_conaffinity.sum()
+
+
+@pytest.mark.parametrize("turn", [0.0, 0.004, -0.006])  # [rad]: the tip within the closeup
+def test_an_arms_needle_tip_is_drawn_where_forward_kinematics_projects_it(
+    arm_plant: ArmPlant, turn: float
+) -> None:
+    """Both cameras see the arm; the closeup draws the needle's end at the projected tip."""
+    arm = arm_plant.robot
+    q = arm.home.copy()
+    q[list(arm.active)] += turn * np.array([1.0, -1.0, 1.0, -1.0, 1.0])
+    arm_plant.reset(q)
+    model, data = arm_plant.scene()
+    renderer = SceneRenderer(model, W, H)
+    try:
+        for camera in ("overview", "closeup"):
+            img = renderer.render(data, camera)
+            assert img.std() > 10.0 and len(np.unique(img.reshape(-1, 3), axis=0)) > 100
+        tip = renderer.project(data, arm.tip(q))
+        base = renderer.project(data, arm.needle_point(q, 0.0))
+        seg = renderer.segment(data)
+        v, u = np.nonzero(seg == model.geom("needle").id)
+        pixels = np.column_stack([u + 0.5, v + 0.5])
+        along = (pixels - base) @ (tip - base) / np.linalg.norm(tip - base)
+        assert 0 < tip[0] < W and 0 < tip[1] < H
+        assert np.linalg.norm(pixels[int(np.argmax(along))] - tip) < 1.5  # pixels
+    finally:
+        renderer.close()
+        arm_plant.reset(arm.home)
+
+
+def test_render_command_draws_an_arms_run(tmp_path: Path) -> None:
+    parser = argparse.ArgumentParser()
+    render_cli.register(parser.add_subparsers())
+    args = parser.parse_args(["render", "--robot", "ur5", "--out", str(tmp_path), "--width",
+                              "160", "--height", "120", "--frames", "4"])  # fmt: skip
+    assert args.run(args) == 0
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "ok" and summary["robot"] == "ur5"
+    gif = iio.mimread(tmp_path / "figures" / "default.gif")
+    assert len(gif) == 4 and not np.array_equal(gif[0], gif[-1])  # the needle moved
+    log = RunLog.load_npz(tmp_path / "log.npz")
+    assert log.sliders.shape[1] == 6 and len(log) == summary["iterations"]

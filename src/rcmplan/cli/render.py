@@ -1,9 +1,10 @@
 """`rcmplan render`: PNG snapshots of the MuJoCo scene and an animation with the tip trace.
 
 The animation replays the scenario's run (the default injection on the kinematic plant unless
---scenario, --method or --plant say otherwise) in the MuJoCo scene with the scenario's eye;
-`--demo` animates a short generated slider trajectory instead. The scene is iRAM!S's (the arms'
-MuJoCo models have no cameras), so a scenario of another robot is refused before it runs.
+--scenario, --robot, --method or --plant say otherwise) in the MuJoCo scene with the scenario's
+eye; `--demo` animates a short generated actuator trajectory instead. iRAM!S is drawn from its
+MuJoCo model's own geometry (and a curved needle's arc); an arm's links are drawn as capsules
+between its joints (`arm_model`'s scenery), its needle as the straight shaft.
 
 Outputs in --out: summary.json (the run's summary with the images under `figures`; a demo's
 names the images alone), the run's log (log.npz, log.csv) and the images in figures/.
@@ -22,9 +23,18 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, integer, scalar
 from rcmplan.cli import interrupts
-from rcmplan.cli.common import add_json, add_method, add_out, add_plant, add_scenario
+from rcmplan.cli.common import (
+    add_json,
+    add_method,
+    add_out,
+    add_plant,
+    add_robot,
+    add_scenario,
+)
 from rcmplan.exceptions import InvalidInputError, RcmplanError, require_extra
 from rcmplan.robot.iramis import Iramis
+from rcmplan.robot.model import RobotModel, SerialArm
+from rcmplan.robot.registry import make_robot
 from rcmplan.sim.mujoco.scene import OFFSCREEN
 
 CAMERAS = ("closeup", "overview")
@@ -38,13 +48,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "render", help="render the MuJoCo scene: snapshots and an animation",
         description="Render headless MuJoCo snapshots of the robot and the eye from both "
-        "cameras, and an animation of the scenario's run (or --demo) with the tip trace. "
-        "The scene is iRAM!S's.",
+        "cameras, and an animation of the scenario's run (or --demo) with the tip trace.",
     )  # fmt: skip
-    add_scenario(p, "default", "scenario to run and animate (iRAM!S)")
+    add_scenario(p, "default", "scenario to run and animate")
+    add_robot(p)
     add_method(p)
     add_plant(p, default="kinematic")
-    p.add_argument("--demo", action="store_true", help="animate a generated slider trajectory")
+    p.add_argument("--demo", action="store_true", help="animate a generated actuator trajectory")
     p.add_argument("--width", type=int, default=640,
                    help=f"image width in pixels, {MIN_SIZE}-{OFFSCREEN[0]} (640)")  # fmt: skip
     p.add_argument("--height", type=int, default=480,
@@ -62,26 +72,34 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(run=run)
 
 
-def demo_trajectory(robot: Iramis, n: int = 240) -> FloatArray:
-    """Sliders (n, 6): insert the needle 10 mm, then tilt it with both PCJMs and come back."""
+def demo_trajectory(robot: RobotModel, n: int = 240) -> FloatArray:
+    """Actuators (n, robot's count). iRAM!S: insert the needle 10 mm, then tilt it with both
+    PCJMs and come back; an arm: turn each moving joint by up to 0.2 rad (alternate signs,
+    within a tenth of its travel of its limits) and come back."""
     t = 0.5 - 0.5 * np.cos(np.linspace(0.0, 2.0 * np.pi, n))[:, None]  # 0 -> 1 -> 0
-    insert = np.clip(2.0 * t, 0.0, 1.0) * np.array([0.0, 0.0, 0.0, 0.0, 10e-3, 0.0])
-    tilt = np.clip(2.0 * t - 1.0, 0.0, 1.0) * np.array([1e-3, -1e-3, -1e-3, 1e-3, 0.0, 0.0])
-    return robot.home_actuators + insert + tilt
+    if isinstance(robot, Iramis):
+        insert = np.clip(2.0 * t, 0.0, 1.0) * np.array([0.0, 0.0, 0.0, 0.0, 10e-3, 0.0])
+        tilt = np.clip(2.0 * t - 1.0, 0.0, 1.0) * np.array([1e-3, -1e-3, -1e-3, 1e-3, 0.0, 0.0])
+        return robot.home_actuators + insert + tilt
+    home = robot.home_actuators
+    turn = np.zeros_like(home)
+    for k, j in enumerate(robot.active):
+        turn[j] = 0.2 if k % 2 == 0 else -0.2
+    margin = 0.1 * (robot.upper - robot.lower)
+    return np.clip(home + t * turn, robot.lower + margin, robot.upper - margin)
 
 
-def run_scenario_of(args: argparse.Namespace, robot: Iramis, out: Path) -> tuple[Any, Any]:
-    """Run the scenario and write its log and summary; returns the result and the eye as a
-    scene phantom. A scenario of another robot is refused before it runs."""
+def run_scenario_of(args: argparse.Namespace, out: Path) -> tuple[Any, Any, RobotModel]:
+    """Run the scenario and write its log and summary; returns the result, the eye as a
+    scene phantom and the model the scene draws (a curved needle's shaft)."""
     from rcmplan.analysis.report import write_summary
-    from rcmplan.job import run_scenario
+    from rcmplan.job import plant_model, run_scenario
     from rcmplan.scene.scenario import load_scenario
     from rcmplan.sim.mujoco.scene import phantom_of
 
     scenario = load_scenario(args.scenario).with_plant(args.plant)
-    if scenario.robot != "iramis":
-        raise InvalidInputError("--scenario", args.scenario, "a scenario of iramis (the robot "
-                                f"the MuJoCo scene draws), not of {scenario.robot}")  # fmt: skip
+    if args.robot:
+        scenario = scenario.with_robot(args.robot)
     if args.method:
         scenario = scenario.with_method(args.method)
     result = replace(run_scenario(scenario), command="render")
@@ -91,36 +109,33 @@ def run_scenario_of(args: argparse.Namespace, robot: Iramis, out: Path) -> tuple
               "log", file=sys.stderr)  # fmt: skip
     elif not result.ok:
         print(f"rcmplan render: {result.status}: {result.message}", file=sys.stderr)
-    eye = scenario.eye(robot)
-    return result, phantom_of(eye, scenario.points(eye))
+    eye = scenario.eye(result.robot)
+    return result, phantom_of(eye, scenario.points(eye)), plant_model(result.robot)
 
 
 def run(args: argparse.Namespace) -> int:
     """Write home snapshots from both cameras, the animation and its last frame in
     OUT/figures, and summary.json naming them; print it (--json) or the paths. Refused (a bad
-    option, a scenario of another robot), it writes summary.json with the error and re-raises
-    (exit 2)."""
+    option), it writes summary.json with the error and re-raises (exit 2)."""
     from rcmplan.analysis.report import prepare_folder
     from rcmplan.cli.output import write_stopped
-    from rcmplan.sim.mujoco.plant import MujocoPlant
 
     out = prepare_folder(args.out)
-    robot = Iramis()
     try:
         size = image_size(args)
         frames = integer("--frames", args.frames, 1, MAX_FRAMES)
         fps = scalar("--fps", args.fps, 0.0, MAX_FPS, low_open=True)
         if args.format == "mp4":
             require_extra("imageio_ffmpeg", "video")
-        result, eye, sliders = trajectory(args, robot, out)
+        result, eye, robot, actuators = trajectory(args, out)
     except RcmplanError as exc:
         write_stopped(out, args, exc.status, f"{type(exc).__name__}: {exc}")
         raise
     name = "demo" if result is None else re.sub(r"[^\w.-]", "_", result.scenario.name)
     arc = None if result is None else result.scenario.needle.arc()
-    plant = MujocoPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
     try:
-        figures = render_figures(args, plant, sliders, out / "figures", name, size, frames, fps)
+        plant = scene_plant(robot, eye, arc)
+        figures = render_figures(args, plant, actuators, out / "figures", name, size, frames, fps)
     except RcmplanError as exc:
         write_render_summary(out, result, {}, exc)
         raise
@@ -136,15 +151,31 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def trajectory(args: argparse.Namespace, robot: Iramis, out: Path) -> tuple[Any, Any, FloatArray]:
-    """(the run's result or None, the eye phantom or None, the sliders to animate): the
-    scenario's run (its log and summary written), or the demo's trajectory."""
+def scene_plant(robot: RobotModel, eye: Any, arc: Any) -> Any:
+    """The kinematic MuJoCo plant that replays the motion: iRAM!S's (with a curved needle's
+    arc), or an arm's; eye None: the robot's default eye."""
+    if isinstance(robot, Iramis):
+        from rcmplan.sim.mujoco.plant import MujocoPlant
+
+        return MujocoPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
+    from rcmplan.sim.mujoco.arm_plant import ArmPlant
+
+    if not isinstance(robot, SerialArm):
+        raise InvalidInputError("--robot", robot.name, "iRAM!S or a serial arm (a SerialArm)")
+    return ArmPlant(robot, mode="kinematic", eye=eye)
+
+
+def trajectory(args: argparse.Namespace, out: Path) -> tuple[Any, Any, RobotModel, FloatArray]:
+    """(the run's result or None, the eye phantom or None, the model the scene draws, the
+    actuators to animate): the scenario's run (its log and summary written), or the demo's
+    trajectory on --robot (iRAM!S by default)."""
     if not args.demo:
-        result, eye = run_scenario_of(args, robot, out)
-        return result, eye, np.vstack([robot.home_actuators, result.log.sliders])
+        result, eye, robot = run_scenario_of(args, out)
+        return result, eye, robot, np.vstack([robot.home_actuators, result.log.sliders])
     for stale in ("log.npz", "log.csv"):  # an earlier run's log: not this render's
         (out / stale).unlink(missing_ok=True)
-    return None, None, demo_trajectory(robot)
+    robot = make_robot(args.robot or "iramis")
+    return None, None, robot, demo_trajectory(robot)
 
 
 def image_size(args: argparse.Namespace) -> tuple[int, int]:
@@ -153,7 +184,7 @@ def image_size(args: argparse.Namespace) -> tuple[int, int]:
             integer("--height", args.height, MIN_SIZE, OFFSCREEN[1]))  # fmt: skip
 
 
-def render_figures(args: argparse.Namespace, plant: Any, sliders: FloatArray, folder: Path,
+def render_figures(args: argparse.Namespace, plant: Any, actuators: FloatArray, folder: Path,
                    name: str, size: tuple[int, int], frames: int,
                    fps: float) -> dict[str, Path]:  # fmt: skip
     """The home snapshots from both cameras, the animation and its last frame."""
@@ -164,7 +195,7 @@ def render_figures(args: argparse.Namespace, plant: Any, sliders: FloatArray, fo
     try:
         made = {f"home_{cam}": save_png(folder / f"home_{cam}.png", renderer.render(data, cam))
                 for cam in ("overview", "closeup")}  # fmt: skip
-        images = animate(plant, sliders, renderer, args.camera, frames)
+        images = animate(plant, actuators, renderer, args.camera, frames)
         made["animation"] = save_animation(folder / f"{name}.{args.format}", images, fps)
         made["last_frame"] = save_png(folder / f"{name}_end_{args.camera}.png", images[-1])
     finally:

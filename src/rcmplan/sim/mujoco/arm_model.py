@@ -33,9 +33,17 @@ from rcmplan.exceptions import MissingExtraError
 from rcmplan.robot.model import SerialArm
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.frames import quat_from_matrix
-from rcmplan.sim.mujoco.scene import TROCAR_RADIUS, EyePhantom
+from rcmplan.sim.mujoco.scene import (
+    CLOSEUP_FOVY,
+    CLOSEUP_OFFSET,
+    OFFSCREEN,
+    TROCAR_RADIUS,
+    EyePhantom,
+    camera_axes,
+)
 
 NEEDLE_RADIUS = 0.15e-3  # [m], a 30 G needle (0.31 mm outer diameter)
+OVERVIEW_FOVY = 45.0  # [deg]
 DEFAULT_LINK = (1.0, 1e-2)  # (mass [kg], principal inertia [kg m^2]) of a link without a URDF
 
 
@@ -82,9 +90,12 @@ class ServoOptions:
 
 
 def arm_spec(
-    arm: SerialArm, options: ServoOptions | None = None, eye: EyePhantom | None = None
-) -> Any:
-    """The arm's `mujoco.MjSpec` with servos and a `home` keyframe (and the eye, if given)."""
+    arm: SerialArm, options: ServoOptions | None = None, eye: EyePhantom | None = None,
+    scenery: bool = False,
+) -> Any:  # fmt: skip
+    """The arm's `mujoco.MjSpec` with servos and a `home` keyframe (and the eye, if given);
+    with `scenery` (and an eye) what a camera needs too (`_scenery`): links, floor, light and
+    the cameras `closeup` and `overview`."""
     mj = mujoco_module()
     options = options or ServoOptions()
     spec = mj.MjSpec()
@@ -97,6 +108,8 @@ def arm_spec(
     _needle(mj, last, arm)
     if eye is not None:
         _eye(mj, spec, eye)
+        if scenery:
+            _scenery(mj, spec, arm, eye)
     _servos(mj, spec, arm, options)
     key = spec.add_key()
     key.name, key.qpos, key.act = "home", arm.home.tolist(), arm.home.tolist()
@@ -104,10 +117,11 @@ def arm_spec(
 
 
 def arm_model(
-    arm: SerialArm, options: ServoOptions | None = None, eye: EyePhantom | None = None
-) -> Any:
+    arm: SerialArm, options: ServoOptions | None = None, eye: EyePhantom | None = None,
+    scenery: bool = False,
+) -> Any:  # fmt: skip
     """The compiled `mujoco.MjModel` of `arm_spec`."""
-    return arm_spec(arm, options, eye).compile()
+    return arm_spec(arm, options, eye, scenery).compile()
 
 
 def arm_xml(arm: SerialArm, options: ServoOptions | None = None) -> str:
@@ -204,6 +218,56 @@ def _eye(mj: Any, spec: Any, eye: EyePhantom) -> None:
     for i, p in enumerate(eye.targets):
         body.add_site(name=f"target_{i}", pos=(p - eye.centre).tolist(), size=[3e-4, 0.0, 0.0],
                       rgba=[0.9, 0.2, 0.2, 1.0], group=1)  # fmt: skip
+
+
+def _scenery(mj: Any, spec: Any, arm: SerialArm, eye: EyePhantom) -> None:
+    """What a camera needs and the physics does not: the links drawn as capsules from each
+    joint's origin to the next one's (and to the flange), massless and without contacts, a
+    floor at the base, a light, and two cameras as iRAM!S's scene has them: `closeup` on the
+    needle tip and the trocar at home, `overview` framing the arm at home and the eye."""
+    radius = min(0.03, 0.03 * arm.reach / 1.0)  # [m]: 30 mm on a 1 m arm, thinner on a small one
+    grey = [0.62, 0.64, 0.68, 1.0]
+    bodies = [spec.body("base"), *(spec.body(f"link_{j.name}") for j in arm.chain.joints)]
+    ends = [j.origin[:3, 3] for j in arm.chain.joints] + [arm.chain.tip[:3, 3]]
+    for body, end in zip(bodies, ends, strict=True):
+        body.add_geom(type=mj.mjtGeom.mjGEOM_SPHERE, size=[1.2 * radius, 0.0, 0.0], rgba=grey,
+                      contype=0, conaffinity=0, density=0.0, group=2)  # fmt: skip
+        if np.linalg.norm(end) > 1e-6:
+            body.add_geom(type=mj.mjtGeom.mjGEOM_CAPSULE, fromto=[0.0, 0.0, 0.0, *end],
+                          size=[radius, 0.0, 0.0], rgba=grey, contype=0, conaffinity=0,
+                          density=0.0, group=2)  # fmt: skip
+    frames = arm.chain.frames(arm.home)  # (n + 2, 4, 4): base, joints, flange
+    points = np.vstack([frames[:, :3, 3], eye.centre[None, :]])
+    centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
+    extent = float(np.linalg.norm(points - centre, axis=1).max())
+    base_z = float(arm.chain.base[2, 3])
+    spec.add_texture(name="sky", type=mj.mjtTexture.mjTEXTURE_SKYBOX,
+                     builtin=mj.mjtBuiltin.mjBUILTIN_GRADIENT, rgb1=[0.35, 0.45, 0.55],
+                     rgb2=[0.05, 0.05, 0.08], width=64, height=384)  # fmt: skip
+    spec.add_texture(name="grid", type=mj.mjtTexture.mjTEXTURE_2D,
+                     builtin=mj.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.2, 0.22, 0.25],
+                     rgb2=[0.15, 0.16, 0.18], width=64, height=64)  # fmt: skip
+    grid = spec.add_material(name="grid", texrepeat=[20.0, 20.0])
+    grid.textures[mj.mjtTextureRole.mjTEXROLE_RGB] = "grid"
+    spec.worldbody.add_geom(
+        name="floor", type=mj.mjtGeom.mjGEOM_PLANE, size=[2.0 * extent, 2.0 * extent, 0.01],
+        pos=[centre[0], centre[1], base_z - 0.002], material="grid", contype=0, conaffinity=0,
+    )  # fmt: skip
+    spec.worldbody.add_light(pos=[centre[0], centre[1], base_z + 3.0 * extent], dir=[0, 0, -1],
+                             castshadow=False)  # fmt: skip
+    spec.visual.global_.offwidth, spec.visual.global_.offheight = OFFSCREEN
+    spec.visual.headlight.diffuse, spec.visual.headlight.ambient = [0.5] * 3, [0.3] * 3
+    tip = arm.tip(arm.home)
+    mid = 0.5 * (tip + eye.trocar)
+    direction = np.array([0.12, -0.25, 0.17])  # iRAM!S's overview, seen from the same side
+    distance = 1.15 * extent / math.sin(math.radians(OVERVIEW_FOVY / 2.0))
+    wide = centre + distance * direction / np.linalg.norm(direction)
+    for name, pos, target, fovy in (
+        ("overview", wide, centre, OVERVIEW_FOVY),
+        ("closeup", mid + CLOSEUP_OFFSET, mid, CLOSEUP_FOVY),
+    ):
+        camera = spec.worldbody.add_camera(name=name, pos=pos.tolist(), fovy=fovy)
+        camera.quat = quat_from_matrix(camera_axes(pos, target)).tolist()
 
 
 def _servos(mj: Any, spec: Any, arm: SerialArm, options: ServoOptions) -> None:

@@ -152,12 +152,14 @@ def animate(
     camera: str = "closeup",
     frames: int = 60,
 ) -> list[Image]:
-    """Drive a MujocoPlant through slider rows (n, 6) and render `frames` images with the tip
-    trace so far; the plant is reset to the first row."""
+    """Drive a MuJoCo plant (`MujocoPlant`, `ArmPlant`) through actuator rows (N, the robot's
+    count) and render `frames` images with the tip trace so far; the plant is reset to the
+    first row."""
+    n = len(plant.robot.home_actuators)
     s = np.asarray(sliders, dtype=float)
-    s = matrix("sliders", s, (s.shape[0], 6)) if s.ndim == 2 else matrix("sliders", s, (0, 6))
+    s = matrix("sliders", s, (s.shape[0], n)) if s.ndim == 2 else matrix("sliders", s, (0, n))
     if len(s) == 0:
-        raise InvalidInputError("sliders", sliders, "at least one row of 6 slider values")
+        raise InvalidInputError("sliders", sliders, f"at least one row of {n} actuator values")
     plant.reset(s[0])
     keep = set(np.linspace(0, len(s) - 1, max(1, frames)).round().astype(int).tolist())
     trace, images = [], []

@@ -66,14 +66,24 @@ def default_eye(robot: Iramis) -> EyePhantom:
     return phantom_of(eye, default_points(eye))
 
 
-def look_at(eye: FloatArray, target: FloatArray) -> str:
-    """MJCF `xyaxes` of a camera at `eye` looking at `target`, world z up."""
+def camera_axes(eye: FloatArray, target: FloatArray) -> FloatArray:
+    """The rotation (3, 3) of a camera at `eye` looking at `target`, world z up: columns x
+    (right), y (up) and z (backwards: MuJoCo cameras look along their -z)."""
     forward = target - eye
     forward = forward / np.linalg.norm(forward)
     x = np.cross(forward, [0.0, 0.0, 1.0])
     x /= np.linalg.norm(x)
-    y = np.cross(x, forward)
-    return fmt(np.concatenate([x, y]))
+    return np.column_stack([x, np.cross(x, forward), -forward])
+
+
+def look_at(eye: FloatArray, target: FloatArray) -> str:
+    """MJCF `xyaxes` of a camera at `eye` looking at `target`, world z up."""
+    R = camera_axes(eye, target)
+    return fmt(np.concatenate([R[:, 0], R[:, 1]]))
+
+
+CLOSEUP_OFFSET = np.array([0.006, -0.07, 0.03])  # [m] from the middle of the tip and trocar
+CLOSEUP_FOVY = 35.0  # [deg]
 
 
 OFFSCREEN = (1280, 960)  # the largest image the scene renders, (width, height) in pixels
@@ -114,13 +124,13 @@ def _cameras(world: ET.Element, robot: Iramis, eye: EyePhantom) -> None:
     mid = 0.5 * (tip + eye.trocar)
     over = np.array([0.02, 0.03, 0.06])
     wide = over + np.array([0.12, -0.25, 0.17])
-    close = mid + np.array([0.006, -0.07, 0.03])
+    close = mid + CLOSEUP_OFFSET
     for name, pos, target, fovy in (
         ("overview", wide, over, 45),
-        ("closeup", close, mid, 35),
+        ("closeup", close, mid, CLOSEUP_FOVY),
     ):
         ET.SubElement(
-            world, "camera", name=name, pos=fmt(pos), xyaxes=look_at(pos, target), fovy=str(fovy)
+            world, "camera", name=name, pos=fmt(pos), xyaxes=look_at(pos, target), fovy=f"{fovy:g}"
         )
 
 
