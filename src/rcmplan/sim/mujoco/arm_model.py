@@ -225,7 +225,7 @@ def _scenery(mj: Any, spec: Any, arm: SerialArm, eye: EyePhantom) -> None:
     joint's origin to the next one's (and to the flange), massless and without contacts, a
     floor at the base, a light, and two cameras as iRAM!S's scene has them: `closeup` on the
     needle tip and the trocar at home, `overview` framing the arm at home and the eye."""
-    radius = min(0.03, 0.03 * arm.reach / 1.0)  # [m]: 30 mm on a 1 m arm, thinner on a small one
+    radius = 0.03 * min(arm.reach, 1.0)  # [m]: 30 mm on an arm reaching 1 m or more
     grey = [0.62, 0.64, 0.68, 1.0]
     bodies = [spec.body("base"), *(spec.body(f"link_{j.name}") for j in arm.chain.joints)]
     ends = [j.origin[:3, 3] for j in arm.chain.joints] + [arm.chain.tip[:3, 3]]
@@ -236,8 +236,8 @@ def _scenery(mj: Any, spec: Any, arm: SerialArm, eye: EyePhantom) -> None:
             body.add_geom(type=mj.mjtGeom.mjGEOM_CAPSULE, fromto=[0.0, 0.0, 0.0, *end],
                           size=[radius, 0.0, 0.0], rgba=grey, contype=0, conaffinity=0,
                           density=0.0, group=2)  # fmt: skip
-    frames = arm.chain.frames(arm.home)  # (n + 2, 4, 4): base, joints, flange
-    points = np.vstack([frames[:, :3, 3], eye.centre[None, :]])
+    frames = arm.chain.frames(arm.home)  # (n + 1, 4, 4): the joints' frames, the flange's
+    points = np.vstack([arm.chain.base[:3, 3], frames[:, :3, 3], eye.centre])
     centre = 0.5 * (points.min(axis=0) + points.max(axis=0))
     extent = float(np.linalg.norm(points - centre, axis=1).max())
     base_z = float(arm.chain.base[2, 3])

@@ -74,7 +74,6 @@ class ArmPlant(ServoPlant):
         if self.servo.gravity_compensation:
             cancel_gravity(self.mj, self.model)
         self.data = self.mj.MjData(self.model)
-        self._scene: tuple[Any, Any] | None = None
         self._n = robot.chain.n
         names = list(robot.chain.joint_names)
         self._ids = ServoIds(self.mj, self.model, names, names)
@@ -110,19 +109,10 @@ class ArmPlant(ServoPlant):
         """Needle tip site position (3,) in [m], world frame."""
         return self.site_position("needle_tip")
 
-    def scene(self) -> tuple[Any, Any]:
-        """(MjModel, MjData) of the scene a camera sees (the physics model with the links drawn,
-        a floor, a light and the cameras `closeup` and `overview`: `arm_model`'s scenery),
-        posed at the plant's state, for rendering; `model` and `data` are the physics."""
-        if self._scene is None:
-            model = arm_model(self.robot, self.servo, self.eye, scenery=True)
-            self._scene = (model, self.mj.MjData(model))
-        model, data = self._scene
-        d = self.data
-        data.qpos[:], data.qvel[:], data.act[:], data.ctrl[:] = d.qpos, d.qvel, d.act, d.ctrl
-        data.time = d.time
-        self.mj.mj_forward(model, data)
-        return model, data
+    def _scene_model(self) -> Any:
+        """The physics model with the links drawn, a floor, a light and the cameras `closeup`
+        and `overview` (`arm_model`'s scenery), that `scene` poses."""
+        return arm_model(self.robot, self.servo, self.eye, scenery=True)
 
 
 def _phantom(robot: SerialArm, eye: EyePhantom | Eye | None, points: EyePoints | None) -> Any:

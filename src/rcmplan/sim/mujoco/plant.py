@@ -106,7 +106,6 @@ class MujocoPlant(ServoPlant):
         self.actuator_resolution = self._steps.copy() if mode == "dynamic" else None
         self._lower, self._upper = self.robot.lower, self.robot.upper
         self._warning_count = self.data.warning.number  # a view: MuJoCo updates it in place
-        self._scene: tuple[Any, Any] | None = None
         self.time = 0.0
         self._cmd = self.robot.home_actuators.copy()
         self.reset(self.robot.home_actuators)
@@ -146,18 +145,9 @@ class MujocoPlant(ServoPlant):
         T[:3, 3] = self.data.site_xpos[self._ids.tip]
         return T
 
-    def scene(self) -> tuple[Any, Any]:
-        """(MjModel, MjData) of the full scene (eye phantom, visual geoms) posed at the plant's
-        state, for rendering; `model` and `data` are the physics (robot without visuals)."""
-        if self._scene is None:
-            model = load_model(self.robot, self.eye, self.piezo, self._options)
-            self._scene = (model, self.mj.MjData(model))
-        model, data = self._scene
-        d = self.data
-        data.qpos[:], data.qvel[:], data.act[:], data.ctrl[:] = d.qpos, d.qvel, d.act, d.ctrl
-        data.time = d.time
-        self.mj.mj_forward(model, data)
-        return model, data
+    def _scene_model(self) -> Any:
+        """The full scene (eye phantom, visual geoms, cameras) that `scene` poses."""
+        return load_model(self.robot, self.eye, self.piezo, self._options)
 
     def loop_gap(self) -> float:
         """Largest PCJM loop-closure gap in [m]."""

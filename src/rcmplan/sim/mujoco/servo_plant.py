@@ -48,7 +48,7 @@ class ServoPlant:
     and `_speed` (the actuators' resolution and speed), `_ramp` [s] (0: no acceleration
     bound), `_clip` (lower, upper) of the quantised command, `_lower`, `_upper` (the travel a
     command is checked against), `_warning_count` (`data.warning.number`), and defines
-    `_place` (kinematic mode) and `reset`.
+    `_place` (kinematic mode), `reset` and `_scene_model` (what `scene` draws).
     """
 
     mj: Any
@@ -69,6 +69,25 @@ class ServoPlant:
     _cmd: FloatArray
     _warning_count: NDArray[np.int32]  # a view of mjData's warning counts (MuJoCo updates it)
     _period: tuple[Any, tuple[Any, ...]] | None = None  # the compiled period and its arguments
+    _scene: tuple[Any, Any] | None = None  # the scene's (MjModel, MjData), made when first asked
+
+    def _scene_model(self) -> Any:
+        """The MjModel of the scene a camera sees (the subclass's)."""
+        raise NotImplementedError
+
+    def scene(self) -> tuple[Any, Any]:
+        """(MjModel, MjData) of the scene a camera sees (`_scene_model`: the physics model
+        with the eye, visual geometry and cameras), posed at the plant's state, for rendering;
+        `model` and `data` are the physics."""
+        if self._scene is None:
+            model = self._scene_model()
+            self._scene = (model, self.mj.MjData(model))
+        model, data = self._scene
+        d = self.data
+        data.qpos[:], data.qvel[:], data.act[:], data.ctrl[:] = d.qpos, d.qvel, d.act, d.ctrl
+        data.time = d.time
+        self.mj.mj_forward(model, data)
+        return model, data
 
     def _timing(self, dt: float, physics_dt: float) -> float:
         """Check and set the control period dt [s] and the physics steps per period; returns
