@@ -96,4 +96,4 @@ def _stale_kernels_already_cleared(tmp_path_factory: pytest.TempPathFactory) -> 
     os.environ["XDG_CACHE_HOME"] = str(tmp_path_factory.mktemp("xdg-cache"))
     stamp = _kernel_cache.stamp_path()
     stamp.parent.mkdir(parents=True, exist_ok=True)
-    stamp.write_text("cleared\n")
+    stamp.write_text(_kernel_cache.stamp_key() + "\n")

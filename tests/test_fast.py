@@ -240,6 +240,34 @@ def test_a_first_run_says_once_that_numba_compiles_and_clears_numbas_cache(tmp_p
     assert caches[3] == caches[2]  # nothing cleared, nothing compiled again
 
 
+def test_kernels_are_cleared_whenever_their_sources_differ_from_the_last_clearing(
+    tmp_path, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    """Sources A, then B, then A again (a downgrade, an edit undone): each change clears the
+    kernels numba cached for the other version (a loop cached with B's callees would run them
+    on A's arrays), and a process with unchanged sources clears nothing."""
+    from numba.core.caching import _CacheLocator
+
+    from rcmplan import _kernel_cache
+
+    source = tmp_path / "src" / "kernels.py"
+    source.parent.mkdir()
+    monkeypatch.setattr(_kernel_cache, "kernel_sources", lambda: [source])
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "numba"))
+    cached = tmp_path / "numba" / _CacheLocator.get_suitable_cache_subpath(str(source)) / "k.nbi"
+    cached.parent.mkdir(parents=True)
+    cleared = []
+    for version in ("A", "A", "B", "B", "A"):
+        source.write_text(f"# version {version}\n")
+        cached.write_text(f"compiled by a process that saw {version}")  # what that run compiles
+        monkeypatch.setattr(_kernel_cache, "_checked", [False])  # a new process
+        _kernel_cache.check_once()
+        cleared.append(not cached.exists())
+    assert cleared == [True, False, True, False, True]
+    assert _kernel_cache.stamp_path().read_text().strip() == _kernel_cache.stamp_key()
+
+
 def test_the_first_run_stamp_covers_every_file_that_holds_a_kernel() -> None:
     """numba checks a cached kernel against its own file only, so the stamp that clears the
     cache must change with every file holding a kernel (`_kernel_cache.kernel_sources`)."""

@@ -3,12 +3,14 @@ compiled or loaded (`rcmplan._jit` calls `check_once` as it is imported, before 
 module defines its kernels).
 
 numba checks a cached kernel against its own file only: a kernel whose callee moved or changed
-in another file would load stale code (or fail to load). So a stamp under the user's cache
-folder (`$XDG_CACHE_HOME/rcmplan`, keyed by every file holding a kernel, numba's and Python's
-versions and the cache folder) records that this installation's kernels were cleared once; a
-new stamp (an install, an upgrade, an edit) first clears them (`clear_stale`). Where the stamp
-cannot be written nothing is cleared: without a stamp to record it, every run would clear and
-compile again.
+in another file would load stale code (or fail to load): a loop compiled with another version's
+work-array layout writes past the arrays it is given. So a stamp under the user's cache folder
+(`$XDG_CACHE_HOME/rcmplan`), one per numba cache (the installation's place and
+NUMBA_CACHE_DIR), holds the key of the kernels that cache was last cleared for (every file
+holding a kernel, numba's and Python's versions); a stamp missing or holding another key (an
+install, an upgrade, an edit, and as much a downgrade or an edit undone) first clears them
+(`clear_stale`). Where the stamp cannot be written nothing is cleared: without a stamp to
+record it, every run would clear and compile again.
 """
 
 from __future__ import annotations
@@ -26,14 +28,15 @@ _checked = [False]
 
 
 def check_once() -> None:
-    """Clear rcmplan's kernels from numba's cache if this installation's stamp is new (once per
-    process)."""
+    """Clear rcmplan's kernels from numba's cache unless the stamp says it was last cleared for
+    these kernels (once per process)."""
     if _checked[0]:
         return
     _checked[0] = True
-    stamp = stamp_path()
-    if stamp.exists():
-        return
+    stamp, key = stamp_path(), stamp_key()
+    with contextlib.suppress(OSError, UnicodeDecodeError):
+        if stamp.read_text().strip() == key:
+            return
     try:
         stamp.parent.mkdir(parents=True, exist_ok=True)
         writable = os.access(stamp.parent, os.W_OK)
@@ -42,7 +45,7 @@ def check_once() -> None:
     if writable:
         clear_stale()
         with contextlib.suppress(OSError):
-            stamp.write_text("numba's cache of rcmplan's kernels cleared for this installation\n")
+            stamp.write_text(key + "\n")
 
 
 def clear_stale() -> None:
@@ -93,15 +96,20 @@ def kernel_sources() -> list[Path]:
 
 
 def stamp_path() -> Path:
-    """The file that records that numba's cache was cleared of this installation's stale
-    kernels (keyed by their sources, numba, Python, the cache folder and the installation's
-    place)."""
+    """The file that holds the key of the kernels this installation's numba cache was last
+    cleared for (`stamp_key`): one per cache, keyed by the installation's place and
+    NUMBA_CACHE_DIR."""
     here = Path(__file__).parent  # the installation's place
+    place = hashlib.sha256(f"{here}\0{os.environ.get('NUMBA_CACHE_DIR', '')}".encode())
+    return cache_folder() / f"compiled-{place.hexdigest()[:16]}.stamp"
+
+
+def stamp_key() -> str:
+    """The key of this installation's kernels: every file holding one, numba's and Python's
+    versions."""
     key = hashlib.sha256()
     for path in kernel_sources():
         key.update(path.read_bytes())
     key.update(metadata.version("numba").encode())
     key.update(sys.version.encode())
-    key.update(os.environ.get("NUMBA_CACHE_DIR", "").encode())
-    key.update(str(here).encode())
-    return cache_folder() / f"compiled-{key.hexdigest()[:16]}.ok"
+    return key.hexdigest()
