@@ -201,3 +201,20 @@ def test_render_command_draws_an_arms_run(tmp_path: Path) -> None:
     assert len(gif) == 4 and not np.array_equal(gif[0], gif[-1])  # the needle moved
     log = RunLog.load_npz(tmp_path / "log.npz")
     assert log.sliders.shape[1] == 6 and len(log) == summary["iterations"]
+
+
+def test_an_arms_scene_draws_a_curved_needles_arc_ending_at_the_models_tip() -> None:
+    """The curved scenario's needle on the UR5: the arc's tip site in the scene a camera sees
+    is the curved model's tip (`CurvedTipRobot.tip`), at home and at a moved pose; the physics
+    model has no arc."""
+    from rcmplan.scene.scenario import load_scenario
+
+    needle = load_scenario("curved").needle
+    robot = needle.fit(make_robot("ur5"))
+    plant = ArmPlant(robot.base, mode="kinematic", needle_arc=needle.arc())
+    for q in (robot.home, robot.home + np.array([0.02, -0.03, 0.04, 0.0, -0.02, 0.7])):
+        plant.reset(q)
+        model, data = plant.scene()
+        site = model.site("needle_arc_tip").id
+        assert data.site_xpos[site] == pytest.approx(robot.tip(q), abs=1e-9)
+    assert "needle_arc_tip" not in [plant.model.site(i).name for i in range(plant.model.nsite)]

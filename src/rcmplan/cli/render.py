@@ -3,8 +3,8 @@
 The animation replays the scenario's run (the default injection on the kinematic plant unless
 --scenario, --robot, --method or --plant say otherwise) in the MuJoCo scene with the scenario's
 eye; `--demo` animates a short generated actuator trajectory instead. iRAM!S is drawn from its
-MuJoCo model's own geometry (and a curved needle's arc); an arm's links are drawn as capsules
-between its joints (`arm_model`'s scenery), its needle as the straight shaft.
+MuJoCo model's own geometry, an arm's links as capsules between its joints (`arm_model`'s
+scenery); either draws a curved needle's arc after its shaft.
 
 Outputs in --out: summary.json (the run's summary with the images under `figures`; a demo's
 names the images alone), the run's log (log.npz, log.csv) and the images in figures/.
@@ -152,8 +152,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def scene_plant(robot: RobotModel, eye: Any, arc: Any) -> Any:
-    """The kinematic MuJoCo plant that replays the motion: iRAM!S's (with a curved needle's
-    arc), or an arm's; eye None: the robot's default eye."""
+    """The kinematic MuJoCo plant that replays the motion, iRAM!S's or an arm's, its scene with
+    a curved needle's arc (R [m], alpha [rad]) when given; eye None: the robot's default
+    eye."""
     if isinstance(robot, Iramis):
         from rcmplan.sim.mujoco.plant import MujocoPlant
 
@@ -162,7 +163,7 @@ def scene_plant(robot: RobotModel, eye: Any, arc: Any) -> Any:
 
     if not isinstance(robot, SerialArm):
         raise InvalidInputError("--robot", robot.name, "iRAM!S or a serial arm (a SerialArm)")
-    return ArmPlant(robot, mode="kinematic", eye=eye)
+    return ArmPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
 
 
 def trajectory(args: argparse.Namespace, out: Path) -> tuple[Any, Any, RobotModel, FloatArray]:

@@ -20,6 +20,7 @@ Together kp (r - q) + kv (v - q_dot): a ramp is tracked without lag (see `ServoO
 
 from __future__ import annotations
 
+import itertools
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
@@ -33,6 +34,7 @@ from rcmplan.exceptions import MissingExtraError
 from rcmplan.robot.model import SerialArm
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.frames import quat_from_matrix
+from rcmplan.sim.mujoco.geometry import ARC_CAPSULES
 from rcmplan.sim.mujoco.scene import (
     CLOSEUP_FOVY,
     CLOSEUP_OFFSET,
@@ -91,11 +93,12 @@ class ServoOptions:
 
 def arm_spec(
     arm: SerialArm, options: ServoOptions | None = None, eye: EyePhantom | None = None,
-    scenery: bool = False,
+    scenery: bool = False, needle_arc: tuple[float, float] | None = None,
 ) -> Any:  # fmt: skip
     """The arm's `mujoco.MjSpec` with servos and a `home` keyframe (and the eye, if given);
     with `scenery` (and an eye) what a camera needs too (`_scenery`): links, floor, light and
-    the cameras `closeup` and `overview`."""
+    the cameras `closeup` and `overview`, and a curved needle's arc (R [m], alpha [rad]) after
+    the shaft's end if given (`_arc`)."""
     mj = mujoco_module()
     options = options or ServoOptions()
     spec = mj.MjSpec()
@@ -110,6 +113,8 @@ def arm_spec(
         _eye(mj, spec, eye)
         if scenery:
             _scenery(mj, spec, arm, eye)
+            if needle_arc is not None:
+                _arc(mj, last, arm, *needle_arc)
     _servos(mj, spec, arm, options)
     key = spec.add_key()
     key.name, key.qpos, key.act = "home", arm.home.tolist(), arm.home.tolist()
@@ -118,10 +123,10 @@ def arm_spec(
 
 def arm_model(
     arm: SerialArm, options: ServoOptions | None = None, eye: EyePhantom | None = None,
-    scenery: bool = False,
+    scenery: bool = False, needle_arc: tuple[float, float] | None = None,
 ) -> Any:  # fmt: skip
     """The compiled `mujoco.MjModel` of `arm_spec`."""
-    return arm_spec(arm, options, eye, scenery).compile()
+    return arm_spec(arm, options, eye, scenery, needle_arc).compile()
 
 
 def arm_xml(arm: SerialArm, options: ServoOptions | None = None) -> str:
@@ -204,6 +209,22 @@ def _needle(mj: Any, body: Any, arm: SerialArm) -> None:
     )  # fmt: skip
     for name, p in (("needle_base", base), ("needle_tip", tip)):
         body.add_site(name=name, pos=p.tolist(), quat=quat, size=[2e-4, 0.0, 0.0], group=4)
+
+
+def _arc(mj: Any, body: Any, arm: SerialArm, radius: float, angle: float) -> None:
+    """A curved needle's arc (`rcmplan.robot.curved_needle`) from the shaft's end, bending
+    towards the mount's x, as ARC_CAPSULES capsules on the last body, and the site
+    `needle_arc_tip` at its tip."""
+    T = arm.chain.tip @ arm.needle.mount
+    t = np.linspace(0.0, angle, ARC_CAPSULES + 1)
+    local = np.column_stack([radius * (1.0 - np.cos(t)), np.zeros_like(t),
+                             arm.needle.length + radius * np.sin(t)])  # fmt: skip
+    pts = local @ T[:3, :3].T + T[:3, 3]
+    for a, b in itertools.pairwise(pts):
+        body.add_geom(type=mj.mjtGeom.mjGEOM_CAPSULE, fromto=[*a, *b],
+                      size=[NEEDLE_RADIUS, 0.0, 0.0], rgba=[0.75, 0.75, 0.8, 1.0], contype=0,
+                      conaffinity=0, density=0.0)  # fmt: skip
+    body.add_site(name="needle_arc_tip", pos=pts[-1].tolist(), size=[2e-4, 0.0, 0.0], group=4)
 
 
 def _eye(mj: Any, spec: Any, eye: EyePhantom) -> None:

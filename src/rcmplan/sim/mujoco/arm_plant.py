@@ -27,7 +27,7 @@ from rcmplan.scene.eye import default_eye as scene_default_eye
 from rcmplan.sim.mujoco.arm_model import ServoOptions, arm_model
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.plant import cancel_gravity
-from rcmplan.sim.mujoco.plant_checks import check_scene_args
+from rcmplan.sim.mujoco.plant_checks import check_needle_arc, check_scene_args
 from rcmplan.sim.mujoco.scene import EyePhantom, phantom_of
 from rcmplan.sim.mujoco.servo_plant import ServoIds, ServoPlant
 
@@ -44,6 +44,8 @@ class ArmPlant(ServoPlant):
             default: the default scene eye of the arm and its points.
         points: Named eye points shown as sites when `eye` is a scene Eye.
         servo: Servo gains and physics settings (default `ServoOptions()` at physics_dt).
+        needle_arc: (R [m], alpha [rad]) of a curved needle's arc after the shaft's end, drawn
+            in the scene a camera sees (`scene`) only: the plant moves the shaft's model.
     """
 
     def __init__(
@@ -55,6 +57,7 @@ class ArmPlant(ServoPlant):
         eye: EyePhantom | Eye | None = None,
         points: EyePoints | None = None,
         servo: ServoOptions | None = None,
+        needle_arc: tuple[float, float] | None = None,
     ) -> None:
         check_scene_args(mode, eye, points)
         instance("robot", robot, SerialArm, "a SerialArm (make_robot(NAME or FILE.toml))")
@@ -67,6 +70,7 @@ class ArmPlant(ServoPlant):
         self.compiled_physics = mode == "dynamic"
         physics_dt = self._timing(dt, physics_dt)
         self.eye = _phantom(robot, eye, points)
+        self.needle_arc = check_needle_arc(needle_arc)
         self.servo = servo or ServoOptions(physics_dt=physics_dt)
         if abs(self.servo.physics_dt - physics_dt) > 1e-15:
             raise InvalidInputError("servo.physics_dt", self.servo.physics_dt, f"{physics_dt:g}")
@@ -112,7 +116,7 @@ class ArmPlant(ServoPlant):
     def _scene_model(self) -> Any:
         """The physics model with the links drawn, a floor, a light and the cameras `closeup`
         and `overview` (`arm_model`'s scenery), that `scene` poses."""
-        return arm_model(self.robot, self.servo, self.eye, scenery=True)
+        return arm_model(self.robot, self.servo, self.eye, scenery=True, needle_arc=self.needle_arc)
 
 
 def _phantom(robot: SerialArm, eye: EyePhantom | Eye | None, points: EyePoints | None) -> Any:

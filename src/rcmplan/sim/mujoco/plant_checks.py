@@ -33,9 +33,17 @@ def check_plant_args(
     flag("gravity_compensation", gravity_compensation)
     if piezo is not None:
         instance("piezo", piezo, PiezoParameters, "PiezoParameters or None (from the robot)")
-    if needle_arc is not None:
-        radius, angle = vector("needle_arc", needle_arc, 2)
-        lo, hi = RADIUS_RANGE
-        if not (lo <= radius <= hi and ARC_ANGLE_RANGE[0] <= angle <= ARC_ANGLE_RANGE[1]):
-            valid = f"(R, alpha): R in [{lo:g}, {hi:g}] m, alpha in [0, pi/2] rad"
-            raise InvalidInputError("needle_arc", needle_arc, valid)
+    check_needle_arc(needle_arc)
+
+
+def check_needle_arc(needle_arc: Any) -> tuple[float, float] | None:
+    """(R [m], alpha [rad]) of a curved needle's arc as floats, or None; InvalidInputError
+    naming the valid ranges otherwise."""
+    if needle_arc is None:
+        return None
+    radius, angle = vector("needle_arc", needle_arc, 2)
+    lo, hi = RADIUS_RANGE
+    if not (lo <= radius <= hi and ARC_ANGLE_RANGE[0] <= angle <= ARC_ANGLE_RANGE[1]):
+        valid = f"(R, alpha): R in [{lo:g}, {hi:g}] m, alpha in [0, pi/2] rad"
+        raise InvalidInputError("needle_arc", needle_arc, valid)
+    return float(radius), float(angle)

@@ -153,8 +153,8 @@ def animate(
     frames: int = 60,
 ) -> list[Image]:
     """Drive a MuJoCo plant (`MujocoPlant`, `ArmPlant`) through actuator rows (N, the robot's
-    count) and render `frames` images with the tip trace so far; the plant is reset to the
-    first row."""
+    count) and render `frames` images with the tip trace so far (a curved needle's: its arc's
+    tip); the plant is reset to the first row."""
     n = len(plant.robot.home_actuators)
     s = np.asarray(sliders, dtype=float)
     s = matrix("sliders", s, (s.shape[0], n)) if s.ndim == 2 else matrix("sliders", s, (0, n))
@@ -162,12 +162,17 @@ def animate(
         raise InvalidInputError("sliders", sliders, f"at least one row of {n} actuator values")
     plant.reset(s[0])
     keep = set(np.linspace(0, len(s) - 1, max(1, frames)).round().astype(int).tolist())
+    model = plant.scene()[0]
+    arc = int(renderer.mj.mj_name2id(model, renderer.mj.mjtObj.mjOBJ_SITE, "needle_arc_tip"))
     trace, images = [], []
     for i, row in enumerate(s):
         if i > 0:
             plant.command_actuators(row)
             plant.advance()
-        trace.append(plant.tip_position())
+        if arc >= 0:  # the arc's tip: a site of the scene only (posed on each call)
+            trace.append(np.array(plant.scene()[1].site_xpos[arc]))
+        else:
+            trace.append(plant.tip_position())
         if i in keep:
             images.append(renderer.render(plant.scene()[1], camera, np.array(trace)))
     return images
