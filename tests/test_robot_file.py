@@ -137,10 +137,12 @@ def test_a_needle_bend_only_turns_a_curved_needle_about_its_own_axis(tmp_path) -
 
 
 def test_a_file_with_a_home_runs_the_default_injection_to_status_ok(tmp_path, capsys) -> None:
-    code, summary = inject(tmp_path, robot_toml(tmp_path / "k.toml", home=KINOVA_HOME), capsys)
+    path = robot_toml(tmp_path / "k.toml", home=KINOVA_HOME)
+    code, summary = inject(tmp_path, path, capsys)
     assert code == 0
     assert (summary["status"], summary["robot"], summary["method"]) == ("ok", "kinova", "pinv")
     assert summary["plant"] == "kinematic"
+    assert summary["robot_file"] == str(path.resolve())  # where the run's robot was read from
 
 
 def test_a_file_without_a_home_runs_the_default_injection_to_status_ok(tmp_path, capsys) -> None:

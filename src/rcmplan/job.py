@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from rcmplan._signals import raise_interrupt
@@ -31,6 +32,7 @@ from rcmplan.exceptions import InvalidInputError, RcmplanError, UnreachableTarge
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
+from rcmplan.robot.names import is_robot_file
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.curved_figures import curved_figures
 from rcmplan.scene.eye import Eye
@@ -66,8 +68,10 @@ def run_scenario(
     start = time.perf_counter()
     error: RcmplanError | None = None
     controller: Controller | None = None
-    robot = scenario.needle.fit(robot or make_robot(scenario.robot))
     extra: dict[str, Any] = {}
+    if robot is None and is_robot_file(scenario.robot):  # where the run's robot was read from
+        extra["robot_file"] = str(Path(scenario.robot).resolve())
+    robot = scenario.needle.fit(robot or make_robot(scenario.robot))
     eye: Eye | None = None
     try:
         shaft = plant_model(robot)
@@ -83,7 +87,7 @@ def run_scenario(
         controller.on_phase = on_phase
         log = controller.run(scenario.phases(robot))
         if scenario.needle.kind == "curved":
-            extra = curved_figures(robot, scenario, eye, log)
+            extra.update(curved_figures(robot, scenario, eye, log))
     except RcmplanError as exc:
         error = exc
         if isinstance(exc, UnreachableTargetError) and eye is not None:
