@@ -385,3 +385,31 @@ def installed_script() -> Path:
     on_path = shutil.which("rcmplan")
     assert found or on_path, f"no `rcmplan` script in {places} or on PATH: pip install wrote none"
     return found[0] if found else Path(str(on_path))
+
+
+def test_a_render_interrupted_while_drawing_keeps_its_runs_summary_and_says_where(
+    tmp_path: Path,
+) -> None:
+    """An interrupt once the run is written (its summary.json appears) and while the frames
+    are drawn: exit 130, no traceback, and summary.json keeps the run's figures with status
+    `interrupted`, a message naming the drawing and the run's own status, and no image."""
+    env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
+    out = tmp_path / "render"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rcmplan", "render", "--robot", "ur5", "--frames", "10000",
+         "--width", "64", "--height", "48", "--out", str(out)],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    summary = out / "summary.json"
+    while not summary.exists() and proc.poll() is None:
+        time.sleep(0.01)
+    time.sleep(0.5)  # drawing: 10,000 frames take far longer
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130 and not our_tracebacks(err.decode()), err.decode()[-2000:]
+    doc = json.loads(summary.read_text())
+    assert (doc["command"], doc["status"], doc["robot"]) == ("render", "interrupted", "ur5")
+    assert (
+        doc["message"] == "interrupted by SIGINT while rendering (the run ended with status 'ok')"
+    )
+    assert doc["iterations"] == len(RunLog.load_npz(out / "log.npz")) and doc["figures"] == {}

@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
     OUT/figures, and summary.json naming them; print it (--json) or the paths. Refused (a bad
     option), it writes summary.json with the error and re-raises (exit 2)."""
     from rcmplan.analysis.report import prepare_folder
-    from rcmplan.cli.output import write_stopped
+    from rcmplan.cli.output import interrupted_message, write_stopped
 
     out = prepare_folder(args.out)
     try:
@@ -131,13 +131,25 @@ def run(args: argparse.Namespace) -> int:
     except RcmplanError as exc:
         write_stopped(out, args, exc.status, f"{type(exc).__name__}: {exc}")
         raise
+    except KeyboardInterrupt as exc:  # the run's records so far, if it began
+        partial = getattr(exc, "result", None)
+        if partial is not None:
+            write_stopped(out, args, "interrupted", interrupted_message(exc, "during the run"),
+                          partial)  # fmt: skip
+        raise
     name = "demo" if result is None else re.sub(r"[^\w.-]", "_", result.scenario.name)
     arc = None if result is None else result.scenario.needle.arc()
     try:
         plant = scene_plant(robot, eye, arc)
         figures = render_figures(args, plant, actuators, out / "figures", name, size, frames, fps)
     except RcmplanError as exc:
-        write_render_summary(out, result, {}, exc)
+        write_render_summary(out, result, {}, (exc.status, f"{type(exc).__name__}: {exc}"))
+        raise
+    except KeyboardInterrupt as exc:  # the run's summary and log stay; no image is named
+        ended = "" if result is None else f" (the run ended with status {result.status!r})"
+        with interrupts.shielded():
+            why = interrupted_message(exc, f"while rendering{ended}")
+            write_render_summary(out, result, {}, ("interrupted", why))
         raise
     doc = write_render_summary(out, result, figures)
     interrupts.finished()
@@ -205,10 +217,11 @@ def render_figures(args: argparse.Namespace, plant: Any, actuators: FloatArray, 
 
 
 def write_render_summary(
-    out: Path, result: Any, figures: dict[str, Path], error: RcmplanError | None = None
+    out: Path, result: Any, figures: dict[str, Path], stopped: tuple[str, str] | None = None
 ) -> dict[str, Any]:
     """summary.json: the run's (written with its log) with the images under `figures`, or a
-    demo's naming the images alone; with `error`, its status and message (no images)."""
+    demo's naming the images alone; `stopped`: the (status, message) of a render that stopped
+    (an error, an interrupt), its images not named."""
     from rcmplan.analysis.report import summary_json, write_json
 
     if result is None:
@@ -217,7 +230,7 @@ def write_render_summary(
     else:
         doc = summary_json(result)
     doc["figures"] = {key: str(path) for key, path in figures.items()}
-    if error is not None:
-        doc.update(status=error.status, message=f"{type(error).__name__}: {error}")
+    if stopped is not None:
+        doc.update(status=stopped[0], message=stopped[1])
     write_json(out / "summary.json", doc)
     return doc
