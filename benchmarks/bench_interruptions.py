@@ -5,11 +5,11 @@ the process runs before it handles SIGINT and SIGTERM at all.
 Run alone: python benchmarks/bench_interruptions.py [--runs N] [--from-start M] [--handler K]
 Runs tests/test_interrupts.py's harness with RCMPLAN_INTERRUPTIONS=N (default 100; 10 with
 --quick through benchmarks/run.py): per command (inject, inject on the MuJoCo plant, spiral,
-compare, sweep, teleop, one subretinal episode), N real processes each get SIGINT or SIGTERM
-at a seeded random point of the run (within the shorter of two uninterrupted runs); each must
-leave a summary saying why it stopped, the records it states in a loadable log (none only when
-it says the run stopped before it began), no temporary file and no process behind
-(`tests/run_left.py`).
+compare, sweep, teleop, one subretinal episode, render on the UR5), N real processes each get
+SIGINT or SIGTERM at a seeded random point of the run (within the shorter of two uninterrupted
+runs); each must leave a summary saying why it stopped, the records it states in a loadable log
+(none only when it says the run stopped before it began), no temporary file and no process
+behind (`tests/run_left.py`).
 One row per command: the interruptions that broke any of these, out of N; the harness's count
 of each kind of fault goes to stderr.
 
@@ -61,7 +61,16 @@ sys.path.insert(0, str(ROOT / "tests"))
 from procstat import catches, exiting  # noqa: E402  (tests/ holds the /proc readers)
 from run_left import faults  # noqa: E402  (and the classification the harness shares)
 
-COMMANDS = ("compare", "inject", "inject-mujoco", "spiral", "subretinal", "sweep", "teleop")
+COMMANDS = (
+    "compare",
+    "inject",
+    "inject-mujoco",
+    "render",
+    "spiral",
+    "subretinal",
+    "sweep",
+    "teleop",
+)
 
 
 def run_command(command: str, runs: int) -> tuple[int | str, float]:

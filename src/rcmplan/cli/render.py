@@ -17,7 +17,7 @@ import re
 import sys
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -36,6 +36,9 @@ from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel, SerialArm
 from rcmplan.robot.registry import make_robot
 from rcmplan.sim.mujoco.scene import OFFSCREEN
+
+if TYPE_CHECKING:
+    from rcmplan.analysis.result import RunResult
 
 CAMERAS = ("closeup", "overview")
 MAX_FRAMES = 10_000
@@ -89,34 +92,25 @@ def demo_trajectory(robot: RobotModel, n: int = 240) -> FloatArray:
     return np.clip(home + t * turn, robot.lower + margin, robot.upper - margin)
 
 
-def run_scenario_of(args: argparse.Namespace, out: Path) -> tuple[Any, Any, RobotModel]:
-    """Run the scenario and write its log and summary; returns the result, the eye as a
-    scene phantom and the model the scene draws (a curved needle's shaft)."""
-    from rcmplan.analysis.report import write_summary
-    from rcmplan.job import plant_model, run_scenario
+def run_scenario_of(args: argparse.Namespace) -> RunResult:
+    """The scenario's run (--scenario, --robot, --method, --plant), nothing written yet."""
+    from rcmplan.job import run_scenario
     from rcmplan.scene.scenario import load_scenario
-    from rcmplan.sim.mujoco.scene import phantom_of
 
     scenario = load_scenario(args.scenario).with_plant(args.plant)
     if args.robot:
         scenario = scenario.with_robot(args.robot)
     if args.method:
         scenario = scenario.with_method(args.method)
-    result = replace(run_scenario(scenario), command="render")
-    write_summary(result, out)
-    if not result.finished:
-        print(f"rcmplan render: run stopped early ({result.message}); animating the partial "
-              "log", file=sys.stderr)  # fmt: skip
-    elif not result.ok:
-        print(f"rcmplan render: {result.status}: {result.message}", file=sys.stderr)
-    eye = scenario.eye(result.robot)
-    return result, phantom_of(eye, scenario.points(eye)), plant_model(result.robot)
+    return replace(run_scenario(scenario), command="render")
 
 
 def run(args: argparse.Namespace) -> int:
     """Write home snapshots from both cameras, the animation and its last frame in
     OUT/figures, and summary.json naming them; print it (--json) or the paths. Refused (a bad
-    option), it writes summary.json with the error and re-raises (exit 2)."""
+    option), it writes summary.json with the error and re-raises (exit 2). Interrupted during
+    the run, it writes the records so far; afterwards, the run's summary and log with status
+    `interrupted`, naming no image."""
     from rcmplan.analysis.report import prepare_folder
     from rcmplan.cli.output import interrupted_message, write_stopped
 
@@ -127,7 +121,7 @@ def run(args: argparse.Namespace) -> int:
         fps = scalar("--fps", args.fps, 0.0, MAX_FPS, low_open=True)
         if args.format == "mp4":
             require_extra("imageio_ffmpeg", "video")
-        result, eye, robot, actuators = trajectory(args, out)
+        result = None if args.demo else run_scenario_of(args)
     except RcmplanError as exc:
         write_stopped(out, args, exc.status, f"{type(exc).__name__}: {exc}")
         raise
@@ -135,21 +129,21 @@ def run(args: argparse.Namespace) -> int:
         partial = getattr(exc, "result", None)
         if partial is not None:
             write_stopped(out, args, "interrupted", interrupted_message(exc, "during the run"),
-                          partial)  # fmt: skip
+                          replace(partial, command="render"))  # fmt: skip
         raise
     name = "demo" if result is None else re.sub(r"[^\w.-]", "_", result.scenario.name)
-    arc = None if result is None else result.scenario.needle.arc()
     try:
+        robot, eye, actuators = motion(args, result, out)
+        arc = None if result is None else result.scenario.needle.arc()
         plant = scene_plant(robot, eye, arc)
         figures = render_figures(args, plant, actuators, out / "figures", name, size, frames, fps)
     except RcmplanError as exc:
         write_render_summary(out, result, {}, (exc.status, f"{type(exc).__name__}: {exc}"))
         raise
-    except KeyboardInterrupt as exc:  # the run's summary and log stay; no image is named
+    except KeyboardInterrupt as exc:  # the run's summary and log, and no image named
         ended = "" if result is None else f" (the run ended with status {result.status!r})"
-        with interrupts.shielded():
-            why = interrupted_message(exc, f"while rendering{ended}")
-            write_render_summary(out, result, {}, ("interrupted", why))
+        write_stopped(out, args, "interrupted",
+                      interrupted_message(exc, f"while rendering{ended}"), result)  # fmt: skip
         raise
     doc = write_render_summary(out, result, figures)
     interrupts.finished()
@@ -161,6 +155,33 @@ def run(args: argparse.Namespace) -> int:
         for path in figures.values():
             print(path)
     return 0
+
+
+def motion(
+    args: argparse.Namespace, result: RunResult | None, out: Path
+) -> tuple[RobotModel, Any, FloatArray]:
+    """(the model the scene draws, the eye phantom or None, the actuators to animate): the
+    run's (its log and summary written, how it ended said on stderr; a curved needle's shaft
+    drawn with its arc), or the demo's trajectory on --robot (iRAM!S by default)."""
+    from rcmplan.analysis.report import write_summary
+    from rcmplan.job import plant_model
+    from rcmplan.sim.mujoco.scene import phantom_of
+
+    if result is None:
+        for stale in ("log.npz", "log.csv"):  # an earlier run's log: not this render's
+            (out / stale).unlink(missing_ok=True)
+        robot = make_robot(args.robot or "iramis")
+        return robot, None, demo_trajectory(robot)
+    write_summary(result, out)
+    if not result.finished:
+        print(f"rcmplan render: run stopped early ({result.message}); animating the partial "
+              "log", file=sys.stderr)  # fmt: skip
+    elif not result.ok:
+        print(f"rcmplan render: {result.status}: {result.message}", file=sys.stderr)
+    robot = plant_model(result.robot)
+    eye = result.scenario.eye(result.robot)
+    phantom = phantom_of(eye, result.scenario.points(eye))
+    return robot, phantom, np.vstack([robot.home_actuators, result.log.sliders])
 
 
 def scene_plant(robot: RobotModel, eye: Any, arc: Any) -> Any:
@@ -176,19 +197,6 @@ def scene_plant(robot: RobotModel, eye: Any, arc: Any) -> Any:
     if not isinstance(robot, SerialArm):
         raise InvalidInputError("--robot", robot.name, "iRAM!S or a serial arm (a SerialArm)")
     return ArmPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
-
-
-def trajectory(args: argparse.Namespace, out: Path) -> tuple[Any, Any, RobotModel, FloatArray]:
-    """(the run's result or None, the eye phantom or None, the model the scene draws, the
-    actuators to animate): the scenario's run (its log and summary written), or the demo's
-    trajectory on --robot (iRAM!S by default)."""
-    if not args.demo:
-        result, eye, robot = run_scenario_of(args, out)
-        return result, eye, robot, np.vstack([robot.home_actuators, result.log.sliders])
-    for stale in ("log.npz", "log.csv"):  # an earlier run's log: not this render's
-        (out / stale).unlink(missing_ok=True)
-    robot = make_robot(args.robot or "iramis")
-    return None, None, robot, demo_trajectory(robot)
 
 
 def image_size(args: argparse.Namespace) -> tuple[int, int]:
