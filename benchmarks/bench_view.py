@@ -26,7 +26,10 @@ from typing import Any
 import numpy as np
 
 from _common import quick, row
-from rcmplan.view import colors, probe
+from rcmplan.view import colors
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+import browser_probe as probe
 from rcmplan.view.replay import ReplayView
 from rcmplan.view.run_folder import load_runs
 from rcmplan.view.server import address, start_server, stop_server

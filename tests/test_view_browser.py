@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import browser_probe as probe
 from episode_folder import write_episode
 from rcmplan.analysis.report import write_outputs
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import load_scenario
-from rcmplan.view import probe
 from rcmplan.view.replay import ReplayView
 from rcmplan.view.run_folder import load_runs
 from rcmplan.view.server import address, start_server, stop_server

@@ -248,6 +248,6 @@ def test_the_clutch_checkbox_lets_the_gizmo_move_alone_and_the_needle_moves_on_f
 
 
 def probe_wait(check, timeout_s: float = 30.0) -> None:
-    from rcmplan.view.probe import wait_for
+    from browser_probe import wait_for
 
     wait_for(check, timeout_s, 0.01)
