@@ -15,7 +15,7 @@ Figures, each measured in this run:
 - the loop per iteration: the visit phases' wall time over their records (rcmplan:
   `Controller.phase_times`; the peer: its own loop);
 - control iterations, the largest trocar-to-needle-line distance, and the records breaking a
-  limit by rcmplan's own counter (`rcmplan.scene.constrained.violations`) for both.
+  limit by rcmplan's own counter (`rcmplan.analysis.limits.violations`) for both.
 Without dqrobotics (the `bench` extra), or if the peer stops short of a target, its rows say
 it was skipped, and why.
 """
