@@ -116,12 +116,13 @@ def run(args: argparse.Namespace) -> int:
 
     out = prepare_folder(args.out)
     try:
-        size = image_size(args)
-        frames = integer("--frames", args.frames, 1, MAX_FRAMES)
-        fps = scalar("--fps", args.fps, 0.0, MAX_FPS, low_open=True)
-        if args.format == "mp4":
-            require_extra("imageio_ffmpeg", "video")
-        result = None if args.demo else run_scenario_of(args)
+        with interrupts.surfaced():  # an interrupt numba or a C callback wrapped, as itself
+            size = image_size(args)
+            frames = integer("--frames", args.frames, 1, MAX_FRAMES)
+            fps = scalar("--fps", args.fps, 0.0, MAX_FPS, low_open=True)
+            if args.format == "mp4":
+                require_extra("imageio_ffmpeg", "video")
+            result = None if args.demo else run_scenario_of(args)
     except RcmplanError as exc:
         write_stopped(out, args, exc.status, f"{type(exc).__name__}: {exc}")
         raise
@@ -133,10 +134,12 @@ def run(args: argparse.Namespace) -> int:
         raise
     name = "demo" if result is None else re.sub(r"[^\w.-]", "_", result.scenario.name)
     try:
-        robot, eye, actuators = motion(args, result, out)
-        arc = None if result is None else result.scenario.needle.arc()
-        plant = scene_plant(robot, eye, arc)
-        figures = render_figures(args, plant, actuators, out / "figures", name, size, frames, fps)
+        with interrupts.surfaced():
+            robot, eye, actuators = motion(args, result, out)
+            arc = None if result is None else result.scenario.needle.arc()
+            plant = scene_plant(robot, eye, arc)
+            figures = render_figures(args, plant, actuators, out / "figures", name, size,
+                                     frames, fps)  # fmt: skip
     except RcmplanError as exc:
         write_render_summary(out, result, {}, (exc.status, f"{type(exc).__name__}: {exc}"))
         raise
