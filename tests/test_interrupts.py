@@ -418,3 +418,25 @@ def test_a_render_interrupted_while_drawing_keeps_its_runs_summary_and_says_wher
     )
     assert doc["iterations"] == len(RunLog.load_npz(out / "log.npz"))
     assert not doc.get("figures")  # no image named: none was finished
+
+
+def test_a_stop_file_over_this_runs_summary_keeps_what_the_summary_states(tmp_path: Path) -> None:
+    """An interrupt that reaches no handling of the command's own after the run wrote its
+    summary (and log) changes the summary's status and message only; a summary left by an
+    earlier process is replaced whole, and that run's log removed."""
+    from rcmplan._atomic import write_text
+    from rcmplan.cli.interrupts import write_stop_file
+
+    ours, earlier = tmp_path / "ours", tmp_path / "earlier"
+    for out in (ours, earlier):
+        out.mkdir()
+    doc = {"command": "inject", "status": "ok", "message": "", "iterations": 7}
+    write_text(ours / "summary.json", json.dumps(doc))  # written by this process
+    (earlier / "summary.json").write_text(json.dumps(doc))  # by another: not this run's
+    (earlier / "log.npz").write_bytes(b"an earlier run's log")
+    stop = {"status": "interrupted", "message": "interrupted by SIGINT during the run"}
+    for out in (ours, earlier):
+        write_stop_file(out, "inject", stop)
+    assert json.loads((ours / "summary.json").read_text()) == {**doc, **stop}
+    assert json.loads((earlier / "summary.json").read_text()) == {"command": "inject", **stop}
+    assert not (earlier / "log.npz").exists()

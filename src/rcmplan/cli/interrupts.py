@@ -229,7 +229,9 @@ def _stop_now(signum: int) -> NoReturn:
 def write_stop_file(out: Path, command: str, doc: dict[str, Any]) -> Path:
     """The stop file of `command` in out (created if needed) holding doc with the command's
     name, written atomically; the files of an earlier run's log are removed first (those this
-    process wrote, this run's records, stay)."""
+    process wrote, this run's records, stay). A stop file this process wrote already (the
+    run's summary, written before the interrupt reached the command's own handling) keeps what
+    it states, its status and message replaced by doc's."""
     import json
 
     from rcmplan._atomic import write_text, written_here
@@ -239,7 +241,11 @@ def write_stop_file(out: Path, command: str, doc: dict[str, Any]) -> Path:
     for old in stale:
         if not written_here(out / old):
             (out / old).unlink(missing_ok=True)
-    body = {"command": command, **doc}
+    kept: Any = {}
+    if written_here(out / name):
+        with contextlib.suppress(OSError, ValueError):
+            kept = json.loads((out / name).read_text())
+    body = {"command": command, **(kept if isinstance(kept, dict) else {}), **doc}
     if command == "compare":
         body.setdefault("methods", [])
     return write_text(out / name, json.dumps(body, indent=2))
