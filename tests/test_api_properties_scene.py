@@ -76,6 +76,26 @@ def test_mujoco_plants_are_built_or_refused(args: tuple[Any, ...]) -> None:
               names=("s",))  # fmt: skip
 
 
+ARM = ("robot", "mode", "dt", "physics_dt", "eye", "points", "servo", "needle_arc")
+
+
+@examples(30)
+@given(args=one_bad(
+    choice([UR5], [ROBOT, "ur5", None]), choice(["kinematic"], ["x", "Dynamic"]),
+    choice([1e-3, 2e-3], [0.0, -1e-3, 2.0, "x"]), choice([1e-4, 5e-4], [0.0, 3e-4, -1e-4, "x"]),
+    choice([None], ["eye", 3]), choice([None], ["points"]), choice([None], ["servo", 1.0]),
+    optional(vector(2, 0.001, 0.3)),
+))  # fmt: skip
+def test_arm_plants_and_their_scenes_are_built_or_refused(args: tuple[Any, ...]) -> None:
+    """`ArmPlant` (an arm's MuJoCo plant) with a curved needle's arc or bad input: a typed error
+    naming the argument, or a plant at rest whose scene a camera sees (two cameras)."""
+    from rcmplan.sim.mujoco.arm_plant import ArmPlant
+
+    plant = probe("ArmPlant", ArmPlant, *args, names=ARM, ok=at_rest)
+    if plant is not None:
+        probe("ArmPlant.scene", plant.scene, ok=lambda md: md[0].ncam == 2)
+
+
 @examples(150)
 @given(args=one_bad(choice(["kinematic", "mujoco-kinematic"], ["x"]), robots,
                     choice([None, {"eye": EYE}], ["eye", {"eye": 1}]),
