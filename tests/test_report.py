@@ -64,6 +64,19 @@ def test_the_slider_block_names_each_slider_with_metres_or_radians() -> None:
     assert s["simulated_time_s"] > 0.0
 
 
+def test_an_arms_slider_block_names_each_of_its_joints_in_its_own_unit() -> None:
+    """The Panda (7 revolute joints): one entry per joint, named as the arm names it, in
+    radians, each the range the log used; the block had named six with iRAM!S's slider names
+    and units, dropped the seventh, and failed on an arm of five."""
+    result = run_scenario(load_scenario("default").with_robot("panda"))
+    s = summary_json(result)
+    assert list(s["sliders"]) == [f"panda_joint{k}" for k in range(1, 8)]
+    for i, block in enumerate(s["sliders"].values()):
+        assert block["lower_used_rad"] == result.log.sliders[:, i].min()
+        assert block["upper_used_rad"] == result.log.sliders[:, i].max()
+        assert 0.0 < block["min_margin_rad"] < result.robot.upper[i] - result.robot.lower[i]
+
+
 def test_report_shows_settings_as_a_table_without_reprs_or_float_noise(outputs) -> None:
     page = (outputs / "report.html").read_text()
     assert "MethodSettings(" not in page and "Tolerance(" not in page

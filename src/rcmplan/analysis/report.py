@@ -15,7 +15,6 @@ from rcmplan.analysis import plots
 from rcmplan.analysis.result import RunResult
 from rcmplan.control.log import RunLog
 from rcmplan.exceptions import InvalidInputError, OutputError
-from rcmplan.robot.iramis import SLIDER_NAMES
 from rcmplan.scene.record import scene_record
 
 
@@ -58,17 +57,20 @@ def write_log(log: RunLog, out: Path, csv: bool = True) -> dict[str, str]:
 
 
 def summary_json(result: RunResult) -> dict[str, Any]:
-    """The run summary with a unit in every key: the slider block per slider (`_m` for the
-    linear sliders L1..L5, `_rad` for q5), the run's simulated time, and the scene the run
-    moved in (eye, trocar, named points: `rcmplan.scene.record`)."""
+    """The run summary with a unit in every key: the slider block per actuator, named as the
+    robot names them (iRAM!S: `_m` for the linear sliders L1..L5, `_rad` for q5; an arm: its
+    joints, `_rad` for a revolute one, `_m` for a slide), the run's simulated time, and the
+    scene the run moved in (eye, trocar, named points: `rcmplan.scene.record`)."""
     s = dict(result.summary())
     used = s.get("sliders", {})
     if used:
+        robot = result.robot
         s["sliders"] = {
-            name: {f"{k}_{'rad' if name == 'q5' else 'm'}": used[k][i]
-                   for k in ("lower_used", "upper_used", "min_margin")}
-            for i, name in enumerate(SLIDER_NAMES)
-        }  # fmt: skip
+            name: {f"{k}_{unit}": used[k][i] for k in ("lower_used", "upper_used", "min_margin")}
+            for i, (name, unit) in enumerate(
+                zip(robot.actuator_names, robot.actuator_units, strict=True)
+            )
+        }
     log = result.log
     s["simulated_time_s"] = float(log.time[-1]) if len(log) else 0.0
     s["scene"] = scene_record(result.scenario, result.robot)
