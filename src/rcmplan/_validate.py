@@ -61,6 +61,15 @@ def vector(name: str, value: Any, size: int | None = None) -> FloatArray:
     return arr
 
 
+def workspace_point(name: str, value: Any) -> FloatArray:
+    """Return value as a point (3,) in [m] with every coordinate within +-WORKSPACE_M of the
+    robot's base, or raise (beyond it, the distances it enters overflow)."""
+    p = vector(name, value, 3)
+    if max(map(abs, p.tolist())) > WORKSPACE_M:
+        raise InvalidInputError(name, value, f"coordinates within +-{WORKSPACE_M:g} m of the base")
+    return p
+
+
 def matrix(name: str, value: Any, shape: tuple[int, ...]) -> FloatArray:
     """Return value as a finite float64 array of exactly this shape, or raise."""
     arr = _real_array(name, value, "an array of real numbers")

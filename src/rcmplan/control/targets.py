@@ -14,7 +14,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from rcmplan._validate import F64, WORKSPACE_M, FloatArray, matrix, scalar, vector
+from rcmplan._validate import F64, WORKSPACE_M, FloatArray, matrix, scalar, vector, workspace_point
 from rcmplan.exceptions import (
     InvalidInputError,
     PcjmAngleError,
@@ -64,7 +64,7 @@ class Pose(NamedTuple):
 def rcm_target(tip: FloatArray, trocar: FloatArray) -> FloatArray:
     """X_ext of "tip at `tip` while the RCM stays at `trocar`" (both (3,) in [m], each
     coordinate within WORKSPACE_M of the base, else InvalidInputError)."""
-    tip, trocar = _in_workspace("tip", tip), _in_workspace("trocar", trocar)
+    tip, trocar = workspace_point("tip", tip), workspace_point("trocar", trocar)
     x = rcm_targets(tip[None, :], trocar)[0]
     if not np.isfinite(x[1]):
         # RCM at the tip (lambda = 1): the needle direction is free; callers pass angles instead.
@@ -72,13 +72,6 @@ def rcm_target(tip: FloatArray, trocar: FloatArray) -> FloatArray:
             "the tip coincides with the trocar: the needle axis is undefined"
         )
     return x
-
-
-def _in_workspace(name: str, point: Any) -> FloatArray:
-    p = vector(name, point, 3)
-    if np.any(np.abs(p) > WORKSPACE_M):
-        raise InvalidInputError(name, p, f"coordinates within +-{WORKSPACE_M:g} m of the base")
-    return p
 
 
 def rcm_targets(tips: FloatArray, trocar: FloatArray) -> FloatArray:
@@ -112,7 +105,7 @@ def pivot_target(x_tip: float, phi: float, psi: float, trocar: FloatArray) -> Fl
     b = scalar("psi", psi, -math.pi, math.pi)
     if abs(x) > WORKSPACE_M:
         raise InvalidInputError("x_tip", x_tip, f"within +-{WORKSPACE_M:g} m of the base")
-    return np.array([x, a, b, *_in_workspace("trocar", trocar)])
+    return np.array([x, a, b, *workspace_point("trocar", trocar)])
 
 
 def tip_of_target(x_ext: FloatArray) -> FloatArray:

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from rcmplan._validate import F64, WORKSPACE_M, FloatArray, array, instance, scalar, vector
+from rcmplan._validate import F64, FloatArray, array, instance, scalar, vector, workspace_point
 from rcmplan.exceptions import (
     InvalidInputError,
     SingularPoseError,
@@ -379,9 +379,7 @@ class Iramis:
         q0 from its z row. Raises UnreachableTargetError outside the non-singular angle range;
         travel is not checked. `seed` is not needed (closed form). InvalidInputError unless tip
         is 3 finite numbers within WORKSPACE_M of the base and phi, psi lie in [-pi, pi]."""
-        tip = vector("tip", tip, 3)
-        if max(map(abs, tip.tolist())) > WORKSPACE_M:
-            raise InvalidInputError("tip", tip, f"coordinates within +-{WORKSPACE_M:g} m")
+        tip = workspace_point("tip", tip)
         phi = scalar("phi", phi, -math.pi, math.pi)
         psi = scalar("psi", psi, -math.pi, math.pi)
         if seed is not None:

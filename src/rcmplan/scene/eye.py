@@ -17,7 +17,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rcmplan._validate import F64, WORKSPACE_M, FloatArray, instance, scalar, vector
+from rcmplan._validate import (
+    F64,
+    WORKSPACE_M,
+    FloatArray,
+    instance,
+    scalar,
+    vector,
+    workspace_point,
+)
 from rcmplan.control.limits.rows import radial_gap
 from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.checks import robot_model
@@ -27,17 +35,6 @@ from rcmplan.robot.needle import axis_from_angles
 
 POINT_NAMES = ("p1", "p2", "p3", "p4", "p5", "p6", "p7")
 INSERTION_ANGLE = 1.2  # |insertion angles| in [rad] (the scenario schema's insertion_angles_rad)
-
-
-def _placed(name: str, value: object) -> FloatArray:
-    """A point (3,) in [m] with every coordinate within +-WORKSPACE_M, else InvalidInputError
-    (a point beyond it overflows the distances the eye is checked by)."""
-    p = vector(name, value, 3)
-    if max(map(abs, p.tolist())) > WORKSPACE_M:
-        raise InvalidInputError(
-            name, value, f"a point (3,) with coordinates within +-{WORKSPACE_M:g} m"
-        )
-    return p
 
 
 @dataclass(frozen=True)
@@ -59,7 +56,7 @@ class Eye:
     trocar_radius: float = 0.45e-3
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "center", _placed("eye.center", self.center))
+        object.__setattr__(self, "center", workspace_point("eye.center", self.center))
         radius = scalar("eye.radius", self.radius, 0.0, 0.05, low_open=True)
         object.__setattr__(self, "radius", radius)
         object.__setattr__(self, "wall", scalar("eye.wall", self.wall, 0.0, radius, high_open=True))
@@ -67,7 +64,7 @@ class Eye:
         object.__setattr__(self, "trocar_radius", trocar_radius)
         if self.trocar is None:
             raise InvalidInputError("eye.trocar", None, "a point (3,) on the eye's outer sphere")
-        trocar = _placed("eye.trocar", self.trocar)
+        trocar = workspace_point("eye.trocar", self.trocar)
         off = abs(float(np.linalg.norm(trocar - self.center)) - self.radius)
         if off > 1e-6:
             raise InvalidInputError(
