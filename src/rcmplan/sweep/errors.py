@@ -68,7 +68,7 @@ class WorkerLostError(RcmplanError):
         self.exit_codes = list(exit_codes)
         self.pending = pending
         self.breaks = breaks
-        ends = ", ".join(ending(code) for code in self.exit_codes) or "cause unknown"
+        ends = endings(self.exit_codes)
         super().__init__(
             f"local worker processes died and the pool broke {breaks} time{'s' * (breaks > 1)} "
             f"(workers ended: {ends}); {pending} chunks not run (finished ones are in the "
@@ -86,3 +86,9 @@ def ending(code: int) -> str:
         except ValueError:
             return f"signal {-code}"
     return f"exit code {code}"
+
+
+def endings(codes: list[int]) -> str:
+    """How processes ended, from their exit codes (`ending`, comma-separated), or "cause
+    unknown" for none."""
+    return ", ".join(ending(code) for code in codes) or "cause unknown"

@@ -21,7 +21,7 @@ from typing import Any, Protocol, TypeVar
 
 from rcmplan._signals import signals_deferred
 from rcmplan.exceptions import InvalidInputError, require_extra
-from rcmplan.sweep.errors import SchedulerError, WorkerLostError, ending
+from rcmplan.sweep.errors import SchedulerError, WorkerLostError, endings
 from rcmplan.sweep.settings import MotionSettings
 from rcmplan.sweep.task import TargetItem, TargetResult, run_chunk
 
@@ -189,8 +189,7 @@ class LocalExecutor(_ExecutorBase):
         base = f"local ({self.workers} process{'es' if self.workers > 1 else ''}"
         if not self.lost:
             return base + ")"
-        ends = "; ".join(", ".join(ending(c) for c in codes) or "cause unknown"
-                         for codes in self.lost)  # fmt: skip
+        ends = "; ".join(endings(codes) for codes in self.lost)
         times = f"{len(self.lost)} time{'s' if len(self.lost) > 1 else ''}"
         return f"{base}; a worker died, the pool broke {times} ({ends}): its chunks re-ran)"
 
