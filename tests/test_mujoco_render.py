@@ -31,12 +31,14 @@ def renderer(plant: MujocoPlant) -> SceneRenderer:
     return SceneRenderer(plant.scene()[0], W, H)
 
 
-def needle_end_pixel(renderer: SceneRenderer, plant: MujocoPlant) -> tuple[np.ndarray, np.ndarray]:
+def needle_end_pixel(
+    renderer: SceneRenderer, plant: MujocoPlant | ArmPlant
+) -> tuple[np.ndarray, np.ndarray]:
     """(projected FK tip, needle pixel farthest along the projected needle direction)."""
     robot = plant.robot
     q = robot.joints_from_actuators(plant.read_actuators())
     tip = renderer.project(plant.scene()[1], robot.tip(q))
-    base = renderer.project(plant.scene()[1], robot.needle_base(q))
+    base = renderer.project(plant.scene()[1], robot.needle_point(q, 0.0))
     seg = renderer.segment(plant.scene()[1])
     v, u = np.nonzero(seg == plant.scene()[0].geom("needle").id)
     pixels = np.column_stack([u + 0.5, v + 0.5])  # pixel centres
@@ -176,14 +178,9 @@ def test_an_arms_needle_tip_is_drawn_where_forward_kinematics_projects_it(
         for camera in ("overview", "closeup"):
             img = renderer.render(data, camera)
             assert img.std() > 10.0 and len(np.unique(img.reshape(-1, 3), axis=0)) > 100
-        tip = renderer.project(data, arm.tip(q))
-        base = renderer.project(data, arm.needle_point(q, 0.0))
-        seg = renderer.segment(data)
-        v, u = np.nonzero(seg == model.geom("needle").id)
-        pixels = np.column_stack([u + 0.5, v + 0.5])
-        along = (pixels - base) @ (tip - base) / np.linalg.norm(tip - base)
+        tip, end = needle_end_pixel(renderer, arm_plant)
         assert 0 < tip[0] < W and 0 < tip[1] < H
-        assert np.linalg.norm(pixels[int(np.argmax(along))] - tip) < 1.5  # pixels
+        assert np.linalg.norm(end - tip) < 1.5  # pixels
     finally:
         renderer.close()
         arm_plant.reset(arm.home)
