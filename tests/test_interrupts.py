@@ -64,15 +64,17 @@ class Stopped(NamedTuple):
     exit_s: float
 
 
-def interrupt(argv: list[str], out: Path, sig: int | None, delay: float) -> Stopped:
-    """Start `rcmplan argv --out out`, wait until it made its output folder, then `delay` s,
-    send sig (none if None) and wait for the process's end."""
+def interrupt(
+    argv: list[str], out: Path, sig: int | None, delay: float, ready: str = ""
+) -> Stopped:
+    """Start `rcmplan argv --out out`, wait until it made its output folder (or the file
+    `ready` in it), then `delay` s, send sig (none if None) and wait for the process's end."""
     env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
     proc = subprocess.Popen(
         [sys.executable, "-m", "rcmplan", *argv, "--out", str(out)],
         env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
     )  # fmt: skip
-    while not out.exists() and proc.poll() is None:
+    while not (out / ready).exists() and proc.poll() is None:
         time.sleep(0.01)
     start = time.perf_counter()
     time.sleep(delay)
@@ -397,21 +399,12 @@ def test_a_render_interrupted_while_drawing_keeps_its_runs_summary_and_says_wher
     """An interrupt once the run is written (its summary.json appears) and while the frames
     are drawn: exit 130, no traceback, and summary.json keeps the run's figures with status
     `interrupted`, a message naming the drawing and the run's own status, and no image."""
-    env = {**os.environ, "PYTHONPATH": SRC, "MUJOCO_GL": "egl"}
     out = tmp_path / "render"
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "rcmplan", "render", "--robot", "ur5", "--frames", "10000",
-         "--width", "64", "--height", "48", "--out", str(out)],
-        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-    )  # fmt: skip
-    summary = out / "summary.json"
-    while not summary.exists() and proc.poll() is None:
-        time.sleep(0.01)
-    time.sleep(0.5)  # drawing: 10,000 frames take far longer
-    proc.send_signal(signal.SIGINT)
-    _, err = proc.communicate(timeout=120)
-    assert proc.returncode == 130 and not our_tracebacks(err.decode()), err.decode()[-2000:]
-    doc = json.loads(summary.read_text())
+    argv = ["render", "--robot", "ur5", "--frames", "10000", "--width", "64", "--height", "48"]
+    # 0.5 s after the run's summary: drawing 10,000 frames takes far longer
+    run = interrupt(argv, out, signal.SIGINT, 0.5, ready="summary.json")
+    assert run.code == 130 and not our_tracebacks(run.err), run.err[-2000:]
+    doc = json.loads((out / "summary.json").read_text())
     assert (doc["command"], doc["status"], doc["robot"]) == ("render", "interrupted", "ur5")
     assert (
         doc["message"] == "interrupted by SIGINT while rendering (the run ended with status 'ok')"
