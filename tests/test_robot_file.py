@@ -153,8 +153,15 @@ def test_a_file_without_a_home_runs_the_default_injection_to_status_ok(tmp_path,
     assert code == 0
     assert (summary["status"], summary["robot"]) == ("ok", "kinova")
     home = load_robot_file(EXAMPLE).arm.home
-    said = f"robot kinova: no home in {EXAMPLE}; chose home [{home[0]:.4f}, "
+    said = f"robot kinova: no home in {EXAMPLE}; chose home = [{float(home[0])!r}, "
     assert said in err and "manipulability" in err
+    # the line as printed, pasted into the file, gives the same pose to the bit
+    line = "home = " + err.split("chose home = ", 1)[1].split(" (rad;", 1)[0]
+    pinned = tmp_path / "pinned.toml"
+    pinned.write_text(EXAMPLE.read_text() + line + "\n")
+    kept = load_robot_file(pinned)
+    assert not kept.home_searched
+    assert kept.arm.home.tolist() == home.tolist()
 
 
 def test_the_searched_home_is_horizontal_within_the_limits_and_away_from_the_arm() -> None:

@@ -107,12 +107,14 @@ class LoadedRobot:
     measure: float
 
     def note(self) -> str:
-        """One line saying what home was chosen (for a searched home)."""
-        q = ", ".join(f"{v:.4f}" for v in self.arm.home)
+        """One line saying what home was chosen, as a `home = [...]` line (rad) that gives the
+        same pose to the bit when pasted into the file's [robot] table."""
+        q = ", ".join(repr(float(v)) for v in self.arm.home)
         how = "chose home" if self.home_searched else "home"
         where = f"no home in {self.spec.path}; " if self.home_searched else ""
         measure = f"manipulability {self.measure:.3f}, inverse condition number of the needle's"
-        return f"robot {self.arm.name}: {where}{how} [{q}] rad ({measure} Jacobian)"
+        keep = "; add that line to [robot] to keep it" if self.home_searched else ""
+        return f"robot {self.arm.name}: {where}{how} = [{q}] (rad; {measure} Jacobian){keep}"
 
 
 def read_robot_file(path: str | Path) -> RobotSpec:
