@@ -215,3 +215,36 @@ def test_an_arms_scene_draws_a_curved_needles_arc_ending_at_the_models_tip() -> 
         site = model.site("needle_arc_tip").id
         assert data.site_xpos[site] == pytest.approx(robot.tip(q), abs=1e-9)
     assert "needle_arc_tip" not in [plant.model.site(i).name for i in range(plant.model.nsite)]
+
+
+KINOVA_Z = """[robot]
+name = "kinova-z"
+urdf = "package://example-robot-data/kinova_description/robots/kinova.urdf"
+flange = "j2s6s200_end_effector"
+needle_axis = "+z"
+home = [0.43072220572976727, 2.1257375254510467, 4.8215351907011925, 0.5411800607078334, 1.0471975511962002, 1.7967668521241829]
+"""
+
+
+@pytest.mark.parametrize("name", ["ur5", "panda", "kinova-z"])
+def test_an_arms_cameras_see_the_eye_and_the_needle_past_its_links(tmp_path, name) -> None:  # type: ignore[no-untyped-def]
+    """At home, the overview shows the eye and the closeup the eye and the needle, wherever the
+    links stand: on the Kinova with its needle across the flange the overview from iRAM!S's
+    side is hidden by the arm, and the scene turns the camera about the vertical instead."""
+    from rcmplan.robot.robot_file import load_robot_file
+
+    if name == "kinova-z":
+        (tmp_path / "k.toml").write_text(KINOVA_Z)
+        arm = load_robot_file(tmp_path / "k.toml").arm
+    else:
+        arm = make_robot(name)
+    plant = ArmPlant(arm, mode="kinematic")
+    model, data = plant.scene()
+    renderer = SceneRenderer(model, W, H)
+    try:
+        for camera, geoms in (("overview", ("eyeball",)), ("closeup", ("eyeball", "needle"))):
+            seen = renderer.segment(data, camera)
+            for geom in geoms:
+                assert np.count_nonzero(seen == model.geom(geom).id) > 0, (camera, geom)
+    finally:
+        renderer.close()

@@ -318,6 +318,9 @@ BAD = {  # case: (keys changed, error type, what the message names)
     "needle axis": ({"needle_axis": '"z"'}, RobotFileError, r"needle_axis = 'z'.*\+x -x \+y"),
     "needle axis zero": ({"needle_axis": "[0, 0, 0]"}, RobotFileError,
                          r"needle_axis = \(0, 0, 0\).*non-zero direction"),
+    "needle back into its link": ({"needle_axis": '"-x"'}, RobotFileError,
+                                  r"needle_axis = '-x'.*j2s6s200_joint_6 to the flange: "
+                                  r"\(1\.000, 0\.000, 0\.000\).*nearest '\+x'.*180 degrees"),
     "needle bend": ({"needle_bend": '"y"'}, RobotFileError, r"needle_bend = 'y'.*\+x -x \+y"),
     "needle bend along the needle": ({"needle_bend": "[-1, 0, 0.1]"}, RobotFileError,
                                      r"needle_bend = .*25 degrees from the needle's line"),
@@ -381,3 +384,24 @@ def test_a_needle_with_its_own_direction_and_offset_on_the_flange(tmp_path, caps
     code, summary = inject(tmp_path, path, capsys)
     assert code == 0 and summary["status"] == "ok"
     assert summary["max_rcm_deviation_m"] <= 1e-6
+
+
+def test_a_needle_pointing_back_is_loaded_when_its_offset_places_it_off_the_link(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The back-into-the-link refusal holds for a needle at the flange's origin only: with
+    needle_offset_mm the user has placed it, and the file loads with the needle as given."""
+    keys = {"needle_axis": '"-x"', "needle_offset_mm": "[0, 40, 0]", "home": KINOVA_HOME}
+    mount = load_robot_file(robot_toml(tmp_path / "k.toml", **keys)).arm.needle.mount
+    assert mount[:3, 2].tolist() == [-1.0, 0.0, 0.0] and mount[:3, 3].tolist() == [0, 0.04, 0]
+
+
+@pytest.mark.parametrize("command", [["sweep", "--targets", "2"], ["render", "--frames", "2"]])
+def test_every_command_taking_a_robot_file_says_which_home_it_searched(
+    tmp_path, capsys, command
+) -> None:  # type: ignore[no-untyped-def]
+    if command[0] == "render":
+        pytest.importorskip("mujoco", reason="render draws with MuJoCo (extra `mujoco`)")
+    main([*command, "--robot", str(EXAMPLE), "--no-plots" if command[0] == "sweep" else "--json",
+          "--out", str(tmp_path / "out")])  # fmt: skip
+    home = load_robot_file(EXAMPLE).arm.home
+    assert f"rcmplan {command[0]}: robot kinova: no home in {EXAMPLE}; chose home = [" \
+           f"{float(home[0])!r}, " in capsys.readouterr().err  # fmt: skip

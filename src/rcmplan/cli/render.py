@@ -30,6 +30,7 @@ from rcmplan.cli.common import (
     add_plant,
     add_robot,
     add_scenario,
+    scenario_from_args,
 )
 from rcmplan.exceptions import InvalidInputError, RcmplanError, require_extra
 from rcmplan.robot.iramis import Iramis
@@ -95,14 +96,8 @@ def demo_trajectory(robot: RobotModel, n: int = 240) -> FloatArray:
 def run_scenario_of(args: argparse.Namespace) -> RunResult:
     """The scenario's run (--scenario, --robot, --method, --plant), nothing written yet."""
     from rcmplan.job import run_scenario
-    from rcmplan.scene.scenario import load_scenario
 
-    scenario = load_scenario(args.scenario).with_plant(args.plant)
-    if args.robot:
-        scenario = scenario.with_robot(args.robot)
-    if args.method:
-        scenario = scenario.with_method(args.method)
-    return replace(run_scenario(scenario), command="render")
+    return replace(run_scenario(scenario_from_args(args)), command="render")
 
 
 def run(args: argparse.Namespace) -> int:

@@ -31,6 +31,7 @@ from rcmplan.cli.common import (
     add_plant,
     add_robot,
     add_scenario,
+    announce_robot,
 )
 from rcmplan.cli.output import one_line, print_json, progress_bar
 from rcmplan.cli.sweep_outputs import (
@@ -102,6 +103,7 @@ def settings_from_args(args: argparse.Namespace) -> SweepSettings:
 
     sc = load_scenario(args.scenario)
     changes = {k: getattr(args, k) for k in ("robot", "method", "plant") if getattr(args, k)}
+    announce_robot(changes.get("robot", sc.robot), "sweep")
     angle = scalar("--max-angle", args.max_angle, 0.0, 90.0, low_open=True, high_open=True)
     targets = integer("--targets", args.targets, 1, MAX_TARGETS)
     seed = integer("--seed", args.seed, 0, SEED_MAX)

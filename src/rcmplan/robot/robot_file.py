@@ -211,6 +211,7 @@ def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> Loade
         mount = needle_mount(spec.needle_axis, spec.needle_offset, spec.needle_bend)
     except InvalidInputError as exc:
         raise spec.error(exc.name, exc.value, exc.valid) from exc
+    _check_needle_leaves_the_arm(spec, chain, mount)
     needle = StraightNeedle(spec.needle_length, mount)
     roll = roll_joint(chain, needle)
     moving = [n for i, n in enumerate(chain.joint_names) if i != roll]
@@ -226,6 +227,32 @@ def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> Loade
         why = exc.valid if exc.name == "home" else f"{exc.valid} ({exc.name}: {exc.value})"
         raise spec.error("home", home.tolist(), why) from exc
     return LoadedRobot(arm, spec, searched, arm.singularity_measure(arm.home))
+
+
+BACKWARD_DEG = 150.0  # a needle this far from its last link's outward direction runs into it
+
+
+def _check_needle_leaves_the_arm(spec: RobotSpec, chain: JointChain, mount: FloatArray) -> None:
+    """Refuse a needle, mounted at the flange's origin, that points back along the last link
+    (from the last joint's origin to the flange): within 30 degrees of it, the needle's first
+    30 mm run inside the link. The angle does not depend on the pose. Not checked for a flange
+    at the last joint's origin (no link direction) or a needle mounted away from the flange's
+    origin (`needle_offset_mm`: the user placed it)."""
+    link = chain.tip[:3, :3].T @ chain.tip[:3, 3]  # last joint -> flange, in the flange frame
+    if np.linalg.norm(link) < 1e-3 or np.any(mount[:3, 3] != 0.0):
+        return
+    outward = link / np.linalg.norm(link)
+    angle = float(np.degrees(np.arccos(np.clip(mount[:3, 2] @ outward, -1.0, 1.0))))
+    if angle >= BACKWARD_DEG:
+        k = int(np.argmax(np.abs(outward)))
+        named = ("+" if outward[k] > 0 else "-") + "xyz"[k]
+        last = chain.joints[-1].name
+        valid = (f"a direction less than {BACKWARD_DEG:.0f} degrees from the last link's outward "
+                 f"direction, from joint {last} to the flange: ({outward[0]:.3f}, "
+                 f"{outward[1]:.3f}, {outward[2]:.3f}) in the flange frame, nearest {named!r}; "
+                 f"this needle is {angle:.0f} degrees from it and runs back into the link "
+                 f"(needle_offset_mm mounts it away from the flange's origin)")  # fmt: skip
+        raise spec.error("needle_axis", spec.needle_axis, valid)
 
 
 def _chosen_home(

@@ -282,13 +282,46 @@ def _scenery(mj: Any, spec: Any, arm: SerialArm, eye: EyePhantom) -> None:
     mid = 0.5 * (tip + eye.trocar)
     direction = np.array([0.12, -0.25, 0.17])  # iRAM!S's overview, seen from the same side
     distance = 1.15 * extent / math.sin(math.radians(OVERVIEW_FOVY / 2.0))
-    wide = centre + distance * direction / np.linalg.norm(direction)
-    for name, pos, target, fovy in (
-        ("overview", wide, centre, OVERVIEW_FOVY),
-        ("closeup", mid + CLOSEUP_OFFSET, mid, CLOSEUP_FOVY),
+    direction *= distance / np.linalg.norm(direction)
+    sight = _LinkSight(mj, spec, arm)
+    for name, offset, target, fovy, seen in (
+        ("overview", direction, centre, OVERVIEW_FOVY, (eye.centre, tip)),
+        ("closeup", CLOSEUP_OFFSET, mid, CLOSEUP_FOVY, (tip, eye.trocar)),
     ):
+        pos = sight.clear_view(target, offset, seen)
         camera = spec.worldbody.add_camera(name=name, pos=pos.tolist(), fovy=fovy)
         camera.quat = quat_from_matrix(camera_axes(pos, target)).tolist()
+
+
+class _LinkSight:
+    """The links drawn at home (the capsules of `_scenery`, geom group 2), for MuJoCo's ray
+    casts (`mj_ray`): which camera places see the needle and the eye past them."""
+
+    AZIMUTHS = np.radians([0.0, 45.0, -45.0, 90.0, -90.0, 135.0, -135.0, 180.0])
+
+    def __init__(self, mj: Any, spec: Any, arm: SerialArm) -> None:
+        self.mj, self.model = mj, spec.compile()
+        self.data = mj.MjData(self.model)
+        self.data.qpos[:] = arm.home
+        mj.mj_kinematics(self.model, self.data)
+        self.links = np.array([0, 0, 1, 0, 0, 0], dtype=np.uint8)  # geom group 2 only
+
+    def blocked(self, pos: FloatArray, point: FloatArray) -> bool:
+        """True if a link lies on the segment from pos to point."""
+        geom = np.array([-1], dtype=np.int32)
+        x = self.mj.mj_ray(self.model, self.data, pos, point - pos, self.links, 1, -1, geom)
+        return bool(0.0 <= x < 1.0)
+
+    def clear_view(self, target: FloatArray, offset: FloatArray, seen: tuple) -> FloatArray:
+        """target + offset turned about the vertical by the first of `AZIMUTHS` from which no
+        link hides a point of `seen` (the unturned place if every one is hidden)."""
+        for a in self.AZIMUTHS:
+            c, s = math.cos(a), math.sin(a)
+            pos = target + np.array([c * offset[0] - s * offset[1], s * offset[0] + c * offset[1],
+                                     offset[2]])  # fmt: skip
+            if not any(self.blocked(pos, p) for p in seen):
+                return pos
+        return target + offset
 
 
 def _servos(mj: Any, spec: Any, arm: SerialArm, options: ServoOptions) -> None:
