@@ -98,7 +98,7 @@ def test_arm_plants_and_their_scenes_are_built_or_refused(args: tuple[Any, ...])
 
 @examples(150)
 @given(args=one_bad(choice(["kinematic", "mujoco-kinematic"], ["x"]), robots,
-                    choice([None, {"eye": EYE}], ["eye", {"eye": 1}]),
+                    choice([None, {"eye": EYE}, EYE], ["eye", {"eye": 1}]),
                     choice([{}, {"dt": 2e-3}], [{"dt": "x"}, {"speed": 1}])))  # fmt: skip
 def test_plants_by_name_are_built_or_refused(args: tuple[Any, ...]) -> None:
     name, robot, scene, extra = args

@@ -119,6 +119,10 @@ def test_the_registry_builds_the_arm_plant_for_arms_and_the_iramis_plant_for_ira
         assert plant.name == f"mujoco-{mode}" and plant.robot is ur5
         assert not plant.exact_commands and plant.compiled_physics == (mode == "dynamic")
     assert isinstance(make_plant("mujoco-kinematic", Iramis()), MujocoPlant)
+    eye = default_eye(ur5)
+    for scene in (eye, {"eye": eye}):  # the eye alone, or scene objects by name
+        model = make_plant("mujoco-kinematic", ur5, scene).model
+        assert model.body("eye").pos.tolist() == eye.center.tolist()
 
 
 def test_kinematic_mode_reproduces_the_kinematic_plant_on_a_short_injection(

@@ -18,6 +18,7 @@ from rcmplan.robot.chain import JointChain
 from rcmplan.robot.checks import robot_model
 from rcmplan.robot.iramis import Iramis
 from rcmplan.robot.model import RobotModel
+from rcmplan.scene.eye import Eye
 
 # name -> (module, factory attribute, keyword arguments)
 PLANTS: dict[str, tuple[str, str, dict[str, Any]]] = {
@@ -32,20 +33,26 @@ SERIAL_PLANTS: dict[str, tuple[str, str, dict[str, Any]]] = {
 
 
 def make_plant(
-    name: str, robot: RobotModel | None = None, scene: dict[str, Any] | None = None, **kwargs: Any
+    name: str,
+    robot: RobotModel | None = None,
+    scene: Eye | dict[str, Any] | None = None,
+    **kwargs: Any,
 ) -> Plant:
     """Build the plant registered under `name` for `robot`.
 
     Args:
-        scene: Scene objects (for example `eye`) handed to plants that take them; a plant
-            without a scene (the kinematic one) ignores them.
+        scene: The eye, or scene objects by name (`eye`, `points`), handed to plants that take
+            them; a plant without a scene (the kinematic one) ignores them.
         kwargs: Plant options (for example `dt`).
     """
     if not isinstance(name, str) or name not in PLANTS:
         raise InvalidInputError("plant", name, f"one of {sorted(PLANTS)}")
     robot = Iramis() if robot is None else robot_model("robot", robot)
+    if isinstance(scene, Eye):
+        scene = {"eye": scene}
     if scene is not None and not isinstance(scene, dict):
-        raise InvalidInputError("scene", scene, "a dict of scene objects (eye, points) or None")
+        valid = "an Eye, a dict of scene objects (eye, points), or None"
+        raise InvalidInputError("scene", scene, valid)
     serial = isinstance(getattr(robot, "chain", None), JointChain) and name in SERIAL_PLANTS
     module, attr, defaults = SERIAL_PLANTS[name] if serial else PLANTS[name]
     factory = getattr(importlib.import_module(module), attr)
