@@ -405,3 +405,16 @@ def test_every_command_taking_a_robot_file_says_which_home_it_searched(
     home = load_robot_file(EXAMPLE).arm.home
     assert f"rcmplan {command[0]}: robot kinova: no home in {EXAMPLE}; chose home = [" \
            f"{float(home[0])!r}, " in capsys.readouterr().err  # fmt: skip
+
+
+def test_the_home_note_names_the_joints_in_metres(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """TIAGo's arm from example-robot-data rises on a prismatic torso joint: the home the
+    command states is in rad but for that joint, in m."""
+    path = tmp_path / "tiago.toml"
+    path.write_text('[robot]\nname = "tiago"\nflange = "arm_tool_link"\nneedle_axis = "+x"\n'
+                    'urdf = "package://example-robot-data/tiago_description/robots/tiago.urdf"\n'
+                    "home = [0.27, 0.86, -0.53, -0.93, 1.75, 0.64, 1.13, 0.0]\n")  # fmt: skip
+    loaded = load_robot_file(path)
+    assert loaded.arm.chain.prismatic.tolist() == [True] + [False] * 7
+    assert "robot tiago: home = [0.27, 0.86, " in loaded.note()
+    assert "(rad, m for torso_lift_joint; manipulability" in loaded.note()

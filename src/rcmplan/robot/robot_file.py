@@ -114,7 +114,10 @@ class LoadedRobot:
         where = f"no home in {self.spec.path}; " if self.home_searched else ""
         measure = f"manipulability {self.measure:.3f}, inverse condition number of the needle's"
         keep = "; add that line to [robot] to keep it" if self.home_searched else ""
-        return f"robot {self.arm.name}: {where}{how} = [{q}] (rad; {measure} Jacobian){keep}"
+        names = self.arm.chain.joint_names
+        metres = [n for n, p in zip(names, self.arm.chain.prismatic, strict=True) if p]
+        unit = f"rad, m for {', '.join(metres)}" if metres else "rad"
+        return f"robot {self.arm.name}: {where}{how} = [{q}] ({unit}; {measure} Jacobian){keep}"
 
 
 def read_robot_file(path: str | Path) -> RobotSpec:
