@@ -126,7 +126,7 @@ def test_unknown_animation_format_is_rejected(tmp_path: Path) -> None:
 
 def test_render_command_writes_snapshots_and_an_animation(tmp_path: Path) -> None:
     parser = argparse.ArgumentParser()
-    render_cli.register(parser.add_subparsers())
+    render_cli.register(parser.add_subparsers(dest="command"))  # as main's parser
     args = parser.parse_args(
         ["render", "--out", str(tmp_path), "--width", "160", "--height", "120", "--frames", "4"]
     )
@@ -188,7 +188,7 @@ def test_an_arms_needle_tip_is_drawn_where_forward_kinematics_projects_it(
 
 def test_render_command_draws_an_arms_run(tmp_path: Path) -> None:
     parser = argparse.ArgumentParser()
-    render_cli.register(parser.add_subparsers())
+    render_cli.register(parser.add_subparsers(dest="command"))  # as main's parser
     args = parser.parse_args(["render", "--robot", "ur5", "--out", str(tmp_path), "--width",
                               "160", "--height", "120", "--frames", "4"])  # fmt: skip
     assert args.run(args) == 0
