@@ -394,17 +394,26 @@ def test_a_needle_pointing_back_is_loaded_when_its_offset_places_it_off_the_link
     assert mount[:3, 2].tolist() == [-1.0, 0.0, 0.0] and mount[:3, 3].tolist() == [0, 0.04, 0]
 
 
-@pytest.mark.parametrize("command", [["sweep", "--targets", "2"], ["render", "--frames", "2"]])
-def test_every_command_taking_a_robot_file_says_which_home_it_searched(
+COMMANDS = [["sweep", "--targets", "2", "--no-plots"], ["render", "--frames", "2"],
+            ["compare", "--method", "pinv", "--no-plots"], ["teleop", "--no-plots"],
+            ["subretinal", "--hover-s", "0.2", "--hold-s", "0.2", "--no-plots"]]  # fmt: skip
+
+
+@pytest.mark.parametrize("command", COMMANDS, ids=[c[0] for c in COMMANDS])
+def test_every_command_taking_a_robot_file_says_its_home_and_names_it_in_its_summary(
     tmp_path, capsys, command
 ) -> None:  # type: ignore[no-untyped-def]
+    """On stderr the searched home; in summary.json the robot's name and the file's path, the
+    same two fields on every command (`registry.summary_fields`)."""
     if command[0] == "render":
         pytest.importorskip("mujoco", reason="render draws with MuJoCo (extra `mujoco`)")
-    main([*command, "--robot", str(EXAMPLE), "--no-plots" if command[0] == "sweep" else "--json",
-          "--out", str(tmp_path / "out")])  # fmt: skip
+    out = tmp_path / "out"
+    main([*command, "--robot", str(EXAMPLE), "--out", str(out)])
     home = load_robot_file(EXAMPLE).arm.home
     assert f"rcmplan {command[0]}: robot kinova: no home in {EXAMPLE}; chose home = [" \
            f"{float(home[0])!r}, " in capsys.readouterr().err  # fmt: skip
+    summary = json.loads((out / "summary.json").read_text())
+    assert (summary["robot"], summary["robot_file"]) == ("kinova", str(EXAMPLE.resolve()))
 
 
 def test_the_home_note_names_the_joints_in_metres(tmp_path) -> None:  # type: ignore[no-untyped-def]

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 from rcmplan._signals import raise_interrupt
@@ -33,7 +32,7 @@ from rcmplan.robot.checks import robot_model
 from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.names import is_robot_file
-from rcmplan.robot.registry import make_robot
+from rcmplan.robot.registry import make_robot, summary_fields
 from rcmplan.scene.curved_figures import curved_figures
 from rcmplan.scene.eye import Eye
 from rcmplan.scene.eye_text import in_eye_frame
@@ -70,7 +69,7 @@ def run_scenario(
     controller: Controller | None = None
     extra: dict[str, Any] = {}
     if robot is None and is_robot_file(scenario.robot):  # where the run's robot was read from
-        extra["robot_file"] = str(Path(scenario.robot).resolve())
+        extra["robot_file"] = summary_fields(scenario.robot)["robot_file"]
     robot = scenario.needle.fit(robot or make_robot(scenario.robot))
     eye: Eye | None = None
     try:

@@ -20,6 +20,7 @@ from rcmplan.cli.output import one_line, print_json
 from rcmplan.control.methods import METHODS
 from rcmplan.exceptions import MissingExtraError
 from rcmplan.job import run_scenario
+from rcmplan.robot.registry import summary_fields
 from rcmplan.scene.scenario import Scenario
 
 COLUMNS = ("method", "status", "message", "max_rcm_deviation_m", "max_tip_error_m", "iterations",
@@ -63,10 +64,11 @@ def measure(scenario: Scenario, out: Path | None = None) -> dict[str, Any]:
 
 def compare_rows(
     args: argparse.Namespace, rows: list[dict[str, Any]], out: Path | None = None
-) -> str:
+) -> tuple[str, dict[str, str]]:
     """Run the scenario once per method, appending a row to `rows` as each method finishes
     (its run written to out/<method>/ when `out` is given); a method whose extra is missing is
-    reported, not run. Returns how the execution path was chosen."""
+    reported, not run. Returns how the execution path was chosen and the robot's summary
+    fields (`summary_fields`)."""
     base = scenario_from_args(argparse.Namespace(**{**vars(args), "method": None}))
     for method in args.method or METHODS:
         try:
@@ -79,7 +81,7 @@ def compare_rows(
                          "wall_time_per_iteration_s": None,
                          "execution_path": None, "compiled_phases": [],
                          "phase_count": 0})  # fmt: skip
-    return "compiled where a method has a kernel"
+    return "compiled where a method has a kernel", summary_fields(base.robot)
 
 
 def print_table(rows: list[dict[str, Any]], path: str) -> None:
@@ -130,9 +132,9 @@ def run(args: argparse.Namespace) -> int:
     rows: list[dict[str, Any]] = []
     try:
         with interrupts.surfaced():
-            path = compare_rows(args, rows, out)
-            doc = {"command": "compare", "status": "ok", "message": "", "execution_path": path,
-                   "methods": rows}  # fmt: skip
+            path, robot = compare_rows(args, rows, out)
+            doc: dict[str, Any] = {"command": "compare", "status": "ok", "message": "",
+                                   **robot, "execution_path": path, "methods": rows}  # fmt: skip
             write_json(out / "summary.json", doc)
             if not args.no_plots:
                 from rcmplan.analysis.plots_compare import method_comparison

@@ -24,6 +24,7 @@ __all__ = [
     "check_robot",
     "is_robot_file",
     "make_robot",
+    "summary_fields",
 ]
 
 
@@ -37,6 +38,16 @@ def shipped_robots() -> dict[str, str]:
 
 
 ROBOTS: dict[str, str] = shipped_robots()
+
+
+def summary_fields(robot: str) -> dict[str, str]:
+    """What every run's summary.json says of its robot: `robot`, the robot's name, and for a
+    robot file `robot_file`, the file's absolute path (the name is the file's `name`)."""
+    if not is_robot_file(robot):
+        return {"robot": robot}
+    from rcmplan.robot.robot_file import read_robot_file
+
+    return {"robot": read_robot_file(robot).name, "robot_file": str(Path(robot).resolve())}
 
 
 def make_robot(name_or_path: str | Path = DEFAULT_ROBOT) -> RobotModel:

@@ -7,6 +7,7 @@ from typing import Any
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.robot.registry import summary_fields
 from rcmplan.subretinal.episode import PHASES, EpisodeResult
 from rcmplan.subretinal.episode_settings import (
     SEGMENTATION_BIAS_M,
@@ -129,7 +130,7 @@ def summarise(result: EpisodeResult) -> dict[str, Any]:
         "command": "subretinal",
         "status": status,
         "message": message,
-        "robot": cfg.robot,
+        **summary_fields(cfg.robot),
         "plant": cfg.plant,
         "compensation": cfg.compensation,
         "ioct_rate_hz": cfg.ioct_rate_hz,

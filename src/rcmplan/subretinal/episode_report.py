@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from rcmplan._atomic import atomic_path, write_text
+from rcmplan.robot.registry import summary_fields
 from rcmplan.subretinal.episode_batch import COLUMNS, BatchSettings, EpisodeRecord
 
 CURVE_BINS = 6
@@ -114,6 +115,7 @@ def batch_summary(batch: BatchSettings, records: list[EpisodeRecord]) -> dict[st
     return {
         "command": "subretinal",
         "mode": "episodes",
+        **summary_fields(batch.base.robot),
         "episodes_planned": batch.episodes,
         "jobs_planned": batch.n_items,
         "jobs_run": len(records),

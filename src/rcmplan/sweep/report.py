@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from rcmplan._atomic import atomic_path
+from rcmplan.robot.registry import summary_fields
 from rcmplan.sweep.fundus import CAUSE_KEYS, CAUSES, causes
 from rcmplan.sweep.gains import Evaluation, GainSearchResult
 from rcmplan.sweep.runner import SweepResult
@@ -51,6 +52,7 @@ def summary(result: SweepResult) -> dict[str, Any]:
     ok = [r for r in rs if r.converged]
     fresh = len(rs) - result.resumed
     return {
+        **summary_fields(result.settings.motion.robot),
         "settings": result.settings.as_dict(),
         "settings_hash": result.settings.digest(),
         "executor": result.executor,

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from rcmplan._version import __version__
+from rcmplan.robot.registry import summary_fields
 from rcmplan.scene.record import eye_record
 from rcmplan.teleop import metrics
 from rcmplan.teleop.run import TeleopResult
@@ -41,7 +42,7 @@ def summary(result: TeleopResult) -> dict[str, Any]:
         "command": "teleop",
         "status": result.status,
         "message": result.message,
-        "robot": cfg.robot,
+        **summary_fields(cfg.robot),
         "plant": cfg.plant,
         "input": result.source,
         "filter": cfg.filter,
