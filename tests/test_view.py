@@ -85,6 +85,21 @@ def test_a_run_folder_loads_with_its_log_summary_and_scene(run_dir) -> None:
     )
 
 
+def test_a_run_of_a_robot_file_is_replayed_with_the_robot_of_that_file(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The view builds the run's robot from summary.json's `robot_file` (its `robot` is the
+    file's name, which names no shipped robot), so the arm is drawn, not the needle alone."""
+    from rcmplan.view.replay import run_robot
+
+    example = Path(__file__).parents[1] / "docs" / "examples" / "kinova.toml"
+    write_outputs(run_scenario(load_scenario("default").with_robot(str(example))), tmp_path,
+                  figures=False)  # fmt: skip
+    (run,) = load_runs(tmp_path)
+    robot, why = run_robot(run)
+    assert (run.robot_name, run.robot_source) == ("kinova", str(example.resolve()))
+    assert robot is not None and why == "" and robot.name == "kinova"
+    assert len(robot.joint_names) == run.log.joints.shape[1] == 6
+
+
 def test_the_summary_or_the_log_may_be_named_instead_of_the_folder(run_dir) -> None:
     for name in ("summary.json", "log.npz"):
         assert load_runs(run_dir / name)[0].folder == run_dir

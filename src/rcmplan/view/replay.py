@@ -35,9 +35,9 @@ def run_robot(run: RunData) -> tuple[RobotModel | None, str]:
     from rcmplan.scene.curved_procedure import NeedleOptions
 
     try:
-        robot = make_robot(run.robot_name)
+        robot = make_robot(run.robot_source)
     except (InvalidInputError, MissingExtraError) as exc:
-        return None, f"robot {run.robot_name!r} not modelled here ({exc}): needle and eye only"
+        return None, f"robot {run.robot_source!r} not modelled here ({exc}): needle and eye only"
     if run.scene.needle_arc is not None:
         radius, angle = run.scene.needle_arc
         robot = NeedleOptions("curved", radius, angle).fit(robot)

@@ -61,6 +61,12 @@ class RunData:
         """The robot the run drove (summary.json `robot`)."""
         return str(self.summary.get("robot", ""))
 
+    @property
+    def robot_source(self) -> str:
+        """What `make_robot` builds the run's robot from: the robot file it was read from
+        (summary.json `robot_file`), else its name."""
+        return str(self.summary.get("robot_file") or self.robot_name)
+
 
 def load_runs(path: str | Path) -> list[RunData]:
     """The runs in a folder: one for a run folder, one per method for a comparison folder.
