@@ -34,11 +34,12 @@ def test_readme_python_examples_run(block: str, capsys, monkeypatch) -> None:
     assert 0.0 <= printed <= 1e-6  # each example prints the max RCM deviation in metres
 
 
-def test_the_limits_example_builds_the_rows_it_names(capsys) -> None:  # type: ignore[no-untyped-def]
+def test_the_limits_example_runs_the_injection_with_the_rows_it_names(capsys) -> None:  # type: ignore[no-untyped-def]
     exec(compile(BLOCKS[LIMITS], "README.md", "exec"), {})
-    printed = capsys.readouterr().out.strip().splitlines()[-1]
-    assert printed == str(["RcmLimit", "RetinaBarrier", "SingularMargin", "TipSpeed",
-                           "TissueDepthLimit"])  # fmt: skip
+    rows, deviation = capsys.readouterr().out.strip().splitlines()[-2:]
+    assert rows == str(["RcmLimit", "RetinaBarrier", "SingularMargin", "TipSpeed",
+                        "WorkspaceBound"])  # fmt: skip
+    assert 0.0 <= float(deviation) <= 0.5e-6 + 1e-12  # the QP's RCM box, held
 
 
 def test_readme_opens_with_the_two_commands() -> None:

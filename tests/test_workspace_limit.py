@@ -98,3 +98,17 @@ def test_a_box_must_be_ordered_and_rotated_properly() -> None:
         WorkspaceBound(tuple(eye.center), tuple(map(tuple, R)), (0, 0, 0), (1, -1, 1))
     with pytest.raises(InvalidInputError, match="proper rotation"):
         WorkspaceBound(tuple(eye.center), tuple(map(tuple, -R)), (0, 0, 0), (1, 1, 1))
+
+
+def test_a_cube_is_the_axis_aligned_box_of_its_half_width_about_its_centre() -> None:
+    c = np.array([0.1, -0.2, 0.3])
+    cube = WorkspaceBound.cube(c, 0.025, gain=0.4)
+    assert cube == WorkspaceBound(tuple(c), tuple(map(tuple, np.eye(3))), (-0.025,) * 3,
+                                  (0.025,) * 3, 0.4)  # fmt: skip
+    corners = c + np.array([[0.025, -0.025, 0.0], [0.0, 0.0, 0.026]])
+    assert cube.depth(corners) == pytest.approx([0.0, -0.001], abs=1e-15)
+    for bad in (0.0, 2.0, np.nan):
+        with pytest.raises(InvalidInputError, match=r"workspace\.half_width"):
+            WorkspaceBound.cube(c, bad)
+    with pytest.raises(InvalidInputError, match=r"workspace\.center"):
+        WorkspaceBound.cube([0.0, 1.0], 0.01)

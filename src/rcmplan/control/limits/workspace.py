@@ -78,6 +78,15 @@ class WorkspaceBound:
         object.__setattr__(self, "lower", tuple(lo))
         object.__setattr__(self, "upper", tuple(hi))
 
+    @classmethod
+    def cube(cls, center: FloatArray, half_width: float, gain: float = 0.5) -> WorkspaceBound:
+        """The axis-aligned cube of `half_width` [m] (in (0, 1 m]) about `center` (3,) [m] of
+        the base frame."""
+        half = scalar("workspace.half_width", half_width, 0.0, 1.0, low_open=True)
+        eye3 = ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0))
+        return cls(tuple(vector("workspace.center", center, 3)), eye3, (-half,) * 3, (half,) * 3,
+                   gain)  # fmt: skip
+
     def coordinates(self, p: FloatArray) -> FloatArray:
         """Box coordinates R^T (p - origin) of points p (3,) or (N, 3) in [m]."""
         return np.asarray((points("p", p) - np.asarray(self.origin)) @ np.asarray(self.rotation))
