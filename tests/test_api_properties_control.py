@@ -196,6 +196,9 @@ def test_limits_are_finite_or_refused(args: tuple[Any, ...]) -> None:
         probe("WorkspaceBound.depth", box.depth, p, ok=finite, names=("p",))
         probe("WorkspaceBound.outside", box.outside, p, ok=lambda d: finite(d) and np.all(d >= 0),
               names=("p",))  # fmt: skip
+    # the cube's half width drawn as the gain is (its valid range within the half width's)
+    probe("WorkspaceBound.cube", rp.WorkspaceBound.cube, origin, gain, ok=fields_finite,
+          names=("workspace",))  # fmt: skip
     probe("Constraint", rp.Constraint, G, h, eq, names=("G", "h", "equality"),
           ok=lambda c: finite(c.G) and finite(c.h) and c.G.shape[0] == c.h.shape[0])  # fmt: skip
     # each limit with its own parameters, `gain` (possibly bad) where one is a gain or speed

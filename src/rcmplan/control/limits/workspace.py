@@ -64,7 +64,8 @@ class WorkspaceBound:
 
     def __post_init__(self) -> None:
         R = matrix("workspace.rotation", self.rotation, (3, 3))
-        if not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0.0:
+        bounded = np.abs(R).max() <= 1.0 + 1e-9  # a rotation's entries lie in [-1, 1]
+        if not bounded or not np.allclose(R.T @ R, np.eye(3), atol=1e-9) or np.linalg.det(R) < 0:
             raise InvalidInputError("workspace.rotation", R, "a proper rotation (R^T R = I)")
         lo = vector("workspace.lower", self.lower, 3)
         hi = vector("workspace.upper", self.upper, 3)
