@@ -21,6 +21,7 @@ from rcmplan.control.tasks import Posture
 from rcmplan.controller import Controller
 from rcmplan.job import run_scenario
 from rcmplan.scene.scenario import load_scenario
+from rcmplan.sim.kinematic import KinematicPlant
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.plant import MujocoPlant
 
@@ -84,6 +85,25 @@ def test_the_compiled_qp_on_the_mujoco_plant_gives_the_python_loops_log() -> Non
     np.testing.assert_allclose(plant.command, ref_plant.command, rtol=0, atol=TOL_M)
     assert plant.time == pytest.approx(ref_plant.time, abs=1e-12)
     assert ctl.lam == pytest.approx(ref_ctl.lam, abs=TOL_M)
+
+
+def test_a_controller_hands_its_plant_to_a_qp_given_none() -> None:
+    """QpSolver(robot) on the dynamic plant, as a user writes it: the controller makes the
+    plant its servo (`QpSolver.follow`), so the run is the one with servo=plant, compiled
+    (841 records; planned from the measured sliders instead, the pivot ran the Python loop
+    and the phases took 1,281). On the kinematic plant (exact commands) the QP plans from the
+    state."""
+    robot = Iramis()
+    plant = MujocoPlant(robot, mode="dynamic")
+    solver = QpSolver(robot)
+    ctl = Controller(plant, solver, settings=LoopSettings(max_iterations=1000))
+    assert solver.servo is plant
+    got = ctl.run(phases(robot))
+    ref, _, _ = run("on")
+    assert ctl.phase_paths == {"pivot": "compiled", "free": "compiled"}
+    assert_same_log(ref, got, 0.0, nonempty=True)
+    Controller(KinematicPlant(robot), solver)
+    assert solver.servo is None
 
 
 def test_a_qp_with_a_cost_term_the_kernels_do_not_assemble_runs_the_python_loop() -> None:

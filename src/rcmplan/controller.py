@@ -28,6 +28,7 @@ from rcmplan.control.phase import (
     check_plan_size,
 )
 from rcmplan.control.plant import Plant
+from rcmplan.control.qp import QpSolver
 from rcmplan.control.rcm_step import bounded_step
 from rcmplan.control.runner import Runner, registered_default
 from rcmplan.control.solvers import Solver, TipSolver
@@ -77,6 +78,8 @@ class Controller:
         self.plant = plant
         self.robot: RobotModel = robot or plant.robot
         self.solver = solver
+        if isinstance(solver, QpSolver):  # it plans from the plant's command if servos follow it
+            solver.follow(plant)
         own = getattr(solver, "free_solver", None)
         self.free_solver: Solver = free_solver or (own() if own is not None else TipSolver())
         self.settings = settings or LoopSettings()

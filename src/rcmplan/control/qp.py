@@ -79,6 +79,7 @@ class QpSolver:
         servo: The plant, when its servos follow commands over several periods (it has
             `exact_commands` False and a `command`): steps are planned from its last command
             (module docstring). None, or a plant with exact commands: from the measured state.
+            A `Controller` sets it to its own plant (`follow`).
         extra_limits: Limits held besides the standard ones (`QpLimits.rows`), for
             example a `limits.WorkspaceBound` for the tip or a `limits.TissueDepthLimit` (the
             compiled QP step holds these two; a solver with others runs in Python).
@@ -120,11 +121,7 @@ class QpSolver:
         self.tol = (tol or Tolerance()).checked()
         self.limits = (limits or QpLimits()).check(robot, eye)
         self.backend = check_backend(backend)
-        follows = servo is not None and not getattr(servo, "exact_commands", True)
-        self.servo = servo if follows and hasattr(servo, "command") else None
-        res = getattr(self.servo, "actuator_resolution", None)
-        n = len(robot.home_actuators)
-        self._resolution = None if res is None else vector("servo.actuator_resolution", res, n)
+        self.follow(servo)
         self.extra_limits = tuple(extra_limits)
         self.rows: tuple[Limit, ...] = (*self.limits.rows(eye, self.dt), *self.extra_limits)
         self.bounds = self.limits.bounds()
@@ -132,9 +129,19 @@ class QpSolver:
         self.weights = self.limits.weights(self.target_width)
         self.last: tuple[StepQP, QpResult] | None = None
         self._planned_error: FloatArray = np.zeros(0)  # the task error of the last solve
-        self._plan, self._plan_key = np.zeros(0), b""
         self._key: bytes = b""
         self._checked: set[bytes] = set()  # targets already checked (their bytes)
+
+    def follow(self, plant: Any | None) -> None:
+        """Plan the steps from `plant`'s last command if its servos follow commands over
+        several periods (it has `exact_commands` False and a `command`), else from the measured
+        state (module docstring). A `Controller` hands the solver its plant so."""
+        follows = plant is not None and not getattr(plant, "exact_commands", True)
+        self.servo = plant if follows and hasattr(plant, "command") else None
+        res = getattr(self.servo, "actuator_resolution", None)
+        n = len(self.robot.home_actuators)
+        self._resolution = None if res is None else vector("servo.actuator_resolution", res, n)
+        self._plan, self._plan_key = np.zeros(0), b""  # the joints of the last command planned
 
     @classmethod
     def from_settings(

@@ -199,7 +199,7 @@ def scenario_from_dict(data: dict[str, Any], folder: Path | None = None) -> Scen
         ),
         method_settings=settings,
         loop=LoopSettings(
-            ctl.get("max_iterations", 100),
+            ctl.get("max_iterations", LoopSettings.max_iterations),
             ctl.get("drift_correction", True),
             rcm_bound=ctl.get("rcm_bound_um", 45.0) * 1e-6,
             rcm_tolerance=ctl.get("rcm_tolerance_um", 0.8) * 1e-6,
