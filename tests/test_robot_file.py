@@ -427,3 +427,17 @@ def test_the_home_note_names_the_joints_in_metres(tmp_path) -> None:  # type: ig
     assert loaded.arm.chain.prismatic.tolist() == [True] + [False] * 7
     assert "robot tiago: home = [0.27, 0.86, " in loaded.note()
     assert "(rad, m for torso_lift_joint; manipulability" in loaded.note()
+
+
+def test_a_curved_needle_on_an_arm_that_cannot_roll_it_names_the_axis_that_would(tmp_path) -> None:  # type: ignore[no-untyped-def]
+    """The Jaco's last joint turns about its flange's x (the link's outward direction): with
+    the needle along the flange's z nothing rolls it, and the refusal says which axis does."""
+    keys = {"needle_axis": '"+z"', "home": "[0.43, 2.13, 4.82, 0.54, 1.05, 1.80]"}
+    arm = load_robot_file(robot_toml(tmp_path / "k.toml", **keys)).arm
+    assert arm.roll_joint is None
+    with pytest.raises(
+        InvalidInputError,
+        match=r"robot = 'kinova'.*j2s6s200_joint_6, turns "
+        r"about the flange's x axis: needle_axis = \"\+x\" in the robot file",
+    ):
+        load_scenario("curved").needle.fit(arm)

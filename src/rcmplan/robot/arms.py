@@ -101,6 +101,17 @@ def _direction(name: str, value: str | Sequence[float]) -> FloatArray:
     return out / norm
 
 
+BACKWARD_DEG = 150.0  # a needle this far from its last link's outward direction runs into it
+
+
+def link_outward(chain: JointChain) -> FloatArray | None:
+    """The last link's outward direction in the flange frame: from the last joint's origin to
+    the flange (unit, the same at every pose), or None for a flange within 1 mm of it."""
+    link = chain.tip[:3, :3].T @ chain.tip[:3, 3]
+    norm = float(np.linalg.norm(link))
+    return None if norm < 1e-3 else link / norm
+
+
 def roll_joint(chain: JointChain, needle: StraightNeedle) -> int | None:
     """The last joint if it turns the needle about its own axis (a revolute joint whose axis
     holds the needle's base and tip), else None."""

@@ -19,6 +19,7 @@ straight needle, the roll held.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -27,6 +28,7 @@ from numpy.typing import NDArray
 from rcmplan._validate import FloatArray, array, scalar, vector
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.robot import curved_arm, curved_iramis
+from rcmplan.robot.arms import BACKWARD_DEG, link_outward
 from rcmplan.robot.curved_block import BLOCK_ROWS, WIDTH, G, J
 from rcmplan.robot.curved_needle import CurvedNeedle
 from rcmplan.robot.iramis import Iramis
@@ -87,7 +89,7 @@ class CurvedTipRobot:
             raise InvalidInputError("robot", type(base).__name__, "an Iramis or a SerialArm")
         roll = getattr(base, "roll_joint", None)
         if roll is None:
-            raise InvalidInputError("robot", base.name, "a model with a needle roll joint")
+            raise InvalidInputError("robot", base.name, _no_roll(base))
         if abs(base.needle_length - needle.shaft_length) > 1e-15:
             raise InvalidInputError(
                 "needle.shaft_length", needle.shaft_length,
@@ -266,3 +268,23 @@ class CurvedTipRobot:
 def curved_robot(base: RobotModel, needle: CurvedNeedle) -> CurvedTipRobot:
     """`base` (Iramis or SerialArm) holding `needle` (the constructor checks the base's kind)."""
     return CurvedTipRobot(base, needle)  # type: ignore[arg-type]
+
+
+def _no_roll(arm: Iramis | SerialArm) -> str:
+    """What a curved needle asks of the robot, and on an arm which needle axis gives it."""
+    valid = "a model whose last joint rolls the needle about its own axis (a curved needle's bend"
+    valid += " turns with it)"
+    if not isinstance(arm, SerialArm) or arm.chain.prismatic[-1]:
+        return valid
+    axis = arm.chain.tip[:3, :3].T @ arm.chain.axes[-1]  # the last joint's axis, flange frame
+    k = int(np.argmax(np.abs(axis)))
+    if abs(axis[k]) < 1.0 - 1e-9:
+        return valid
+    outward = link_outward(arm.chain)  # the sign away from the last link, if it matters
+    back = outward is not None and abs(outward[k]) >= -math.cos(math.radians(BACKWARD_DEG))
+    signs = ("+" if outward[k] > 0.0 else "-") if outward is not None and back else "+-"
+    named = " or ".join(f'needle_axis = "{sign}{"xyz"[k]}"' for sign in signs)
+    return (
+        f"{valid}; the last joint of {arm.name}, {arm.chain.joint_names[-1]}, turns about the "
+        f"flange's {'xyz'[k]} axis: {named} in the robot file mounts the needle on it"
+    )

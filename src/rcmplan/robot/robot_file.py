@@ -46,7 +46,7 @@ from rcmplan.exceptions import (
 )
 from rcmplan.robot import home_search
 from rcmplan.robot import robot_file_values as values
-from rcmplan.robot.arms import needle_mount, place_arm, roll_joint
+from rcmplan.robot.arms import BACKWARD_DEG, link_outward, needle_mount, place_arm, roll_joint
 from rcmplan.robot.chain import JointChain
 from rcmplan.robot.home_search import HomeSearch, search_home
 from rcmplan.robot.model import SerialArm
@@ -232,19 +232,15 @@ def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> Loade
     return LoadedRobot(arm, spec, searched, arm.singularity_measure(arm.home))
 
 
-BACKWARD_DEG = 150.0  # a needle this far from its last link's outward direction runs into it
-
-
 def _check_needle_leaves_the_arm(spec: RobotSpec, chain: JointChain, mount: FloatArray) -> None:
     """Refuse a needle, mounted at the flange's origin, that points back along the last link
     (from the last joint's origin to the flange): within 30 degrees of it, the needle's first
     30 mm run inside the link. The angle does not depend on the pose. Not checked for a flange
     at the last joint's origin (no link direction) or a needle mounted away from the flange's
     origin (`needle_offset_mm`: the user placed it)."""
-    link = chain.tip[:3, :3].T @ chain.tip[:3, 3]  # last joint -> flange, in the flange frame
-    if np.linalg.norm(link) < 1e-3 or np.any(mount[:3, 3] != 0.0):
+    outward = link_outward(chain)
+    if outward is None or np.any(mount[:3, 3] != 0.0):
         return
-    outward = link / np.linalg.norm(link)
     angle = float(np.degrees(np.arccos(np.clip(mount[:3, 2] @ outward, -1.0, 1.0))))
     if angle >= BACKWARD_DEG:
         k = int(np.argmax(np.abs(outward)))
