@@ -315,6 +315,8 @@ BAD = {  # case: (keys changed, error type, what the message names)
     "missing urdf": ({"urdf": '"nowhere.urdf"'}, RobotFileError, r"no file at .*nowhere\.urdf"),
     "flange not in the file": ({"flange": '"tool0"'}, RobotFileError,
                                r"flange = 'tool0'.*one of .*j2s6s200_link_6"),
+    "flange misspelt": ({"flange": '"j2s6s200_end_efector"'}, RobotFileError,
+                        r"flange = 'j2s6s200_end_efector'.*; did you mean j2s6s200_end_effector\?"),
     "needle axis": ({"needle_axis": '"z"'}, RobotFileError, r"needle_axis = 'z'.*\+x -x \+y"),
     "needle axis zero": ({"needle_axis": "[0, 0, 0]"}, RobotFileError,
                          r"needle_axis = \(0, 0, 0\).*non-zero direction"),

@@ -199,6 +199,7 @@ def model_chain(spec: RobotSpec) -> JointChain:
         raise spec.error(spec.model_kind, str(path), valid) from exc
     except UnknownFrameError as exc:
         valid = f"a frame of {path.name}: one of " + ", ".join(exc.frames)
+        valid += did_you_mean(spec.flange, exc.frames)
         raise spec.error("flange", spec.flange, valid) from exc
     except InvalidInputError as exc:
         raise spec.error("flange", spec.flange, f"{exc.name} = {exc.value}: {exc.valid}") from exc
