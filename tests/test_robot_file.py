@@ -443,3 +443,16 @@ def test_a_curved_needle_on_an_arm_that_cannot_roll_it_names_the_axis_that_would
         r"about the flange's x axis: needle_axis = \"\+x\" in the robot file",
     ):
         load_scenario("curved").needle.fit(arm)
+
+
+def test_the_live_view_says_which_home_it_searched(capsys) -> None:  # type: ignore[no-untyped-def]
+    from argparse import Namespace
+
+    from rcmplan.cli.view import checked_source
+
+    args = Namespace(live=True, scale=1.0, scenario="default", robot=str(EXAMPLE),
+                     plant="kinematic", no_realtime=True, filter="none")  # fmt: skip
+    assert checked_source(args).robot.name == "kinova"
+    assert f"rcmplan view: robot kinova: no home in {EXAMPLE}; chose home = [" in (
+        capsys.readouterr().err
+    )

@@ -15,7 +15,7 @@ import threading
 from typing import Any
 
 from rcmplan.cli import interrupts
-from rcmplan.cli.common import add_plant, add_robot, add_scenario
+from rcmplan.cli.common import add_plant, add_robot, add_scenario, announce_robot
 from rcmplan.cli.teleop import FILTERS  # not rcmplan.teleop: its import costs scipy.signal
 
 
@@ -70,8 +70,10 @@ def checked_source(args: argparse.Namespace) -> Any:
         from rcmplan.view.live import live_settings
 
         scale = scalar("--scale", args.scale, *SCALE_RANGE)
-        return live_settings(args.scenario, args.robot, args.plant, not args.no_realtime,
-                             scale, args.filter)  # fmt: skip
+        settings = live_settings(args.scenario, args.robot, args.plant, not args.no_realtime,
+                                 scale, args.filter)  # fmt: skip
+        announce_robot(settings.teleop.robot, "view")
+        return settings
     from rcmplan.view.run_folder import load_runs
 
     return load_runs(args.run_dir)
