@@ -276,15 +276,17 @@ def _no_roll(arm: Iramis | SerialArm) -> str:
     valid += " turns with it)"
     if not isinstance(arm, SerialArm) or arm.chain.prismatic[-1]:
         return valid
-    axis = arm.chain.tip[:3, :3].T @ arm.chain.axes[-1]  # the last joint's axis, flange frame
+    chain = arm.chain
+    axis = chain.tip[:3, :3].T @ chain.axes[-1]  # the last joint's axis, flange frame
     k = int(np.argmax(np.abs(axis)))
-    if abs(axis[k]) < 1.0 - 1e-9:
+    off_axis = np.linalg.norm(np.cross(chain.axes[-1], chain.tip[:3, 3])) > 1e-9
+    if abs(axis[k]) < 1.0 - 1e-9 or off_axis:  # not a named axis, or not through the flange
         return valid
-    outward = link_outward(arm.chain)  # the sign away from the last link, if it matters
+    outward = link_outward(chain)  # the sign away from the last link, if it matters
     back = outward is not None and abs(outward[k]) >= -math.cos(math.radians(BACKWARD_DEG))
     signs = ("+" if outward[k] > 0.0 else "-") if outward is not None and back else "+-"
     named = " or ".join(f'needle_axis = "{sign}{"xyz"[k]}"' for sign in signs)
     return (
-        f"{valid}; the last joint of {arm.name}, {arm.chain.joint_names[-1]}, turns about the "
+        f"{valid}; the last joint of {arm.name}, {chain.joint_names[-1]}, turns about the "
         f"flange's {'xyz'[k]} axis: {named} in the robot file mounts the needle on it"
     )

@@ -234,11 +234,12 @@ def load_robot_file(path: str | Path, search: HomeSearch | None = None) -> Loade
 
 
 def _check_needle_leaves_the_arm(spec: RobotSpec, chain: JointChain, mount: FloatArray) -> None:
-    """Refuse a needle, mounted at the flange's origin, that points back along the last link
-    (from the last joint's origin to the flange): within 30 degrees of it, the needle's first
-    30 mm run inside the link. The angle does not depend on the pose. Not checked for a flange
-    at the last joint's origin (no link direction) or a needle mounted away from the flange's
-    origin (`needle_offset_mm`: the user placed it)."""
+    """Refuse a needle, mounted at the flange's origin, that points back along the last link:
+    `BACKWARD_DEG` or more from the link's outward direction (from the last joint's origin to
+    the flange), so that it runs back alongside the link, its tip within half its length of the
+    link's line (sin 30 degrees). The angle does not depend on the pose. Not checked for a
+    flange at the last joint's origin (no link direction) or a needle mounted away from the
+    flange's origin (`needle_offset_mm`: the user placed it)."""
     outward = link_outward(chain)
     if outward is None or np.any(mount[:3, 3] != 0.0):
         return
