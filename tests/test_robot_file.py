@@ -410,7 +410,7 @@ def test_every_command_taking_a_robot_file_says_its_home_and_names_it_in_its_sum
     if command[0] == "render":
         pytest.importorskip("mujoco", reason="render draws with MuJoCo (extra `mujoco`)")
     out = tmp_path / "out"
-    main([*command, "--robot", str(EXAMPLE), "--out", str(out)])
+    assert main([*command, "--robot", str(EXAMPLE), "--out", str(out)]) == 0
     home = load_robot_file(EXAMPLE).arm.home
     assert f"rcmplan {command[0]}: robot kinova: no home in {EXAMPLE}; chose home = [" \
            f"{float(home[0])!r}, " in capsys.readouterr().err  # fmt: skip
