@@ -14,6 +14,7 @@ from rcmplan.control.phase import LoopSettings
 from rcmplan.control.rcm_step import BOX_GROWTH, SHRINK_FLOOR, box_margin, step_scale
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.job import run_scenario
+from rcmplan.scene.procedures import Steps
 from rcmplan.scene.scenario import load_scenario
 
 from paths import use_path
@@ -22,22 +23,47 @@ UM = 1e-6
 
 
 def test_a_step_within_the_bound_is_kept() -> None:
-    assert step_scale(0.5 * UM, 0.0, 0.8 * UM) == 1.0
+    assert step_scale(0.5 * UM, 0.0, 0.8 * UM, 1.0) == 1.0
 
 
 def test_a_step_that_leaves_the_needle_no_farther_than_before_is_kept() -> None:
-    assert step_scale(2.0 * UM, 3.0 * UM, 0.8 * UM) == 1.0
+    assert step_scale(2.0 * UM, 3.0 * UM, 0.8 * UM, 1.0) == 1.0
 
 
 def test_a_step_beyond_the_bound_is_scaled_so_a_second_order_deviation_lands_under_it() -> None:
-    f = step_scale(3.2 * UM, 0.0, 0.8 * UM)
-    assert f == pytest.approx(0.9 * math.sqrt(0.8 / 3.2))
-    assert 3.2 * UM * f * f < 0.8 * UM  # the deviation scales with the square of the step
+    f = step_scale(3.2 * UM, 0.0, 0.8 * UM, 1.0)
+    assert f == pytest.approx(math.sqrt(0.9 * 0.8 / 3.2))
+    assert 3.2 * UM * f * f == pytest.approx(0.9 * 0.8 * UM)  # the square of the step's scale
+
+
+def dev(f: float, before: float, c: float) -> float:
+    """The deviation the rule assumes after a step scaled by f: (1 - f) before + f^2 c."""
+    return (1.0 - f) * before + f * f * c
+
+
+def test_a_long_step_from_near_the_bound_is_scaled_for_its_first_order_part_too() -> None:
+    """The needle 0.779 um from the trocar and a step whose second-order part is 12.737 um (a
+    step of Baxter's left arm with 0.99 mm target steps): the square-root rule's 0.226 would leave 1.25 um
+    (0.60 of it the first-order part left over); this rule takes the floor, then at that scale
+    the step that brings the needle nearest, 0.767 um, within the 0.8 um bound."""
+    b, c, bound = 0.779 * UM, 12.737 * UM, 0.8 * UM
+    assert dev(0.9 * math.sqrt(bound / c), b, c) > 1.2 * UM
+    f1 = step_scale(dev(1.0, b, c), b, bound, 1.0)
+    assert f1 == SHRINK_FLOOR  # the nearest point, f = b / 2c = 0.0306, lies below the floor
+    f2 = step_scale(dev(f1, b, c), b, bound, f1)
+    assert f1 * f2 == pytest.approx(b / (2.0 * c))
+    assert dev(f1 * f2, b, c) == pytest.approx(b - b * b / (4.0 * c)) and dev(f1 * f2, b, c) < bound
+
+
+def test_a_step_from_within_the_bound_lands_at_nine_tenths_of_it() -> None:
+    b, c, bound = 0.3 * UM, 5.0 * UM, 0.8 * UM
+    f = step_scale(dev(1.0, b, c), b, bound, 1.0)
+    assert dev(f, b, c) == pytest.approx(0.9 * bound)
 
 
 def test_a_far_deviation_shrinks_the_step_by_at_most_the_floor_per_try() -> None:
-    assert step_scale(1.0, 0.0, 0.8 * UM) == SHRINK_FLOOR
-    assert step_scale(float("nan"), 0.0, 0.8 * UM) == SHRINK_FLOOR
+    assert step_scale(1.0, 0.0, 0.8 * UM, 1.0) == SHRINK_FLOOR
+    assert step_scale(float("nan"), 0.0, 0.8 * UM, 1.0) == SHRINK_FLOOR
 
 
 def test_a_qp_step_inside_its_box_or_no_farther_than_before_needs_no_margin() -> None:
@@ -92,6 +118,26 @@ def test_without_the_bound_the_ur5_leaves_the_rcm_farther_than_a_micrometre() ->
     """The bound is what holds it: the same plan with the solver's steps as they are."""
     status, dev, _ = deviations("ur5", "pinv", None)
     assert status == "ok" and dev > 1.0 * UM
+
+
+@pytest.mark.parametrize("mode", ["off", "on"])
+def test_five_times_longer_target_steps_keep_the_rcm_within_the_tolerance(mode: str) -> None:
+    """0.99 mm and 10 mrad between targets on the UR5, in the Python loop and the compiled
+    one: each step scaled for the deviation it starts from too (`step_scale`) holds the
+    0.8 um tolerance; scaled for its second-order part alone the run ended `limit_violated`
+    at 1.05 um."""
+    sc = load_scenario("default").with_robot("ur5")
+    sc = replace(sc, steps=Steps(0.99e-3, 10e-3))
+    use_path(mode)
+    try:
+        result = run_scenario(sc)
+    finally:
+        use_path(None)
+    log = result.log
+    inside = np.isfinite(log.trocar[:, 0])
+    dev = float(np.linalg.norm(log.rcm_deviation(), axis=1)[inside].max())
+    assert result.status == "ok" and dev <= LoopSettings().rcm_tolerance  # type: ignore[operator]
+    assert result.extra["execution_path"] == ("reference" if mode == "off" else "compiled")
 
 
 @pytest.mark.parametrize("mode", ["off", "on"])

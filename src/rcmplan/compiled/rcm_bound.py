@@ -114,7 +114,7 @@ def bound_step(P: FloatArray | None, arm: tuple | None, q: FloatArray, d: FloatA
             break
         if math.isnan(now):
             now = distance_at(P, arm, q, trocar, w)
-        f = step_scale(after, now, bound)
+        f = step_scale(after, now, bound, total)
         if f == 1.0:
             break
         total *= f
