@@ -85,9 +85,7 @@ class CurvedNeedle:
     def arc_local(self, t: float) -> FloatArray:
         """The arc point at angle t in [0, alpha], in needle-base (mount) coordinates [m]
         (any finite t: the arc's circle)."""
-        t = scalar("t", t)
-        R = self.radius
-        return np.array([R * (1.0 - math.cos(t)), 0.0, self.shaft_length + R * math.sin(t)])
+        return arc_point(self.radius, self.shaft_length, scalar("t", t))
 
     def tangent_local(self, t: float) -> FloatArray:
         """The unit tangent of the arc at angle t, mount coordinates."""
@@ -108,3 +106,10 @@ class CurvedNeedle:
         depth = scalar("depth", depth)
         p = self.tip_local()
         return math.atan2(p[0], p[2] - self.shaft_length + depth)
+
+
+def arc_point(radius: float, shaft_length: float, t: float) -> FloatArray:
+    """p(t) = (R (1 - cos t), 0, l_s + R sin t) [m] in the mount frame (module docstring): the
+    point at angle t of the arc of radius R after a shaft of length l_s (0: from the shaft's
+    end). The scenes' drawn arcs and `CurvedNeedle.arc_local` take it from here."""
+    return np.array([radius * (1.0 - math.cos(t)), 0.0, shaft_length + radius * math.sin(t)])

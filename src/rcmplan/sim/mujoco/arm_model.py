@@ -31,6 +31,7 @@ import numpy as np
 
 from rcmplan._validate import FloatArray, scalar
 from rcmplan.exceptions import MissingExtraError
+from rcmplan.robot.curved_needle import arc_point
 from rcmplan.robot.model import SerialArm
 from rcmplan.sim.mujoco.files import mujoco_module
 from rcmplan.sim.mujoco.frames import quat_from_matrix
@@ -217,8 +218,7 @@ def _arc(mj: Any, body: Any, arm: SerialArm, radius: float, angle: float) -> Non
     `needle_arc_tip` at its tip."""
     T = arm.chain.tip @ arm.needle.mount
     t = np.linspace(0.0, angle, ARC_CAPSULES + 1)
-    local = np.column_stack([radius * (1.0 - np.cos(t)), np.zeros_like(t),
-                             arm.needle.length + radius * np.sin(t)])  # fmt: skip
+    local = np.array([arc_point(radius, arm.needle.length, x) for x in t])
     pts = local @ T[:3, :3].T + T[:3, 3]
     for a, b in itertools.pairwise(pts):
         body.add_geom(type=mj.mjtGeom.mjGEOM_CAPSULE, fromto=[*a, *b],

@@ -12,6 +12,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.robot.curved_needle import arc_point
 from rcmplan.sim.mujoco.frames import fmt, quat_from_matrix
 from rcmplan.sim.mujoco.inertia import ASSUMED_INERTIA, MM
 
@@ -101,8 +102,7 @@ ARC_CAPSULES = 12
 def add_arc_visuals(needle: ET.Element, radius: float, angle: float) -> None:
     """A curved needle's arc (`rcmplan.robot.curved_needle`) from the shaft's end (the frame's
     origin) bending towards +x, as ARC_CAPSULES capsules, and a site at its tip."""
-    t = np.linspace(0.0, angle, ARC_CAPSULES + 1)
-    pts = np.column_stack([radius * (1.0 - np.cos(t)), np.zeros_like(t), radius * np.sin(t)])
+    pts = [arc_point(radius, 0.0, t) for t in np.linspace(0.0, angle, ARC_CAPSULES + 1)]
     for a, b in itertools.pairwise(pts):
         _capsule(needle, "visual", a, b, NEEDLE_RADIUS, NEEDLE)
     ET.SubElement(needle, "site", name="needle_arc_tip", pos=fmt(pts[-1]))
