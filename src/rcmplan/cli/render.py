@@ -32,9 +32,9 @@ from rcmplan.cli.common import (
     add_scenario,
     scenario_from_args,
 )
-from rcmplan.exceptions import InvalidInputError, RcmplanError, require_extra
+from rcmplan.exceptions import RcmplanError, require_extra
 from rcmplan.robot.iramis import Iramis
-from rcmplan.robot.model import RobotModel, SerialArm
+from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.sim.mujoco.scene import OFFSCREEN
 
@@ -183,18 +183,12 @@ def motion(
 
 
 def scene_plant(robot: RobotModel, eye: Any, arc: Any) -> Any:
-    """The kinematic MuJoCo plant that replays the motion, iRAM!S's or an arm's, its scene with
-    a curved needle's arc (R [m], alpha [rad]) when given; eye None: the robot's default
-    eye."""
-    if isinstance(robot, Iramis):
-        from rcmplan.sim.mujoco.plant import MujocoPlant
+    """The kinematic MuJoCo plant that replays the motion (`make_plant`: iRAM!S's or an arm's),
+    its scene with a curved needle's arc (R [m], alpha [rad]) when given; eye None: the
+    robot's default eye."""
+    from rcmplan.sim.registry import make_plant
 
-        return MujocoPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
-    from rcmplan.sim.mujoco.arm_plant import ArmPlant
-
-    if not isinstance(robot, SerialArm):
-        raise InvalidInputError("--robot", robot.name, "iRAM!S or a serial arm (a SerialArm)")
-    return ArmPlant(robot, mode="kinematic", eye=eye, needle_arc=arc)
+    return make_plant("mujoco-kinematic", robot, {"eye": eye, "needle_arc": arc})
 
 
 def image_size(args: argparse.Namespace) -> tuple[int, int]:
