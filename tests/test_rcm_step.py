@@ -11,7 +11,13 @@ import numpy as np
 import pytest
 
 from rcmplan.control.phase import LoopSettings
-from rcmplan.control.rcm_step import BOX_GROWTH, SHRINK_FLOOR, box_margin, step_scale
+from rcmplan.control.rcm_step import (
+    BOX_GROWTH,
+    SHRINK_FLOOR,
+    box_margin,
+    retina_lift,
+    step_scale,
+)
 from rcmplan.exceptions import InvalidInputError
 from rcmplan.job import run_scenario
 from rcmplan.scene.procedures import Steps
@@ -67,23 +73,39 @@ def test_a_far_deviation_shrinks_the_step_by_at_most_the_floor_per_try() -> None
 
 
 def test_a_qp_step_inside_its_box_or_no_farther_than_before_needs_no_margin() -> None:
-    assert box_margin(0.5 * UM, 0.0, 0.5 * UM, 0.0) == 0.0
-    assert box_margin(0.7 * UM, 0.9 * UM, 0.5 * UM, 0.0) == 0.0
-    assert box_margin(0.4 * UM, 0.0, 0.5 * UM, 0.1 * UM) == 0.0  # held after a narrower solve
+    assert box_margin(0.5 * UM, 0.0, 0.5 * UM, 0.0, 0.5 * UM) == 0.0
+    assert box_margin(0.7 * UM, 0.9 * UM, 0.5 * UM, 0.0, 0.5 * UM) == 0.0
+    assert (
+        box_margin(0.4 * UM, 0.0, 0.5 * UM, 0.1 * UM, 0.5 * UM) == 0.0
+    )  # held after a narrower solve
 
 
 def test_a_qp_step_beyond_its_box_narrows_the_box_by_more_than_the_excess() -> None:
-    first = box_margin(0.6 * UM, 0.0, 0.5 * UM, 0.0)
+    first = box_margin(0.6 * UM, 0.0, 0.5 * UM, 0.0, 0.5 * UM)
     assert first == pytest.approx(BOX_GROWTH * 0.1 * UM) and first > 0.1 * UM
-    assert box_margin(0.52 * UM, 0.0, 0.5 * UM, first) == pytest.approx(
+    assert box_margin(0.52 * UM, 0.0, 0.5 * UM, first, 0.5 * UM) == pytest.approx(
         first + BOX_GROWTH * 0.02 * UM
     )
 
 
 def test_the_box_margin_stops_at_the_tolerance_an_equality() -> None:
-    assert box_margin(2.0 * UM, 0.0, 0.5 * UM, 0.0) == 0.5 * UM
-    assert box_margin(0.7 * UM, 0.0, 0.5 * UM, 0.5 * UM) == 0.5 * UM  # no narrower box left
-    assert box_margin(float("nan"), 0.0, 0.5 * UM, 0.0) == 0.5 * UM
+    assert box_margin(2.0 * UM, 0.0, 0.5 * UM, 0.0, 0.5 * UM) == 0.5 * UM
+    assert (
+        box_margin(0.7 * UM, 0.0, 0.5 * UM, 0.5 * UM, 0.5 * UM) == 0.5 * UM
+    )  # no narrower box left
+    assert box_margin(float("nan"), 0.0, 0.5 * UM, 0.0, 0.5 * UM) == 0.5 * UM
+
+
+def test_a_qp_step_past_the_retina_floor_raises_it_by_more_than_the_excess() -> None:
+    floor, cap = 250.0 * UM, 1.0 * UM
+    assert retina_lift(250.0 * UM, 0.0, floor, 0.0, cap) == 0.0  # on the floor
+    assert retina_lift(249.9 * UM, 249.8 * UM, floor, 0.0, cap) == 0.0  # no nearer than before
+    first = retina_lift(249.95 * UM, 250.0 * UM, floor, 0.0, cap)
+    assert first == pytest.approx(BOX_GROWTH * 0.05 * UM) and first > 0.05 * UM
+    assert retina_lift(249.99 * UM, 250.0 * UM, floor, first, cap) == pytest.approx(
+        first + BOX_GROWTH * 0.01 * UM
+    )
+    assert retina_lift(240.0 * UM, 250.0 * UM, floor, 0.0, cap) == cap  # at most the recovery
 
 
 def test_the_loop_settings_refuse_a_tolerance_that_is_not_positive() -> None:

@@ -21,6 +21,8 @@ array, and the buffers of one solve as the tuple `qp` of `buffers(w)`.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from rcmplan._jit import njit
@@ -74,6 +76,7 @@ MAX_SINGULAR = 2  # singular terms of a robot (iRAM!S: cos q1, cos q3; an arm: i
 MAX_ROWS = 4 + 1 + MAX_SINGULAR + 6 + 6 * MAX_EXTRA  # RCM box, retina, singular, tip, extras
 
 X = 10  # index of the solution x in `buffers()`
+POINTS = 16  # index of the points (tip, RCM, axis, target tip, scratch) in `buffers()`
 N_BUFFERS = 20  # the arrays of `buffers()`
 
 
@@ -106,18 +109,28 @@ def views(F: FloatArray, Z: np.ndarray, k: int) -> tuple:
 
 
 @njit(cache=True, borrows=True)
+def retina_floor(Q: FloatArray, contacts: FloatArray, target: FloatArray, tip: FloatArray,
+                 a: FloatArray, tip_t: FloatArray) -> float:  # fmt: skip
+    """`RetinaBarrier.floor`: the retina gap [m] a step from the tip (3,) keeps towards the
+    target; NaN without an eye or while the tip is in the port zone. a and tip_t (3,) are
+    scratch; tip_t then holds the target's tip."""
+    if Q[HAS_EYE] == 0.0 or radial_gap(Q[PORT : PORT + 3], Q[PORT_ZONE], tip) >= 0.0:
+        return math.nan
+    target_tip_into(target, a, tip_t)  # the loop has refused targets that fix no tip
+    return contact_floor(Q[RETINA_MARGIN], radial_gap(Q[CENTER : CENTER + 3], Q[RETINA_RADIUS],
+                         tip_t), tip_t, contacts, Q[CONTACT_TOL])  # fmt: skip
+
+
+@njit(cache=True, borrows=True)
 def retina_row(Q: FloatArray, contacts: FloatArray, pts: FloatArray, JT: FloatArray,
                target: FloatArray, A: FloatArray, h: FloatArray, r: int) -> int:  # fmt: skip
     """The retina barrier's row at r (`RetinaBarrier`), or none; returns the next row."""
-    tip, tip_t = pts[0], pts[3]
-    center = Q[CENTER : CENTER + 3]
-    if Q[HAS_EYE] == 0.0 or radial_gap(Q[PORT : PORT + 3], Q[PORT_ZONE], tip) >= 0.0:
+    tip = pts[0]
+    floor = retina_floor(Q, contacts, target, tip, pts[4], pts[3])
+    if math.isnan(floor):
         return r
-    target_tip_into(target, pts[4], tip_t)  # the loop has refused targets that fix no tip
-    radius = Q[RETINA_RADIUS]
-    floor = contact_floor(Q[RETINA_MARGIN], radial_gap(center, radius, tip_t), tip_t, contacts,
-                          Q[CONTACT_TOL])  # fmt: skip
-    return sphere_row(JT[:3], tip, center, radial_gap(center, radius, tip), floor,
+    center = Q[CENTER : CENTER + 3]
+    return sphere_row(JT[:3], tip, center, radial_gap(center, Q[RETINA_RADIUS], tip), floor,
                       Q[EYE_GAIN], Q[RETINA_RECOVERY], A, h, r)  # fmt: skip
 
 

@@ -1,9 +1,11 @@
-"""The step's RCM bound and the QP's RCM box in the compiled loops, written once for every robot.
+"""The step's RCM bound and the QP's RCM box and retina margin in the compiled loops, written
+once for every robot.
 
-`rcm_step` states the two rules (`step_scale`: shorten a step whose second-order part carries
-the needle past the bound; `box_margin`: solve the QP again with a narrower RCM box while its
-step leaves the needle beyond the box) and applies them to any robot model from Python
-(`bounded_step`, `QpSolver.step`). Here the compiled loops apply them: `bound_step` and
+`rcm_step` states the rules (`step_scale`: shorten a step whose second-order part carries the
+needle past the bound; `box_margin`: solve the QP again with a narrower RCM box while its step
+leaves the needle beyond the box; `retina_lift`: and with a raised retina floor while it leaves
+the tip past the margin) and applies them to any robot model from Python (`bounded_step`,
+`QpSolver.step`). Here the compiled loops apply them: `bound_step` and
 `hold_box` hold the loop over tries once, and the robot's kinematics come, as in
 `algorithm.run_targets`, in two arguments, one of them None:
 
@@ -35,8 +37,18 @@ from rcmplan._validate import FloatArray
 from rcmplan.compiled.arm_qp_kernels import solve_arm_step
 from rcmplan.compiled.chain_kernels import IntArray, frames, needle_point
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
-from rcmplan.compiled.qp_params import RCM_TOL
-from rcmplan.control.rcm_step import BOX_TRIES, STEP_TRIES, box_margin, step_scale
+from rcmplan.compiled.qp_params import (
+    CENTER,
+    RCM_TOL,
+    RETINA_MARGIN,
+    RETINA_RADIUS,
+    RETINA_RECOVERY,
+)
+from rcmplan.compiled.qp_rows import POINTS, retina_floor
+from rcmplan.control.limits.retina import MAX_MARGIN
+from rcmplan.control.limits.rows import radial_gap
+from rcmplan.control.rcm_step import BOX_TRIES, STEP_TRIES, box_margin, retina_lift, step_scale
+from rcmplan.robot import curved_arm, curved_iramis
 from rcmplan.robot.iramis_kernels import point, trig
 from rcmplan.robot.needle import closest_point
 
@@ -165,45 +177,106 @@ def solution_step(P: FloatArray | None, arm: tuple | None, q: FloatArray, first:
         stepped(arm[1][0], arm[1], first, m, q, d, x)
 
 
+@njit(cache=True, borrows=True)
+def tip_at(P: FloatArray | None, arm: tuple | None, C: FloatArray | None, x: FloatArray,
+           w: FloatArray) -> tuple[float, float, float]:  # fmt: skip
+    """The needle's tip [m] at joints x: on the arc for a curved needle (C its work block,
+    else None). An arm's W then holds the frames of x; w (6,) is iRAM!S's scratch."""
+    if P is not None:
+        tr = trig(x)
+        if C is None:
+            point(P, x, tr, 1.0, w[3:])
+            return w[3], w[4], w[5]
+        point(P, x, tr, 0.0, w[:3])
+        a, b = curved_iramis.axes(x, tr)
+        return curved_iramis.tip_of(P, (w[0], w[1], w[2]), a, b)
+    if arm is not None:
+        A, ix, W = arm
+        frames(A, ix, x, W)
+        if C is None:
+            return needle_point(A, ix[0], W, 1.0)
+        return curved_arm.tip(A, ix[0], W)
+    return math.nan, math.nan, math.nan
+
+
+@njit(cache=True, borrows=True)
+def gap_at(P: FloatArray | None, arm: tuple | None, C: FloatArray | None, Q: FloatArray,
+           contacts: FloatArray, pts: FloatArray, target: FloatArray, x: FloatArray,
+           w: FloatArray, held: bool) -> float:  # fmt: skip
+    """The tip's retina gap [m] at joints x (`tip_at`); with `held`, inf where the QP's retina
+    barrier does not hold its margin there (no eye, the tip in the port zone, a contact
+    target: `qp_rows.retina_floor`). pts (5, 3) is scratch (the QP's points, which the next
+    solve writes again)."""
+    tip = pts[0]
+    tip[0], tip[1], tip[2] = tip_at(P, arm, C, x, w)
+    if held and retina_floor(Q, contacts, target, tip, pts[4], pts[3]) != Q[RETINA_MARGIN]:
+        return math.inf
+    return radial_gap(Q[CENTER : CENTER + 3], Q[RETINA_RADIUS], tip)
+
+
+@njit(cache=True, borrows=True)
+def retina_gap(P: FloatArray | None, arm: tuple | None, C: FloatArray | None, Q: FloatArray,
+               qpa: tuple, target: FloatArray, x: FloatArray, w: FloatArray,
+               held: bool) -> float:  # fmt: skip
+    """`gap_at` with the contacts and the points of the QP's arrays: iRAM!S's
+    (`qp_kernels.loop_qp`) or an arm's (`arm_qp.qp_arrays`)."""
+    if P is not None:
+        return gap_at(P, arm, C, Q, qpa[1], qpa[2][POINTS], target, x, w, held)
+    if arm is not None:
+        return gap_at(P, arm, C, Q, qpa[2], qpa[3][POINTS], target, x, w, held)
+    return math.nan
+
+
 @njit(cache=True, inline="always")  # see the module docstring
 def hold_box(P: FloatArray | None, arm: tuple | None, K: FloatArray, q: FloatArray, lam: float,
              target: FloatArray, trocar: FloatArray, now: float, first: int, m: int,
              fail: FloatArray, qpa: tuple, Q: FloatArray, C: FloatArray | None, e: FloatArray,
              d: FloatArray, x: FloatArray, w: FloatArray) -> tuple[float, bool]:  # fmt: skip
     """`QpSolver.step` after the loop's solve at joints q: the step d of the solution, the
-    QP's RCM box held on the true kinematics (`rcm_step.box_margin`). While the step leaves
-    the needle beyond the box's tolerance (and farther than `now` [m]; NaN: measured when
-    first needed), solve again (`qp_solve`) with the box narrowed, at most BOX_TRIES times; a
-    solve that fails is repeated with the last box that solved; a step still beyond is
-    shortened against the box's tolerance (`bound_step`). The error is then the last solve's.
-    Q: the QP's parameters in qpa (iRAM!S's qpa[0], `qp_kernels.loop_qp`; an arm's qpa[1],
-    `arm_qp.qp_arrays`), whose RCM tolerance Q[RCM_TOL] the narrower solves change and restore.
-    Returns (the factor the step was shortened by, 1.0 if not; True if a narrower box
-    solved); x (n,) holds the stepped joints of the solution's step, w (6,) is scratch."""
-    tol = Q[RCM_TOL]
+    QP's RCM box and retina margin held on the true kinematics (`rcm_step.box_margin`,
+    `retina_lift`). While the step leaves the needle beyond the box's tolerance (and farther
+    than `now` [m]; NaN: measured when first needed) or the tip nearer the retina than its
+    margin (and nearer than before), solve again (`qp_solve`) with the box narrowed and the
+    floor raised, at most BOX_TRIES times; a solve that fails is repeated with the last
+    bounds that solved; a step still beyond the box is shortened against its tolerance
+    (`bound_step`). The error is then the last solve's. Q: the QP's parameters in qpa
+    (iRAM!S's qpa[0], `qp_kernels.loop_qp`; an arm's qpa[1], `arm_qp.qp_arrays`), whose RCM
+    tolerance and retina margin the narrower solves change and restore. Returns (the factor
+    the step was shortened by, 1.0 if not; True if a narrower solve stood); x (n,) holds the
+    stepped joints of the solution's step, w (6,) is scratch."""
+    tol, floor = Q[RCM_TOL], Q[RETINA_MARGIN]
     solution_step(P, arm, q, first, m, fail, qpa, d, x, w)
-    if tol == 0.0:  # an equality: no box
-        return 1.0, False
-    margin = 0.0
+    gap_now = math.nan  # the tip's retina gap before the step, measured if needed
+    margin = lift = 0.0  # the box's narrowing and the floor's lift of the last solve
     for _ in range(BOX_TRIES):
-        after = distance_at(P, arm, x, trocar, w)
-        if after <= tol:
-            return 1.0, margin > 0.0
-        if math.isnan(now):
-            now = distance_at(P, arm, q, trocar, w)
-        narrower = box_margin(after, now, tol, margin)
-        if narrower == 0.0:
-            return 1.0, margin > 0.0
-        if narrower == margin:
+        narrower = higher = 0.0
+        if tol > 0.0:  # 0: an equality, no box to hold
+            after = distance_at(P, arm, x, trocar, w)
+            if after > tol:
+                if math.isnan(now):
+                    now = distance_at(P, arm, q, trocar, w)
+                narrower = box_margin(after, now, tol, margin, tol)
+        gap = retina_gap(P, arm, C, Q, qpa, target, x, w, True)
+        if gap < floor:
+            if math.isnan(gap_now):
+                gap_now = retina_gap(P, arm, C, Q, qpa, target, q, w, False)
+            higher = retina_lift(gap, gap_now, floor, lift, Q[RETINA_RECOVERY])
+        if narrower == 0.0 and higher == 0.0:
+            return 1.0, margin > 0.0 or lift > 0.0
+        narrower = margin if narrower == 0.0 else narrower
+        higher = lift if higher == 0.0 else higher
+        if narrower == margin and higher == lift:
             break
-        Q[RCM_TOL] = tol - narrower
+        Q[RCM_TOL], Q[RETINA_MARGIN] = tol - narrower, min(floor + higher, MAX_MARGIN)
         flag = qp_solve(P, arm, K, q, lam, target, fail, qpa, C, e, d)
         if flag != 1:
-            Q[RCM_TOL] = tol - margin
+            Q[RCM_TOL], Q[RETINA_MARGIN] = tol - margin, min(floor + lift, MAX_MARGIN)
             qp_solve(P, arm, K, q, lam, target, fail, qpa, C, e, d)
-        Q[RCM_TOL] = tol
+        Q[RCM_TOL], Q[RETINA_MARGIN] = tol, floor
         solution_step(P, arm, q, first, m, fail, qpa, d, x, w)
         if flag != 1:
             break
-        margin = narrower
-    return bound_step(P, arm, q, d, first, m, trocar, now, tol, x, w), margin > 0.0
+        margin, lift = narrower, higher
+    if tol == 0.0:
+        return 1.0, margin > 0.0 or lift > 0.0
+    return bound_step(P, arm, q, d, first, m, trocar, now, tol, x, w), margin > 0.0 or lift > 0.0

@@ -51,11 +51,18 @@ from rcmplan.control.eye_model import EyeModel
 from rcmplan.control.limited_tip import LimitedTipSolver
 from rcmplan.control.limits import Limit, RcmLimit
 from rcmplan.control.limits.base import SPEED_ACTIVE
+from rcmplan.control.limits.retina import MAX_MARGIN, RetinaBarrier
 from rcmplan.control.qp_backends import DEFAULT_BACKEND, QpResult, check_backend, solve
 from rcmplan.control.qp_checks import check_qp_args
 from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, CostTerm, StepInput, StepQP, build_step
-from rcmplan.control.rcm_step import BOX_TRIES, bounded_step, box_margin, needle_distance
+from rcmplan.control.rcm_step import (
+    BOX_TRIES,
+    bounded_step,
+    box_margin,
+    needle_distance,
+    retina_lift,
+)
 from rcmplan.control.resolution import quantised
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
 from rcmplan.control.targets import checked_target, solve_pose, target_tip
@@ -193,37 +200,51 @@ class QpSolver:
         self, robot: RobotModel, q: FloatArray, lam: float, target: FloatArray, error: FloatArray
     ) -> tuple[FloatArray, float]:
         """The QP's step: joint increments recovered exactly from the actuator increments
-        (with a servo: from the measured joints q to the planned command), its RCM box held on
-        the true kinematics (`rcm_step`: solved again with a narrower box, then shortened)."""
+        (with a servo: from the measured joints q to the planned command), its RCM box and
+        retina margin held on the true kinematics (`rcm_step`: solved again with a narrower
+        box or a raised floor, then shortened against the box)."""
         target, q = checked_target(target, self.target_width), _joints(robot, q)
         plan = self.planned_joints(robot, q)
         step, result = self._solve(robot, plan, lam, target)
         dq, dlam = joints_step(robot, step.sliders, result.x, q)
-        tol = self.limits.rcm_tolerance
-        if tol == 0.0:  # an equality: no box to hold
-            return dq, dlam
-        # The RCM box on the true kinematics (`rcm_step`: solved again with a narrower box).
-        trocar, active = target[-3:], list(robot.active)
-        now, margin = math.nan, 0.0  # the distance before the step, measured if needed
+        tol, barrier = self.limits.rcm_tolerance, self._barrier()
+        trocar, active, tip_t = target[-3:], list(robot.active), target_tip(target)
+        now = gap_now = math.nan  # the distance and the retina gap before the step, if needed
+        margin = lift = 0.0  # the box's narrowing and the floor's lift of the last solve
         for _ in range(BOX_TRIES):
             x = q.copy()
             x[active] += dq
-            after = needle_distance(robot, x, trocar)
-            if after <= tol:
+            narrower = higher = 0.0
+            if tol > 0.0:  # 0: an equality, no box to hold
+                after = needle_distance(robot, x, trocar)
+                if after > tol:
+                    now = needle_distance(robot, q, trocar) if math.isnan(now) else now
+                    narrower = box_margin(after, now, tol, margin, tol)
+            if barrier is not None:
+                tip = robot.tip(x)
+                if barrier.floor(tip, tip_t) == barrier.margin:  # on, and no contact target
+                    gap = self.eye.distance_to_retina(tip)  # type: ignore[union-attr]
+                    if gap < barrier.margin and math.isnan(gap_now):
+                        gap_now = self.eye.distance_to_retina(robot.tip(q))  # type: ignore[union-attr]
+                    higher = retina_lift(gap, gap_now, barrier.margin, lift, barrier.recovery)
+            if narrower == 0.0 and higher == 0.0:
                 return dq, dlam
-            now = needle_distance(robot, q, trocar) if math.isnan(now) else now
-            narrower = box_margin(after, now, tol, margin)
-            if narrower == 0.0:
-                return dq, dlam
-            if narrower == margin:
+            narrower, higher = narrower or margin, higher or lift
+            if narrower == margin and higher == lift:
                 break
             try:
-                step, result = self._solve(robot, plan, lam, target, tol - narrower)
+                step, result = self._solve(robot, plan, lam, target, (tol - narrower, higher))
             except QPError:
                 break  # the last step that solved stands
             dq, dlam = joints_step(robot, step.sliders, result.x, q)
-            margin = narrower
+            margin, lift = narrower, higher
+        if tol == 0.0:
+            return dq, dlam
         return bounded_step(robot, q, dq, dlam, trocar, tol)  # a second-order part beyond it
+
+    def _barrier(self) -> RetinaBarrier | None:
+        """The retina barrier among this solver's limits, or None without an eye."""
+        return next((lim for lim in self.rows if isinstance(lim, RetinaBarrier)), None)
 
     def free_solver(self) -> LimitedTipSolver | LimitedPoseSolver:
         """The free-space solver that holds this QP's actuator travel and speed outside the eye
@@ -264,25 +285,36 @@ class QpSolver:
         q: FloatArray,
         lam: float,
         target: FloatArray,
-        rcm_tolerance: float | None = None,
+        held: tuple[float, float] | None = None,
     ) -> tuple[StepQP, QpResult]:
         """Build and solve this state's QP once; `error` and `step` share the result. With
-        `rcm_tolerance` [m] in place of the limits' (a narrower box, `step`), solved anew and
+        `held` = (RCM tolerance [m], retina lift [m]) in place of the limits' tolerance and on
+        top of the barrier's margin (a narrower box, a raised floor: `step`), solved anew and
         not kept."""
         key = np.concatenate([q, [lam], target]).tobytes()
-        if rcm_tolerance is None and self.last is not None and key == self._key:
+        if held is None and self.last is not None and key == self._key:
             return self.last
         e = self.task_error(robot, q, lam, target)
         inp = StepInput(q, lam, target, e, self.K, self.damping, self.dt, self.weights)
-        rows = self.rows if rcm_tolerance is None else (RcmLimit(rcm_tolerance), *self.rows[1:])
+        rows = self.rows if held is None else self._held_rows(*held)
         step = build_step(robot, inp, rows, self.bounds, self.objectives)
         if self.servo is not None:
             step = synchronised_step(robot, step, self.dt)
         result = solve(step.problem, self.backend)
-        if rcm_tolerance is None:
+        if held is None:
             self._planned_error = e
             self.last, self._key = (step, result), key
         return step, result
+
+    def _held_rows(self, rcm_tolerance: float, lift: float) -> tuple[Limit, ...]:
+        """The solver's limits with the RCM box's tolerance `rcm_tolerance` [m] and the retina
+        barrier's margin raised by `lift` [m]."""
+        rows: list[Limit] = [RcmLimit(rcm_tolerance)]
+        for lim in self.rows[1:]:
+            if lift > 0.0 and isinstance(lim, RetinaBarrier):
+                lim = replace(lim, margin=min(lim.margin + lift, MAX_MARGIN))
+            rows.append(lim)
+        return tuple(rows)
 
     def check_target(self, target: FloatArray, pose: bool = True) -> FloatArray:
         """Refuse a target no feasible motion reaches, before moving towards it; return it as

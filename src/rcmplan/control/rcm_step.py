@@ -24,6 +24,14 @@ last step that solved is kept, and if even the narrowest box leaves it beyond (a
 second-order part alone exceeds the tolerance) it is shortened against the QP's tolerance by
 the rule above (`bounded_step`), before the loop's own bound applies to it.
 
+The retina barrier is linearised the same way: riding its floor (a grazing path), each step's
+second-order part carried the tip past it, by up to 55 nm a step on Baxter's and 109 records
+of a Kinova Jaco's grazing spiral. The same tries hold it: a step that leaves the tip nearer
+the retina than the floor (and nearer than it was; outside the port zone, towards a target
+that is no contact) is solved again with the floor raised by a lift that grows with the excess
+(`retina_lift`, up to the barrier's recovery per step), together with the narrower box. A step
+the lifted floor still leaves beyond is kept, and counted by the run's limit check.
+
 `step_scale` and `box_margin` are the two rules; the compiled loops apply them once for every
 robot (`rcm_bound.bound_step`, `rcm_bound.hold_box`), the Python loop and `QpSolver.step` here
 on any robot model (`bounded_step`).
@@ -68,14 +76,27 @@ def step_scale(after: float, before: float, bound: float, total: float) -> float
 
 
 @njit(cache=True, borrows=True)
-def box_margin(after: float, before: float, tol: float, margin: float) -> float:
-    """0.0 if a QP step solved with the RCM tolerance `tol` [m] less `margin` [m] leaves the
-    needle within `tol` of the trocar (`after` [m]), or no farther than `before` [m]; else
-    the margin for the next solve: margin + BOX_GROWTH (after - tol), at most tol (the box
-    then an equality). A result equal to `margin` means no narrower box is left."""
+def box_margin(after: float, before: float, tol: float, margin: float, cap: float) -> float:
+    """0.0 if a QP step solved with a limit's bound `tol` less `margin` leaves the limited value
+    within `tol` (`after`), or no farther than it was (`before`); else the margin for the
+    next solve: margin + BOX_GROWTH (after - tol), at most `cap`. A result equal to `margin`
+    means no narrower bound is left.
+
+    The RCM box: the needle's distance from the trocar [m] within the RCM tolerance, cap the
+    tolerance (the box then an equality). The retina margin: minus the tip's retina gap
+    within minus the floor (`retina_lift`)."""
     if after <= tol or after <= before:
         return 0.0
-    return min(tol, margin + BOX_GROWTH * (after - tol))
+    return min(cap, margin + BOX_GROWTH * (after - tol))
+
+
+@njit(cache=True, borrows=True)
+def retina_lift(after: float, before: float, floor: float, lift: float, cap: float) -> float:
+    """`box_margin` for the retina barrier: 0.0 if a QP step solved with its floor [m] raised
+    by `lift` leaves the tip's retina gap at least `floor` (`after` [m]) or no nearer the
+    retina than it was (`before` [m]); else the lift for the next solve, at most `cap` (the
+    barrier's recovery per step: past its floor it asks no more)."""
+    return box_margin(-after, -before, -floor, lift, cap)
 
 
 def needle_distance(robot: Any, q: FloatArray, trocar: FloatArray) -> float:
