@@ -45,6 +45,9 @@ DESCRIPTIONS: dict[Key, str] = {
     ("points", "depth_mm"): "p3: depth inside the trocar on its axis",
     ("points", "spread_rad"): "tilt of the rays from the trocar to p4..p7",
     ("points", "visits"): "points the injection visits from p3, in order (among p3..p7)",
+    ("points", "frame"): "frame of p1_mm..p7_mm: `base`, the robot's base frame (the points then "
+    "run on the scenario's `robot` only), or `eye`, the eye frame of `--target` (origin at the "
+    "eye centre, z along the insertion axis: the same place in the eye on every robot)",
     ("steps", "position_mm"): "largest tip step between two targets; at most the loop's "
     "largest target jump (the upper bound) less sqrt(3) x `tolerance_position_m`",
     ("steps", "angle_mrad"): "largest needle-angle step between two targets",
@@ -77,7 +80,7 @@ DESCRIPTIONS: dict[Key, str] = {
     ("spiral", "points_per_turn"): "samples per turn",
 }
 DESCRIPTIONS.update({
-    ("points", f"p{n}_mm"): f"p{n} given directly, base frame (replaces its default placement)"
+    ("points", f"p{n}_mm"): f"p{n} given directly, in `frame` (replaces its default placement)"
     for n in range(1, 8)
 })  # fmt: skip
 
@@ -99,6 +102,7 @@ def _defaults(sc: Scenario) -> dict[Key, Any]:
         ("eye", "insertion_angles_rad"): eye["insertion_angles"],
         ("points", "outside_mm"): mm(pts["outside"]), ("points", "depth_mm"): mm(pts["depth"]),
         ("points", "spread_rad"): pts["spread"], ("points", "visits"): sc.visits,
+        ("points", "frame"): sc.point_frame,
         ("steps", "position_mm"): mm(sc.steps.position),
         ("steps", "angle_mrad"): sc.steps.angle * 1e3,
         ("controller", "method"): sc.method, ("controller", "K"): ms.K,

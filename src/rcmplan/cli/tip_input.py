@@ -27,7 +27,7 @@ from rcmplan.exceptions import InvalidInputError, UnreachableTargetError
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye import Eye
-from rcmplan.scene.eye_text import eye_frame_reason, to_base
+from rcmplan.scene.eye_text import MM, eye_frame_reason, to_base
 from rcmplan.scene.procedures import check_inside, path_procedure
 from rcmplan.scene.scenario import Scenario
 
@@ -77,9 +77,11 @@ def with_targets(sc: Scenario, targets_eye_mm: list[tuple[float, float, float]])
     eye = sc.eye(robot)
     points = np.array(targets_eye_mm, dtype=float)
     check_tip_points(robot, eye, points, lambda i: f"--target {_typed(points[i])}")
-    base = to_base(eye, points)
+    # In the frame of the scenario's points (`Scenario.point_frame`): the base frame [m], or
+    # the eye frame [m] as given.
+    given = to_base(eye, points) if sc.point_frame == "base" else points * MM
     overrides = dict(sc.point_overrides)
-    overrides.update({s: tuple(p) for s, p in zip(SLOTS, base, strict=False)})
+    overrides.update({s: tuple(p) for s, p in zip(SLOTS, given, strict=False)})
     return replace(sc, procedure="injection", point_overrides=overrides,
                    visits=SLOTS[: len(targets_eye_mm)])  # fmt: skip
 

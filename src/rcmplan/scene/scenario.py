@@ -25,7 +25,14 @@ from rcmplan.robot.curved import CurvedTipRobot
 from rcmplan.robot.model import RobotModel
 from rcmplan.robot.registry import check_robot, is_robot_file
 from rcmplan.scene.curved_procedure import NeedleOptions, curved_injection
-from rcmplan.scene.eye import POINT_NAMES, Eye, EyePoints, default_eye, default_points
+from rcmplan.scene.eye import (
+    POINT_NAMES,
+    Eye,
+    EyePoints,
+    default_eye,
+    default_points,
+    eye_frame,
+)
 from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
 from rcmplan.scene.schema import SCHEMA, check_step, sections
 from rcmplan.scene.shipped import scenario_names, shipped_text
@@ -40,6 +47,7 @@ __all__ = [
 ]
 
 PROCEDURES = ("injection", "spiral")
+POINT_FRAMES = ("base", "eye")  # of [points] p1_mm..p7_mm: the robot's base frame, the eye's
 MM = 1e-3
 
 
@@ -55,6 +63,7 @@ class Scenario:
     eye_options: dict[str, Any] = field(default_factory=dict)
     point_options: dict[str, Any] = field(default_factory=dict)
     point_overrides: dict[str, tuple[float, ...]] = field(default_factory=dict)
+    point_frame: str = "base"
     visits: tuple[str, ...] = DEFAULT_VISITS
     steps: Steps = field(default_factory=Steps)
     method_settings: MethodSettings = field(default_factory=MethodSettings)
@@ -73,9 +82,12 @@ class Scenario:
         return default_eye(robot, **self.eye_options)
 
     def points(self, eye: Eye) -> EyePoints:
-        """The seven named points, defaults overridden by explicit ones."""
+        """The seven named points, defaults overridden by explicit ones (base frame [m]; given
+        in the eye frame (`point_frame` "eye"), placed in this eye)."""
         pts = default_points(eye, **self.point_options).as_dict()
-        pts.update({k: np.asarray(v, dtype=float) for k, v in self.point_overrides.items()})
+        for k, v in self.point_overrides.items():
+            p = np.asarray(v, dtype=float)
+            pts[k] = eye.center + eye_frame(eye) @ p if self.point_frame == "eye" else p
         return EyePoints(**pts)
 
     def phases(self, robot: RobotModel) -> list[Phase]:
@@ -122,8 +134,30 @@ class Scenario:
 
     def with_robot(self, robot: str) -> Scenario:
         """The same scenario with another robot, a name or a robot file (the eye is placed for
-        it)."""
-        return _replace(self, robot=check_robot(robot))
+        it). ScenarioError if the scenario states a point or direction in its own robot's base
+        frame: it names no place on another robot (points in the eye frame go with the eye)."""
+        robot = check_robot(robot)
+        stated = self._base_frame_values() if robot != self.robot else []
+        if stated:
+            key, value, instead = stated[0]
+            why = f"the scenario states it in the base frame of its own robot, {self.robot}"
+            raise ScenarioError(key, value, f"{instead} to run on robot {robot}: {why}")
+        return _replace(self, robot=robot)
+
+    def _base_frame_values(self) -> list[tuple[str, Any, str]]:
+        """(key, value in the file's unit, what would run on another robot) of each point or
+        direction this scenario states in its robot's base frame."""
+        out: list[tuple[str, Any, str]] = []
+        if self.point_frame == "base":
+            out += [(f"[points] {k}_mm", [round(x / MM, 9) for x in v],
+                     'the point in the eye frame ([points] frame = "eye")')
+                    for k, v in self.point_overrides.items()]  # fmt: skip
+        contacts = self.method_settings.extra.get("contacts_mm")
+        if contacts:
+            out.append(("[qp] contacts_mm", contacts, "no contact points"))
+        if self.needle.directions is not None:
+            out.append(("[lateral] directions", self.needle.directions, "no directions"))
+        return out
 
     def with_plant(self, plant: str) -> Scenario:
         """The same scenario on another plant."""
@@ -172,6 +206,9 @@ def scenario_from_dict(data: dict[str, Any], folder: Path | None = None) -> Scen
         "spread": pts.get("spread_rad", 0.12),
     }
     overrides = {n: tuple(v * MM for v in pts[f"{n}_mm"]) for n in POINT_NAMES if f"{n}_mm" in pts}
+    point_frame = pts.get("frame", "base")
+    if point_frame not in POINT_FRAMES:
+        raise ScenarioError("[points] frame", point_frame, f"one of {POINT_FRAMES}")
     tol = Tolerance(ctl.get("tolerance_position_m", 1e-8), ctl.get("tolerance_angle_rad", 1e-7))
     settings = MethodSettings(
         K=ctl.get("K", (1.0,) * 6), damping=ctl.get("damping", 1e-4), tolerance=tol, extra=sec["qp"]
@@ -192,6 +229,7 @@ def scenario_from_dict(data: dict[str, Any], folder: Path | None = None) -> Scen
         eye_options=eye_opts,
         point_options=point_opts,
         point_overrides=overrides,
+        point_frame=point_frame,
         visits=visits,
         steps=Steps(
             check_step(st.get("position_mm", 0.2), tol.position) * MM,

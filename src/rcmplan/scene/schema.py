@@ -32,6 +32,7 @@ SCHEMA: dict[str, dict[str, tuple[str, float, float]]] = {
             "insertion_angles_rad": ("vec2", -1.2, 1.2)},
     "points": {"outside_mm": ("float", 0.5, 30), "depth_mm": ("float", 0.5, 24),
                "spread_rad": ("float", 0, 0.6), "visits": ("strlist", 1, MAX_VISITS),
+               "frame": ("str", 0, 0),
                **{f"{n}_mm": ("vec3", -500, 500) for n in POINT_NAMES}},
     "steps": {"position_mm": ("float", 1e-4, MAX_JUMP_M * 1e3),
               "angle_mrad": ("float", 1e-3, 100)},
