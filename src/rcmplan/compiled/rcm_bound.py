@@ -227,6 +227,32 @@ def retina_gap(P: FloatArray | None, arm: tuple | None, C: FloatArray | None, Q:
     return math.nan
 
 
+@njit(cache=True, borrows=True)
+def held_bounds(P: FloatArray | None, arm: tuple | None, C: FloatArray | None, Q: FloatArray,
+                qpa: tuple, q: FloatArray, x: FloatArray, target: FloatArray,
+                trocar: FloatArray, margin: float, lift: float, now: float, gap_now: float,
+                w: FloatArray) -> tuple[float, float, float, float]:  # fmt: skip
+    """After a QP step from joints q to x solved with the RCM box narrowed by `margin` and
+    the retina floor raised by `lift` [m]: (the narrowing, the lift the next solve takes,
+    0.0 each where the step holds: `box_margin`, `retina_lift`; the needle's distance and the
+    tip's retina gap at q [m], measured here when first needed: NaN before). Q holds the
+    QP's own tolerance and margin."""
+    tol, floor = Q[RCM_TOL], Q[RETINA_MARGIN]
+    narrower = higher = 0.0
+    if tol > 0.0:  # 0: an equality, no box to hold
+        after = distance_at(P, arm, x, trocar, w)
+        if after > tol:
+            if math.isnan(now):
+                now = distance_at(P, arm, q, trocar, w)
+            narrower = box_margin(after, now, tol, margin, tol)
+    gap = retina_gap(P, arm, C, Q, qpa, target, x, w, True)
+    if gap < floor:
+        if math.isnan(gap_now):
+            gap_now = retina_gap(P, arm, C, Q, qpa, target, q, w, False)
+        higher = retina_lift(gap, gap_now, floor, lift, Q[RETINA_RECOVERY])
+    return narrower, higher, now, gap_now
+
+
 @njit(cache=True, inline="always")  # see the module docstring
 def hold_box(P: FloatArray | None, arm: tuple | None, K: FloatArray, q: FloatArray, lam: float,
              target: FloatArray, trocar: FloatArray, now: float, first: int, m: int,
@@ -249,18 +275,8 @@ def hold_box(P: FloatArray | None, arm: tuple | None, K: FloatArray, q: FloatArr
     gap_now = math.nan  # the tip's retina gap before the step, measured if needed
     margin = lift = 0.0  # the box's narrowing and the floor's lift of the last solve
     for _ in range(BOX_TRIES):
-        narrower = higher = 0.0
-        if tol > 0.0:  # 0: an equality, no box to hold
-            after = distance_at(P, arm, x, trocar, w)
-            if after > tol:
-                if math.isnan(now):
-                    now = distance_at(P, arm, q, trocar, w)
-                narrower = box_margin(after, now, tol, margin, tol)
-        gap = retina_gap(P, arm, C, Q, qpa, target, x, w, True)
-        if gap < floor:
-            if math.isnan(gap_now):
-                gap_now = retina_gap(P, arm, C, Q, qpa, target, q, w, False)
-            higher = retina_lift(gap, gap_now, floor, lift, Q[RETINA_RECOVERY])
+        narrower, higher, now, gap_now = held_bounds(P, arm, C, Q, qpa, q, x, target, trocar,
+                                                     margin, lift, now, gap_now, w)  # fmt: skip
         if narrower == 0.0 and higher == 0.0:
             return 1.0, margin > 0.0 or lift > 0.0
         narrower = margin if narrower == 0.0 else narrower
