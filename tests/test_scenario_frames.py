@@ -79,3 +79,12 @@ def test_a_target_joins_eye_frame_points_where_the_eye_frame_puts_it() -> None:
     want = to_base(eye, np.array([[-1.0, 0.0, 10.5]]))[0]
     np.testing.assert_allclose(sc.points(eye).p4, want, rtol=0, atol=1e-15)
     assert sc.visits == ("p4",)
+
+
+def test_a_refused_eye_frame_point_is_named_as_typed() -> None:
+    from rcmplan.exceptions import UnreachableTargetError
+
+    data = {"name": "mine", "points": {"frame": "eye", "p4_mm": [0.0, 0.0, 30.0], "visits": ["p4"]}}
+    sc = scenario_from_dict(data)
+    with pytest.raises(UnreachableTargetError, match=r"p4 at \(0, 0, 30\) mm \(eye frame\)"):
+        sc.phases(make_robot("iramis"))

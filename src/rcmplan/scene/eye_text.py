@@ -28,9 +28,17 @@ def to_eye_mm(eye: Eye, points_base: FloatArray) -> FloatArray:
     return np.asarray((np.asarray(points_base, dtype=float) - eye.center) @ eye_frame(eye) / MM)
 
 
+ROUNDING_MM = 1e-9  # [mm] a coordinate below this is the frames' rounding: written as 0
+
+
 def eye_point_text(point_eye_mm: FloatArray) -> str:
-    """(x, y, z) mm (eye frame), each to 4 significant digits."""
-    return "(" + ", ".join(f"{v:.4g}" for v in point_eye_mm) + ") mm (eye frame)"
+    """(x, y, z) mm (eye frame), each to 4 significant digits; a coordinate within ROUNDING_MM
+    of 0 (a point typed in the eye frame, carried through the base frame and back) as 0."""
+    return (
+        "("
+        + ", ".join(f"{0.0 if abs(v) < ROUNDING_MM else v:.4g}" for v in point_eye_mm)
+        + (") mm (eye frame)")
+    )
 
 
 def eye_frame_reason(
