@@ -11,7 +11,7 @@ from rcmplan.cli.inject import scenario_for
 from rcmplan.exceptions import ScenarioError
 from rcmplan.robot.registry import make_robot
 from rcmplan.scene.eye_text import to_base, to_eye_mm
-from rcmplan.scene.scenario import load_scenario, scenario_from_dict
+from rcmplan.scene.scenario import Scenario, load_scenario, scenario_from_dict
 
 # near-slider-limit's p4 as it stood in iRAM!S's base frame [mm] (L4 0.25 mm from its end)
 P4_BASE_MM = (-112.566564, 73.430227, 104.878644)
@@ -68,6 +68,8 @@ def test_a_points_frame_outside_the_two_is_refused() -> None:
     data["points"]["frame"] = "world"
     with pytest.raises(ScenarioError, match=r"\[points\] frame.*one of \('base', 'eye'\)"):
         scenario_from_dict(data)
+    with pytest.raises(ScenarioError, match=r"\[points\] frame = 'world'"):
+        Scenario(point_frame="world")
 
 
 def test_a_target_joins_eye_frame_points_where_the_eye_frame_puts_it() -> None:

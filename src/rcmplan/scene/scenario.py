@@ -73,6 +73,8 @@ class Scenario:
     needle: NeedleOptions = field(default_factory=NeedleOptions)
 
     def __post_init__(self) -> None:
+        if self.point_frame not in POINT_FRAMES:
+            raise ScenarioError("[points] frame", self.point_frame, f"one of {POINT_FRAMES}")
         if self.needle.kind == "curved" and self.method not in CURVED_METHODS:
             raise ScenarioError("method", self.method,
                                 f"one of {CURVED_METHODS} for a curved needle")  # fmt: skip
