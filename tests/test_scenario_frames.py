@@ -3,6 +3,9 @@ robot's base frame run on that robot only, and another robot is refused naming t
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -90,3 +93,16 @@ def test_a_refused_eye_frame_point_is_named_as_typed() -> None:
     sc = scenario_from_dict(data)
     with pytest.raises(UnreachableTargetError, match=r"p4 at \(0, 0, 30\) mm \(eye frame\)"):
         sc.phases(make_robot("iramis"))
+
+
+def test_a_sweep_on_another_robot_refuses_base_frame_contacts(tmp_path: Path) -> None:
+    from rcmplan.cli import main
+
+    path = tmp_path / "contacts.toml"
+    path.write_text('name = "mine"\n[qp]\ncontacts_mm = [[-112.5, 73.4, 104.8]]\n')
+    out = tmp_path / "out"
+    code = main(["sweep", "--scenario", str(path), "--robot", "ur5", "--targets", "4",
+                 "--out", str(out), "--no-plots"])  # fmt: skip
+    assert code == 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] != "ok" and "[qp] contacts_mm" in summary["message"]

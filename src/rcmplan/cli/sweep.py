@@ -102,6 +102,8 @@ def settings_from_args(args: argparse.Namespace) -> SweepSettings:
     from rcmplan.scene.scenario import load_scenario
 
     sc = load_scenario(args.scenario)
+    if args.robot:  # refused if the scenario states its contacts in its own robot's base frame
+        sc = sc.with_robot(args.robot)
     changes = {k: getattr(args, k) for k in ("robot", "method", "plant") if getattr(args, k)}
     announce_robot(changes.get("robot", sc.robot), "sweep")
     angle = scalar("--max-angle", args.max_angle, 0.0, 90.0, low_open=True, high_open=True)
