@@ -12,9 +12,13 @@ import pytest
 
 from rcmplan.control.phase import LoopSettings
 from rcmplan.control.rcm_step import (
+    AGAIN,
     BOX_GROWTH,
+    HELD,
     SHRINK_FLOOR,
+    STUCK,
     box_margin,
+    next_bounds,
     retina_lift,
     step_scale,
 )
@@ -25,6 +29,7 @@ from rcmplan.scene.scenario import load_scenario
 
 from paths import use_path
 
+nan = float("nan")
 UM = 1e-6
 
 
@@ -106,6 +111,29 @@ def test_a_qp_step_past_the_retina_floor_raises_it_by_more_than_the_excess() -> 
         first + BOX_GROWTH * 0.01 * UM
     )
     assert retina_lift(240.0 * UM, 250.0 * UM, floor, 0.0, cap) == cap  # at most the recovery
+
+
+def test_the_hold_solves_again_until_both_bounds_hold_or_neither_can_narrow() -> None:
+    tol, floor, rec = 0.5 * UM, 250.0 * UM, 1.0 * UM
+    inf = float("inf")
+    assert next_bounds(0.4 * UM, 0.0, inf, nan, tol, floor, rec, 0.0, 0.0) == (HELD, 0.0, 0.0)
+    # the box beyond, the retina held: the box narrows, the floor keeps its lift
+    status, narrower, higher = next_bounds(0.6 * UM, 0.0, inf, nan, tol, floor, rec, 0.0, 0.2 * UM)
+    assert status == AGAIN and narrower == pytest.approx(BOX_GROWTH * 0.1 * UM)
+    assert higher == 0.2 * UM
+    # the retina past its floor, the box held: the floor rises, the box keeps its margin
+    status, narrower, higher = next_bounds(0.4 * UM, nan, 249.9 * UM, 250.0 * UM, tol, floor, rec,
+                                           0.1 * UM, 0.0)  # fmt: skip
+    assert status == AGAIN and narrower == 0.1 * UM
+    assert higher == pytest.approx(BOX_GROWTH * 0.1 * UM)
+    # both at their caps: nothing narrower is left
+    assert next_bounds(0.7 * UM, 0.0, 240.0 * UM, 250.0 * UM, tol, floor, rec, tol, rec) == (
+        STUCK,
+        tol,
+        rec,
+    )
+    # an equality (tol 0) has no box: only the retina decides
+    assert next_bounds(0.0, nan, inf, nan, 0.0, floor, rec, 0.0, 0.0)[0] == HELD
 
 
 def test_the_loop_settings_refuse_a_tolerance_that_is_not_positive() -> None:

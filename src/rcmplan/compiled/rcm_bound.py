@@ -47,7 +47,14 @@ from rcmplan.compiled.qp_params import (
 from rcmplan.compiled.qp_rows import POINTS, retina_floor
 from rcmplan.control.limits.retina import MAX_MARGIN
 from rcmplan.control.limits.rows import radial_gap
-from rcmplan.control.rcm_step import BOX_TRIES, STEP_TRIES, box_margin, retina_lift, step_scale
+from rcmplan.control.rcm_step import (
+    BOX_TRIES,
+    HELD,
+    STEP_TRIES,
+    STUCK,
+    next_bounds,
+    step_scale,
+)
 from rcmplan.robot import curved_arm, curved_iramis
 from rcmplan.robot.iramis_kernels import point, trig
 from rcmplan.robot.needle import closest_point
@@ -231,26 +238,22 @@ def retina_gap(P: FloatArray | None, arm: tuple | None, C: FloatArray | None, Q:
 def held_bounds(P: FloatArray | None, arm: tuple | None, C: FloatArray | None, Q: FloatArray,
                 qpa: tuple, q: FloatArray, x: FloatArray, target: FloatArray,
                 trocar: FloatArray, margin: float, lift: float, now: float, gap_now: float,
-                w: FloatArray) -> tuple[float, float, float, float]:  # fmt: skip
-    """After a QP step from joints q to x solved with the RCM box narrowed by `margin` and
-    the retina floor raised by `lift` [m]: (the narrowing, the lift the next solve takes,
-    0.0 each where the step holds: `box_margin`, `retina_lift`; the needle's distance and the
-    tip's retina gap at q [m], measured here when first needed: NaN before). Q holds the
-    QP's own tolerance and margin."""
+                w: FloatArray) -> tuple[int, float, float, float, float]:  # fmt: skip
+    """`rcm_step.next_bounds` after a QP step from joints q to x solved with the RCM box
+    narrowed by `margin` and the retina floor raised by `lift` [m], measured on the robot's
+    kinematics: (its decision, the next narrowing and lift, the needle's distance and the
+    tip's retina gap at q [m], each measured here when first needed: NaN before). Q holds
+    the QP's own tolerance and margin."""
     tol, floor = Q[RCM_TOL], Q[RETINA_MARGIN]
-    narrower = higher = 0.0
-    if tol > 0.0:  # 0: an equality, no box to hold
-        after = distance_at(P, arm, x, trocar, w)
-        if after > tol:
-            if math.isnan(now):
-                now = distance_at(P, arm, q, trocar, w)
-            narrower = box_margin(after, now, tol, margin, tol)
+    after = distance_at(P, arm, x, trocar, w) if tol > 0.0 else 0.0
+    if after > tol and math.isnan(now):
+        now = distance_at(P, arm, q, trocar, w)
     gap = retina_gap(P, arm, C, Q, qpa, target, x, w, True)
-    if gap < floor:
-        if math.isnan(gap_now):
-            gap_now = retina_gap(P, arm, C, Q, qpa, target, q, w, False)
-        higher = retina_lift(gap, gap_now, floor, lift, Q[RETINA_RECOVERY])
-    return narrower, higher, now, gap_now
+    if gap < floor and math.isnan(gap_now):
+        gap_now = retina_gap(P, arm, C, Q, qpa, target, q, w, False)
+    status, narrower, higher = next_bounds(after, now, gap, gap_now, tol, floor,
+                                           Q[RETINA_RECOVERY], margin, lift)  # fmt: skip
+    return status, narrower, higher, now, gap_now
 
 
 @njit(cache=True, inline="always")  # see the module docstring
@@ -275,13 +278,12 @@ def hold_box(P: FloatArray | None, arm: tuple | None, K: FloatArray, q: FloatArr
     gap_now = math.nan  # the tip's retina gap before the step, measured if needed
     margin = lift = 0.0  # the box's narrowing and the floor's lift of the last solve
     for _ in range(BOX_TRIES):
-        narrower, higher, now, gap_now = held_bounds(P, arm, C, Q, qpa, q, x, target, trocar,
-                                                     margin, lift, now, gap_now, w)  # fmt: skip
-        if narrower == 0.0 and higher == 0.0:
+        status, narrower, higher, now, gap_now = held_bounds(P, arm, C, Q, qpa, q, x, target,
+                                                             trocar, margin, lift, now, gap_now,
+                                                             w)  # fmt: skip
+        if status == HELD:
             return 1.0, margin > 0.0 or lift > 0.0
-        narrower = margin if narrower == 0.0 else narrower
-        higher = lift if higher == 0.0 else higher
-        if narrower == margin and higher == lift:
+        if status == STUCK:
             break
         Q[RCM_TOL], Q[RETINA_MARGIN] = tol - narrower, min(floor + higher, MAX_MARGIN)
         flag = qp_solve(P, arm, K, q, lam, target, fail, qpa, C, e, d)

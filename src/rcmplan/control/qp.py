@@ -58,10 +58,11 @@ from rcmplan.control.qp_limits import QpLimits
 from rcmplan.control.qp_problem import SCALE, CostTerm, StepInput, StepQP, build_step
 from rcmplan.control.rcm_step import (
     BOX_TRIES,
+    HELD,
+    STUCK,
     bounded_step,
-    box_margin,
     needle_distance,
-    retina_lift,
+    next_bounds,
 )
 from rcmplan.control.resolution import quantised
 from rcmplan.control.solvers import SolverKind, Tolerance, check_damping, check_gains
@@ -208,29 +209,28 @@ class QpSolver:
         step, result = self._solve(robot, plan, lam, target)
         dq, dlam = joints_step(robot, step.sliders, result.x, q)
         tol, barrier = self.limits.rcm_tolerance, self._barrier()
+        floor, recovery = (0.0, 0.0) if barrier is None else (barrier.margin, barrier.recovery)
         trocar, active, tip_t = target[-3:], list(robot.active), target_tip(target)
         now = gap_now = math.nan  # the distance and the retina gap before the step, if needed
         margin = lift = 0.0  # the box's narrowing and the floor's lift of the last solve
         for _ in range(BOX_TRIES):
             x = q.copy()
             x[active] += dq
-            narrower = higher = 0.0
-            if tol > 0.0:  # 0: an equality, no box to hold
-                after = needle_distance(robot, x, trocar)
-                if after > tol:
-                    now = needle_distance(robot, q, trocar) if math.isnan(now) else now
-                    narrower = box_margin(after, now, tol, margin, tol)
+            after = needle_distance(robot, x, trocar) if tol > 0.0 else 0.0
+            if after > tol and math.isnan(now):
+                now = needle_distance(robot, q, trocar)
+            gap = math.inf  # where the barrier does not hold its margin
             if barrier is not None:
                 tip = robot.tip(x)
                 if barrier.floor(tip, tip_t) == barrier.margin:  # on, and no contact target
                     gap = self.eye.distance_to_retina(tip)  # type: ignore[union-attr]
-                    if gap < barrier.margin and math.isnan(gap_now):
-                        gap_now = self.eye.distance_to_retina(robot.tip(q))  # type: ignore[union-attr]
-                    higher = retina_lift(gap, gap_now, barrier.margin, lift, barrier.recovery)
-            if narrower == 0.0 and higher == 0.0:
+                if gap < barrier.margin and math.isnan(gap_now):
+                    gap_now = self.eye.distance_to_retina(robot.tip(q))  # type: ignore[union-attr]
+            status, narrower, higher = next_bounds(after, now, gap, gap_now, tol, floor,
+                                                   recovery, margin, lift)  # fmt: skip
+            if status == HELD:
                 return dq, dlam
-            narrower, higher = narrower or margin, higher or lift
-            if narrower == margin and higher == lift:
+            if status == STUCK:
                 break
             try:
                 step, result = self._solve(robot, plan, lam, target, (tol - narrower, higher))

@@ -50,6 +50,7 @@ STEP_TRIES = 4  # the scaled step is tried again at most this many times
 SHRINK_FLOOR = 0.1  # no single try shrinks a step by more than this factor
 BOX_TRIES = 3  # the QP is solved again with a narrower RCM box at most this many times
 BOX_GROWTH = 1.25  # the margin grows by this multiple of the excess over the box
+HELD, STUCK, AGAIN = 0, 1, 2  # `next_bounds`: the step holds; no narrower bound; solve again
 
 
 @njit(cache=True, borrows=True)
@@ -97,6 +98,31 @@ def retina_lift(after: float, before: float, floor: float, lift: float, cap: flo
     retina than it was (`before` [m]); else the lift for the next solve, at most `cap` (the
     barrier's recovery per step: past its floor it asks no more)."""
     return box_margin(-after, -before, -floor, lift, cap)
+
+
+@njit(cache=True, borrows=True)
+def next_bounds(after: float, now: float, gap: float, gap_now: float, tol: float,
+                floor: float, recovery: float, margin: float,
+                lift: float) -> tuple[int, float, float]:  # fmt: skip
+    """The QP hold's decision after a step solved with its RCM box narrowed by `margin` and
+    its retina floor raised by `lift` [m]: (HELD, margin, lift) if the step holds both
+    (`box_margin`, `retina_lift` give 0.0); (STUCK, margin, lift) if neither bound can
+    narrow further; else (AGAIN, the narrowing, the lift) of the next solve, a bound that
+    holds keeping its own.
+
+    after, now: the needle's distance from the trocar after and before the step [m] (`now`
+    measured once after > tol; tol 0: an equality, no box). gap, gap_now: the tip's retina
+    gap after and before it [m] (inf where the barrier does not hold its margin; `gap_now`
+    measured once gap < floor). floor: the barrier's margin; recovery: its return per step."""
+    narrower = box_margin(after, now, tol, margin, tol) if tol > 0.0 else 0.0
+    higher = retina_lift(gap, gap_now, floor, lift, recovery)
+    if narrower == 0.0 and higher == 0.0:
+        return HELD, margin, lift
+    narrower = margin if narrower == 0.0 else narrower
+    higher = lift if higher == 0.0 else higher
+    if narrower == margin and higher == lift:
+        return STUCK, margin, lift
+    return AGAIN, narrower, higher
 
 
 def needle_distance(robot: Any, q: FloatArray, trocar: FloatArray) -> float:
