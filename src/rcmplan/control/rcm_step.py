@@ -32,9 +32,11 @@ that is no contact) is solved again with the floor raised by a lift that grows w
 (`retina_lift`, up to the barrier's recovery per step), together with the narrower box. A step
 the lifted floor still leaves beyond is kept, and counted by the run's limit check.
 
-`step_scale` and `box_margin` are the two rules; the compiled loops apply them once for every
-robot (`rcm_bound.bound_step`, `rcm_bound.hold_box`), the Python loop and `QpSolver.step` here
-on any robot model (`bounded_step`).
+`step_scale`, `box_margin` and `retina_lift` are the rules, and `next_bounds` the hold's
+decision from what a step measured (held, no narrower bound left, or the next bounds); the
+compiled loops apply them once for every robot (`rcm_bound.bound_step`, `rcm_bound.hold_box`),
+the Python loop and `QpSolver.step` here on any robot model (`bounded_step`): each measures on
+its own kinematics and decides with the same kernels.
 """
 
 from __future__ import annotations
