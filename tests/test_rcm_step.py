@@ -9,6 +9,8 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rcmplan.control.phase import LoopSettings
 from rcmplan.control.rcm_step import (
@@ -236,3 +238,25 @@ def test_the_compiled_bound_shortens_a_step_as_the_python_rule_does(name: str) -
     assert d[:-1] == pytest.approx(ref_dq, rel=1e-12, abs=0.0)
     assert d[-1] == pytest.approx(ref_dlam, rel=1e-12, abs=0.0)
     assert d[-1] == pytest.approx(0.01 * f, rel=1e-12)
+
+
+@given(
+    after=st.floats(0.0, 2e-6), now=st.floats(0.0, 2e-6), gap=st.floats(240e-6, 260e-6),
+    gap_now=st.floats(240e-6, 260e-6), margin_f=st.floats(0.0, 1.0), lift_f=st.floats(0.0, 1.0),
+)  # fmt: skip
+@settings(max_examples=500, deadline=None)
+def test_the_holds_next_bounds_only_grow_within_their_caps(
+    after: float, now: float, gap: float, gap_now: float, margin_f: float, lift_f: float
+) -> None:
+    tol, floor, rec = 0.5 * UM, 250.0 * UM, 1.0 * UM
+    margin, lift = margin_f * tol, lift_f * rec
+    status, narrower, higher = next_bounds(after, now, gap, gap_now, tol, floor, rec, margin, lift)
+    box_held = after <= tol or after <= now
+    retina_held = gap >= floor or gap >= gap_now
+    assert (status == HELD) == (box_held and retina_held)
+    assert margin <= narrower <= tol and lift <= higher <= rec
+    if status == AGAIN:
+        assert narrower > margin or higher > lift
+        assert box_held or narrower > 0.0  # a box beyond its tolerance narrows
+    if status != AGAIN:
+        assert (narrower, higher) == (margin, lift)
