@@ -35,7 +35,7 @@ import math
 from rcmplan._jit import njit
 from rcmplan._validate import FloatArray
 from rcmplan.compiled.arm_qp_kernels import solve_arm_step
-from rcmplan.compiled.chain_kernels import IntArray, frames, needle_point
+from rcmplan.compiled.chain_kernels import IntArray, frames, holds_frames, needle_point
 from rcmplan.compiled.qp_kernels import X, iteration_error, step_joints
 from rcmplan.compiled.qp_params import (
     CENTER,
@@ -199,7 +199,8 @@ def tip_at(P: FloatArray | None, arm: tuple | None, C: FloatArray | None, x: Flo
         return curved_iramis.tip_of(P, (w[0], w[1], w[2]), a, b)
     if arm is not None:
         A, ix, W = arm
-        frames(A, ix, x, W)
+        if not holds_frames(ix, x, W):  # `distance_at` has framed x, as a rule
+            frames(A, ix, x, W)
         if C is None:
             return needle_point(A, ix[0], W, 1.0)
         return curved_arm.tip(A, ix[0], W)
