@@ -1,4 +1,5 @@
-"""Shared fixtures: the default robot and a seeded random generator.
+"""Shared fixtures: the default robot, a seeded random generator, and every figure any test
+draws checked as it is saved (`figcheck`: no legend over an axes, no bound over the data).
 
 RCMPLAN_REQUIRE_BROWSER (set by scripts/check.sh when a Chromium is there, or by hand) makes a
 missing Chromium or playwright fail the browser tests instead of skipping them; "0" or unset
@@ -97,3 +98,23 @@ def _stale_kernels_already_cleared(tmp_path_factory: pytest.TempPathFactory) -> 
     stamp = _kernel_cache.stamp_path()
     stamp.parent.mkdir(parents=True, exist_ok=True)
     stamp.write_text(_kernel_cache.stamp_key() + "\n")
+
+
+@pytest.fixture(autouse=True)
+def figures_with_legends_clear(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every figure rcmplan saves in a test (`analysis.style.save`, which every figure goes
+    through; a forked drawing child inherits it) fails the save if a legend lies over an axes
+    or past the figure's edge, or a bound line over the data (`figcheck`)."""
+    from figcheck import bounds_over_data, legend_clashes
+    from rcmplan.analysis import style
+
+    save = style.save
+
+    def checked(fig, path):  # type: ignore[no-untyped-def]
+        clashes = legend_clashes(fig) + bounds_over_data(fig)
+        if clashes:
+            style.plt().close(fig)
+            raise AssertionError(f"{path}: {'; '.join(clashes)}")
+        return save(fig, path)
+
+    monkeypatch.setattr(style, "save", checked)

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+from figcheck import legend_clashes
 from rcmplan.analysis import plots, style
 from rcmplan.analysis.plots_compare import comparison_title, failure_kind, method_comparison
 from rcmplan.analysis.report import rcm_bounds, tip_bounds, visited_points
@@ -134,12 +135,8 @@ def result(request) -> RunResult:
 
 def test_no_legend_lies_over_an_axes_of_its_figure(result, drawn, tmp_path) -> None:
     for name, fig in run_figures(result, drawn, tmp_path).items():
-        legends = [*fig.legends, *(a.get_legend() for a in fig.axes if a.get_legend())]
-        assert legends, name
-        for legend in legends:
-            box = legend.get_window_extent()
-            for ax in fig.axes:
-                assert not box.overlaps(ax.get_window_extent()), (name, ax.get_title())
+        assert [*fig.legends, *(a.get_legend() for a in fig.axes if a.get_legend())], name
+        assert legend_clashes(fig) == [], name
 
 
 def test_bounds_lie_beneath_every_data_line(result, drawn, tmp_path) -> None:

@@ -93,7 +93,7 @@ def rcm_deviation_envelope(
     ax.set_ylim(bottom=floor)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("max RCM deviation per step [um]")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), title=FLOOR_NOTE, title_fontsize=7)
+    style.legend_beside(ax, title=FLOOR_NOTE, title_fontsize=7)
     title = "RCM deviation, largest per control step, trocar coordinates"
     strip.set_title(title + ("" if phase is None else f": {phase}"))
     return style.save(fig, path)

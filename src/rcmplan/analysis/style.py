@@ -55,6 +55,12 @@ def save(fig: Any, path: Path) -> Path:
     return path
 
 
+def legend_beside(ax: Any, **options: Any) -> Any:
+    """The axes' legend to their right, outside them (the figure leaves room for it, by
+    `subplots_adjust(right=...)`): never over the data."""
+    return ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), **options)
+
+
 def phase_spans(log: RunLog) -> list[tuple[str, float, float]]:
     """(name, start [s], end [s]) of each run of consecutive records of one phase.
 

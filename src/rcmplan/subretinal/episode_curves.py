@@ -48,7 +48,7 @@ def curve_figure(curves: dict[str, Any], name: str, path: Path) -> Path:
         bottom.set_xlim(edges[0], edges[-1])
         bottom.set_xticks(edges, [f"{v:.3g}" for v in edges])
         bottom.minorticks_off()
-    top.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    style.legend_beside(top, frameon=False)
     total = sum(sum(c["episodes"]) for c in data["methods"].values())
     fig.suptitle(f"subretinal episodes against the {label.split(' [')[0]} ({total} runs)")
     return style.save(fig, path)

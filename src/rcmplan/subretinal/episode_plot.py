@@ -38,7 +38,7 @@ def depth_figure(result: EpisodeResult, path: Path) -> Path:
     ax.invert_yaxis()
     ax.set_xlabel("time [s]")
     ax.set_ylabel("depth below the undisplaced ILM [um]")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    style.legend_beside(ax, frameon=False)
     fig.suptitle(
         f"subretinal episode: {cfg.compensation}, iOCT {cfg.ioct_rate_hz:g} Hz, "
         f"latency {cfg.latency_s * 1e3:g} ms, breathing {cfg.breathing_m * UM:g} um"

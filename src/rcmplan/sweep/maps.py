@@ -102,16 +102,20 @@ def gain_tradeoff(search: GainSearchResult, path: Path) -> Path:
     """Mean iterations against max RCM deviation per candidate, the bound and the best; each
     point labelled with its candidate (k_task, k_rcm, step in mm)."""
     plt = style.plt()
-    fig, ax = plt.subplots(figsize=(7.4, 5.2))
-    fig.subplots_adjust(left=0.12, right=0.97, top=0.9, bottom=0.12)
+    fig, ax = plt.subplots(figsize=(9.6, 5.2))
+    fig.subplots_adjust(left=0.1, right=0.75, top=0.9, bottom=0.12)  # the legend beside
     ev = search.evaluations
     dev = np.array([e.max_rcm_deviation_m for e in ev]) * UM
     it = np.array([e.mean_iterations for e in ev])
     feas = np.array([e.feasible for e in ev])
-    ax.scatter(dev[feas], it[feas], c=BLUE, label="meets constraints")
-    ax.scatter(dev[~feas], it[~feas], c=VERMILLION, marker="x", label="violates a constraint")
+    if feas.any():
+        ax.scatter(dev[feas], it[feas], c=BLUE, label="meets constraints")
+    if (~feas).any():
+        ax.scatter(dev[~feas], it[~feas], c=VERMILLION, marker="x", label="violates a constraint")
     label_candidates(ax, ev, dev, it)
-    ax.axvline(search.objective.rcm_bound_m * UM, color="k", ls="--", lw=0.8, label="RCM bound")
+    bound, right = search.objective.rcm_bound_m * UM, float(np.nanmax(dev)) * 3.0
+    beyond = "\n(beyond the right edge)" if bound > right else ""
+    ax.axvline(bound, color="k", ls="--", lw=0.8, label=f"RCM bound {bound:.3g} um{beyond}")
     if search.best is not None:
         b = search.best
         ax.scatter([b.max_rcm_deviation_m * UM], [b.mean_iterations], s=160, facecolors="none",
@@ -119,12 +123,12 @@ def gain_tradeoff(search: GainSearchResult, path: Path) -> Path:
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_ylim(top=float(np.nanmax(it)) * 3.0)  # room for the labels
-    ax.set_xlim(right=float(np.nanmax(dev)) * 3.0)
+    ax.set_xlim(right=right)
     ax.set_xlabel("max RCM deviation over the subsample [um]")
     ax.set_ylabel("mean control iterations per target")
     ax.set_title(f"Gain search ({search.mode}, {len(search.subsample_ids)} targets); "
                  "labels: k_task/k_rcm/step [mm]", fontsize=10)  # fmt: skip
-    ax.legend(fontsize=8)
+    style.legend_beside(ax, fontsize=8)
     return style.save(fig, path)
 
 

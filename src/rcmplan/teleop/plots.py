@@ -92,7 +92,8 @@ def tremor_psd(result: TeleopResult, path: Path) -> Path:
     """PSD of the scaled input and of the tip, 0-30 Hz."""
     plt = style.plt()
     rate, engaged = result.settings.rate_hz, result.trace.engaged
-    fig, ax = plt.subplots(figsize=(8, 4.5))
+    fig, ax = plt.subplots(figsize=(10, 4.5))
+    fig.subplots_adjust(left=0.08, right=0.74, top=0.9, bottom=0.12)  # the legend beside
     for x, label, colour in ((mapped_input(result), "input, scaled", VERMILLION),
                              (result.log.tip, "tip", BLUE)):  # fmt: skip
         f, p = psd(np.nan_to_num(x), engaged, rate)
@@ -105,7 +106,7 @@ def tremor_psd(result: TeleopResult, path: Path) -> Path:
     ax.set_xlabel("frequency [Hz]")
     ax.set_ylabel("PSD, sum of x, y, z [um^2/Hz]")
     ax.set_title(f"Tremor before and after the pipeline (filter {result.settings.filter})")
-    ax.legend()
+    style.legend_beside(ax)
     return style.save(fig, path)
 
 
@@ -113,16 +114,18 @@ def rcm_deviation(result: TeleopResult, path: Path) -> Path:
     """Distance from the trocar to the needle line over time, with the limits."""
     plt = style.plt()
     log, fx = result.log, result.settings.fixtures
-    fig, ax = plt.subplots(figsize=(10, 3.8))
+    fig, ax = plt.subplots(figsize=(12, 3.8))
+    fig.subplots_adjust(left=0.07, right=0.8, top=0.88, bottom=0.14)  # the legend beside
     _released(ax, log.time, result.trace.engaged)
     ax.plot(log.time, np.linalg.norm(log.rcm - log.trocar, axis=1) * UM, color=BLUE,
             lw=0.8, label="RCM deviation")  # fmt: skip
-    ax.axhline(fx.rcm_limit * UM, color=VERMILLION, ls="--", label="RCM limit")
-    ax.axhline(fx.rcm_tolerance * UM, color=ORANGE, ls=":", label="QP RCM tolerance")
+    # the limits beneath the data (zorder 1.5 < a line's 2): a tip riding one stays visible
+    ax.axhline(fx.rcm_limit * UM, color=VERMILLION, ls="--", zorder=1.5, label="RCM limit")
+    ax.axhline(fx.rcm_tolerance * UM, color=ORANGE, ls=":", zorder=1.5, label="QP RCM tolerance")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("RCM deviation [um]")
     ax.set_title(f"RCM deviation ({result.settings.plant} plant)")
-    ax.legend(loc="upper right")
+    style.legend_beside(ax)
     return style.save(fig, path)
 
 
@@ -130,18 +133,19 @@ def retina_plot(result: TeleopResult, path: Path) -> Path:
     """Tip and desired tip distance to the retina over time, with the margin."""
     plt = style.plt()
     eye, log = result.session.eye, result.log
-    fig, ax = plt.subplots(figsize=(10, 3.8))
+    fig, ax = plt.subplots(figsize=(12, 3.8))
+    fig.subplots_adjust(left=0.07, right=0.8, top=0.88, bottom=0.14)  # the legend beside
     _released(ax, log.time, result.trace.engaged)
     ax.plot(log.time, retina_distance(eye, result.trace.desired) * MM, color=ORANGE, lw=0.8,
             label="desired tip")  # fmt: skip
     ax.plot(log.time, retina_distance(eye, log.tip) * MM, color=BLUE, lw=1.2, label="tip")
-    ax.axhline(result.settings.fixtures.retina_margin * MM, color=VERMILLION, ls="--",
+    ax.axhline(result.settings.fixtures.retina_margin * MM, color=VERMILLION, ls="--", zorder=1.5,
                label="no-go margin")  # fmt: skip
-    ax.axhline(0.0, color=BLACK, lw=0.8, label="retina")
+    ax.axhline(0.0, color=BLACK, lw=0.8, zorder=1.5, label="retina")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("distance to the retina [mm]")
     ax.set_title("Retina no-go margin: the desired tip may pass it, the tip may not")
-    ax.legend(loc="upper right")
+    style.legend_beside(ax)
     return style.save(fig, path)
 
 
