@@ -115,6 +115,15 @@ def test_a_method_beyond_its_bounds_keeps_its_bars_and_is_named_in_the_title(dra
     assert heights[:2] == pytest.approx([0.4, 1.77]) and np.isnan(heights[2])
     title = drawn[0]._suptitle.get_text()
     assert title.endswith("did not finish: dls (no_convergence); beyond their bounds: qp")
+    # every finished bar carries its value, inside the panel
+    texts = [t.get_text() for t in rcm_panel.texts]
+    assert texts[:2] == ["0.400", "1.77"]
+    renderer = drawn[0].canvas.get_renderer()
+    for ax in drawn[0].axes:
+        frame = ax.get_window_extent(renderer)
+        for t in ax.texts:
+            if t.get_text():
+                assert t.get_window_extent(renderer).y1 <= frame.y1, (ax.get_title(), t.get_text())
 
 
 def run_figures(result: RunResult, figs: list[Any], tmp: Path) -> dict[str, Any]:
