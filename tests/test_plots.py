@@ -4,6 +4,7 @@ drawing the figures the summary names, phase labels apart)."""
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -80,6 +81,14 @@ def test_failed_methods_are_named_with_their_error_in_the_title() -> None:
     assert failure_kind(rows[1]["status"]) == "ConvergenceError"
     assert comparison_title(rows).endswith("did not finish: qp (ConvergenceError)")
     assert "did not finish" not in comparison_title(rows[:1])
+
+
+def test_a_comparison_whose_values_are_all_zero_draws_without_a_warning(tmp_path: Path) -> None:
+    zero = {"max_rcm_deviation_m": 0.0, "iterations": 0, "wall_time_s": 0.01,
+            "wall_time_per_iteration_s": 1e-3}  # fmt: skip
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a singular axis range would warn
+        method_comparison([{"method": "pinv", "status": "ok", **zero}], tmp_path / "z.png")
 
 
 def test_comparison_chart_is_written_with_a_failed_method(tmp_path: Path) -> None:

@@ -48,8 +48,8 @@ def method_comparison(rows: Sequence[dict[str, Any]], path: Path) -> Path:
                      padding=2)  # fmt: skip
         if log_scale and np.any(np.isfinite(vals)):
             _log_axis(ax, float(np.nanmin(vals)))
-        if np.any(np.isfinite(vals)):
-            top = float(np.nanmax(vals))
+        top = float(np.nanmax(vals)) if np.any(np.isfinite(vals)) else 0.0
+        if top > 0.0:
             ax.set_ylim(top=top * (1.6 if log_scale else 1.15))
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: fmt(v)))
         for i in [j for j, bad in enumerate(failed) if bad]:
