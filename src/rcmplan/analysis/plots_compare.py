@@ -48,9 +48,11 @@ def method_comparison(rows: Sequence[dict[str, Any]], path: Path) -> Path:
                      padding=2)  # fmt: skip
         if log_scale and np.any(np.isfinite(vals)):
             _log_axis(ax, float(np.nanmin(vals)))
-        top = float(np.nanmax(vals)) if np.any(np.isfinite(vals)) else 0.0
+        top = float(np.nanmax(vals)) if np.any(np.isfinite(vals)) else math.nan
         if top > 0.0:
             ax.set_ylim(top=top * (1.6 if log_scale else 1.15))
+        elif top == 0.0:  # every value 0: the bars on the floor, their labels above them
+            ax.set_ylim(0.0, 1.0)
         ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: fmt(v)))
         for i in [j for j, bad in enumerate(failed) if bad]:
             ax.text(i, 0.04, f"failed: {failure_kind(rows[i]['status'])}", rotation=90,
