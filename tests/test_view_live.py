@@ -251,3 +251,26 @@ def probe_wait(check, timeout_s: float = 30.0) -> None:
     from browser_probe import wait_for
 
     wait_for(check, timeout_s, 0.01)
+
+
+def test_a_redraw_cut_short_by_visers_race_does_not_stop_the_view(settings, monkeypatch) -> None:
+    from rcmplan.view.live import LiveView
+    from rcmplan.view.server import start_server, stop_server
+
+    server = start_server("127.0.0.1", 0)
+    view = LiveView(server, settings)
+    show, calls = view.panel.show, []
+
+    def racing(rows):  # type: ignore[no-untyped-def]
+        calls.append(1)
+        if len(calls) == 1:  # as viser's asyncio.Event.set raised once from the redraw thread
+            raise RuntimeError("deque mutated during iteration")
+        return show(rows)
+
+    monkeypatch.setattr(view.panel, "show", racing)
+    try:
+        probe_wait(lambda: view.state()["view_updates"] > 5, timeout_s=10.0)
+        assert view.redraw.is_alive() and view.state()["view_races"] == 1
+    finally:
+        view.close()
+        stop_server(server)

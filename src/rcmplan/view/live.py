@@ -56,6 +56,14 @@ def live_settings(
     return LiveSettings(teleop, model, eye, points=points, realtime=realtime)
 
 
+# viser (1.1) wakes its sender by setting an asyncio.Event from the calling thread as well as
+# from its loop; from the redraw thread that can race the loop's own use of the event, and the
+# call raises "deque mutated during iteration" after the message is queued. Seen once in a
+# test run (the redraw thread ended and the view froze); a redraw so cut short is counted and
+# the next one goes on.
+VISER_RACE = "mutated during iteration"
+
+
 class LiveView:
     """The live scene, its control and its redraw threads.
 
@@ -102,6 +110,7 @@ class LiveView:
         self.cameras = CameraViews(server, record, robot)
         self.lock = threading.Lock()
         self.updates = 0
+        self.races = 0  # redraws cut short by viser's race (VISER_RACE)
         self.update_times: list[float] = []
         self.stop_event = threading.Event()
         self.redraw = threading.Thread(target=self._redraw, name="rcmplan-live-view", daemon=True)
@@ -133,8 +142,14 @@ class LiveView:
             due = max(due + period, time.perf_counter())  # a slow redraw is not caught up
             self.send()  # the gizmo holds its place: its position stays the live input
             st = self.latest
-            if st is not None:
+            if st is None:
+                continue
+            try:
                 self.show(st, st.q, st.s, st.tip)
+            except RuntimeError as exc:  # viser's race (VISER_RACE): the frame is queued
+                if VISER_RACE not in str(exc):
+                    raise
+                self.races += 1  # the next frame's message wakes the sender
 
     def show(self, st: LiveState, q: Any, s: Any, tip: Any) -> None:
         """Redraw the robot, needle and panels from one control state."""
@@ -170,7 +185,8 @@ class LiveView:
             "tip_m": st.tip.tolist(), "goal_m": st.goal.tolist(),
             "rcm_deviation_m": st.rcm_deviation, "max_rcm_deviation_m": st.max_rcm_deviation,
             "retina_distance_m": st.retina_distance, "status": st.status,
-            "view_updates": self.updates, "view_rate_hz": rate, "pushes": self.moves,
+            "view_updates": self.updates, "view_races": self.races, "view_rate_hz": rate,
+            "pushes": self.moves,
         }  # fmt: skip
 
     def close(self) -> None:
