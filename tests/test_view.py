@@ -453,3 +453,22 @@ def test_live_view_stops_cleanly_when_ctrl_c_reaches_the_whole_process_group() -
     assert "stopped by SIGINT" in err and "Traceback" not in err
     with socket.socket() as s:
         s.bind(("127.0.0.1", port))
+
+
+def test_play_goes_on_past_a_frame_cut_short_by_visers_race(replay, monkeypatch) -> None:
+    seek, calls = replay.timeline.seek, []
+
+    def racing(t: float) -> None:
+        calls.append(t)
+        if len(calls) == 2:  # as viser's asyncio.Event.set raised once from the playback thread
+            raise RuntimeError("deque mutated during iteration")
+        seek(t)
+
+    monkeypatch.setattr(replay.timeline, "seek", racing)
+    replay.timeline.speed.value = "10x"
+    replay.timeline.toggle()
+    deadline = time.monotonic() + 30.0
+    while replay.timeline.playing and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not replay.timeline.playing and replay.timeline.races == 1
+    assert replay.state()["index"] == len(replay.current.log) - 1

@@ -30,6 +30,7 @@ from rcmplan.view.live_process import LiveProcess
 from rcmplan.view.needle import needle_polyline
 from rcmplan.view.panels import ActuatorPanel, StatePanel, length
 from rcmplan.view.scene import SceneDrawing
+from rcmplan.view.server import viser_race
 
 NAN3 = np.full(3, np.nan)
 # The view re-sends the gizmo's position at every redraw (40 /s): a sample older than this
@@ -54,14 +55,6 @@ def live_settings(
                             start_tip=tuple(start), stale_after=STALE_AFTER_S)  # fmt: skip
     teleop.fixtures.check_start(eye, points["p3"])
     return LiveSettings(teleop, model, eye, points=points, realtime=realtime)
-
-
-# viser (1.1) wakes its sender by setting an asyncio.Event from the calling thread as well as
-# from its loop; from the redraw thread that can race the loop's own use of the event, and the
-# call raises "deque mutated during iteration" after the message is queued. Seen once in a
-# test run (the redraw thread ended and the view froze); a redraw so cut short is counted and
-# the next one goes on.
-VISER_RACE = "mutated during iteration"
 
 
 class LiveView:
@@ -110,7 +103,7 @@ class LiveView:
         self.cameras = CameraViews(server, record, robot)
         self.lock = threading.Lock()
         self.updates = 0
-        self.races = 0  # redraws cut short by viser's race (VISER_RACE)
+        self.races = 0  # redraws cut short by viser's race (`server.viser_race`)
         self.update_times: list[float] = []
         self.stop_event = threading.Event()
         self.redraw = threading.Thread(target=self._redraw, name="rcmplan-live-view", daemon=True)
@@ -146,10 +139,10 @@ class LiveView:
                 continue
             try:
                 self.show(st, st.q, st.s, st.tip)
-            except RuntimeError as exc:  # viser's race (VISER_RACE): the frame is queued
-                if VISER_RACE not in str(exc):
+            except RuntimeError as exc:
+                if not viser_race(exc):
                     raise
-                self.races += 1  # the next frame's message wakes the sender
+                self.races += 1  # the frame is queued; the next one wakes the sender
 
     def show(self, st: LiveState, q: Any, s: Any, tip: Any) -> None:
         """Redraw the robot, needle and panels from one control state."""

@@ -23,6 +23,20 @@ DEFAULT_PORT = 8080
 DEFAULT_HOST = "127.0.0.1"
 
 
+# viser (1.1) wakes its sender by setting an asyncio.Event from the calling thread as well as
+# from its loop; from another thread (the live view's redraw, the replay's playback) that can
+# race the loop's own use of the event, and the call raises "deque mutated during iteration"
+# after its message is queued. Seen once in a test run: the live view's redraw thread ended and
+# the view froze. A thread that updates the scene counts such a call and goes on.
+VISER_RACE = "mutated during iteration"
+
+
+def viser_race(exc: BaseException) -> bool:
+    """True if exc is viser's thread race (VISER_RACE): the update is queued, the next one
+    goes on."""
+    return isinstance(exc, RuntimeError) and VISER_RACE in str(exc)
+
+
 def viser_module() -> Any:
     """The `viser` module, or MissingExtraError naming the `view` extra."""
     return require_extra("viser", "view")

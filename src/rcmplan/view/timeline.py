@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from rcmplan._validate import FloatArray
+from rcmplan.view.server import viser_race
 
 SPEEDS = ("0.01x", "0.1x", "0.25x", "0.5x", "1x", "2x", "5x", "10x")
 
@@ -35,6 +36,7 @@ class Timeline:
         self.on_index = on_index
         self.fps = fps
         self.playing = False
+        self.races = 0  # frames cut short by viser's race (`server.viser_race`)
         dt = float(np.median(np.diff(self.times))) if len(self.times) > 1 else 1e-3
         with gui.add_folder("Timeline"):
             self.button = gui.add_button("Play", icon=None)
@@ -80,9 +82,14 @@ class Timeline:
             now = time.perf_counter()
             if self.playing:
                 t = self.slider.value + (now - last) * self.speed_factor()
-                self.seek(min(t, self.times[-1]))
-                if t >= self.times[-1]:  # paused once the last record is shown, not before
-                    self.toggle()
+                try:
+                    self.seek(min(t, self.times[-1]))
+                    if t >= self.times[-1]:  # paused once the last record is shown, not before
+                        self.toggle()
+                except RuntimeError as exc:
+                    if not viser_race(exc):
+                        raise
+                    self.races += 1  # the frame is queued; the next one goes on
             last = now
 
     def close(self) -> None:
