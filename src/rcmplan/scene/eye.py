@@ -126,6 +126,12 @@ def eye_frame(eye: Eye) -> FloatArray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
+def from_eye_frame(eye: Eye, points_eye: FloatArray) -> FloatArray:
+    """Points (N, 3) or (3,) in [m] in the eye frame (`eye_frame`, origin at the centre) -> the
+    same in the robot base frame [m]."""
+    return eye.center + np.asarray(points_eye, dtype=float) @ eye_frame(eye).T
+
+
 def default_eye(
     robot: RobotModel | None = None,
     radius: float = 12e-3,

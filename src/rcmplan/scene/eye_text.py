@@ -13,14 +13,14 @@ from rcmplan._validate import FloatArray
 from rcmplan.control.targets import target_tips
 from rcmplan.exceptions import ActuatorLimitError, UnreachableTargetError
 from rcmplan.robot.model import RobotModel
-from rcmplan.scene.eye import Eye, eye_frame
+from rcmplan.scene.eye import Eye, eye_frame, from_eye_frame
 
 MM = 1e-3
 
 
 def to_base(eye: Eye, points_eye_mm: FloatArray) -> FloatArray:
     """Points (N, 3) in mm in the eye frame -> points (N, 3) in m in the robot base frame."""
-    return eye.center + (np.asarray(points_eye_mm, dtype=float) * MM) @ eye_frame(eye).T
+    return from_eye_frame(eye, np.asarray(points_eye_mm, dtype=float) * MM)
 
 
 def to_eye_mm(eye: Eye, points_base: FloatArray) -> FloatArray:
@@ -34,11 +34,8 @@ ROUNDING_MM = 1e-9  # [mm] a coordinate below this is the frames' rounding: writ
 def eye_point_text(point_eye_mm: FloatArray) -> str:
     """(x, y, z) mm (eye frame), each to 4 significant digits; a coordinate within ROUNDING_MM
     of 0 (a point typed in the eye frame, carried through the base frame and back) as 0."""
-    return (
-        "("
-        + ", ".join(f"{0.0 if abs(v) < ROUNDING_MM else v:.4g}" for v in point_eye_mm)
-        + (") mm (eye frame)")
-    )
+    coords = ", ".join(f"{0.0 if abs(v) < ROUNDING_MM else v:.4g}" for v in point_eye_mm)
+    return f"({coords}) mm (eye frame)"
 
 
 def eye_frame_reason(

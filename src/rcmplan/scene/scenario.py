@@ -31,7 +31,7 @@ from rcmplan.scene.eye import (
     EyePoints,
     default_eye,
     default_points,
-    eye_frame,
+    from_eye_frame,
 )
 from rcmplan.scene.procedures import DEFAULT_VISITS, Spiral, Steps, injection, spiral
 from rcmplan.scene.schema import SCHEMA, check_step, sections
@@ -89,7 +89,7 @@ class Scenario:
         pts = default_points(eye, **self.point_options).as_dict()
         for k, v in self.point_overrides.items():
             p = np.asarray(v, dtype=float)
-            pts[k] = eye.center + eye_frame(eye) @ p if self.point_frame == "eye" else p
+            pts[k] = from_eye_frame(eye, p) if self.point_frame == "eye" else p
         return EyePoints(**pts)
 
     def phases(self, robot: RobotModel) -> list[Phase]:
@@ -208,9 +208,7 @@ def scenario_from_dict(data: dict[str, Any], folder: Path | None = None) -> Scen
         "spread": pts.get("spread_rad", 0.12),
     }
     overrides = {n: tuple(v * MM for v in pts[f"{n}_mm"]) for n in POINT_NAMES if f"{n}_mm" in pts}
-    point_frame = pts.get("frame", "base")
-    if point_frame not in POINT_FRAMES:
-        raise ScenarioError("[points] frame", point_frame, f"one of {POINT_FRAMES}")
+    point_frame = pts.get("frame", "base")  # checked by Scenario
     tol = Tolerance(ctl.get("tolerance_position_m", 1e-8), ctl.get("tolerance_angle_rad", 1e-7))
     settings = MethodSettings(
         K=ctl.get("K", (1.0,) * 6), damping=ctl.get("damping", 1e-4), tolerance=tol, extra=sec["qp"]
