@@ -55,6 +55,9 @@ def save(fig: Any, path: Path) -> Path:
     return path
 
 
+BOUND_Z = 1.5  # zorder of a bound line: beneath a data line's 2, so a curve riding it shows
+
+
 def legend_beside(ax: Any, **options: Any) -> Any:
     """The axes' legend to their right, outside them (the figure leaves room for it, by
     `subplots_adjust(right=...)`): never over the data."""

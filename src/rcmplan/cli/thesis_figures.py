@@ -64,7 +64,7 @@ def experiment_figure(key: str, title: str, outcomes: dict[str, Any], path: Path
     if rep.rcm_deviation_m is not None:
         bound = rep.rcm_deviation_m * UM
         ax.axhspan(0.0, bound, color=VERMILLION, alpha=0.12, lw=0)
-        ax.axhline(bound, color=VERMILLION, lw=1.4, zorder=1.5,  # beneath the data
+        ax.axhline(bound, color=VERMILLION, lw=1.4, zorder=style.BOUND_Z,
                    label=f"thesis: {rep.rcm_deviation_text} ({rep.source})")  # fmt: skip
     for setting, o in outcomes.items():
         inside = np.all(np.isfinite(o.log.trocar), axis=1)

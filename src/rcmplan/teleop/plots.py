@@ -119,9 +119,9 @@ def rcm_deviation(result: TeleopResult, path: Path) -> Path:
     _released(ax, log.time, result.trace.engaged)
     ax.plot(log.time, np.linalg.norm(log.rcm - log.trocar, axis=1) * UM, color=BLUE,
             lw=0.8, label="RCM deviation")  # fmt: skip
-    # the limits beneath the data (zorder 1.5 < a line's 2): a tip riding one stays visible
-    ax.axhline(fx.rcm_limit * UM, color=VERMILLION, ls="--", zorder=1.5, label="RCM limit")
-    ax.axhline(fx.rcm_tolerance * UM, color=ORANGE, ls=":", zorder=1.5, label="QP RCM tolerance")
+    z = style.BOUND_Z
+    ax.axhline(fx.rcm_limit * UM, color=VERMILLION, ls="--", zorder=z, label="RCM limit")
+    ax.axhline(fx.rcm_tolerance * UM, color=ORANGE, ls=":", zorder=z, label="QP RCM tolerance")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("RCM deviation [um]")
     ax.set_title(f"RCM deviation ({result.settings.plant} plant)")
@@ -139,9 +139,9 @@ def retina_plot(result: TeleopResult, path: Path) -> Path:
     ax.plot(log.time, retina_distance(eye, result.trace.desired) * MM, color=ORANGE, lw=0.8,
             label="desired tip")  # fmt: skip
     ax.plot(log.time, retina_distance(eye, log.tip) * MM, color=BLUE, lw=1.2, label="tip")
-    ax.axhline(result.settings.fixtures.retina_margin * MM, color=VERMILLION, ls="--", zorder=1.5,
-               label="no-go margin")  # fmt: skip
-    ax.axhline(0.0, color=BLACK, lw=0.8, zorder=1.5, label="retina")
+    ax.axhline(result.settings.fixtures.retina_margin * MM, color=VERMILLION, ls="--",
+               zorder=style.BOUND_Z, label="no-go margin")  # fmt: skip
+    ax.axhline(0.0, color=BLACK, lw=0.8, zorder=style.BOUND_Z, label="retina")
     ax.set_xlabel("time [s]")
     ax.set_ylabel("distance to the retina [mm]")
     ax.set_title("Retina no-go margin: the desired tip may pass it, the tip may not")
